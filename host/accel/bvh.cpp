@@ -1,0 +1,237 @@
+#include "accel/bvh.hpp"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+namespace vkmech {
+
+namespace {
+
+struct Box {
+    glm::vec3 lo{std::numeric_limits<float>::max()};
+    glm::vec3 hi{-std::numeric_limits<float>::max()};
+    void grow(const glm::vec3& p) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
+    void grow(const Box& b) {
+        lo = glm::min(lo, b.lo);
+        hi = glm::max(hi, b.hi);
+    }
+    bool empty() const { return lo.x > hi.x; }
+    float area() const {
+        if (empty()) return 0.0f;
+        glm::vec3 d = hi - lo;
+        return 2.0f * (d.x * d.y + d.y * d.z + d.z * d.x);
+    }
+};
+
+struct Builder {
+    const std::vector<glm::vec3>& pos;
+    BvhBuildOptions opt;
+    std::vector<Box> tri_box;
+    std::vector<glm::vec3> centroid;
+    std::vector<uint32_t> order;
+    std::vector<gpu::GpuBvhNode> nodes;
+
+    static float as_float(uint32_t u) { return std::bit_cast<float>(u); }
+
+    uint32_t make_node(const Box& b, uint32_t offset, uint32_t count) {
+        gpu::GpuBvhNode n;
+        n.bmin = glm::vec4(b.lo, as_float(offset));
+        n.bmax = glm::vec4(b.hi, as_float(count));
+        nodes.push_back(n);
+        return static_cast<uint32_t>(nodes.size() - 1);
+    }
+
+    void build(uint32_t begin, uint32_t end) {
+        Box bounds, cbounds;
+        for (uint32_t i = begin; i < end; ++i) {
+            bounds.grow(tri_box[order[i]]);
+            cbounds.grow(centroid[order[i]]);
+        }
+        uint32_t count = end - begin;
+        uint32_t self = make_node(bounds, begin, count);
+        if (count <= opt.max_leaf_size) return;
+
+        // Binned SAH over the axis of largest centroid extent, then all axes.
+        float best_cost = std::numeric_limits<float>::max();
+        int best_axis = -1;
+        uint32_t best_split = 0;
+        const uint32_t nb = opt.bins;
+        for (int axis = 0; axis < 3; ++axis) {
+            float lo = cbounds.lo[axis], hi = cbounds.hi[axis];
+            if (!(hi > lo)) continue;
+            float scale = nb / (hi - lo);
+            std::vector<Box> bin_box(nb);
+            std::vector<uint32_t> bin_count(nb, 0);
+            for (uint32_t i = begin; i < end; ++i) {
+                uint32_t t = order[i];
+                uint32_t b = std::min(nb - 1, static_cast<uint32_t>((centroid[t][axis] - lo) * scale));
+                bin_box[b].grow(tri_box[t]);
+                bin_count[b] += 1;
+            }
+            std::vector<float> left_area(nb), right_area(nb);
+            std::vector<uint32_t> left_count(nb), right_count(nb);
+            Box acc;
+            uint32_t c = 0;
+            for (uint32_t b = 0; b < nb; ++b) {
+                acc.grow(bin_box[b]);
+                c += bin_count[b];
+                left_area[b] = acc.area();
+                left_count[b] = c;
+            }
+            acc = Box{};
+            c = 0;
+            for (uint32_t b = nb; b-- > 0;) {
+                acc.grow(bin_box[b]);
+                c += bin_count[b];
+                right_area[b] = acc.area();
+                right_count[b] = c;
+            }
+            for (uint32_t b = 0; b + 1 < nb; ++b) {
+                if (left_count[b] == 0 || right_count[b + 1] == 0) continue;
+                float cost = left_area[b] * left_count[b] + right_area[b + 1] * right_count[b + 1];
+                if (cost < best_cost) {
+                    best_cost = cost;
+                    best_axis = axis;
+                    best_split = b;
+                }
+            }
+        }
+        uint32_t mid;
+        if (best_axis < 0) {
+            // All centroids coincide: split the range in half.
+            mid = begin + count / 2;
+        } else {
+            float leaf_cost = bounds.area() * count;
+            if (best_cost >= leaf_cost && count <= 2 * opt.max_leaf_size) return;  // stays a leaf
+            float lo = cbounds.lo[best_axis], hi = cbounds.hi[best_axis];
+            float scale = nb / (hi - lo);
+            auto it = std::partition(order.begin() + begin, order.begin() + end, [&](uint32_t t) {
+                uint32_t b = std::min(nb - 1, static_cast<uint32_t>((centroid[t][best_axis] - lo) * scale));
+                return b <= best_split;
+            });
+            mid = static_cast<uint32_t>(it - order.begin());
+            if (mid == begin || mid == end) mid = begin + count / 2;
+        }
+        // Interior: first child follows immediately, second child index in offset.
+        nodes[self].bmax.w = as_float(0u);
+        build(begin, mid);
+        uint32_t second = static_cast<uint32_t>(nodes.size());
+        nodes[self].bmin.w = as_float(second);
+        build(mid, end);
+    }
+};
+
+}  // namespace
+
+Bvh build_bvh(const std::vector<glm::vec3>& tri_positions, const BvhBuildOptions& options) {
+    Builder b{tri_positions, options, {}, {}, {}, {}};
+    uint32_t n = static_cast<uint32_t>(tri_positions.size() / 3);
+    b.tri_box.resize(n);
+    b.centroid.resize(n);
+    for (uint32_t t = 0; t < n; ++t) {
+        for (int k = 0; k < 3; ++k) b.tri_box[t].grow(tri_positions[3 * t + k]);
+        b.centroid[t] = (b.tri_box[t].lo + b.tri_box[t].hi) * 0.5f;
+    }
+    b.order.resize(n);
+    std::iota(b.order.begin(), b.order.end(), 0u);
+    b.nodes.reserve(2 * n / std::max(1u, options.max_leaf_size) + 2);
+    if (n == 0) {
+        // An empty scene still gets a root that nothing hits.
+        Box empty;
+        empty.lo = glm::vec3(1.0f);
+        empty.hi = glm::vec3(-1.0f);
+        b.make_node(empty, 0, 0);
+        b.nodes[0].bmax.w = std::bit_cast<float>(0u);
+        b.nodes[0].bmin.w = std::bit_cast<float>(0u);
+        // Mark as a zero-count leaf by making it unhittable (lo > hi).
+    } else {
+        b.build(0, n);
+    }
+    return Bvh{std::move(b.nodes), std::move(b.order)};
+}
+
+std::string validate_bvh(const Bvh& bvh, const std::vector<glm::vec3>& pos) {
+    uint32_t n = static_cast<uint32_t>(pos.size() / 3);
+    if (bvh.order.size() != n) return "order has " + std::to_string(bvh.order.size()) + " entries for " + std::to_string(n) + " triangles";
+    std::vector<uint32_t> seen_order(n, 0);
+    for (uint32_t t : bvh.order) {
+        if (t >= n) return "order names triangle " + std::to_string(t) + " out of range";
+        if (seen_order[t]++) return "order names triangle " + std::to_string(t) + " twice";
+    }
+    if (n == 0) return {};
+    std::vector<uint32_t> in_leaf(n, 0);
+    const auto& nodes = bvh.nodes;
+    auto offset = [&](uint32_t i) { return std::bit_cast<uint32_t>(nodes[i].bmin.w); };
+    auto count = [&](uint32_t i) { return std::bit_cast<uint32_t>(nodes[i].bmax.w); };
+    auto contains = [&](uint32_t outer, const glm::vec3& lo, const glm::vec3& hi) {
+        glm::vec3 olo(nodes[outer].bmin), ohi(nodes[outer].bmax);
+        return glm::all(glm::lessThanEqual(olo, lo)) && glm::all(glm::lessThanEqual(hi, ohi));
+    };
+    std::vector<uint32_t> stack{0};
+    std::vector<uint32_t> visits(nodes.size(), 0);
+    while (!stack.empty()) {
+        uint32_t i = stack.back();
+        stack.pop_back();
+        if (i >= nodes.size()) return "child link " + std::to_string(i) + " out of range";
+        if (visits[i]++) return "node " + std::to_string(i) + " reached twice";
+        if (count(i) > 0) {
+            if (offset(i) + count(i) > n) return "leaf " + std::to_string(i) + " range past the end";
+            for (uint32_t k = offset(i); k < offset(i) + count(i); ++k) {
+                if (in_leaf[k]++) return "triangle slot " + std::to_string(k) + " in two leaves";
+                for (int v = 0; v < 3; ++v)
+                    if (!contains(i, pos[3 * k + v], pos[3 * k + v]))
+                        return "leaf " + std::to_string(i) + " does not contain its triangle " + std::to_string(k);
+            }
+        } else {
+            uint32_t a = i + 1, b = offset(i);
+            for (uint32_t c : {a, b}) {
+                if (c >= nodes.size() || c <= i) return "node " + std::to_string(i) + " has a bad child " + std::to_string(c);
+                if (!contains(i, glm::vec3(nodes[c].bmin), glm::vec3(nodes[c].bmax)))
+                    return "node " + std::to_string(i) + " does not contain child " + std::to_string(c);
+                stack.push_back(c);
+            }
+        }
+    }
+    for (uint32_t k = 0; k < n; ++k)
+        if (in_leaf[k] != 1) return "triangle slot " + std::to_string(k) + " is in no leaf";
+    for (size_t i = 0; i < nodes.size(); ++i)
+        if (!visits[i]) return "node " + std::to_string(i) + " is unreachable";
+    return {};
+}
+
+BvhStats bvh_stats(const Bvh& bvh) {
+    BvhStats s;
+    s.nodes = static_cast<uint32_t>(bvh.nodes.size());
+    if (bvh.nodes.empty()) return s;
+    auto area = [&](uint32_t i) {
+        glm::vec3 d = glm::max(glm::vec3(bvh.nodes[i].bmax) - glm::vec3(bvh.nodes[i].bmin), glm::vec3(0.0f));
+        return 2.0 * (d.x * d.y + d.y * d.z + d.z * d.x);
+    };
+    double root = std::max(area(0), 1e-30);
+    std::vector<std::pair<uint32_t, uint32_t>> stack{{0, 1}};
+    while (!stack.empty()) {
+        auto [i, depth] = stack.back();
+        stack.pop_back();
+        s.max_depth = std::max(s.max_depth, depth);
+        uint32_t count = std::bit_cast<uint32_t>(bvh.nodes[i].bmax.w);
+        if (count > 0) {
+            s.leaves++;
+            s.max_leaf = std::max(s.max_leaf, count);
+            s.sah_cost += area(i) / root * count;
+        } else {
+            s.sah_cost += area(i) / root;
+            stack.push_back({i + 1, depth + 1});
+            stack.push_back({std::bit_cast<uint32_t>(bvh.nodes[i].bmin.w), depth + 1});
+        }
+    }
+    return s;
+}
+
+}  // namespace vkmech

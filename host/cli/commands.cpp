@@ -1,0 +1,283 @@
+#include "cli/commands.hpp"
+
+#include "io/render_outputs.hpp"
+#include "render/descriptor.hpp"
+#include "render/features.hpp"
+#include "render/gpu_scene.hpp"
+#include "render/ray_caster.hpp"
+#include "render/renderer.hpp"
+#include "scene/scene.hpp"
+#include "vk/context.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <optional>
+
+namespace fs = std::filesystem;
+
+namespace vkmech {
+
+void add_common_options(CLI::App* app, CommonOptions& o) {
+    app->add_option("--scene", o.scene, "Scene name in scenes/ (e.g. ring_caustic) or a path to a Mitsuba XML file")
+        ->required();
+    app->add_option("-D,--define", o.defines, "Override a scene parameter: -D name=value (as Mitsuba's -D)");
+    app->add_option("--res", o.res, "Film width in pixels (height follows the scene's aspect)")->check(CLI::Range(1u, 16384u));
+    app->add_option("--device", o.device, "Vulkan device index (see `vkmech devices`)");
+    app->add_option("--traversal", o.traversal, "Ray traversal: auto, rayquery or bvh")
+        ->check(CLI::IsMember({"auto", "rayquery", "bvh"}));
+    app->add_flag("--substitute", o.substitute,
+                  "Replace unsupported emitters (environment maps) by an overhead area panel, reported");
+    app->add_flag("--validation", o.validation, "Enable the Vulkan validation layers when installed");
+}
+
+std::vector<std::string> scene_dirs() {
+    std::vector<std::string> dirs;
+    if (const char* env = std::getenv("VKMECH_SCENE_DIR")) dirs.push_back(env);
+    dirs.push_back("scenes");
+    dirs.push_back(std::string(VKMECH_SOURCE_DIR) + "/scenes");
+    return dirs;
+}
+
+std::string resolve_scene_path(const std::string& arg) {
+    bool looks_like_path = arg.find('/') != std::string::npos || (arg.size() > 4 && arg.substr(arg.size() - 4) == ".xml");
+    if (looks_like_path) {
+        if (!fs::exists(arg)) throw UsageError("scene file '" + arg + "' does not exist");
+        return arg;
+    }
+    for (const auto& d : scene_dirs()) {
+        fs::path p = fs::path(d) / (arg + ".xml");
+        if (fs::exists(p)) return p.string();
+    }
+    std::string known;
+    for (const auto& n : project_scene_names()) known += " " + n;
+    throw UsageError("no scene named '" + arg + "' (known:" + known + ")");
+}
+
+std::vector<std::string> project_scene_names() {
+    for (const auto& d : scene_dirs()) {
+        if (!fs::is_directory(d)) continue;
+        std::vector<std::string> names;
+        for (const auto& e : fs::directory_iterator(d))
+            if (e.is_regular_file() && e.path().extension() == ".xml") names.push_back(e.path().stem().string());
+        std::sort(names.begin(), names.end());
+        if (!names.empty()) return names;
+    }
+    return {};
+}
+
+namespace {
+
+LoadOptions load_options(const CommonOptions& o) {
+    LoadOptions lo;
+    lo.substitute_unsupported = o.substitute;
+    for (const auto& d : o.defines) {
+        auto eq = d.find('=');
+        if (eq == std::string::npos || eq == 0) throw UsageError("-D expects name=value, got '" + d + "'");
+        lo.params[d.substr(0, eq)] = d.substr(eq + 1);
+    }
+    return lo;
+}
+
+Scene load_for_cli(const CommonOptions& o) {
+    std::string path = resolve_scene_path(o.scene);
+    Scene scene = load_scene(path, load_options(o));
+    if (o.res) {
+        double aspect = static_cast<double>(scene.camera.height) / scene.camera.width;
+        scene.camera.width = static_cast<int>(*o.res);
+        scene.camera.height = std::max(1, static_cast<int>(std::lround(*o.res * aspect)));
+    }
+    for (const auto& s : scene.substitutions) std::cerr << "vkmech: substitution: " << s << "\n";
+    return scene;
+}
+
+std::string scene_stem(const std::string& name_or_path) { return fs::path(name_or_path).stem().string(); }
+
+class Progress {
+public:
+    explicit Progress(std::string label) : label_(std::move(label)), tty_(isatty(STDERR_FILENO)), t0_(clock::now()) {}
+    void operator()(uint32_t done, uint32_t total) {
+        double el = std::chrono::duration<double>(clock::now() - t0_).count();
+        double left = done > 0 ? el * (total - done) / done : 0.0;
+        int pct = static_cast<int>(100.0 * done / total);
+        if (tty_) {
+            std::fprintf(stderr, "\r%s: %u/%u spp (%3d%%)  %.1fs elapsed, ~%.1fs left   ", label_.c_str(), done, total, pct,
+                         el, left);
+            if (done == total) std::fprintf(stderr, "\n");
+        } else if (pct >= next_pct_ || done == total) {
+            std::fprintf(stderr, "%s: %u/%u spp (%d%%) %.1fs elapsed, ~%.1fs left\n", label_.c_str(), done, total, pct, el,
+                         left);
+            next_pct_ = pct + 25;
+        }
+        std::fflush(stderr);
+    }
+
+private:
+    using clock = std::chrono::steady_clock;
+    std::string label_;
+    bool tty_;
+    clock::time_point t0_;
+    int next_pct_ = 0;
+};
+
+}  // namespace
+
+int cmd_render(const RenderOptions& o) {
+    Scene scene = load_for_cli(o.common);
+    std::string name = scene_stem(o.common.scene);
+    std::string out_dir = o.out_dir.empty() ? "out/" + name : o.out_dir;
+    Estimator estimator = parse_estimator(o.estimator);
+    bool capture = o.capture == "on";
+
+    vk::ContextOptions co;
+    co.device_index = o.common.device;
+    co.validation = o.common.validation;
+    vk::Context ctx(co);
+    Traversal trav = resolve_traversal(ctx, parse_traversal(o.common.traversal));
+    SceneArrays arrays = flatten_scene(scene);
+    GpuScene gpu_scene(ctx, arrays, trav);
+    Features features = o.generic ? Features::generic(estimator, capture) : Features::from_scene(scene, estimator, capture);
+    Renderer renderer(ctx, scene, arrays, gpu_scene, features);
+
+    std::fprintf(stderr, "vkmech: %s: %dx%d, %zu triangles, %zu emitters, %u spp on '%s' (%s traversal; %s)\n",
+                 name.c_str(), scene.camera.width, scene.camera.height, arrays.triangles.size(), scene.emitters.size(),
+                 o.spp, ctx.info().name.c_str(), to_string(trav), features.describe().c_str());
+    RenderSpec spec;
+    spec.spp = o.spp;
+    spec.seed = o.seed;
+    spec.batch_spp = o.batch_spp;
+    spec.mode = o.preview ? gpu::MODE_DIRECT_PREVIEW : gpu::MODE_PATH;
+    Progress progress("render " + name);
+    spec.progress = [&](uint32_t d, uint32_t t) { progress(d, t); };
+    Frame frame = renderer.render(spec);
+
+    RenderInfo info{name, resolve_scene_path(o.common.scene), ctx.info().name, to_string(trav), to_string(estimator),
+                    features.describe(), o.spp, o.seed, capture};
+    std::optional<Descriptor> desc;
+    std::optional<DescriptorSummary> summary;
+    if (capture) {
+        desc = derive_descriptor(frame);
+        summary = summarize(frame, *desc);
+    }
+    WrittenFiles files = write_render_outputs(out_dir, info, frame, desc ? &*desc : nullptr, summary ? &*summary : nullptr);
+
+    double paths_per_s = frame.seconds > 0 ? frame.samples / frame.seconds : 0.0;
+    uint64_t nonfinite = 0;
+    for (const auto& p : frame.pixels) nonfinite += static_cast<uint64_t>(p.nonfinite);
+    std::printf("%s: %d x %d, %u spp, %.2f s, %.3g paths/s, non-finite samples: %llu\n", name.c_str(), frame.width,
+                frame.height, o.spp, frame.seconds, paths_per_s, static_cast<unsigned long long>(nonfinite));
+    if (summary) {
+        std::printf("%-18s %12s %12s\n", "bucket", "pixel share", "energy share");
+        for (uint32_t b = 0; b < kBucketCount; ++b)
+            std::printf("%-18s %11.2f%% %11.2f%%\n", kBucketNames[b], 100.0 * summary->pixel_share[b],
+                        100.0 * summary->energy_share[b]);
+        std::printf("labelled pixels: %llu of %zu; other energy: %g\n",
+                    static_cast<unsigned long long>(summary->labelled_pixels), frame.pixels.size(), summary->other_energy);
+    }
+    for (const auto& f : {files.exr, files.png, files.dominant_png, files.purity_png, files.json})
+        if (!f.empty()) std::printf("wrote %s\n", f.c_str());
+    return 0;
+}
+
+int cmd_devices() {
+    auto devices = vk::Context::list_devices();
+    if (devices.empty()) {
+        std::cerr << "vkmech: no Vulkan device found (install Mesa lavapipe: ci/install-deps.sh)\n";
+        return 1;
+    }
+    for (const auto& d : devices) {
+        std::printf("[%u] %s (%s)\n", d.index, d.name.c_str(), d.type.c_str());
+        std::printf("    driver: %s\n", d.driver.c_str());
+        std::printf("    Vulkan %u.%u.%u, ray query: %s\n", VK_API_VERSION_MAJOR(d.api_version),
+                    VK_API_VERSION_MINOR(d.api_version), VK_API_VERSION_PATCH(d.api_version), d.ray_query ? "yes" : "no");
+        std::printf("    max compute workgroup invocations: %u, max storage buffer range: %llu MiB, device-local heap: %llu MiB\n",
+                    d.max_workgroup_invocations, static_cast<unsigned long long>(d.max_storage_buffer_range >> 20),
+                    static_cast<unsigned long long>(d.device_local_bytes >> 20));
+    }
+    return 0;
+}
+
+int cmd_bench_traversal(const BenchOptions& o) {
+    std::vector<std::string> names = o.scenes.empty() ? project_scene_names() : o.scenes;
+    if (names.empty()) throw UsageError("no scenes to benchmark");
+    vk::ContextOptions co;
+    co.device_index = o.device;
+    vk::Context ctx(co);
+    std::printf("device: %s (%s), %u random rays per measurement (closest hit; median of 3)\n", ctx.info().name.c_str(),
+                ctx.info().type.c_str(), o.rays);
+    std::printf("%-22s %10s %16s %16s\n", "scene", "triangles", "rayquery Mray/s", "bvh Mray/s");
+    for (const auto& n : names) {
+        Scene scene = load_scene(resolve_scene_path(n));
+        SceneArrays arrays = flatten_scene(scene);
+        auto rays = random_rays(arrays, o.rays, 1);
+        auto measure = [&](Traversal t) -> double {
+            GpuScene g(ctx, arrays, t);
+            RayCaster caster(ctx, g);
+            caster.trace(rays, false);  // warm-up
+            std::vector<double> s(3);
+            for (auto& x : s) caster.trace(rays, false, &x);
+            std::sort(s.begin(), s.end());
+            return rays.size() / s[1] / 1e6;
+        };
+        std::string rq = ctx.ray_query_enabled() ? std::to_string(measure(Traversal::RayQuery)).substr(0, 6) : "n/a";
+        std::string bvh = std::to_string(measure(Traversal::Bvh)).substr(0, 6);
+        std::printf("%-22s %10zu %16s %16s\n", scene_stem(n).c_str(), arrays.triangles.size(), rq.c_str(), bvh.c_str());
+        std::fflush(stdout);
+    }
+    return 0;
+}
+
+}  // namespace vkmech
+
+namespace vkmech {
+
+int cmd_bench_render(const BenchOptions& o) {
+    std::vector<std::string> names = o.scenes.empty() ? project_scene_names() : o.scenes;
+    if (names.empty()) throw UsageError("no scenes to benchmark");
+    vk::ContextOptions co;
+    co.device_index = o.device;
+    vk::Context ctx(co);
+    std::printf("device: %s (%s); %ux%u film, %u spp per measurement, median of 3; paths/s in millions\n",
+                ctx.info().name.c_str(), ctx.info().type.c_str(), o.res, o.res, o.spp);
+    std::printf("%-20s %-9s %12s %12s %12s %12s\n", "scene", "traversal", "specialized", "generic", "capture off",
+                "spec. gain");
+    for (const auto& n : names) {
+        Scene scene = load_scene(resolve_scene_path(n));
+        double aspect = static_cast<double>(scene.camera.height) / scene.camera.width;
+        scene.camera.width = static_cast<int>(o.res);
+        scene.camera.height = std::max(1, static_cast<int>(std::lround(o.res * aspect)));
+        SceneArrays arrays = flatten_scene(scene);
+        std::vector<Traversal> travs = {Traversal::Bvh};
+        if (ctx.ray_query_enabled()) travs.insert(travs.begin(), Traversal::RayQuery);
+        for (Traversal t : travs) {
+            GpuScene g(ctx, arrays, t);
+            auto measure = [&](const Features& f) {
+                Renderer r(ctx, scene, arrays, g, f);
+                RenderSpec spec;
+                spec.spp = o.spp;
+                spec.batch_spp = o.spp;
+                r.render(spec);  // warm-up (pipeline caches, page faults)
+                std::vector<double> mps;
+                for (int i = 0; i < 3; ++i) {
+                    Frame fr = r.render(spec);
+                    mps.push_back(fr.samples / fr.seconds / 1e6);
+                }
+                std::sort(mps.begin(), mps.end());
+                return mps[1];
+            };
+            double spec_on = measure(Features::from_scene(scene));
+            double generic = measure(Features::generic());
+            double cap_off = measure(Features::from_scene(scene, Estimator::Nee, false));
+            std::printf("%-20s %-9s %12.4f %12.4f %12.4f %11.1f%%\n", scene_stem(n).c_str(), to_string(t), spec_on, generic,
+                        cap_off, 100.0 * (spec_on / generic - 1.0));
+            std::fflush(stdout);
+        }
+    }
+    return 0;
+}
+
+}  // namespace vkmech

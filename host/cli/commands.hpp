@@ -1,0 +1,61 @@
+// The CLI's commands, each a function over parsed options.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace vkmech {
+
+// Bad usage or bad input discovered after parsing: exit code 2.
+class UsageError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+struct CommonOptions {
+    std::string scene;                  // name in scenes/ or a path
+    std::vector<std::string> defines;   // -D name=value
+    std::optional<uint32_t> res;        // --res N: film width N, height by aspect
+    std::optional<uint32_t> device;     // --device N
+    std::string traversal = "auto";     // auto | rayquery | bvh
+    bool substitute = false;            // replace unsupported emitters (SPEC §8)
+    bool validation = false;            // Vulkan validation layers
+};
+
+struct RenderOptions {
+    CommonOptions common;
+    uint32_t spp = 64;
+    uint32_t seed = 0;
+    uint32_t batch_spp = 8;
+    std::string out_dir;
+    std::string estimator = "nee";  // nee | mis-restricted | mis (SPEC §1)
+    std::string capture = "on";     // on | off: the mechanism descriptor
+    bool generic = false;           // the unspecialized pipeline (for comparisons)
+    bool preview = false;           // provisional direct-light preview instead of the estimator
+};
+
+struct BenchOptions {
+    std::vector<std::string> scenes;
+    uint32_t rays = 1u << 18;
+    uint32_t res = 128;  // bench render: film width
+    uint32_t spp = 8;    // bench render: samples per measurement
+    std::optional<uint32_t> device;
+};
+
+void add_common_options(CLI::App* app, CommonOptions& o);
+
+// Finds scenes/NAME.xml for a bare name, else treats the argument as a path.
+std::string resolve_scene_path(const std::string& name_or_path);
+// All scene files in the project's scenes/ directory (sorted).
+std::vector<std::string> project_scene_names();
+
+int cmd_render(const RenderOptions& o);
+int cmd_devices();
+int cmd_bench_traversal(const BenchOptions& o);
+int cmd_bench_render(const BenchOptions& o);
+
+}  // namespace vkmech

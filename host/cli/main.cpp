@@ -1,0 +1,90 @@
+// vkmech: the command-line entry. Exit codes (DESIGN): 0 ok, 1 runtime
+// failure, 2 bad usage or bad input.
+#include "cli/commands.hpp"
+
+#include "scene/scene.hpp"
+#include "vk/context.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <cstring>
+#include <iostream>
+
+int main(int argc, char** argv) {
+    using namespace vkmech;
+    // `vkmech --scene X ...` is shorthand for `vkmech render --scene X ...`.
+    std::vector<std::string> args(argv + 1, argv + argc);
+    if (!args.empty() && args[0].rfind("-", 0) == 0 && args[0] != "-h" && args[0] != "--help" && args[0] != "--version")
+        args.insert(args.begin(), "render");
+
+    CLI::App app{"vkmech: a Vulkan path tracer that labels every pixel with how its light arrived\n"
+                 "(the seven-bucket transport-mechanism descriptor).",
+                 "vkmech"};
+    app.set_version_flag("--version", std::string("vkmech ") + VKMECH_VERSION);
+    app.require_subcommand(1);
+    app.footer("Examples:\n  vkmech --scene ring_caustic --spp 64\n  vkmech devices\n  vkmech bench traversal\n"
+               "Exit codes: 0 ok, 1 runtime failure, 2 bad usage or bad input.");
+
+    RenderOptions render_opts;
+    auto* render = app.add_subcommand("render", "Render a scene to a multi-layer EXR and PNG previews");
+    add_common_options(render, render_opts.common);
+    render->add_option("--spp", render_opts.spp, "Samples per pixel")->check(CLI::Range(1u, 1u << 20));
+    render->add_option("--seed", render_opts.seed, "Random seed (SPEC §4)");
+    render->add_option("--batch", render_opts.batch_spp, "Samples per GPU dispatch")->check(CLI::Range(1u, 4096u));
+    render->add_option("--out", render_opts.out_dir, "Output directory (default: out/<scene>)");
+    render->add_option("--estimator", render_opts.estimator, "Estimator: nee (default), mis-restricted or mis (SPEC §1)")
+        ->check(CLI::IsMember({"nee", "mis-restricted", "mis"}));
+    render->add_option("--capture", render_opts.capture, "Mechanism descriptor capture: on (default) or off")
+        ->check(CLI::IsMember({"on", "off"}));
+    render->add_flag("--generic", render_opts.generic, "Use the unspecialized pipeline (every effect compiled in)");
+    render->add_flag("--preview", render_opts.preview, "Fast direct-light preview instead of the full estimator");
+
+    auto* devices = app.add_subcommand("devices", "List Vulkan devices with their ray-query support and limits");
+
+    BenchOptions bench_opts;
+    auto* bench = app.add_subcommand("bench", "Benchmarks (not tests)");
+    auto* bench_trav = bench->add_subcommand("traversal", "Rays/s of ray query and of the software BVH on each scene");
+    bench->require_subcommand(1);
+    bench_trav->add_option("--scenes", bench_opts.scenes, "Comma-separated scene names or paths (default: all in scenes/)")
+        ->delimiter(',');
+    bench_trav->add_option("--rays", bench_opts.rays, "Rays per measurement")->check(CLI::Range(1000u, 1u << 26));
+    bench_trav->add_option("--device", bench_opts.device, "Vulkan device index (see `vkmech devices`)");
+
+    auto* bench_render = bench->add_subcommand(
+        "render", "Paths/s per scene: specialized vs generic pipeline, capture on vs off, ray query vs BVH");
+    bench_render->add_option("--scenes", bench_opts.scenes, "Comma-separated scene names or paths (default: all)")
+        ->delimiter(',');
+    bench_render->add_option("--res", bench_opts.res, "Film width")->check(CLI::Range(8u, 4096u));
+    bench_render->add_option("--spp", bench_opts.spp, "Samples per pixel per measurement")->check(CLI::Range(1u, 4096u));
+    bench_render->add_option("--device", bench_opts.device, "Vulkan device index");
+
+    try {
+        std::vector<std::string> rev(args.rbegin(), args.rend());
+        app.parse(rev);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e) == 0 ? 0 : 2;
+    }
+
+    try {
+        if (*render) return cmd_render(render_opts);
+        if (*devices) return cmd_devices();
+        if (*bench_trav) return cmd_bench_traversal(bench_opts);
+        if (*bench_render) return cmd_bench_render(bench_opts);
+    } catch (const SceneError& e) {
+        std::cerr << "vkmech: error: " << e.what() << "\n";
+        return 2;
+    } catch (const UsageError& e) {
+        std::cerr << "vkmech: error: " << e.what() << "\n";
+        return 2;
+    } catch (const vkmech::vk::VulkanError& e) {
+        std::cerr << "vkmech: Vulkan error: " << e.what() << "\n";
+        return 1;
+    } catch (const ::vk::SystemError& e) {
+        std::cerr << "vkmech: Vulkan error: " << e.what() << "\n";
+        return 1;
+    } catch (const std::exception& e) {
+        std::cerr << "vkmech: error: " << e.what() << "\n";
+        return 1;
+    }
+    return 0;
+}

@@ -1,0 +1,174 @@
+#include "io/render_outputs.hpp"
+
+#include "io/atomic_file.hpp"
+#include "io/exr.hpp"
+#include "io/png.hpp"
+
+#include <stb/stb_easy_font.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace vkmech {
+
+std::vector<std::string> exr_channel_names(bool capture) {
+    std::vector<std::string> names = {"R", "G", "B"};
+    if (capture) {
+        for (const char* b : kBucketNames) names.push_back(std::string("bucket.") + b);
+        for (const char* c : {"dominant", "purity", "glossy_frac", "caustic_frac", "depth"}) names.push_back(c);
+        for (const char* b : kBucketNames) names.push_back(std::string("frac.") + b);
+    }
+    for (const char* c : {"lum_mean", "lum_var", "spp", "nonfinite"}) names.push_back(c);
+    return names;
+}
+
+namespace {
+
+void fill_rect(std::vector<uint8_t>& img, int w, int h, int x0, int y0, int x1, int y1, const std::array<uint8_t, 3>& c) {
+    for (int y = std::max(0, y0); y < std::min(h, y1); ++y)
+        for (int x = std::max(0, x0); x < std::min(w, x1); ++x)
+            for (int k = 0; k < 3; ++k) img[3 * (static_cast<size_t>(y) * w + x) + k] = c[k];
+}
+
+// Rasterizes stb_easy_font's axis-aligned quads.
+void draw_text(std::vector<uint8_t>& img, int w, int h, int x, int y, const char* text) {
+    static char buffer[60000];
+    int quads = stb_easy_font_print(static_cast<float>(x), static_cast<float>(y), const_cast<char*>(text), nullptr, buffer,
+                                    sizeof(buffer));
+    const float* v = reinterpret_cast<const float*>(buffer);
+    for (int q = 0; q < quads; ++q) {
+        const float* p = v + q * 16;  // 4 vertices of (x, y, z, color)
+        int qx0 = static_cast<int>(p[0]), qy0 = static_cast<int>(p[1]);
+        int qx1 = static_cast<int>(p[8]), qy1 = static_cast<int>(p[9]);
+        fill_rect(img, w, h, std::min(qx0, qx1), std::min(qy0, qy1), std::max(qx0, qx1), std::max(qy0, qy1),
+                  {255, 255, 255});
+    }
+}
+
+std::string json_escape(const std::string& s) {
+    std::string o;
+    for (char c : s) {
+        if (c == '"' || c == '\\') o += '\\';
+        if (static_cast<unsigned char>(c) < 0x20) continue;
+        o += c;
+    }
+    return o;
+}
+
+}  // namespace
+
+std::vector<uint8_t> dominant_map_with_legend(const Descriptor& d, int* out_w, int* out_h) {
+    const int row = 14, panel = 130;
+    int w = d.width + panel;
+    int h = std::max(d.height, static_cast<int>(kBucketCount + 1) * row + 6);
+    std::vector<uint8_t> img(static_cast<size_t>(w) * h * 3, 0);
+    for (int y = 0; y < d.height; ++y)
+        for (int x = 0; x < d.width; ++x) {
+            uint8_t b = d.dominant[static_cast<size_t>(y) * d.width + x];
+            if (b == kNoLabel) continue;  // black: no energy, no label
+            fill_rect(img, w, h, x, y, x + 1, y + 1, kBucketColors[b]);
+        }
+    int x0 = d.width + 6;
+    for (uint32_t b = 0; b < kBucketCount; ++b) {
+        int y0 = 4 + static_cast<int>(b) * row;
+        fill_rect(img, w, h, x0, y0, x0 + 10, y0 + 10, kBucketColors[b]);
+        draw_text(img, w, h, x0 + 14, y0 + 1, kBucketNames[b]);
+    }
+    int y0 = 4 + static_cast<int>(kBucketCount) * row;
+    fill_rect(img, w, h, x0, y0, x0 + 10, y0 + 10, {0, 0, 0});
+    fill_rect(img, w, h, x0, y0, x0 + 10, y0 + 1, {90, 90, 90});
+    draw_text(img, w, h, x0 + 14, y0 + 1, "none (no energy)");
+    *out_w = w;
+    *out_h = h;
+    return img;
+}
+
+std::string summary_json(const RenderInfo& info, const Frame& frame, const DescriptorSummary* s) {
+    std::ostringstream o;
+    o.precision(9);
+    double paths_per_s = frame.seconds > 0 ? static_cast<double>(frame.samples) / frame.seconds : 0.0;
+    uint64_t nonfinite = 0;
+    for (const auto& p : frame.pixels) nonfinite += static_cast<uint64_t>(p.nonfinite);
+    o << "{\n";
+    o << "  \"scene\": \"" << json_escape(info.scene_name) << "\",\n";
+    o << "  \"scene_path\": \"" << json_escape(info.scene_path) << "\",\n";
+    o << "  \"width\": " << frame.width << ",\n  \"height\": " << frame.height << ",\n";
+    o << "  \"spp\": " << info.spp << ",\n  \"seed\": " << info.seed << ",\n";
+    o << "  \"estimator\": \"" << info.estimator << "\",\n";
+    o << "  \"traversal\": \"" << info.traversal << "\",\n";
+    o << "  \"features\": \"" << json_escape(info.features) << "\",\n";
+    o << "  \"device\": \"" << json_escape(info.device) << "\",\n";
+    o << "  \"wall_seconds\": " << frame.seconds << ",\n";
+    o << "  \"paths_per_second\": " << paths_per_s << ",\n";
+    o << "  \"nonfinite_samples\": " << nonfinite;
+    if (s) {
+        o << ",\n  \"labelled_pixels\": " << s->labelled_pixels << ",\n";
+        o << "  \"other_energy\": " << s->other_energy << ",\n";
+        o << "  \"max_bucket_sum_relative_error\": " << s->max_bucket_sum_error << ",\n";
+        o << "  \"buckets\": {\n";
+        for (uint32_t b = 0; b < kBucketCount; ++b) {
+            o << "    \"" << kBucketNames[b] << "\": {\"pixel_share\": " << s->pixel_share[b]
+              << ", \"energy_share\": " << s->energy_share[b] << "}" << (b + 1 < kBucketCount ? "," : "") << "\n";
+        }
+        o << "  }";
+    }
+    o << "\n}\n";
+    return o.str();
+}
+
+WrittenFiles write_render_outputs(const std::string& out_dir, const RenderInfo& info, const Frame& frame,
+                                  const Descriptor* d, const DescriptorSummary* s) {
+    fs::create_directories(out_dir);
+    const int w = frame.width, h = frame.height;
+    const size_t n = frame.pixels.size();
+    std::vector<float> rgb = frame.rgb_mean();
+    std::vector<ExrChannel> ch;
+    auto channel = [&](const std::string& name, auto&& value) {
+        ExrChannel c{name, std::vector<float>(n), false};
+        for (size_t i = 0; i < n; ++i) c.data[i] = static_cast<float>(value(i));
+        ch.push_back(std::move(c));
+    };
+    for (int c = 0; c < 3; ++c) channel(std::string(1, "RGB"[c]), [&](size_t i) { return rgb[3 * i + c]; });
+    if (d) {
+        for (uint32_t b = 0; b < kBucketCount; ++b)
+            channel(std::string("bucket.") + kBucketNames[b], [&](size_t i) { return d->bucket_energy[i][b]; });
+        channel("dominant", [&](size_t i) { return static_cast<float>(d->dominant[i]); });
+        channel("purity", [&](size_t i) { return d->purity[i]; });
+        channel("glossy_frac", [&](size_t i) { return d->glossy_frac[i]; });
+        channel("caustic_frac", [&](size_t i) { return d->caustic_frac[i]; });
+        channel("depth", [&](size_t i) { return d->depth[i]; });
+        for (uint32_t b = 0; b < kBucketCount; ++b)
+            channel(std::string("frac.") + kBucketNames[b], [&](size_t i) {
+                return d->total_energy[i] > 0 ? d->bucket_energy[i][b] / d->total_energy[i] : 0.0f;
+            });
+    }
+    channel("lum_mean", [&](size_t i) { return frame.pixels[i].lum_mean; });
+    channel("lum_var", [&](size_t i) { return frame.pixels[i].lum_var(); });
+    channel("spp", [&](size_t i) { return frame.pixels[i].count + frame.pixels[i].nonfinite; });
+    channel("nonfinite", [&](size_t i) { return frame.pixels[i].nonfinite; });
+
+    WrittenFiles out;
+    fs::path dir(out_dir);
+    const std::string& name = info.scene_name;
+    out.exr = (dir / (name + ".exr")).string();
+    write_exr_layers(out.exr, w, h, ch);
+    out.png = (dir / (name + ".png")).string();
+    write_png_rgb8(out.png, w, h, tonemap_srgb(rgb));
+    if (d) {
+        int lw = 0, lh = 0;
+        auto map = dominant_map_with_legend(*d, &lw, &lh);
+        out.dominant_png = (dir / (name + "_dominant.png")).string();
+        write_png_rgb8(out.dominant_png, lw, lh, map);
+        out.purity_png = (dir / (name + "_purity.png")).string();
+        write_png_rgb8(out.purity_png, w, h, grey_to_rgb8(d->purity, 0.0f, 1.0f));
+    }
+    out.json = (dir / (name + ".json")).string();
+    write_file_atomic(out.json, summary_json(info, frame, s));
+    return out;
+}
+
+}  // namespace vkmech

@@ -1,0 +1,40 @@
+// Everything a render writes (SPEC §3, issue "outputs"): one multi-layer EXR,
+// PNG previews (image, dominant-class map with legend, purity) and a JSON
+// summary. Every file is written atomically.
+#pragma once
+
+#include "render/descriptor.hpp"
+#include "render/frame.hpp"
+
+#include <string>
+
+namespace vkmech {
+
+struct RenderInfo {
+    std::string scene_name;
+    std::string scene_path;
+    std::string device;
+    std::string traversal;
+    std::string estimator;
+    std::string features;
+    uint32_t spp = 0;
+    uint32_t seed = 0;
+    bool capture = true;
+};
+
+struct WrittenFiles {
+    std::string exr, png, dominant_png, purity_png, json;
+};
+
+// The EXR channel names, in file order (documented in README.md).
+std::vector<std::string> exr_channel_names(bool capture);
+
+WrittenFiles write_render_outputs(const std::string& out_dir, const RenderInfo& info, const Frame& frame,
+                                  const Descriptor* descriptor, const DescriptorSummary* summary);
+
+// The dominant-class map with a legend panel to its right, as 8-bit RGB.
+std::vector<uint8_t> dominant_map_with_legend(const Descriptor& d, int* out_width, int* out_height);
+
+std::string summary_json(const RenderInfo& info, const Frame& frame, const DescriptorSummary* summary);
+
+}  // namespace vkmech

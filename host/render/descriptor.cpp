@@ -1,0 +1,91 @@
+#include "render/descriptor.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace vkmech {
+
+const std::array<const char*, kBucketCount> kBucketNames = {
+    "emitter_direct", "direct", "diffuse_indirect", "glossy", "delta_mediated", "specular_direct", "other"};
+
+const std::array<std::array<uint8_t, 3>, kBucketCount> kBucketColors = {{
+    {255, 221, 87},   // emitter_direct: light yellow
+    {86, 180, 233},   // direct: sky blue
+    {0, 158, 115},    // diffuse_indirect: green
+    {230, 159, 0},    // glossy: orange
+    {204, 51, 153},   // delta_mediated: magenta
+    {213, 94, 0},     // specular_direct: vermilion
+    {128, 128, 128},  // other: grey
+}};
+
+uint8_t dominant_bucket(const std::array<double, kBucketCount>& e) {
+    uint8_t best = kNoLabel;
+    double best_v = 0.0;
+    for (uint32_t b = 0; b < kBucketCount; ++b)
+        if (e[b] > best_v) {  // strict: ties keep the lower index
+            best_v = e[b];
+            best = static_cast<uint8_t>(b);
+        }
+    return best;
+}
+
+Descriptor derive_descriptor(const Frame& f) {
+    Descriptor d;
+    d.width = f.width;
+    d.height = f.height;
+    size_t n = f.pixels.size();
+    d.bucket_energy.resize(n);
+    d.dominant.resize(n);
+    d.purity.resize(n);
+    d.glossy_frac.resize(n);
+    d.caustic_frac.resize(n);
+    d.depth.resize(n);
+    d.total_energy.resize(n);
+    for (size_t i = 0; i < n; ++i) {
+        const PixelStats& p = f.pixels[i];
+        std::array<double, kBucketCount> e{};
+        double total = 0.0;
+        for (uint32_t b = 0; b < kBucketCount; ++b) {
+            e[b] = p.count > 0 ? p.bucket_sum[b] / p.count : 0.0;
+            total += e[b];
+            d.bucket_energy[i][b] = static_cast<float>(e[b]);
+        }
+        d.total_energy[i] = static_cast<float>(total);
+        d.dominant[i] = dominant_bucket(e);
+        if (total > 0.0) {
+            d.purity[i] = static_cast<float>(e[d.dominant[i]] / total);
+            d.glossy_frac[i] = static_cast<float>(std::min(1.0, p.glossy_sum / p.count / total));
+            d.caustic_frac[i] = static_cast<float>(e[gpu::BUCKET_DELTA_MEDIATED] / total);
+        }
+        d.depth[i] = p.depth_weight > 0.0 ? static_cast<float>(p.depth_weighted_sum / p.depth_weight) : 0.0f;
+    }
+    return d;
+}
+
+DescriptorSummary summarize(const Frame& f, const Descriptor& d) {
+    DescriptorSummary s;
+    std::array<double, kBucketCount> energy{};
+    double total = 0.0;
+    for (size_t i = 0; i < f.pixels.size(); ++i) {
+        s.nonfinite_samples += static_cast<uint64_t>(f.pixels[i].nonfinite);
+        if (d.dominant[i] != kNoLabel) {
+            s.labelled_pixels++;
+            s.pixel_share[d.dominant[i]] += 1.0;
+        }
+        for (uint32_t b = 0; b < kBucketCount; ++b) {
+            energy[b] += d.bucket_energy[i][b];
+            total += d.bucket_energy[i][b];
+        }
+        double lum = f.pixels[i].lum_mean;
+        double err = std::abs(static_cast<double>(d.total_energy[i]) - lum) / std::max(lum, 1e-8);
+        if (lum > 1e-6) s.max_bucket_sum_error = std::max(s.max_bucket_sum_error, err);
+    }
+    for (uint32_t b = 0; b < kBucketCount; ++b) {
+        if (s.labelled_pixels) s.pixel_share[b] /= static_cast<double>(s.labelled_pixels);
+        s.energy_share[b] = total > 0 ? energy[b] / total : 0.0;
+    }
+    s.other_energy = energy[gpu::BUCKET_OTHER];
+    return s;
+}
+
+}  // namespace vkmech

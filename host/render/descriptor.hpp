@@ -1,0 +1,47 @@
+// The per-pixel transport-mechanism descriptor derived from a Frame (SPEC §3):
+// bucket energies L_b, dominant label, purity, glossy_frac, caustic_frac,
+// depth, mixed flag, and a scene summary.
+#pragma once
+
+#include "render/frame.hpp"
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace vkmech {
+
+constexpr uint32_t kBucketCount = gpu::BUCKET_COUNT;
+constexpr uint8_t kNoLabel = 255;  // pixels with zero total energy (SPEC §3)
+extern const std::array<const char*, kBucketCount> kBucketNames;  // SPEC §2 names, index order
+// Fixed display colour per bucket (sRGB 8-bit), index order.
+extern const std::array<std::array<uint8_t, 3>, kBucketCount> kBucketColors;
+
+struct Descriptor {
+    int width = 0, height = 0;
+    std::vector<std::array<float, kBucketCount>> bucket_energy;  // L_b: mean per-sample energy
+    std::vector<uint8_t> dominant;  // argmax_b L_b, ties to the lower index; kNoLabel when sum is 0
+    std::vector<float> purity;       // L_dominant / sum_b L_b (0 for unlabelled)
+    std::vector<float> glossy_frac;  // gamma
+    std::vector<float> caustic_frac; // L_delta_mediated / sum
+    std::vector<float> depth;        // energy-weighted mean n over n >= 1
+    std::vector<float> total_energy; // sum_b L_b
+};
+
+// argmax with ties broken to the lower index; kNoLabel when every entry is 0.
+uint8_t dominant_bucket(const std::array<double, kBucketCount>& energy);
+
+Descriptor derive_descriptor(const Frame& frame);
+
+struct DescriptorSummary {
+    std::array<double, kBucketCount> pixel_share{};   // share of labelled pixels per dominant bucket
+    std::array<double, kBucketCount> energy_share{};  // share of total image energy per bucket
+    uint64_t labelled_pixels = 0;
+    uint64_t nonfinite_samples = 0;
+    double other_energy = 0.0;  // absolute energy in `other` (expected 0)
+    double max_bucket_sum_error = 0.0;  // max |sum_b L_b - lum_mean| / max(lum_mean, 1e-8)
+};
+
+DescriptorSummary summarize(const Frame& frame, const Descriptor& d);
+
+}  // namespace vkmech

@@ -1,0 +1,37 @@
+// Which effects a scene calls for (DESIGN "simulate only what the scene calls
+// for"): each becomes a specialization constant of the render pipeline, so a
+// diffuse-only scene runs code with none of the rest.
+#pragma once
+
+#include "scene/scene.hpp"
+#include "vk/pipeline.hpp"
+
+#include <string>
+#include <vector>
+
+namespace vkmech {
+
+enum class Estimator : uint32_t { Nee = 0, MisRestricted = 1, Mis = 2 };
+const char* to_string(Estimator e);
+Estimator parse_estimator(const std::string& s);  // throws std::invalid_argument
+
+struct Features {
+    bool thin_lens = true;
+    bool dielectric = true;
+    bool rough = true;
+    bool plastic = true;
+    bool principled = true;
+    bool conductor = true;
+    bool textures = true;
+    bool capture = true;  // the mechanism descriptor
+    Estimator estimator = Estimator::Nee;
+
+    // Everything on: the generic pipeline (for `bench render`).
+    static Features generic(Estimator e = Estimator::Nee, bool capture = true);
+    static Features from_scene(const Scene& scene, Estimator e = Estimator::Nee, bool capture = true);
+
+    std::vector<vk::SpecConstant> spec_constants() const;
+    std::string describe() const;  // e.g. "thin-lens dielectric rough capture estimator=nee"
+};
+
+}  // namespace vkmech

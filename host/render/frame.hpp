@@ -1,0 +1,39 @@
+// A finished render: per-pixel sums and moments in double, merged across
+// batches with Chan's parallel update (DESIGN "stable numerics").
+#pragma once
+
+#include "shared/types.h"
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace vkmech {
+
+struct PixelStats {
+    double count = 0.0;  // finite samples
+    double nonfinite = 0.0;
+    std::array<double, 3> rgb_sum{};
+    double lum_mean = 0.0;
+    double lum_m2 = 0.0;  // sum of squared deviations
+    std::array<double, gpu::BUCKET_COUNT> bucket_sum{};
+    double glossy_sum = 0.0;
+    double depth_weighted_sum = 0.0;
+    double depth_weight = 0.0;
+
+    // Chan et al.: merge a batch of n samples with mean m and M2.
+    void merge_moments(double n, double mean, double m2);
+    double lum_var() const { return count > 1.0 ? lum_m2 / (count - 1.0) : 0.0; }  // ddof 1
+};
+
+struct Frame {
+    int width = 0, height = 0;
+    std::vector<PixelStats> pixels;
+    double seconds = 0.0;  // wall time of the GPU work
+    uint64_t samples = 0;  // samples taken (spp * pixels)
+
+    void merge(const std::vector<gpu::GpuPixelAccum>& batch);
+    std::vector<float> rgb_mean() const;  // 3 per pixel
+};
+
+}  // namespace vkmech

@@ -1,0 +1,176 @@
+#include "render/gpu_scene.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace vkmech {
+
+const char* to_string(Traversal t) {
+    switch (t) {
+        case Traversal::Auto: return "auto";
+        case Traversal::RayQuery: return "rayquery";
+        case Traversal::Bvh: return "bvh";
+    }
+    return "?";
+}
+
+Traversal parse_traversal(const std::string& s) {
+    if (s == "auto") return Traversal::Auto;
+    if (s == "rayquery") return Traversal::RayQuery;
+    if (s == "bvh") return Traversal::Bvh;
+    throw std::invalid_argument("unknown traversal '" + s + "' (expected auto, rayquery or bvh)");
+}
+
+Traversal resolve_traversal(const vk::Context& ctx, Traversal requested) {
+    if (requested == Traversal::RayQuery && !ctx.ray_query_enabled())
+        throw vk::VulkanError("--traversal rayquery: device '" + ctx.info().name + "' has no VK_KHR_ray_query");
+    if (requested == Traversal::Auto) {
+        // Measured (`vkmech bench traversal`, README): on lavapipe the software
+        // BVH traces 1.6-2.5x faster than lavapipe's own ray query, so CPU
+        // devices get the BVH; GPUs get ray query where they have it.
+        if (ctx.info().type == "cpu") return Traversal::Bvh;
+        return ctx.ray_query_enabled() ? Traversal::RayQuery : Traversal::Bvh;
+    }
+    return requested;
+}
+
+namespace {
+
+float luminance(const glm::vec3& c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
+
+gpu::GpuMaterial pack_material(const Material& m) {
+    gpu::GpuMaterial g{};
+    g.header = glm::uvec4(static_cast<uint32_t>(m.type), m.twosided ? 1u : 0u,
+                          m.reflectance.texture >= 0 ? static_cast<uint32_t>(m.reflectance.texture + 1) : 0u,
+                          static_cast<uint32_t>(m.distribution));
+    g.reflectance = glm::vec4(m.reflectance.value, m.alpha_u);
+    g.specular_reflectance = glm::vec4(m.specular_reflectance, m.alpha_v);
+    g.specular_transmittance = glm::vec4(m.specular_transmittance, m.int_ior);
+    g.eta = glm::vec4(m.eta, m.ext_ior);
+    g.k = glm::vec4(m.k, m.nonlinear ? 1.0f : 0.0f);
+    g.principled0 = glm::vec4(m.metallic, m.roughness, m.specular, m.spec_tint);
+    g.principled1 = glm::vec4(m.anisotropic, m.sheen, m.sheen_tint, m.clearcoat);
+    g.principled2 = glm::vec4(m.clearcoat_gloss, m.spec_trans, m.eta_principled, 0.0f);
+    return g;
+}
+
+}  // namespace
+
+SceneArrays flatten_scene(const Scene& scene) {
+    SceneArrays a;
+    if (scene.triangle_count() == 0) throw SceneError(scene.source, 0, "the scene has no geometry to render");
+    if (scene.materials.size() > gpu::TRI_MATERIAL_MASK) throw SceneError(scene.source, 0, "too many materials");
+    if (scene.emitters.size() >= gpu::TRI_EMITTER_MASK) throw SceneError(scene.source, 0, "too many emitters");
+
+    // Unordered triangles first; reordered into BVH order below.
+    std::vector<glm::uvec4> tris;
+    std::vector<uint32_t> tri_mesh;
+    std::vector<glm::vec3> pos3;
+    for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
+        const Mesh& mesh = scene.meshes[mi];
+        uint32_t base = static_cast<uint32_t>(a.vertices.size());
+        bool flat = mesh.normals.empty();
+        for (size_t v = 0; v < mesh.positions.size(); ++v) {
+            glm::vec2 uv = mesh.uvs.empty() ? glm::vec2(0.0f) : mesh.uvs[v];
+            glm::vec3 n = flat ? glm::vec3(0.0f) : mesh.normals[v];
+            a.vertices.push_back(gpu::GpuVertex{glm::vec4(mesh.positions[v], uv.x), glm::vec4(n, uv.y)});
+        }
+        uint32_t material = mesh.material < 0 ? 0u : static_cast<uint32_t>(mesh.material);
+        uint32_t w = material | (static_cast<uint32_t>(mesh.emitter + 1) << gpu::TRI_EMITTER_SHIFT) |
+                     (flat ? gpu::TRI_FLAT_BIT : 0u);
+        for (const auto& t : mesh.indices) {
+            tris.push_back(glm::uvec4(base + t.x, base + t.y, base + t.z, w));
+            tri_mesh.push_back(static_cast<uint32_t>(mi));
+            for (int k = 0; k < 3; ++k) pos3.push_back(mesh.positions[t[k]]);
+        }
+    }
+    if (scene.materials.empty()) {
+        Material m;
+        a.materials.push_back(pack_material(m));
+    }
+    for (const auto& m : scene.materials) a.materials.push_back(pack_material(m));
+
+    a.bvh = build_bvh(pos3);
+    size_t n = tris.size();
+    a.triangles.resize(n);
+    a.triangle_mesh.resize(n);
+    a.tri_positions.resize(3 * n);
+    for (size_t i = 0; i < n; ++i) {
+        uint32_t src = a.bvh.order[i];
+        a.triangles[i] = tris[src];
+        a.triangle_mesh[i] = tri_mesh[src];
+        for (int k = 0; k < 3; ++k) a.tri_positions[3 * i + k] = glm::vec4(pos3[3 * src + k], 1.0f);
+    }
+
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    for (const auto& p : pos3) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
+    a.bbox_lo = lo;
+    a.bbox_hi = hi;
+    a.scene_scale = std::max({std::abs(lo.x), std::abs(lo.y), std::abs(lo.z), std::abs(hi.x), std::abs(hi.y), std::abs(hi.z), 1e-3f});
+
+    // Light table: every emissive triangle, weight = luminance(L) * area.
+    a.emitters.resize(scene.emitters.size());
+    std::vector<std::vector<uint32_t>> per_emitter(scene.emitters.size());
+    for (uint32_t i = 0; i < n; ++i) {
+        uint32_t e = (a.triangles[i].w >> gpu::TRI_EMITTER_SHIFT) & gpu::TRI_EMITTER_MASK;
+        if (e > 0) per_emitter[e - 1].push_back(i);
+    }
+    double total = 0.0;
+    std::vector<double> weights;
+    for (size_t e = 0; e < scene.emitters.size(); ++e) {
+        const auto& em = scene.emitters[e];
+        double lum = luminance(em.radiance);
+        uint32_t first = static_cast<uint32_t>(a.light_triangles.size());
+        double area_sum = 0.0;
+        for (uint32_t t : per_emitter[e]) {
+            glm::vec3 p0(a.tri_positions[3 * t]), p1(a.tri_positions[3 * t + 1]), p2(a.tri_positions[3 * t + 2]);
+            double area = 0.5 * glm::length(glm::cross(p1 - p0, p2 - p0));
+            if (area <= 0.0 || lum <= 0.0) continue;
+            gpu::GpuLightTriangle lt{};
+            lt.info = glm::uvec4(t, static_cast<uint32_t>(e), 0u, 0u);
+            lt.cdf = glm::vec4(0.0f, static_cast<float>(area), 0.0f, 0.0f);
+            a.light_triangles.push_back(lt);
+            weights.push_back(lum * area);
+            total += lum * area;
+            area_sum += area;
+        }
+        a.emitters[e].radiance = glm::vec4(em.radiance, static_cast<float>(area_sum));
+        a.emitters[e].info = glm::uvec4(static_cast<uint32_t>(em.mesh), first,
+                                        static_cast<uint32_t>(a.light_triangles.size()) - first, 0u);
+    }
+    double acc = 0.0;
+    for (size_t i = 0; i < a.light_triangles.size(); ++i) {
+        acc += weights[i];
+        a.light_triangles[i].cdf.x = static_cast<float>(acc / total);
+        // pdf per unit area of choosing this triangle then a uniform point on it.
+        a.light_triangles[i].cdf.z = static_cast<float>(weights[i] / total / a.light_triangles[i].cdf.y);
+    }
+    if (!a.light_triangles.empty()) a.light_triangles.back().cdf.x = 1.0f;
+    a.light_weight_total = static_cast<float>(total);
+    return a;
+}
+
+GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal traversal)
+    : traversal_(resolve_traversal(ctx, traversal)) {
+    using BU = ::vk::BufferUsageFlagBits;
+    ::vk::BufferUsageFlags ssbo = BU::eStorageBuffer;
+    vertices = vk::Buffer::from_vector(ctx, a.vertices, ssbo);
+    triangles = vk::Buffer::from_vector(ctx, a.triangles, ssbo);
+    materials = vk::Buffer::from_vector(ctx, a.materials, ssbo);
+    emitters = vk::Buffer::from_vector(ctx, a.emitters, ssbo);
+    light_triangles = vk::Buffer::from_vector(ctx, a.light_triangles, ssbo);
+    ::vk::BufferUsageFlags pos_usage = ssbo;
+    if (traversal_ == Traversal::RayQuery)
+        pos_usage = pos_usage | BU::eAccelerationStructureBuildInputReadOnlyKHR | BU::eShaderDeviceAddress;
+    tri_positions = vk::Buffer::from_vector(ctx, a.tri_positions, pos_usage);
+    if (traversal_ == Traversal::RayQuery) {
+        accel_ = std::make_unique<RayTracingAccel>(ctx, tri_positions, static_cast<uint32_t>(a.triangles.size()));
+    } else {
+        bvh_nodes = vk::Buffer::from_vector(ctx, a.bvh.nodes, ssbo);
+    }
+}
+
+}  // namespace vkmech

@@ -1,0 +1,56 @@
+// The scene flattened into GPU arrays (one vertex and one triangle list in
+// BVH order, materials, emitters, the power-proportional light table) and
+// uploaded with the chosen traversal's acceleration structure.
+#pragma once
+
+#include "accel/bvh.hpp"
+#include "accel/rt_accel.hpp"
+#include "scene/scene.hpp"
+#include "shared/types.h"
+#include "vk/buffer.hpp"
+
+#include <memory>
+#include <optional>
+#include <string>
+
+namespace vkmech {
+
+enum class Traversal { Auto, RayQuery, Bvh };
+const char* to_string(Traversal t);
+Traversal parse_traversal(const std::string& s);  // throws std::invalid_argument
+
+struct SceneArrays {
+    std::vector<gpu::GpuVertex> vertices;
+    std::vector<glm::uvec4> triangles;     // i0, i1, i2, material|emitter|flat (BVH order)
+    std::vector<uint32_t> triangle_mesh;   // mesh index of each triangle (BVH order)
+    std::vector<glm::vec4> tri_positions;  // 3 per triangle (BVH order)
+    std::vector<gpu::GpuMaterial> materials;
+    std::vector<gpu::GpuEmitter> emitters;
+    std::vector<gpu::GpuLightTriangle> light_triangles;
+    Bvh bvh;
+    float light_weight_total = 0.0f;  // sum of luminance(radiance) * area
+    glm::vec3 bbox_lo{0.0f}, bbox_hi{0.0f};
+    float scene_scale = 1.0f;  // largest |coordinate| of the bounding box, for ray offsets
+};
+
+// Throws SceneError for scenes that cannot be rendered (no triangles).
+SceneArrays flatten_scene(const Scene& scene);
+
+class GpuScene {
+public:
+    GpuScene(const vk::Context& ctx, const SceneArrays& arrays, Traversal traversal);
+    Traversal traversal() const { return traversal_; }
+    const RayTracingAccel* accel() const { return accel_.get(); }
+
+    vk::Buffer vertices, triangles, materials, emitters, light_triangles, bvh_nodes, tri_positions;
+
+private:
+    Traversal traversal_;
+    std::unique_ptr<RayTracingAccel> accel_;
+};
+
+// Auto: ray query on GPUs that have it; the BVH on CPU devices (faster there,
+// measured) and on devices without ray query.
+Traversal resolve_traversal(const vk::Context& ctx, Traversal requested);
+
+}  // namespace vkmech

@@ -1,0 +1,19 @@
+// Guards the host/shader struct layouts of shaders/shared/types.h: std430 and
+// std140 lay these vec4/uvec4/mat4-only structs out exactly like C++.
+#include "shared/types.h"
+
+#include <cstddef>
+
+namespace vkmech::gpu {
+static_assert(sizeof(glm::vec4) == 16 && sizeof(glm::uvec4) == 16 && sizeof(glm::mat4) == 64);
+static_assert(sizeof(GpuVertex) == 32);
+static_assert(sizeof(GpuMaterial) == 9 * 16);
+static_assert(sizeof(GpuEmitter) == 32);
+static_assert(sizeof(GpuLightTriangle) == 32);
+static_assert(sizeof(GpuBvhNode) == 32);
+static_assert(sizeof(GpuParams) == 64 + 5 * 16);
+static_assert(offsetof(GpuParams, camera) == 64);
+static_assert(offsetof(GpuParams, lights) == 128);
+static_assert(sizeof(GpuPixelAccum) == 5 * 16);
+static_assert(sizeof(GpuRay) == 32 && sizeof(GpuHit) == 16);
+}  // namespace vkmech::gpu

@@ -1,0 +1,64 @@
+#include "render/ray_caster.hpp"
+
+#include "render/shader_modules.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <random>
+
+namespace vkmech {
+
+RayCaster::RayCaster(const vk::Context& ctx, const GpuScene& scene) : ctx_(ctx), scene_(scene) {}
+
+std::vector<gpu::GpuHit> RayCaster::trace(const std::vector<gpu::GpuRay>& rays, bool any_hit, double* seconds) {
+    using DT = ::vk::DescriptorType;
+    bool rq = scene_.traversal() == Traversal::RayQuery;
+    std::vector<vk::BindingDesc> bindings = {{10, DT::eStorageBuffer}, {11, DT::eStorageBuffer}};
+    if (rq) bindings.push_back({7, DT::eAccelerationStructureKHR});
+    else {
+        bindings.push_back({8, DT::eStorageBuffer});
+        bindings.push_back({9, DT::eStorageBuffer});
+    }
+    vk::ComputePipeline pipe(ctx_, tracerays_spirv(scene_.traversal()), bindings, 8);
+    vk::Buffer in = vk::Buffer::from_vector(ctx_, rays, ::vk::BufferUsageFlagBits::eStorageBuffer);
+    vk::Buffer out(ctx_, std::max<size_t>(16, rays.size() * sizeof(gpu::GpuHit)), ::vk::BufferUsageFlagBits::eStorageBuffer,
+                   vk::MemoryUse::Readback);
+    pipe.bind_buffer(10, in.handle());
+    pipe.bind_buffer(11, out.handle());
+    if (rq) pipe.bind_acceleration_structure(7, scene_.accel()->tlas());
+    else {
+        pipe.bind_buffer(8, scene_.bvh_nodes.handle());
+        pipe.bind_buffer(9, scene_.tri_positions.handle());
+    }
+    uint32_t push[2] = {static_cast<uint32_t>(rays.size()), any_hit ? 1u : 0u};
+    auto t0 = std::chrono::steady_clock::now();
+    ctx_.submit_and_wait([&](::vk::CommandBuffer cmd) {
+        pipe.record(cmd, static_cast<uint32_t>((rays.size() + 63) / 64), 1, 1, push, sizeof(push));
+    });
+    if (seconds) *seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::vector<gpu::GpuHit> hits(rays.size());
+    out.download(ctx_, hits.data(), hits.size() * sizeof(gpu::GpuHit));
+    return hits;
+}
+
+std::vector<gpu::GpuRay> random_rays(const SceneArrays& arrays, uint32_t count, uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> U(0.0f, 1.0f);
+    glm::vec3 lo = arrays.bbox_lo, hi = arrays.bbox_hi;
+    glm::vec3 pad = (hi - lo) * 0.05f;
+    lo -= pad;
+    hi += pad;
+    std::vector<gpu::GpuRay> rays(count);
+    for (auto& r : rays) {
+        glm::vec3 o = lo + (hi - lo) * glm::vec3(U(rng), U(rng), U(rng));
+        float z = 1.0f - 2.0f * U(rng);
+        float phi = 6.2831853f * U(rng);
+        float s = std::sqrt(std::max(0.0f, 1.0f - z * z));
+        glm::vec3 d(s * std::cos(phi), s * std::sin(phi), z);
+        r.origin = glm::vec4(o, 0.0f);
+        r.direction = glm::vec4(d, 1e30f);
+    }
+    return rays;
+}
+
+}  // namespace vkmech

@@ -1,0 +1,95 @@
+#include "render/renderer.hpp"
+
+#include "render/shader_modules.hpp"
+
+#include <chrono>
+#include <cmath>
+
+namespace vkmech {
+
+glm::vec2 camera_tangents(const Camera& cam) {
+    float t = std::tan(glm::radians(cam.fov_deg) * 0.5f);
+    float w = static_cast<float>(cam.width), h = static_cast<float>(cam.height);
+    std::string axis = cam.fov_axis;
+    if (axis == "smaller") axis = w <= h ? "x" : "y";
+    if (axis == "larger") axis = w >= h ? "x" : "y";
+    if (axis == "y") return {t * w / h, t};
+    if (axis == "diagonal") {
+        float d = std::sqrt(w * w + h * h);
+        return {t * w / d, t * h / d};
+    }
+    return {t, t * h / w};
+}
+
+Renderer::Renderer(const vk::Context& ctx, const Scene& scene, const SceneArrays& arrays, const GpuScene& gpu_scene,
+                   const Features& features)
+    : ctx_(ctx), scene_(scene), arrays_(arrays), gpu_(gpu_scene), features_(features) {
+    using DT = ::vk::DescriptorType;
+    std::vector<vk::BindingDesc> bindings = {
+        {0, DT::eUniformBuffer}, {1, DT::eStorageBuffer}, {2, DT::eStorageBuffer}, {3, DT::eStorageBuffer},
+        {4, DT::eStorageBuffer}, {5, DT::eStorageBuffer}, {6, DT::eStorageBuffer}};
+    bool rq = gpu_.traversal() == Traversal::RayQuery;
+    if (rq) bindings.push_back({7, DT::eAccelerationStructureKHR});
+    else {
+        bindings.push_back({8, DT::eStorageBuffer});
+        bindings.push_back({9, DT::eStorageBuffer});
+    }
+    pipeline_ = std::make_unique<vk::ComputePipeline>(ctx, pathtrace_spirv(gpu_.traversal()), bindings, 0,
+                                                      features_.spec_constants());
+    size_t pixels = static_cast<size_t>(scene.camera.width) * scene.camera.height;
+    params_ = vk::Buffer(ctx, sizeof(gpu::GpuParams), ::vk::BufferUsageFlagBits::eUniformBuffer, vk::MemoryUse::Upload);
+    accum_ = vk::Buffer(ctx, pixels * sizeof(gpu::GpuPixelAccum), ::vk::BufferUsageFlagBits::eStorageBuffer,
+                        vk::MemoryUse::Readback);
+    pipeline_->bind_buffer(0, params_.handle());
+    pipeline_->bind_buffer(1, gpu_.vertices.handle());
+    pipeline_->bind_buffer(2, gpu_.triangles.handle());
+    pipeline_->bind_buffer(3, gpu_.materials.handle());
+    pipeline_->bind_buffer(4, gpu_.light_triangles.handle());
+    pipeline_->bind_buffer(5, gpu_.emitters.handle());
+    pipeline_->bind_buffer(6, accum_.handle());
+    if (rq) pipeline_->bind_acceleration_structure(7, gpu_.accel()->tlas());
+    else {
+        pipeline_->bind_buffer(8, gpu_.bvh_nodes.handle());
+        pipeline_->bind_buffer(9, gpu_.tri_positions.handle());
+    }
+}
+
+Frame Renderer::render(const RenderSpec& spec) {
+    const Camera& cam = scene_.camera;
+    Frame frame;
+    frame.width = cam.width;
+    frame.height = cam.height;
+    size_t pixels = static_cast<size_t>(cam.width) * cam.height;
+    frame.pixels.assign(pixels, PixelStats{});
+    std::vector<gpu::GpuPixelAccum> batch(pixels);
+
+    gpu::GpuParams p{};
+    p.camera_to_world = cam.to_world;
+    glm::vec2 tans = camera_tangents(cam);
+    p.camera = glm::vec4(tans, cam.type == CameraType::ThinLens ? cam.aperture_radius : 0.0f, cam.focus_distance);
+    p.sampling = glm::uvec4(0, scene_.integrator.max_depth, scene_.integrator.rr_depth, 0);
+    p.scene = glm::uvec4(static_cast<uint32_t>(arrays_.light_triangles.size()), static_cast<uint32_t>(arrays_.emitters.size()),
+                         static_cast<uint32_t>(arrays_.triangles.size()), spec.mode);
+    p.lights = glm::vec4(arrays_.light_weight_total, arrays_.scene_scale, 0.0f, 0.0f);
+
+    auto t0 = std::chrono::steady_clock::now();
+    uint32_t batch_spp = std::max(1u, spec.batch_spp);
+    for (uint32_t done = 0; done < spec.spp;) {
+        uint32_t n = std::min(batch_spp, spec.spp - done);
+        p.film = glm::uvec4(cam.width, cam.height, spec.seed, n);
+        p.sampling.x = done;
+        params_.upload(ctx_, &p, sizeof(p));
+        ctx_.submit_and_wait([&](::vk::CommandBuffer cmd) {
+            pipeline_->record(cmd, (cam.width + 7) / 8, (cam.height + 7) / 8, 1);
+        });
+        accum_.download(ctx_, batch.data(), batch.size() * sizeof(gpu::GpuPixelAccum));
+        frame.merge(batch);
+        done += n;
+        if (spec.progress) spec.progress(done, spec.spp);
+    }
+    frame.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    frame.samples = static_cast<uint64_t>(spec.spp) * pixels;
+    return frame;
+}
+
+}  // namespace vkmech

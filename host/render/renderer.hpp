@@ -1,0 +1,43 @@
+// One renderer call: render(scene, RenderSpec) -> Frame (DESIGN). Everything
+// that runs many renders is host orchestration over this.
+#pragma once
+
+#include "render/features.hpp"
+#include "render/frame.hpp"
+#include "render/gpu_scene.hpp"
+#include "vk/pipeline.hpp"
+
+#include <functional>
+
+namespace vkmech {
+
+struct RenderSpec {
+    uint32_t spp = 64;
+    uint32_t seed = 0;
+    uint32_t batch_spp = 8;  // samples per dispatch
+    uint32_t mode = gpu::MODE_PATH;
+    // Called after each batch with (samples done, samples total).
+    std::function<void(uint32_t, uint32_t)> progress;
+};
+
+class Renderer {
+public:
+    Renderer(const vk::Context& ctx, const Scene& scene, const SceneArrays& arrays, const GpuScene& gpu_scene,
+             const Features& features);
+    const Features& features() const { return features_; }
+    Frame render(const RenderSpec& spec);
+
+private:
+    const vk::Context& ctx_;
+    const Scene& scene_;
+    const SceneArrays& arrays_;
+    const GpuScene& gpu_;
+    Features features_;
+    std::unique_ptr<vk::ComputePipeline> pipeline_;
+    vk::Buffer params_, accum_;
+};
+
+// Camera parameters of Params: tan of the half field of view on x and y.
+glm::vec2 camera_tangents(const Camera& camera);
+
+}  // namespace vkmech

@@ -1,0 +1,22 @@
+#include "render/shader_modules.hpp"
+
+#include <cstdint>
+
+#include "shaders/spv_pathtrace_bvh.h"
+#include "shaders/spv_pathtrace_rayquery.h"
+#include "shaders/spv_tracerays_bvh.h"
+#include "shaders/spv_tracerays_rayquery.h"
+
+namespace vkmech {
+
+std::span<const uint32_t> pathtrace_spirv(Traversal t) {
+    if (t == Traversal::RayQuery) return spv_pathtrace_rayquery;
+    return spv_pathtrace_bvh;
+}
+
+std::span<const uint32_t> tracerays_spirv(Traversal t) {
+    if (t == Traversal::RayQuery) return spv_tracerays_rayquery;
+    return spv_tracerays_bvh;
+}
+
+}  // namespace vkmech

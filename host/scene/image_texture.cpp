@@ -1,0 +1,47 @@
+// stb_image's implementation comes from Debian's libstb.so (linked by
+// vkmech_core); no copy is compiled here.
+#include <stb/stb_image.h>
+
+#include "scene/image_texture.hpp"
+
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+
+namespace vkmech {
+
+namespace {
+
+// IEC 61966-2-1 sRGB transfer function, inverse.
+float srgb_to_linear(float c) {
+    return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+}
+
+}  // namespace
+
+Texture load_image_texture(const std::string& path, bool raw) {
+    Texture t;
+    t.path = path;
+    int w = 0, h = 0, channels = 0;
+    if (stbi_is_hdr(path.c_str())) {
+        std::unique_ptr<float, void (*)(void*)> px(stbi_loadf(path.c_str(), &w, &h, &channels, 3), stbi_image_free);
+        if (!px) throw std::runtime_error(stbi_failure_reason() ? stbi_failure_reason() : "cannot decode image");
+        t.rgb.assign(px.get(), px.get() + static_cast<size_t>(w) * h * 3);
+    } else {
+        // 16-bit PNGs keep their precision; 8-bit images go through the same path.
+        std::unique_ptr<stbi_us, void (*)(void*)> px(stbi_load_16(path.c_str(), &w, &h, &channels, 3),
+                                                      stbi_image_free);
+        if (!px) throw std::runtime_error(stbi_failure_reason() ? stbi_failure_reason() : "cannot decode image");
+        size_t n = static_cast<size_t>(w) * h * 3;
+        t.rgb.resize(n);
+        for (size_t i = 0; i < n; ++i) {
+            float c = static_cast<float>(px.get()[i]) / 65535.0f;
+            t.rgb[i] = raw ? c : srgb_to_linear(c);
+        }
+    }
+    t.width = w;
+    t.height = h;
+    return t;
+}
+
+}  // namespace vkmech

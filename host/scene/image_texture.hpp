@@ -1,0 +1,17 @@
+// Bitmap textures for reflectances (SPEC §8: `bitmap` where used for
+// reflectance), decoded with stb_image.
+#pragma once
+
+#include "scene/scene.hpp"
+
+#include <string>
+
+namespace vkmech {
+
+// Loads PNG, JPEG, BMP, TGA (8/16 bit; sRGB-decoded to linear unless `raw`,
+// Mitsuba's bitmap default) or Radiance HDR (already linear). Alpha is
+// dropped; grey images are expanded to RGB. Throws std::runtime_error with
+// stb's reason; the caller adds file and line.
+Texture load_image_texture(const std::string& path, bool raw);
+
+}  // namespace vkmech

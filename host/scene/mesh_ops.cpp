@@ -1,0 +1,110 @@
+#include "scene/mesh_ops.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+namespace vkmech {
+
+glm::mat3 normal_matrix(const glm::mat4& to_world) {
+    return glm::transpose(glm::inverse(glm::mat3(to_world)));
+}
+
+bool is_similarity(const glm::mat4& m, float rel_tol) {
+    glm::mat3 a(m);
+    glm::mat3 ata = glm::transpose(a) * a;  // s^2 * I for a similarity
+    float s2 = (ata[0][0] + ata[1][1] + ata[2][2]) / 3.0f;
+    if (!(s2 > 0.0f) || !std::isfinite(s2)) return false;
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            float expect = i == j ? s2 : 0.0f;
+            if (std::abs(ata[i][j] - expect) > rel_tol * s2) return false;
+        }
+    return true;
+}
+
+glm::vec3 triangle_cross(const Mesh& m, const glm::uvec3& t) {
+    const glm::vec3& p0 = m.positions[t.x];
+    return glm::cross(m.positions[t.y] - p0, m.positions[t.z] - p0);
+}
+
+void transform_mesh(Mesh& m, const glm::mat4& to_world, bool keep_facing) {
+    for (auto& p : m.positions) p = glm::vec3(to_world * glm::vec4(p, 1.0f));
+    glm::mat3 nm = normal_matrix(to_world);
+    for (auto& n : m.normals) {
+        glm::vec3 t = nm * n;
+        float len = glm::length(t);
+        n = len > 0.0f ? t / len : t;
+    }
+    if (keep_facing && glm::determinant(glm::mat3(to_world)) < 0.0f)
+        for (auto& t : m.indices) std::swap(t.y, t.z);
+}
+
+void flip_orientation(Mesh& m) {
+    for (auto& t : m.indices) std::swap(t.y, t.z);
+    for (auto& n : m.normals) n = -n;
+}
+
+namespace {
+
+// Angle-weighted normal sums (Thürmer & Wüthrich): robust to uneven fans.
+std::vector<glm::vec3> angle_weighted_normals(const Mesh& m) {
+    std::vector<glm::vec3> acc(m.positions.size(), glm::vec3(0.0f));
+    for (const auto& t : m.indices) {
+        glm::vec3 c = triangle_cross(m, t);
+        float len = glm::length(c);
+        if (!(len > 0.0f)) continue;
+        glm::vec3 n = c / len;
+        for (int k = 0; k < 3; ++k) {
+            glm::vec3 e1 = m.positions[t[(k + 1) % 3]] - m.positions[t[k]];
+            glm::vec3 e2 = m.positions[t[(k + 2) % 3]] - m.positions[t[k]];
+            float l1 = glm::length(e1), l2 = glm::length(e2);
+            if (!(l1 > 0.0f) || !(l2 > 0.0f)) continue;
+            float angle = std::acos(std::clamp(glm::dot(e1, e2) / (l1 * l2), -1.0f, 1.0f));
+            acc[t[k]] += angle * n;
+        }
+    }
+    for (auto& n : acc) {
+        float len = glm::length(n);
+        n = len > 0.0f ? n / len : glm::vec3(0.0f, 0.0f, 1.0f);  // unreferenced vertex
+    }
+    return acc;
+}
+
+bool usable(const glm::vec3& n) {
+    float len = glm::length(n);
+    return std::isfinite(len) && len > 1e-20f;
+}
+
+}  // namespace
+
+void compute_vertex_normals(Mesh& m) { m.normals = angle_weighted_normals(m); }
+
+void repair_normals(Mesh& m) {
+    if (m.normals.empty()) return;
+    bool all_ok = std::all_of(m.normals.begin(), m.normals.end(), usable);
+    std::vector<glm::vec3> fallback;
+    if (!all_ok) fallback = angle_weighted_normals(m);
+    for (size_t i = 0; i < m.normals.size(); ++i)
+        m.normals[i] = usable(m.normals[i]) ? glm::normalize(m.normals[i]) : fallback[i];
+}
+
+size_t remove_degenerate_triangles(Mesh& m) {
+    size_t before = m.indices.size();
+    std::erase_if(m.indices, [&](const glm::uvec3& t) {
+        if (t.x == t.y || t.y == t.z || t.x == t.z) return true;
+        // In double: a tiny but valid triangle must not underflow to zero.
+        glm::dvec3 p0(m.positions[t.x]), p1(m.positions[t.y]), p2(m.positions[t.z]);
+        double len = glm::length(glm::cross(p1 - p0, p2 - p0));
+        return !(len > 0.0);  // zero area, or non-finite positions
+    });
+    return before - m.indices.size();
+}
+
+double surface_area(const Mesh& m) {
+    double a = 0.0;
+    for (const auto& t : m.indices) a += 0.5 * static_cast<double>(glm::length(triangle_cross(m, t)));
+    return a;
+}
+
+}  // namespace vkmech

@@ -1,0 +1,442 @@
+// Mitsuba 3 (and 0.5/0.6) XML scenes, SPEC §8: scene structure, shapes,
+// emitters, the sensor and the integrator. BSDFs and textures are in
+// mitsuba_bsdf.cpp.
+#include "scene/mitsuba_loader.hpp"
+
+#include "scene/mesh_io.hpp"
+#include "scene/mesh_ops.hpp"
+#include "scene/primitives.hpp"
+#include "scene/text_parse.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace vkmech {
+
+namespace {
+
+// SceneError's message without its "file:line: " prefix, to re-wrap it.
+std::string bare_message(const SceneError& e) {
+    std::string w = e.what();
+    std::string prefix = e.line() > 0 ? e.file() + ":" + std::to_string(e.line()) + ": " : e.file() + ": ";
+    return w.rfind(prefix, 0) == 0 ? w.substr(prefix.size()) : w;
+}
+
+std::string fmt_num(float v) {
+    std::ostringstream s;
+    s << v;
+    return s.str();
+}
+
+std::string fmt_vec(const glm::vec3& v) {
+    std::ostringstream s;
+    s << v.x << " " << v.y << " " << v.z;
+    return s.str();
+}
+
+// Filesystem queries that answer "no" instead of throwing (a permission
+// problem must surface as a SceneError at the referencing line).
+bool is_file(const std::string& p) {
+    std::error_code ec;
+    return fs::is_regular_file(p, ec);
+}
+
+std::string canonical_or_self(const std::string& p) {
+    std::error_code ec;
+    fs::path c = fs::weakly_canonical(p, ec);
+    return ec ? fs::path(p).lexically_normal().string() : c.string();
+}
+
+constexpr int kMaxIncludeDepth = 16;
+// Mitsuba's max_depth = -1 ("no limit"); Russian roulette ends paths long
+// before this in practice.
+constexpr int kUnlimitedDepth = 1024;
+
+}  // namespace
+
+MitsubaLoader::MitsubaLoader(const std::string& path, const LoadOptions& options)
+    : path_(path), options_(options), params_(options.params) {}
+
+Scene MitsubaLoader::load() {
+    scene_.source = path_;
+    docs_.push_back(std::make_unique<XmlDocument>(path_));
+    include_stack_.push_back(canonical_or_self(path_));
+    scene_element(*docs_.back(), 0);
+    if (!have_sensor_)
+        throw SceneError(path_, docs_.front()->line_of(docs_.front()->root()),
+                         "the scene has no <sensor> (SPEC §8: perspective or thinlens)");
+    add_substituted_panels();
+    prune_unused();
+    return std::move(scene_);
+}
+
+void MitsubaLoader::scene_element(const XmlDocument& doc, int depth) {
+    XNode root(doc, doc.root(), params_);
+    if (root.tag() != "scene") root.fail("the root element must be <scene>, not <" + root.tag() + ">");
+    for (const XNode& c : root.children()) child_of_scene(c, depth);
+}
+
+[[noreturn]] void MitsubaLoader::unsupported(const XNode& n, const std::string& kind, const std::string& extra) const {
+    n.fail("unsupported " + kind + " plugin '" + n.raw().attribute("type").value() + "'" + extra);
+}
+
+void MitsubaLoader::child_of_scene(const XNode& n, int depth) {
+    const std::string t = n.tag();
+    if (t == "default") {
+        params_.add_default(n.required("name"), n.required("value"));
+    } else if (t == "include") {
+        include(n, depth);
+    } else if (t == "bsdf") {
+        bsdf(n);
+    } else if (t == "texture") {
+        texture(n);
+    } else if (t == "shape") {
+        shape(n);
+    } else if (t == "emitter") {
+        emitter_top(n);
+    } else if (t == "sensor") {
+        sensor(n);
+    } else if (t == "integrator") {
+        integrator(n);
+    } else if (t == "medium" || t == "phase" || t == "volume") {
+        n.fail("unsupported <" + t + "> (participating media are not supported)");
+    } else {
+        n.fail("unknown element <" + t + "> in <scene>");
+    }
+}
+
+std::string MitsubaLoader::resolve(const XNode& n, const std::string& filename) const {
+    fs::path p(filename);
+    if (p.is_absolute()) return p.lexically_normal().string();
+    // Relative to the file that names it, then to the main scene file
+    // (Mitsuba's file resolver has the scene's folder).
+    fs::path here = fs::path(n.file()).parent_path() / p;
+    if (is_file(here.string())) return here.lexically_normal().string();
+    fs::path main = fs::path(path_).parent_path() / p;
+    if (is_file(main.string())) return main.lexically_normal().string();
+    return here.lexically_normal().string();
+}
+
+void MitsubaLoader::include(const XNode& n, int depth) {
+    std::string path = resolve(n, n.required("filename"));
+    if (depth + 1 > kMaxIncludeDepth) n.fail("includes nested more than " + std::to_string(kMaxIncludeDepth) + " deep");
+    std::string canon = canonical_or_self(path);
+    if (std::find(include_stack_.begin(), include_stack_.end(), canon) != include_stack_.end())
+        n.fail("include cycle: '" + path + "' includes itself");
+    docs_.push_back(std::make_unique<XmlDocument>(path, n.file(), n.line()));
+    include_stack_.push_back(canon);
+    scene_element(*docs_.back(), depth + 1);
+    include_stack_.pop_back();
+}
+
+// ---- shapes ----
+
+void MitsubaLoader::shape(const XNode& n) {
+    const std::string type = n.required("type");
+    XProps p(n);
+    glm::mat4 to_world = p.get_transform({"to_world", "toWorld"});
+    float det = glm::determinant(glm::mat3(to_world));
+    if (!(std::abs(det) > 0.0f)) n.fail(n.describe() + ": the to_world transform is singular");
+    bool flip = p.get_bool({"flip_normals", "flipNormals"}, false);
+
+    Mesh mesh;
+    if (type == "obj" || type == "ply") {
+        auto filename = p.opt_string({"filename"});
+        if (!filename) n.fail(n.describe() + " is missing the required property 'filename'");
+        std::string path = resolve(n, *filename);
+        if (!is_file(path)) n.fail("cannot open mesh file '" + *filename + "' (looked for " + path + ")");
+        try {
+            mesh = type == "obj" ? load_obj(path) : load_ply(path);
+        } catch (const SceneError& e) {
+            // Keep the mesh file's position; say which shape asked for it.
+            throw SceneError(e.file(), e.line(),
+                             bare_message(e) + " (mesh of " + n.describe() + " at " + n.file() + ":" +
+                                 std::to_string(n.line()) + ")");
+        }
+        bool face_normals = p.get_bool({"face_normals", "faceNormals"}, false);
+        if (face_normals) mesh.normals.clear();
+        bool file_normals = !mesh.normals.empty();
+        // With normals from the file, keep their facing under a mirroring
+        // to_world; without, Mitsuba derives them from the world-space
+        // winding, so the winding stays as written.
+        transform_mesh(mesh, to_world, /*keep_facing=*/file_normals);
+        if (!face_normals && !file_normals) compute_vertex_normals(mesh);
+        // Mitsuba's OBJ reader flips v by default (OBJ puts v = 0 at the
+        // bottom, Mitsuba's bitmaps at the top row).
+        if (p.get_bool({"flip_tex_coords", "flipTexCoords"}, type == "obj"))
+            for (auto& uv : mesh.uvs) uv.y = 1.0f - uv.y;
+        if (flip) flip_orientation(mesh);
+        mesh.flip_normals = flip;
+        mesh.kind = ShapeKind::Mesh;
+        mesh.center = glm::vec3(to_world[3]);
+    } else if (type == "rectangle") {
+        mesh = make_rectangle(to_world, flip);
+    } else if (type == "cube") {
+        mesh = make_cube(to_world, flip);
+    } else if (type == "disk") {
+        mesh = make_disk(to_world, flip);
+    } else if (type == "sphere") {
+        glm::vec3 center = p.get_vector({"center"}, glm::vec3(0.0f));
+        float radius = p.get_float({"radius"}, 1.0f);
+        if (!(radius > 0.0f)) n.fail(n.describe() + ": the radius must be positive, got " + fmt_num(radius));
+        // A non-uniform to_world gives an ellipsoid (the project's scenes use
+        // them); Mitsuba would warn and keep a sphere. See make_sphere.
+        mesh = make_sphere(center, radius, to_world, flip);
+    } else if (type == "cylinder") {
+        glm::vec3 p0 = p.get_vector({"p0"}, glm::vec3(0.0f));
+        glm::vec3 p1 = p.get_vector({"p1"}, glm::vec3(0.0f, 0.0f, 1.0f));
+        float radius = p.get_float({"radius"}, 1.0f);
+        if (!(radius > 0.0f)) n.fail(n.describe() + ": the radius must be positive, got " + fmt_num(radius));
+        if (!(glm::length(p1 - p0) > 0.0f)) n.fail(n.describe() + ": p0 and p1 coincide");
+        mesh = make_cylinder(p0, p1, radius, to_world, flip);
+    } else {
+        unsupported(n, "shape", " (expected obj, ply, rectangle, cube, sphere, disk or cylinder)");
+    }
+    mesh.name = n.attr("id").value_or(type + "#" + std::to_string(shape_count_));
+    ++shape_count_;
+    shape_bsdf_and_emitter(n, p, mesh);
+    scene_.meshes.push_back(std::move(mesh));
+}
+
+void MitsubaLoader::shape_bsdf_and_emitter(const XNode& n, const XProps& p, Mesh& mesh) {
+    int material = -1;
+    auto set_material = [&](const XNode& where, int m) {
+        if (material >= 0) where.fail(n.describe() + " has more than one bsdf");
+        material = m;
+    };
+    for (const XNode& o : p.objects()) {
+        const std::string t = o.tag();
+        if (t == "bsdf" || t == "ref") {
+            set_material(o, bsdf(o));
+        } else if (t == "emitter") {
+            const std::string type = o.required("type");
+            if (type != "area") unsupported(o, "emitter", " (only 'area' emitters can be attached to a shape)");
+            if (mesh.emitter >= 0) o.fail(n.describe() + " has more than one emitter");
+            XProps ep(o);
+            glm::vec3 radiance = ep.get_color({"radiance"}, glm::vec3(1.0f));
+            if (radiance.x < 0.0f || radiance.y < 0.0f || radiance.z < 0.0f)
+                o.fail("negative radiance " + fmt_vec(radiance));
+            AreaEmitter e;
+            e.radiance = radiance;
+            e.mesh = static_cast<int>(scene_.meshes.size());  // the index this mesh will get
+            mesh.emitter = static_cast<int>(scene_.emitters.size());
+            scene_.emitters.push_back(e);
+        } else if (t == "medium") {
+            o.fail("unsupported <medium> (participating media are not supported)");
+        } else {
+            o.fail("unexpected <" + t + "> inside " + n.describe());
+        }
+    }
+    if (const XNode* r = p.find({"bsdf"})) set_material(*r, r->tag() == "ref" ? bsdf_ref(*r) : bsdf(*r));
+    for (const char* medium : {"interior", "exterior"})
+        if (const XNode* r = p.find({medium}))
+            r->fail(std::string("unsupported ") + medium + " medium (participating media are not supported)");
+    // Mitsuba gives a shape without a bsdf a diffuse 0.5 one.
+    mesh.material = material >= 0 ? material : default_material();
+}
+
+// ---- emitters, sensor, integrator ----
+
+void MitsubaLoader::emitter_top(const XNode& n) {
+    const std::string type = n.required("type");
+    if (type == "area") n.fail("an 'area' emitter must be nested inside a <shape>");
+    if (type == "envmap" || type == "constant") {
+        if (!options_.substitute_unsupported)
+            unsupported(n, "emitter",
+                        " (SPEC §1: environment emitters are out of scope; the --substitute option replaces "
+                        "it by an overhead area panel)");
+        XProps p(n);
+        PendingPanel panel;
+        panel.radiance = type == "constant" ? p.get_color({"radiance"}, glm::vec3(1.0f)) : glm::vec3(1.0f);
+        panel.what = n.file() + ":" + std::to_string(n.line()) + ": emitter '" + type + "'";
+        panels_.push_back(panel);
+        return;
+    }
+    unsupported(n, "emitter", " (SPEC §1: only area emitters nested in shapes)");
+}
+
+void MitsubaLoader::sensor(const XNode& n) {
+    const std::string type = n.required("type");
+    if (type != "perspective" && type != "thinlens") unsupported(n, "sensor", " (expected perspective or thinlens)");
+    XProps p(n);
+    if (have_sensor_) return;  // Mitsuba renders the first sensor
+    Camera cam;
+    cam.type = type == "thinlens" ? CameraType::ThinLens : CameraType::Perspective;
+    cam.to_world = p.get_transform({"to_world", "toWorld"});
+    for (int c = 0; c < 3; ++c)
+        if (std::abs(glm::length(glm::vec3(cam.to_world[c])) - 1.0f) > 1e-3f)
+            n.fail(n.describe() + ": to_world must not scale the camera (Mitsuba forbids it)");
+
+    auto fov = p.opt_float({"fov"});
+    auto focal = p.opt_string({"focal_length", "focalLength"});
+    if (fov && focal) n.fail(n.describe() + ": give either 'fov' or 'focal_length', not both");
+    if (fov) {
+        if (!(*fov > 0.0f && *fov < 180.0f)) n.fail(n.describe() + ": fov must be in (0, 180) degrees");
+        cam.fov_deg = *fov;
+        cam.fov_axis = text::lower(p.opt_string({"fov_axis", "fovAxis"}).value_or("x"));
+        const char* axes[] = {"x", "y", "diagonal", "smaller", "larger"};
+        if (std::none_of(std::begin(axes), std::end(axes), [&](const char* a) { return cam.fov_axis == a; }))
+            n.fail("unknown fov_axis '" + cam.fov_axis + "' (expected x, y, diagonal, smaller or larger)");
+    } else {
+        // Mitsuba: a 35 mm-equivalent focal length (default 50mm) gives the
+        // diagonal field of view.
+        std::string f = focal.value_or("50mm");
+        std::string_view fv = text::trim(f);
+        if (fv.size() > 2 && fv.substr(fv.size() - 2) == "mm") fv.remove_suffix(2);
+        double mm = n.number(fv, "focal_length");
+        if (!(mm > 0.0)) n.fail(n.describe() + ": focal_length must be positive");
+        cam.fov_deg = static_cast<float>(2.0 * glm::degrees(std::atan(std::sqrt(36.0 * 36.0 + 24.0 * 24.0) / (2.0 * mm))));
+        cam.fov_axis = "diagonal";
+    }
+    cam.near_clip = p.get_float({"near_clip", "nearClip"}, 0.01f);
+    cam.far_clip = p.get_float({"far_clip", "farClip"}, 10000.0f);
+    if (!(cam.near_clip > 0.0f) || !(cam.far_clip > cam.near_clip))
+        n.fail(n.describe() + ": need 0 < near_clip < far_clip");
+    if (cam.type == CameraType::ThinLens) {
+        auto aperture = p.opt_float({"aperture_radius", "apertureRadius"});
+        if (!aperture) n.fail(n.describe() + " is missing the required property 'aperture_radius'");
+        if (*aperture < 0.0f) n.fail(n.describe() + ": aperture_radius must not be negative");
+        cam.aperture_radius = *aperture;
+        // Mitsuba's default focus distance is the far clip plane.
+        cam.focus_distance = p.get_float({"focus_distance", "focusDistance"}, cam.far_clip);
+        if (!(cam.focus_distance > 0.0f)) n.fail(n.describe() + ": focus_distance must be positive");
+    }
+    for (const XNode& o : p.objects()) {
+        if (o.tag() == "film") {
+            XProps fp(o);
+            // SPEC §1: the default film is 256 x 256 (not Mitsuba's 768 x 576).
+            cam.width = fp.opt_int({"width"}).value_or(256);
+            cam.height = fp.opt_int({"height"}).value_or(256);
+            if (cam.width <= 0 || cam.height <= 0)
+                o.fail("the film size must be positive, got " + std::to_string(cam.width) + " x " +
+                       std::to_string(cam.height));
+            // A typo like width="256000" must not become a multi-gigabyte framebuffer.
+            constexpr int kMaxFilmSide = 1 << 15;
+            if (cam.width > kMaxFilmSide || cam.height > kMaxFilmSide)
+                o.fail("the film size " + std::to_string(cam.width) + " x " + std::to_string(cam.height) +
+                       " exceeds " + std::to_string(kMaxFilmSide) + " per side");
+        } else if (o.tag() == "sampler") {
+            // Accepted and ignored: sampling is the renderer's (SPEC §4).
+        } else {
+            o.fail("unexpected <" + o.tag() + "> inside " + n.describe());
+        }
+    }
+    scene_.camera = cam;
+    have_sensor_ = true;
+}
+
+void MitsubaLoader::integrator(const XNode& n) {
+    n.required("type");  // any integrator is accepted; its depth settings are read
+    if (have_integrator_) return;
+    have_integrator_ = true;
+    std::optional<int> max_depth, rr_depth;
+    // Wrappers (aov, moment, ...) carry the depths on a nested integrator.
+    auto read = [&](auto&& self, const XNode& node) -> void {
+        XProps p(node);
+        if (!max_depth) {
+            max_depth = p.opt_int({"max_depth", "maxDepth"});
+            if (max_depth && *max_depth < -1) node.fail("max_depth must be -1 (unlimited) or >= 0");
+        }
+        if (!rr_depth) {
+            rr_depth = p.opt_int({"rr_depth", "rrDepth"});
+            if (rr_depth && *rr_depth < 0) node.fail("rr_depth must be >= 0");
+        }
+        for (const XNode& o : p.objects())
+            if (o.tag() == "integrator") self(self, o);
+    };
+    read(read, n);
+    if (max_depth) scene_.integrator.max_depth = *max_depth == -1 ? kUnlimitedDepth : *max_depth;
+    if (rr_depth) scene_.integrator.rr_depth = *rr_depth;
+}
+
+// ---- end of load ----
+
+void MitsubaLoader::add_substituted_panels() {
+    if (panels_.empty()) return;
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    for (const auto& m : scene_.meshes)
+        for (const auto& p : m.positions) {
+            lo = glm::min(lo, p);
+            hi = glm::max(hi, p);
+        }
+    if (lo.x > hi.x) {  // no geometry: a unit box at the camera
+        glm::vec3 c(scene_.camera.to_world[3]);
+        lo = c - glm::vec3(1.0f);
+        hi = c + glm::vec3(1.0f);
+    }
+    // "Overhead" = along the camera's up vector, snapped to a world axis.
+    glm::vec3 cam_up(scene_.camera.to_world[1]);
+    int a = 0;
+    for (int i = 1; i < 3; ++i)
+        if (std::abs(cam_up[i]) > std::abs(cam_up[a])) a = i;
+    float sign = cam_up[a] < 0.0f ? -1.0f : 1.0f;
+    glm::vec3 up(0.0f);
+    up[a] = sign;
+    int b = (a + 1) % 3, c = (a + 2) % 3;
+    glm::vec3 ext = hi - lo, center = 0.5f * (lo + hi);
+    float diag = std::max(glm::length(ext), 1e-3f);
+    float hb = std::max(0.5f * ext[b], 0.05f * diag), hc = std::max(0.5f * ext[c], 0.05f * diag);
+    glm::vec3 pos = center;
+    pos[a] = (sign > 0.0f ? hi[a] : lo[a]) + sign * 0.05f * diag;
+    // Rectangle normal +z maps to -up (facing down); (u, v, n) right-handed.
+    glm::vec3 n = -up, u(0.0f);
+    u[b] = 1.0f;
+    glm::vec3 v = glm::cross(n, u);
+    float hv = std::abs(v[c]) > 0.5f ? hc : hb;
+    glm::mat4 m(1.0f);
+    m[0] = glm::vec4(u * hb, 0.0f);
+    m[1] = glm::vec4(v * hv, 0.0f);
+    m[2] = glm::vec4(n, 0.0f);
+    m[3] = glm::vec4(pos, 1.0f);
+    for (size_t i = 0; i < panels_.size(); ++i) {
+        Mesh mesh = make_rectangle(m);
+        mesh.name = "substituted-panel#" + std::to_string(i);
+        mesh.material = default_material();
+        mesh.emitter = static_cast<int>(scene_.emitters.size());
+        scene_.emitters.push_back({panels_[i].radiance, static_cast<int>(scene_.meshes.size())});
+        scene_.meshes.push_back(std::move(mesh));
+        std::ostringstream s;
+        s << panels_[i].what << " replaced by an overhead area panel (" << 2 * hb << " x " << 2 * hv
+          << ", centre " << fmt_vec(pos) << ", facing " << fmt_vec(n) << ", radiance "
+          << fmt_vec(panels_[i].radiance) << ")";
+        scene_.substitutions.push_back(s.str());
+    }
+}
+
+void MitsubaLoader::prune_unused() {
+    // Only materials and textures that some shape uses survive: what the
+    // scene "calls for" (DESIGN: Features) must not see unused definitions.
+    std::vector<int> mat_map(scene_.materials.size(), -1), tex_map(scene_.textures.size(), -1);
+    std::vector<Material> mats;
+    std::vector<Texture> texs;
+    for (auto& mesh : scene_.meshes) {
+        int& slot = mat_map[mesh.material];
+        if (slot < 0) {
+            slot = static_cast<int>(mats.size());
+            mats.push_back(scene_.materials[mesh.material]);
+        }
+        mesh.material = slot;
+    }
+    for (auto& m : mats) {
+        int t = m.reflectance.texture;
+        if (t < 0) continue;
+        if (tex_map[t] < 0) {
+            tex_map[t] = static_cast<int>(texs.size());
+            texs.push_back(std::move(scene_.textures[t]));
+        }
+        m.reflectance.texture = tex_map[t];
+    }
+    scene_.materials = std::move(mats);
+    scene_.textures = std::move(texs);
+}
+
+Scene load_mitsuba_xml(const std::string& path, const LoadOptions& options) {
+    return MitsubaLoader(path, options).load();
+}
+
+}  // namespace vkmech

@@ -1,0 +1,66 @@
+#include "scene/scene.hpp"
+
+#include "scene/text_parse.hpp"
+
+#include <filesystem>
+
+namespace vkmech {
+
+const char* to_string(BsdfType t) {
+    switch (t) {
+        case BsdfType::Diffuse: return "diffuse";
+        case BsdfType::Plastic: return "plastic";
+        case BsdfType::RoughPlastic: return "roughplastic";
+        case BsdfType::Conductor: return "conductor";
+        case BsdfType::RoughConductor: return "roughconductor";
+        case BsdfType::Dielectric: return "dielectric";
+        case BsdfType::RoughDielectric: return "roughdielectric";
+        case BsdfType::ThinDielectric: return "thindielectric";
+        case BsdfType::Principled: return "principled";
+    }
+    return "unknown";
+}
+
+const char* to_string(ShapeKind k) {
+    switch (k) {
+        case ShapeKind::Mesh: return "mesh";
+        case ShapeKind::Rectangle: return "rectangle";
+        case ShapeKind::Cube: return "cube";
+        case ShapeKind::Sphere: return "sphere";
+        case ShapeKind::Disk: return "disk";
+        case ShapeKind::Cylinder: return "cylinder";
+    }
+    return "unknown";
+}
+
+// SPEC §2: smooth conductor, dielectric and thindielectric are S (delta).
+bool Material::is_delta_only() const {
+    return type == BsdfType::Conductor || type == BsdfType::Dielectric || type == BsdfType::ThinDielectric;
+}
+
+// SPEC §2: the NEE end-vertex lobe is D iff the BSDF advertises a diffuse
+// component. Principled has one while (1 - metallic)(1 - spec_trans) > 0,
+// as Mitsuba's flags say; a textured base colour does not change that.
+bool Material::has_diffuse() const {
+    switch (type) {
+        case BsdfType::Diffuse:
+        case BsdfType::Plastic:
+        case BsdfType::RoughPlastic: return true;
+        case BsdfType::Principled: return (1.0f - metallic) * (1.0f - spec_trans) > 0.0f;
+        default: return false;
+    }
+}
+
+size_t Scene::triangle_count() const {
+    size_t n = 0;
+    for (const auto& m : meshes) n += m.indices.size();
+    return n;
+}
+
+Scene load_scene(const std::string& path, const LoadOptions& options) {
+    std::string ext = text::lower(std::filesystem::path(path).extension().string());
+    if (ext == ".xml") return load_mitsuba_xml(path, options);
+    throw SceneError(path, 0, "unsupported scene format '" + ext + "' (expected a Mitsuba .xml file)");
+}
+
+}  // namespace vkmech

@@ -1,0 +1,175 @@
+// The CPU scene model: what a loader (Mitsuba XML, glTF, procedural) produces
+// and what accel/ and render/ consume. All geometry is triangulated and
+// stored in world space; spheres carry per-vertex shading normals fine enough
+// that refraction through them is smooth (DESIGN: "spheres must render smooth").
+#pragma once
+
+#include <glm/glm.hpp>
+
+#include <cstdint>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace vkmech {
+
+// A loader error: names the file, the line and what is wrong. The CLI prints
+// what() and exits with code 2 (bad input).
+class SceneError : public std::runtime_error {
+public:
+    SceneError(const std::string& file, int line, const std::string& what)
+        : std::runtime_error(format(file, line, what)), file_(file), line_(line) {}
+    const std::string& file() const { return file_; }
+    int line() const { return line_; }
+
+private:
+    static std::string format(const std::string& file, int line, const std::string& what) {
+        return line > 0 ? file + ":" + std::to_string(line) + ": " + what : file + ": " + what;
+    }
+    std::string file_;
+    int line_;
+};
+
+// Material models of SPEC §2 (Mitsuba 3 plugin names).
+enum class BsdfType : uint32_t {
+    Diffuse = 0,
+    Plastic = 1,
+    RoughPlastic = 2,
+    Conductor = 3,
+    RoughConductor = 4,
+    Dielectric = 5,
+    RoughDielectric = 6,
+    ThinDielectric = 7,
+    Principled = 8,
+};
+const char* to_string(BsdfType t);
+
+enum class MicrofacetDistribution : uint32_t { Beckmann = 0, GGX = 1 };
+
+// An RGB reflectance that is either a constant or a bitmap texture.
+struct Spectrum3 {
+    glm::vec3 value{0.5f};
+    int texture = -1;  // index into Scene::textures, or -1 for the constant
+};
+
+struct Texture {
+    std::string path;  // absolute path of the image file
+    int width = 0, height = 0;
+    std::vector<float> rgb;  // linear RGB, row-major, top row first
+};
+
+struct Material {
+    std::string id;  // the XML id, or a generated name
+    BsdfType type = BsdfType::Diffuse;
+    bool twosided = false;  // `twosided` wrapper: transparent to the lobe flags (SPEC §2)
+
+    // diffuse: reflectance; plastic family: diffuse_reflectance;
+    // principled: base_color.
+    Spectrum3 reflectance{glm::vec3(0.5f)};
+    glm::vec3 specular_reflectance{1.0f};
+    glm::vec3 specular_transmittance{1.0f};
+
+    // conductor family: complex index of refraction (RGB), relative to ext_ior.
+    glm::vec3 eta{0.0f};  // default "none" = perfect mirror (eta 0, k 1)
+    glm::vec3 k{1.0f};
+
+    // dielectric / plastic family: interior and exterior IOR.
+    float int_ior = 1.5046f;    // bk7
+    float ext_ior = 1.000277f;  // air
+    bool nonlinear = false;     // plastic: Mitsuba's `nonlinear`
+
+    // Microfacet roughness (alpha, not perceptual roughness).
+    float alpha_u = 0.1f;
+    float alpha_v = 0.1f;
+    MicrofacetDistribution distribution = MicrofacetDistribution::Beckmann;
+
+    // principled (Mitsuba 3 names).
+    float metallic = 0.0f;
+    float roughness = 0.5f;
+    float specular = 0.5f;
+    float spec_tint = 0.0f;
+    float anisotropic = 0.0f;
+    float sheen = 0.0f;
+    float sheen_tint = 0.0f;
+    float clearcoat = 0.0f;
+    float clearcoat_gloss = 0.0f;
+    float spec_trans = 0.0f;
+    float eta_principled = 1.5f;
+
+    bool is_delta_only() const;  // conductor, dielectric, thindielectric
+    bool has_diffuse() const;    // diffuse, plastic family, principled with diffuse
+};
+
+enum class ShapeKind : uint32_t { Mesh = 0, Rectangle, Cube, Sphere, Disk, Cylinder };
+const char* to_string(ShapeKind k);
+
+struct Mesh {
+    std::string name;  // the XML id or "<plugin>#<index>"
+    ShapeKind kind = ShapeKind::Mesh;
+    std::vector<glm::vec3> positions;  // world space
+    std::vector<glm::vec3> normals;    // world space shading normals; empty = flat
+    std::vector<glm::vec2> uvs;        // empty = none; Mitsuba's convention: v = 0 is a bitmap's top row
+                                       // (OBJ's v is flipped on load, as Mitsuba does)
+    std::vector<glm::uvec3> indices;
+    int material = -1;  // index into Scene::materials
+    int emitter = -1;   // index into Scene::emitters, or -1
+    bool flip_normals = false;
+    // Analytic description (kept for sampling and for separation measures).
+    glm::vec3 center{0.0f};
+    float radius = 0.0f;
+};
+
+// Area emitter attached to one mesh: constant RGB radiance, one-sided (emits
+// on the side of the geometric normal) as in SPEC §1.
+struct AreaEmitter {
+    glm::vec3 radiance{1.0f};
+    int mesh = -1;
+};
+
+enum class CameraType : uint32_t { Perspective = 0, ThinLens = 1 };
+
+struct Camera {
+    CameraType type = CameraType::Perspective;
+    glm::mat4 to_world{1.0f};  // camera space: +Z forward, +Y up, Mitsuba's convention
+    float fov_deg = 39.3077f;
+    std::string fov_axis = "x";  // x, y, diagonal, smaller, larger
+    float near_clip = 0.01f;
+    float far_clip = 10000.0f;
+    float aperture_radius = 0.0f;  // thinlens only
+    float focus_distance = 0.0f;   // thinlens only
+    int width = 256;                // SPEC §1 default film
+    int height = 256;
+};
+
+struct IntegratorSettings {
+    int max_depth = 12;  // Mitsuba counting: segments
+    int rr_depth = 5;
+};
+
+struct Scene {
+    std::string source;  // file path
+    std::vector<Mesh> meshes;
+    std::vector<Material> materials;
+    std::vector<AreaEmitter> emitters;
+    std::vector<Texture> textures;
+    Camera camera;
+    IntegratorSettings integrator;
+    std::vector<std::string> substitutions;  // user-requested plugin substitutions, reported
+
+    size_t triangle_count() const;
+};
+
+// Options a loader takes from the command line.
+struct LoadOptions {
+    std::map<std::string, std::string> params;  // -D name=value, overrides <default>
+    bool substitute_unsupported = false;        // e.g. envmap -> overhead area panel
+};
+
+// Mitsuba 3 (and 0.5/0.6 camelCase) XML subset of SPEC §8. Throws SceneError.
+Scene load_mitsuba_xml(const std::string& path, const LoadOptions& options = {});
+
+// Dispatches on the extension (.xml). Throws SceneError.
+Scene load_scene(const std::string& path, const LoadOptions& options = {});
+
+}  // namespace vkmech

@@ -1,0 +1,92 @@
+// Vulkan instance, physical-device choice and logical device (RAII).
+#pragma once
+
+#include <vulkan/vulkan_raii.hpp>
+
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace vkmech::vk {
+
+// A Vulkan failure: names the call that failed (DESIGN "errors as values").
+class VulkanError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+// Throws VulkanError("<call>: <VkResult>") unless r is eSuccess.
+void check(::vk::Result r, const char* call);
+void check(VkResult r, const char* call);
+
+struct DeviceInfo {
+    uint32_t index = 0;
+    std::string name;
+    std::string type;  // discrete, integrated, virtual, cpu, other
+    std::string driver;
+    uint32_t api_version = 0;
+    bool ray_query = false;  // VK_KHR_ray_query + VK_KHR_acceleration_structure
+    uint32_t max_workgroup_invocations = 0;
+    uint64_t max_storage_buffer_range = 0;
+    uint64_t device_local_bytes = 0;
+};
+
+struct ContextOptions {
+    std::optional<uint32_t> device_index;  // --device N
+    bool validation = false;               // enable VK_LAYER_KHRONOS_validation when present
+    bool want_ray_query = true;            // enable ray-query extensions when supported
+};
+
+class Context {
+public:
+    explicit Context(const ContextOptions& options = {});
+    ~Context();
+    Context(const Context&) = delete;
+    Context& operator=(const Context&) = delete;
+
+    const ::vk::raii::Device& device() const { return *device_; }
+    const ::vk::raii::PhysicalDevice& physical() const { return *physical_; }
+    const ::vk::raii::Queue& queue() const { return *queue_; }
+    uint32_t queue_family() const { return queue_family_; }
+    const DeviceInfo& info() const { return info_; }
+    bool ray_query_enabled() const { return ray_query_enabled_; }
+    bool validation_enabled() const { return validation_enabled_; }
+    // Number of validation messages of severity warning or error seen so far.
+    uint32_t validation_messages() const;
+
+    // Records commands with `record`, submits them and waits.
+    template <class F>
+    void submit_and_wait(F&& record) const {
+        ::vk::raii::CommandBuffer cmd = begin_one_shot();
+        record(*cmd);
+        end_one_shot(cmd);
+    }
+
+    uint32_t find_memory_type(uint32_t type_bits, ::vk::MemoryPropertyFlags wanted,
+                              ::vk::MemoryPropertyFlags fallback = {}) const;
+
+    static std::vector<DeviceInfo> list_devices();
+
+private:
+    ::vk::raii::CommandBuffer begin_one_shot() const;
+    void end_one_shot(::vk::raii::CommandBuffer& cmd) const;
+
+    ::vk::raii::Context context_;
+    std::unique_ptr<::vk::raii::Instance> instance_;
+    std::unique_ptr<::vk::raii::DebugUtilsMessengerEXT> messenger_;
+    std::unique_ptr<::vk::raii::PhysicalDevice> physical_;
+    std::unique_ptr<::vk::raii::Device> device_;
+    std::unique_ptr<::vk::raii::Queue> queue_;
+    std::unique_ptr<::vk::raii::CommandPool> pool_;
+    std::unique_ptr<::vk::raii::Fence> fence_;
+    uint32_t queue_family_ = 0;
+    DeviceInfo info_;
+    bool ray_query_enabled_ = false;
+    bool validation_enabled_ = false;
+    struct Messages;
+    std::unique_ptr<Messages> messages_;
+};
+
+}  // namespace vkmech::vk

@@ -1,0 +1,47 @@
+// A compute pipeline with its own descriptor-set layout, one descriptor set,
+// push constants and specialization constants.
+#pragma once
+
+#include "vk/context.hpp"
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace vkmech::vk {
+
+struct BindingDesc {
+    uint32_t binding;
+    ::vk::DescriptorType type;
+};
+
+struct SpecConstant {
+    uint32_t id;
+    uint32_t value;
+};
+
+class ComputePipeline {
+public:
+    ComputePipeline(const Context& ctx, std::span<const uint32_t> spirv, std::vector<BindingDesc> bindings,
+                    uint32_t push_constant_bytes, const std::vector<SpecConstant>& spec = {});
+
+    void bind_buffer(uint32_t binding, ::vk::Buffer buffer, ::vk::DeviceSize size = VK_WHOLE_SIZE);
+    void bind_acceleration_structure(uint32_t binding, ::vk::AccelerationStructureKHR as);
+
+    // Records bind + push + dispatch into cmd.
+    void record(::vk::CommandBuffer cmd, uint32_t gx, uint32_t gy, uint32_t gz, const void* push = nullptr,
+                uint32_t push_bytes = 0) const;
+
+private:
+    ::vk::DescriptorType type_of(uint32_t binding) const;
+    const Context& ctx_;
+    std::vector<BindingDesc> bindings_;
+    std::unique_ptr<::vk::raii::DescriptorSetLayout> set_layout_;
+    std::unique_ptr<::vk::raii::PipelineLayout> layout_;
+    std::unique_ptr<::vk::raii::Pipeline> pipeline_;
+    std::unique_ptr<::vk::raii::DescriptorPool> pool_;
+    std::unique_ptr<::vk::raii::DescriptorSet> set_;
+    uint32_t push_bytes_ = 0;
+};
+
+}  // namespace vkmech::vk

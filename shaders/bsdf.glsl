@@ -1,0 +1,754 @@
+// The materials of SPEC §2, following Mitsuba 3's definitions (src/bsdfs/*.cpp)
+// so that renders compare with Mitsuba, written once for GLSL and C++
+// (DESIGN "one code, two compilers").
+//
+// Local shading frame, z = shading normal. wo points from the surface toward
+// the previous path vertex, wi is the sampled / evaluated direction; both are
+// unit vectors. Values are for radiance transport:
+//   bsdf_eval   = f(wo, wi) |cos wi| of the non-delta components,
+//   bsdf_pdf    = the solid-angle density with which bsdf_sample produces wi
+//                 through its non-delta components (selection included),
+//   bsdf_sample = one direction; weight = f |cos wi| / p including the lobe
+//                 selection probability (for a non-delta sample exactly
+//                 bsdf_eval / bsdf_pdf at (wo, wi)); lobe = the component
+//                 actually sampled, by Mitsuba's flag cascade
+//                 Delta (S) > Diffuse (D) > Glossy (G).
+// `albedo` is the reflectance after the caller's texture lookup: diffuse
+// reflectance, plastic diffuse_reflectance, principled base_color.
+//
+// One-sided materials return nothing for wo.z <= 0 (as Mitsuba); with
+// `twosided` set, a non-transmissive material mirrors wo and wi to the front.
+// Transmissive materials (the dielectric family, principled with
+// spec_trans > 0) see both sides and ignore `twosided`.
+#ifndef VKMECH_BSDF_GLSL
+#define VKMECH_BSDF_GLSL
+
+#include "glsl_cpp.h"
+#include "features.glsl"
+#include "shared/types.h"
+#include "sampling.glsl"
+#include "fresnel.glsl"
+#include "microfacet.glsl"
+
+#ifdef __cplusplus
+namespace vkmech::shader {
+using namespace vkmech::gpu;
+#endif
+
+struct BsdfSample {
+    vec3 wi;
+    vec3 weight;  // f |cos wi| / pdf, lobe selection included
+    float pdf;    // solid-angle pdf (all non-delta components); 0 for a delta lobe
+    uint lobe;    // LOBE_D, LOBE_G or LOBE_S; LOBE_NONE when !ok
+    bool ok;
+    float eta;    // relative IOR crossed (eta_it), 1 for reflection
+};
+
+SHARED_FN BsdfSample bsdf_sample_none() {
+    BsdfSample s;
+    s.wi = vec3(0.0, 0.0, 1.0);
+    s.weight = vec3(0.0);
+    s.pdf = 0.0;
+    s.lobe = LOBE_NONE;
+    s.ok = false;
+    s.eta = 1.0;
+    return s;
+}
+
+// A non-delta sample: weight = f / pdf (no sample where the pdf is 0).
+SHARED_FN BsdfSample bsdf_make_sample(vec3 wi, vec3 f, float pdf, uint lobe, float eta) {
+    BsdfSample s = bsdf_sample_none();
+    if (!(pdf > 0.0)) return s;
+    s.wi = wi;
+    s.weight = f / pdf;
+    s.pdf = pdf;
+    s.lobe = lobe;
+    s.ok = true;
+    s.eta = eta;
+    return s;
+}
+
+// A delta sample (pdf 0 by convention).
+SHARED_FN BsdfSample bsdf_make_delta(vec3 wi, vec3 weight, float eta) {
+    BsdfSample s = bsdf_sample_none();
+    s.wi = wi;
+    s.weight = weight;
+    s.lobe = LOBE_S;
+    s.ok = true;
+    s.eta = eta;
+    return s;
+}
+
+SHARED_FN float bsdf_luminance(vec3 c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
+
+// ---- material fields (see GpuMaterial in shared/types.h) ----
+
+SHARED_FN vec3 mat_specular_reflectance(GpuMaterial m) { return vec3(m.specular_reflectance); }
+SHARED_FN vec3 mat_specular_transmittance(GpuMaterial m) { return vec3(m.specular_transmittance); }
+// Relative IOR int_ior / ext_ior of the dielectric and plastic families.
+SHARED_FN float mat_eta(GpuMaterial m) {
+    float int_ior = m.specular_transmittance.w;
+    float ext_ior = m.eta.w;
+    float e = ext_ior > 0.0 ? int_ior / ext_ior : int_ior;
+    return e > 0.0 ? e : 1.0;
+}
+// Microfacet roughness of the rough families (alpha_u, alpha_v, distribution).
+SHARED_FN Microfacet mat_microfacet(GpuMaterial m) {
+    return microfacet_make(m.header.w, m.reflectance.w, m.specular_reflectance.w);
+}
+// Conductor complex IOR relative to the exterior (Mitsuba 0.6's extEta; 1 in Mitsuba 3).
+SHARED_FN vec3 mat_conductor_fresnel(GpuMaterial m, float cos_theta_i) {
+    float ext = m.eta.w > 0.0 ? m.eta.w : 1.0;
+    return fresnel_conductor(cos_theta_i, vec3(m.eta) / ext, vec3(m.k) / ext);
+}
+
+// ---- diffuse (Mitsuba `diffuse`) ----
+
+SHARED_FN vec3 diffuse_eval_pdf(vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
+    pdf = 0.0;
+    if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
+    pdf = wi.z * VKM_INV_PI;
+    return albedo * pdf;
+}
+
+SHARED_FN BsdfSample diffuse_sample(vec3 albedo, vec3 wo, vec2 u) {
+    if (wo.z <= 0.0) return bsdf_sample_none();
+    vec3 wi = square_to_cosine_hemisphere(u);
+    float pdf;
+    vec3 f = diffuse_eval_pdf(albedo, wo, wi, pdf);
+    return bsdf_make_sample(wi, f, pdf, LOBE_D, 1.0);
+}
+
+// ---- conductor (smooth; delta) ----
+
+SHARED_FN BsdfSample conductor_sample(GpuMaterial m, vec3 wo) {
+    if (wo.z <= 0.0) return bsdf_sample_none();
+    vec3 weight = mat_specular_reflectance(m) * mat_conductor_fresnel(m, wo.z);
+    return bsdf_make_delta(reflect_z(wo), weight, 1.0);
+}
+
+// ---- roughconductor (microfacet reflection, VNDF sampling) ----
+
+SHARED_FN vec3 roughconductor_eval_pdf(GpuMaterial m, vec3 wo, vec3 wi, OUT(float) pdf) {
+    pdf = 0.0;
+    if (wo.z < MF_MIN_COS || wi.z <= 0.0) return vec3(0.0);
+    vec3 h = wo + wi;
+    float l2 = dot(h, h);
+    if (!(l2 > 1e-30)) return vec3(0.0);
+    h = h * inversesqrt(l2);
+    Microfacet d = mat_microfacet(m);
+    float dh = mf_D(d, h);
+    if (dh <= 0.0) return vec3(0.0);
+    // pdf = D_wo(h) / (4 wi.h) = G1(wo) D / (4 wo.z), since wo.h = wi.h.
+    float p = mf_G1(d, wo, h) * dh / (4.0 * wo.z);
+    if (!(p > 0.0)) return vec3(0.0);
+    pdf = p;
+    // f |cos wi| = F D G1(wo) G1(wi) / (4 wo.z) = F G1(wi) pdf.
+    float scale = mf_G1(d, wi, h) * p;
+    return mat_specular_reflectance(m) * mat_conductor_fresnel(m, dot(wo, h)) * scale;
+}
+
+SHARED_FN BsdfSample roughconductor_sample(GpuMaterial m, vec3 wo, vec2 u) {
+    if (wo.z < MF_MIN_COS) return bsdf_sample_none();
+    vec3 h = mf_sample_visible(mat_microfacet(m), wo, u);
+    vec3 wi = reflect_about(wo, h);
+    if (wi.z <= 0.0) return bsdf_sample_none();
+    float pdf;
+    vec3 f = roughconductor_eval_pdf(m, wo, wi, pdf);
+    return bsdf_make_sample(wi, f, pdf, LOBE_G, 1.0);
+}
+
+// ---- dielectric (smooth; delta; both sides) ----
+
+SHARED_FN BsdfSample dielectric_sample(GpuMaterial m, vec3 wo, float u_lobe) {
+    float cos_t;
+    float eta_it;
+    float eta_ti;
+    float r = fresnel_dielectric(wo.z, mat_eta(m), cos_t, eta_it, eta_ti);
+    if (u_lobe < r) return bsdf_make_delta(reflect_z(wo), mat_specular_reflectance(m), 1.0);
+    // Radiance is scaled by 1/eta_it^2 (solid-angle compression), as Mitsuba
+    // does in radiance mode.
+    vec3 weight = mat_specular_transmittance(m) * (eta_ti * eta_ti);
+    return bsdf_make_delta(refract_z(wo, cos_t, eta_ti), weight, eta_it);
+}
+
+// ---- thindielectric (delta reflection or straight pass-through) ----
+
+SHARED_FN BsdfSample thindielectric_sample(GpuMaterial m, vec3 wo, float u_lobe) {
+    float f = fresnel_dielectric_r(abs(wo.z), mat_eta(m));
+    // All the bounces inside the sheet: R = F + (1-F)^2 F / (1 - F^2) = 2F / (1+F).
+    float r = 2.0 * f / (1.0 + f);
+    if (u_lobe < r) return bsdf_make_delta(reflect_z(wo), mat_specular_reflectance(m), 1.0);
+    return bsdf_make_delta(-wo, mat_specular_transmittance(m), 1.0);
+}
+
+// ---- roughdielectric (Walter et al. 2007, VNDF sampling; both sides) ----
+
+SHARED_FN vec3 roughdielectric_eval_pdf(GpuMaterial m, vec3 wo, vec3 wi, OUT(float) pdf) {
+    pdf = 0.0;
+    float co = wo.z;
+    float ci = wi.z;
+    if (abs(co) < MF_MIN_COS || ci == 0.0) return vec3(0.0);
+    float eta = mat_eta(m);
+    bool refl = co * ci > 0.0;
+    // IOR of wi's side over wo's side (used for transmission only).
+    float eta_path = co > 0.0 ? eta : 1.0 / eta;
+    vec3 h = refl ? wo + wi : wo + wi * eta_path;
+    float l2 = dot(h, h);
+    if (!(l2 > 1e-30)) return vec3(0.0);
+    h = h * inversesqrt(l2);
+    if (h.z < 0.0) h = -h;
+    float doh = dot(wo, h);
+    float dih = dot(wi, h);
+    // Each direction must see the front of the facet from its own side.
+    if (doh * co <= 0.0 || dih * ci <= 0.0) return vec3(0.0);
+    Microfacet d = mat_microfacet(m);
+    float dh = mf_D(d, h);
+    if (dh <= 0.0) return vec3(0.0);
+    float f = fresnel_dielectric_r(doh, eta);
+    float g = mf_G1(d, wo, h) * mf_G1(d, wi, h);
+    float pdf_h = mf_pdf_visible(d, co > 0.0 ? wo : -wo, h);
+    if (refl) {
+        pdf = f * pdf_h / (4.0 * abs(dih));
+        float v = f * dh * g / (4.0 * abs(co));
+        return mat_specular_reflectance(m) * v;
+    }
+    // Transmission. (doh + eta_path dih)^2 = |wo + eta_path wi|^2 = l2 exactly.
+    pdf = (1.0 - f) * pdf_h * eta_path * eta_path * abs(dih) / l2;
+    // Walter's eta_path^2 cancels against the radiance scaling 1/eta_path^2.
+    float v = (1.0 - f) * dh * g * abs(doh * dih) / (abs(co) * l2);
+    return mat_specular_transmittance(m) * v;
+}
+
+SHARED_FN BsdfSample roughdielectric_sample(GpuMaterial m, vec3 wo, float u_lobe, vec2 u) {
+    float co = wo.z;
+    if (abs(co) < MF_MIN_COS) return bsdf_sample_none();
+    vec3 h = mf_sample_visible(mat_microfacet(m), co > 0.0 ? wo : -wo, u);
+    float cos_t;
+    float eta_it;
+    float eta_ti;
+    float f = fresnel_dielectric(dot(wo, h), mat_eta(m), cos_t, eta_it, eta_ti);
+    vec3 wi;
+    float eta_out = 1.0;
+    if (u_lobe < f) {
+        wi = reflect_about(wo, h);
+        if (wi.z * co <= 0.0) return bsdf_sample_none();
+    } else {
+        wi = refract_about(wo, h, cos_t, eta_ti);
+        if (wi.z * co >= 0.0) return bsdf_sample_none();
+        eta_out = eta_it;
+    }
+    float pdf;
+    vec3 fv = roughdielectric_eval_pdf(m, wo, wi, pdf);
+    return bsdf_make_sample(wi, fv, pdf, LOBE_G, eta_out);
+}
+
+// ---- plastic family: shared pieces ----
+
+// Mitsuba's specular_sampling_weight: mean specular / (mean diffuse + mean
+// specular), from the material's constants (a textured material should carry
+// its texture's mean in reflectance.rgb, as Mitsuba takes the texture mean).
+SHARED_FN float plastic_specular_weight(GpuMaterial m) {
+    float d_mean = mean3(vec3(m.reflectance));
+    float s_mean = mean3(mat_specular_reflectance(m));
+    float sum = d_mean + s_mean;
+    return sum > 0.0 ? s_mean / sum : 0.5;
+}
+
+// Probability of sampling the coat, given the coat's reflectance at wo.
+SHARED_FN float plastic_prob_specular(float coat_reflectance, float sw) {
+    float ps = coat_reflectance * sw;
+    float pd = (1.0 - coat_reflectance) * (1.0 - sw);
+    float t = ps + pd;
+    if (t > 0.0) return ps / t;
+    return coat_reflectance > 0.5 ? 1.0 : 0.0;
+}
+
+// Diffuse base seen through the coat: reflectance divided by the share that
+// is not trapped by internal reflection (Mitsuba's `nonlinear` option keeps
+// the colour shift of repeated bounces).
+SHARED_FN vec3 plastic_base(GpuMaterial m, vec3 albedo, float internal_reflectance) {
+    if (m.k.w != 0.0) {
+        vec3 denom = max(vec3(1.0) - albedo * internal_reflectance, vec3(1e-4));
+        return albedo / denom;
+    }
+    float denom = 1.0 - internal_reflectance;
+    return albedo / max(denom, float(1e-4));
+}
+
+// ---- plastic (smooth coat: delta lobe S + diffuse base lobe D) ----
+
+SHARED_FN vec3 plastic_eval_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
+    pdf = 0.0;
+    if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
+    float eta = mat_eta(m);
+    float f_in = fresnel_dielectric_r(wo.z, eta);
+    float f_out = fresnel_dielectric_r(wi.z, eta);
+    float p_spec = plastic_prob_specular(f_in, plastic_specular_weight(m));
+    float cos_pdf = wi.z * VKM_INV_PI;
+    pdf = (1.0 - p_spec) * cos_pdf;
+    vec3 base = plastic_base(m, albedo, fresnel_diffuse_reflectance(1.0 / eta));
+    float s = (1.0 - f_in) * (1.0 - f_out) / (eta * eta) * cos_pdf;
+    return base * s;
+}
+
+SHARED_FN BsdfSample plastic_sample(GpuMaterial m, vec3 albedo, vec3 wo, float u_lobe, vec2 u) {
+    if (wo.z <= 0.0) return bsdf_sample_none();
+    float f_in = fresnel_dielectric_r(wo.z, mat_eta(m));
+    float p_spec = plastic_prob_specular(f_in, plastic_specular_weight(m));
+    if (u_lobe < p_spec) {
+        float s = f_in / p_spec;
+        return bsdf_make_delta(reflect_z(wo), mat_specular_reflectance(m) * s, 1.0);
+    }
+    vec3 wi = square_to_cosine_hemisphere(u);
+    float pdf;
+    vec3 f = plastic_eval_pdf(m, albedo, wo, wi, pdf);
+    return bsdf_make_sample(wi, f, pdf, LOBE_D, 1.0);
+}
+
+// ---- roughplastic (microfacet coat lobe G + diffuse base lobe D) ----
+//
+// Mitsuba precomputes, per material, the rough coat's transmittance T(mu)
+// (64 nodes in mu) and the base's internal reflectance. Here the host stores
+// them in the principled fields, which roughplastic does not use:
+// principled0.xyzw, principled1.xyzw, principled2.xyz = T at
+// sqrt(mu) = 0, 0.1, ..., 1 (linear in between), principled2.w =
+// 1 + internal reflectance (0 = not prepared). roughplastic_prepare() fills
+// them; an unprepared material falls back to the smooth-coat values
+// 1 - F(mu) and the diffuse Fresnel reflectance.
+
+const int RP_TABLE_NODES = 11;
+
+SHARED_FN float rp_table_get(GpuMaterial m, int i) {
+    if (i < 4) return m.principled0[i];
+    if (i < 8) return m.principled1[i - 4];
+    return m.principled2[i - 8];
+}
+
+SHARED_FN bool roughplastic_prepared(GpuMaterial m) { return m.principled2.w >= 1.0; }
+
+SHARED_FN Microfacet roughplastic_microfacet(GpuMaterial m) {
+    return microfacet_make(m.header.w, m.reflectance.w, m.reflectance.w);  // isotropic, as Mitsuba
+}
+
+SHARED_FN float roughplastic_transmittance(GpuMaterial m, float mu) {
+    if (!roughplastic_prepared(m)) return 1.0 - fresnel_dielectric_r(mu, mat_eta(m));
+    float s = sqrt(saturate(mu)) * float(RP_TABLE_NODES - 1);
+    int i = min(int(s), RP_TABLE_NODES - 2);
+    float t = s - float(i);
+    return mix(rp_table_get(m, i), rp_table_get(m, i + 1), t);
+}
+
+SHARED_FN float roughplastic_internal_reflectance(GpuMaterial m) {
+    if (!roughplastic_prepared(m)) return fresnel_diffuse_reflectance(1.0 / mat_eta(m));
+    return m.principled2.w - 1.0;
+}
+
+SHARED_FN vec3 roughplastic_eval_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
+    pdf = 0.0;
+    if (wo.z < MF_MIN_COS || wi.z <= 0.0) return vec3(0.0);
+    float eta = mat_eta(m);
+    float t_in = roughplastic_transmittance(m, wo.z);
+    float t_out = roughplastic_transmittance(m, wi.z);
+    float p_spec = plastic_prob_specular(1.0 - t_in, plastic_specular_weight(m));
+    vec3 result = vec3(0.0);
+    float p = 0.0;
+    vec3 h = wo + wi;
+    float l2 = dot(h, h);
+    if (l2 > 1e-30) {
+        h = h * inversesqrt(l2);
+        Microfacet d = roughplastic_microfacet(m);
+        float dh = mf_D(d, h);
+        if (dh > 0.0) {
+            float spec_pdf = mf_G1(d, wo, h) * dh / (4.0 * wo.z);  // D_wo(h) / (4 wi.h)
+            float v = fresnel_dielectric_r(dot(wo, h), eta) * mf_G1(d, wi, h) * spec_pdf;
+            result += mat_specular_reflectance(m) * v;
+            p += p_spec * spec_pdf;
+        }
+    }
+    float cos_pdf = wi.z * VKM_INV_PI;
+    vec3 base = plastic_base(m, albedo, roughplastic_internal_reflectance(m));
+    float s = t_in * t_out / (eta * eta) * cos_pdf;
+    result += base * s;
+    p += (1.0 - p_spec) * cos_pdf;
+    pdf = p;
+    return result;
+}
+
+SHARED_FN BsdfSample roughplastic_sample(GpuMaterial m, vec3 albedo, vec3 wo, float u_lobe, vec2 u) {
+    if (wo.z < MF_MIN_COS) return bsdf_sample_none();
+    float t_in = roughplastic_transmittance(m, wo.z);
+    float p_spec = plastic_prob_specular(1.0 - t_in, plastic_specular_weight(m));
+    vec3 wi;
+    uint lobe;
+    if (u_lobe < p_spec) {
+        wi = reflect_about(wo, mf_sample_visible(roughplastic_microfacet(m), wo, u));
+        lobe = LOBE_G;
+    } else {
+        wi = square_to_cosine_hemisphere(u);
+        lobe = LOBE_D;
+    }
+    if (wi.z <= 0.0) return bsdf_sample_none();
+    float pdf;
+    vec3 f = roughplastic_eval_pdf(m, albedo, wo, wi, pdf);
+    return bsdf_make_sample(wi, f, pdf, lobe, 1.0);
+}
+
+// Rough-interface averages by a midpoint rule over the VNDF's unit square:
+// the energy transmitted (reflected) from direction (sqrt(1-mu^2), 0, mu) into
+// the other (same) side, single scattering, Smith masking of the exit.
+SHARED_FN float rough_interface_average(Microfacet d, float eta, float mu, int n, bool transmitted) {
+    vec3 w = vec3(safe_sqrt(1.0 - mu * mu), 0.0, mu);
+    float sum = 0.0;
+    for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < n; ++j) {
+            vec2 u = vec2((float(i) + 0.5) / float(n), (float(j) + 0.5) / float(n));
+            vec3 h = mf_sample_visible(d, w, u);
+            float cos_t;
+            float eta_it;
+            float eta_ti;
+            float f = fresnel_dielectric(dot(w, h), eta, cos_t, eta_it, eta_ti);
+            if (transmitted) {
+                vec3 wt = refract_about(w, h, cos_t, eta_ti);
+                if (wt.z < 0.0) sum += (1.0 - f) * mf_G1(d, wt, h);
+            } else {
+                vec3 wr = reflect_about(w, h);
+                if (wr.z > 0.0) sum += f * mf_G1(d, wr, h);
+            }
+        }
+    }
+    return sum / float(n * n);
+}
+
+// Fills the roughplastic tables (see above); the host calls it once per
+// material when it packs GpuMaterial. A few 10^5 VNDF samples.
+SHARED_FN GpuMaterial roughplastic_prepare(GpuMaterial m) {
+    if (m.header.x != MAT_ROUGHPLASTIC) return m;
+    Microfacet d = roughplastic_microfacet(m);
+    float eta = mat_eta(m);
+    GpuMaterial r = m;
+    for (int i = 0; i < RP_TABLE_NODES; ++i) {
+        float s = float(i) / float(RP_TABLE_NODES - 1);
+        float t = rough_interface_average(d, eta, max(s * s, float(1e-6)), 64, true);
+        if (i < 4) {
+            r.principled0[i] = t;
+        } else if (i < 8) {
+            r.principled1[i - 4] = t;
+        } else {
+            r.principled2[i - 8] = t;
+        }
+    }
+    // Internal reflectance: 2 int_0^1 R(mu, 1/eta) mu dmu = int_0^1 R(sqrt(x)) dx.
+    const int NX = 32;
+    float sum = 0.0;
+    for (int k = 0; k < NX; ++k) {
+        float x = (float(k) + 0.5) / float(NX);
+        sum += rough_interface_average(d, 1.0 / eta, sqrt(x), 48, false);
+    }
+    r.principled2.w = 1.0 + saturate(sum / float(NX));
+    return r;
+}
+
+// ---- principled (Mitsuba 3's `principled`) ----
+//
+// Lobes: diffuse (Disney diffuse + retro-reflection + sheen; D), the main GGX
+// specular reflection (G), the GTR1 clearcoat (G) and the GGX specular
+// transmission (G). Selection on the outside as Mitsuba with unit sampling
+// rates: specular 1, clearcoat clearcoat/4, diffuse (1-metallic)(1-spec_trans),
+// normalized; the specular lobe then reflects with probability
+// 1 - bsdf (1 - F(wo.m)) and transmits otherwise. Inside: the specular lobe
+// only, reflecting with probability F. Deviation from Mitsuba: the sheen is
+// weighted by the diffuse weight (1-metallic)(1-spec_trans) (Mitsuba:
+// 1-metallic), so that it belongs to the diffuse component, is covered by its
+// sampling, and the SPEC §2 flag rule (D iff the diffuse weight > 0) holds.
+
+struct Principled {
+    vec3 base;
+    float metallic;
+    float roughness;
+    float spec_tint;
+    float sheen;
+    float sheen_tint;
+    float clearcoat;
+    float eta;
+    float w_brdf;  // (1 - metallic)(1 - spec_trans): the diffuse weight
+    float w_bsdf;  // (1 - metallic) spec_trans: the transmission weight
+    float alpha_cc;
+    Microfacet d;
+    float p_diffuse;  // selection probabilities on the outside
+    float p_clearcoat;
+    float p_specular;
+};
+
+SHARED_FN Principled principled_params(GpuMaterial m, vec3 albedo) {
+    Principled p;
+    p.base = albedo;
+    p.metallic = saturate(m.principled0.x);
+    p.roughness = saturate(m.principled0.y);
+    p.spec_tint = saturate(m.principled0.w);
+    float anisotropic = saturate(m.principled1.x);
+    p.sheen = max(m.principled1.y, float(0.0));
+    p.sheen_tint = saturate(m.principled1.z);
+    p.clearcoat = max(m.principled1.w, float(0.0));
+    float clearcoat_gloss = saturate(m.principled2.x);
+    float spec_trans = saturate(m.principled2.y);
+    p.eta = m.principled2.z > 0.0 ? m.principled2.z : 1.5;
+    p.w_brdf = (1.0 - p.metallic) * (1.0 - spec_trans);
+    p.w_bsdf = (1.0 - p.metallic) * spec_trans;
+    // Mitsuba's calc_dist_params: alpha = roughness^2, stretched by the aspect.
+    float r2 = p.roughness * p.roughness;
+    float aspect = sqrt(1.0 - 0.9 * anisotropic);
+    p.d = microfacet_make(MF_GGX, max(float(0.001), r2 / aspect), max(float(0.001), r2 * aspect));
+    p.alpha_cc = mix(float(0.1), float(0.001), clearcoat_gloss);
+    float w_cc = p.clearcoat > 0.0 ? 0.25 * p.clearcoat : 0.0;
+    float total = 1.0 + w_cc + p.w_brdf;
+    p.p_specular = 1.0 / total;
+    p.p_clearcoat = w_cc / total;
+    p.p_diffuse = p.w_brdf / total;
+    return p;
+}
+
+SHARED_FN bool principled_transmissive(GpuMaterial m) {
+    return (1.0 - saturate(m.principled0.x)) * saturate(m.principled2.y) > 0.0;
+}
+
+// Reflectance of the main specular lobe on the outside: dielectric Fresnel
+// blended with Schlick terms for metallic and the tinted specular.
+SHARED_FN vec3 principled_fresnel_front(Principled p, float f_dielectric, float cos_theta_i) {
+    vec3 f = vec3((1.0 - p.metallic) * (1.0 - p.spec_tint) * f_dielectric);
+    if (p.metallic > 0.0) f += p.metallic * schlick_fresnel3(p.base, cos_theta_i, p.eta);
+    if (p.spec_tint > 0.0) {
+        float lum = bsdf_luminance(p.base);
+        vec3 c_tint = lum > 0.0 ? p.base / lum : vec3(1.0);
+        float eta_it = cos_theta_i >= 0.0 ? p.eta : 1.0 / p.eta;
+        vec3 r0 = c_tint * schlick_r0_eta(eta_it);
+        float w = (1.0 - p.metallic) * p.spec_tint;
+        f += w * schlick_fresnel3(r0, cos_theta_i, p.eta);
+    }
+    return f;
+}
+
+SHARED_FN vec3 principled_eval_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
+    pdf = 0.0;
+    float co = wo.z;
+    float ci = wi.z;
+    if (abs(co) < MF_MIN_COS || ci == 0.0) return vec3(0.0);
+    Principled p = principled_params(m, albedo);
+    bool front = co > 0.0;
+    bool refl = co * ci > 0.0;
+    if (!(front && refl) && p.w_bsdf <= 0.0) return vec3(0.0);
+    float eta_path = front ? p.eta : 1.0 / p.eta;
+    vec3 h = refl ? wo + wi : wo + wi * eta_path;
+    float l2 = dot(h, h);
+    if (!(l2 > 1e-30)) return vec3(0.0);
+    h = h * inversesqrt(l2);
+    if (h.z < 0.0) h = -h;
+    float doh = dot(wo, h);
+    float dih = dot(wi, h);
+    vec3 result = vec3(0.0);
+    float pr = 0.0;
+
+    // Main specular lobe (reflection and transmission).
+    if (doh * co > 0.0 && dih * ci > 0.0) {
+        float dh = mf_D(p.d, h);
+        if (dh > 0.0) {
+            float f_d = fresnel_dielectric_r(doh, p.eta);
+            float g = mf_G1(p.d, wo, h) * mf_G1(p.d, wi, h);
+            float pdf_h = mf_pdf_visible(p.d, front ? wo : -wo, h);
+            float p_sel = front ? p.p_specular : 1.0;
+            float p_refl = front ? 1.0 - p.w_bsdf * (1.0 - f_d) : f_d;
+            if (refl) {
+                vec3 fr = front ? principled_fresnel_front(p, f_d, doh) : vec3(p.w_bsdf * f_d);
+                float v = dh * g / (4.0 * abs(co));
+                result += fr * v;
+                pr += p_sel * p_refl * pdf_h / (4.0 * abs(dih));
+            } else {
+                float v = p.w_bsdf * (1.0 - f_d) * dh * g * abs(doh * dih) / (abs(co) * l2);
+                result += sqrt(p.base) * v;
+                pr += p_sel * (1.0 - p_refl) * pdf_h * eta_path * eta_path * abs(dih) / l2;
+            }
+        }
+    }
+
+    if (front && refl) {
+        // Diffuse: Burley's diffuse with retro-reflection, plus sheen.
+        if (p.w_brdf > 0.0) {
+            float fo = schlick_weight(ci);
+            float fi = schlick_weight(co);
+            float f_diff = (1.0 - 0.5 * fi) * (1.0 - 0.5 * fo);
+            float cos_d = dot(h, wi);
+            float rr = 2.0 * p.roughness * cos_d * cos_d;
+            float f_retro = rr * (fo + fi + fo * fi * (rr - 1.0));
+            float s = p.w_brdf * ci * VKM_INV_PI * (f_diff + f_retro);
+            result += p.base * s;
+            if (p.sheen > 0.0) {
+                float lum = bsdf_luminance(p.base);
+                vec3 c_tint = lum > 0.0 ? p.base / lum : vec3(1.0);
+                vec3 c_sheen = mix(vec3(1.0), c_tint, p.sheen_tint);
+                float sh = p.sheen * p.w_brdf * schlick_weight(abs(cos_d)) * ci;
+                result += c_sheen * sh;
+            }
+            pr += p.p_diffuse * ci * VKM_INV_PI;
+        }
+        // Clearcoat: GTR1 normals, Schlick Fresnel (R0 0.04, eta 1.5), GGX
+        // masking with alpha 0.25 (Burley's choices, as Mitsuba).
+        if (p.clearcoat > 0.0) {
+            float dcc = gtr1_D(p.alpha_cc, h);
+            if (dcc > 0.0) {
+                float fcc = schlick_fresnel(0.04, dih, 1.5);
+                float gcc = smith_ggx1(wo, h, 0.25) * smith_ggx1(wi, h, 0.25);
+                float v = 0.25 * p.clearcoat * fcc * dcc * gcc / (4.0 * co);
+                result += vec3(v);
+                pr += p.p_clearcoat * dcc * h.z / (4.0 * dih);
+            }
+        }
+    }
+    pdf = pr;
+    return result;
+}
+
+SHARED_FN BsdfSample principled_sample(GpuMaterial m, vec3 albedo, vec3 wo, float u_lobe, vec2 u) {
+    float co = wo.z;
+    if (abs(co) < MF_MIN_COS) return bsdf_sample_none();
+    Principled p = principled_params(m, albedo);
+    bool front = co > 0.0;
+    if (!front && p.w_bsdf <= 0.0) return bsdf_sample_none();
+    float p_diff = front ? p.p_diffuse : 0.0;
+    float p_cc = front ? p.p_clearcoat : 0.0;
+    float p_spec = front ? p.p_specular : 1.0;
+    vec3 wi;
+    uint lobe = LOBE_G;
+    float eta_out = 1.0;
+    if (u_lobe < p_diff) {
+        wi = square_to_cosine_hemisphere(u);
+        lobe = LOBE_D;
+    } else if (u_lobe < p_diff + p_cc) {
+        wi = reflect_about(wo, gtr1_sample(p.alpha_cc, u));
+        if (wi.z <= 0.0) return bsdf_sample_none();
+    } else {
+        // Reuse the rest of u_lobe for the reflect / transmit choice.
+        float uu = min((u_lobe - p_diff - p_cc) / p_spec, float(0.99999994));
+        vec3 h = mf_sample_visible(p.d, front ? wo : -wo, u);
+        float cos_t;
+        float eta_it;
+        float eta_ti;
+        float f_d = fresnel_dielectric(dot(wo, h), p.eta, cos_t, eta_it, eta_ti);
+        float p_refl = front ? 1.0 - p.w_bsdf * (1.0 - f_d) : f_d;
+        if (uu < p_refl) {
+            wi = reflect_about(wo, h);
+            if (wi.z * co <= 0.0) return bsdf_sample_none();
+        } else {
+            wi = refract_about(wo, h, cos_t, eta_ti);
+            if (wi.z * co >= 0.0) return bsdf_sample_none();
+            eta_out = eta_it;
+        }
+    }
+    float pdf;
+    vec3 f = principled_eval_pdf(m, albedo, wo, wi, pdf);
+    return bsdf_make_sample(wi, f, pdf, lobe, eta_out);
+}
+
+// ---- dispatch ----
+
+SHARED_FN bool bsdf_is_delta_only(GpuMaterial m) {
+    uint t = m.header.x;
+    return t == MAT_CONDUCTOR || t == MAT_DIELECTRIC || t == MAT_THINDIELECTRIC;
+}
+
+// SPEC §2: the NEE end-vertex lobe. D if the BSDF advertises any diffuse
+// component, G if it is non-delta without one, LOBE_NONE if delta-only (no NEE).
+SHARED_FN uint bsdf_nee_lobe(GpuMaterial m) {
+    uint t = m.header.x;
+    if (t == MAT_DIFFUSE || t == MAT_PLASTIC || t == MAT_ROUGHPLASTIC) return LOBE_D;
+    if (t == MAT_ROUGHCONDUCTOR || t == MAT_ROUGHDIELECTRIC) return LOBE_G;
+    if (t == MAT_PRINCIPLED) {
+        float w_brdf = (1.0 - saturate(m.principled0.x)) * (1.0 - saturate(m.principled2.y));
+        return w_brdf > 0.0 ? LOBE_D : LOBE_G;
+    }
+    return LOBE_NONE;
+}
+
+// Whether the material lets light through (and so sees both sides itself).
+SHARED_FN bool bsdf_is_transmissive(GpuMaterial m) {
+    uint t = m.header.x;
+    if (t == MAT_DIELECTRIC || t == MAT_ROUGHDIELECTRIC || t == MAT_THINDIELECTRIC) return true;
+    if (t == MAT_PRINCIPLED) return principled_transmissive(m);
+    return false;
+}
+
+// Mitsuba's `twosided`: a back-side query is answered by the front side with
+// both directions mirrored.
+SHARED_FN bool bsdf_mirrors(GpuMaterial m, vec3 wo) {
+    return m.header.y != 0u && wo.z < 0.0 && !bsdf_is_transmissive(m);
+}
+
+SHARED_FN vec3 flip_z(vec3 v) { return vec3(v.x, v.y, -v.z); }
+
+// f |cos wi| and pdf of the non-delta components, without the twosided rule.
+SHARED_FN vec3 bsdf_eval_pdf_front(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
+    pdf = 0.0;
+    uint t = m.header.x;
+    if (t == MAT_DIFFUSE) return diffuse_eval_pdf(albedo, wo, wi, pdf);
+    if (t == MAT_ROUGHCONDUCTOR) {
+        if (FEATURE_CONDUCTOR && FEATURE_ROUGH) return roughconductor_eval_pdf(m, wo, wi, pdf);
+    } else if (t == MAT_ROUGHDIELECTRIC) {
+        if (FEATURE_DIELECTRIC && FEATURE_ROUGH) return roughdielectric_eval_pdf(m, wo, wi, pdf);
+    } else if (t == MAT_PLASTIC) {
+        if (FEATURE_PLASTIC) return plastic_eval_pdf(m, albedo, wo, wi, pdf);
+    } else if (t == MAT_ROUGHPLASTIC) {
+        if (FEATURE_PLASTIC && FEATURE_ROUGH) return roughplastic_eval_pdf(m, albedo, wo, wi, pdf);
+    } else if (t == MAT_PRINCIPLED) {
+        if (FEATURE_PRINCIPLED) return principled_eval_pdf(m, albedo, wo, wi, pdf);
+    }
+    return vec3(0.0);  // delta-only materials and compiled-out families
+}
+
+SHARED_FN vec3 bsdf_eval_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
+    if (bsdf_mirrors(m, wo)) return bsdf_eval_pdf_front(m, albedo, flip_z(wo), flip_z(wi), pdf);
+    return bsdf_eval_pdf_front(m, albedo, wo, wi, pdf);
+}
+
+SHARED_FN vec3 bsdf_eval(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi) {
+    float pdf;
+    return bsdf_eval_pdf(m, albedo, wo, wi, pdf);
+}
+
+SHARED_FN float bsdf_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi) {
+    float pdf;
+    bsdf_eval_pdf(m, albedo, wo, wi, pdf);
+    return pdf;
+}
+
+SHARED_FN BsdfSample bsdf_sample(GpuMaterial m, vec3 albedo, vec3 wo, float u_lobe, vec2 u) {
+    bool mirror = bsdf_mirrors(m, wo);
+    vec3 w = mirror ? flip_z(wo) : wo;
+    uint t = m.header.x;
+    BsdfSample s = bsdf_sample_none();
+    if (t == MAT_DIFFUSE) {
+        s = diffuse_sample(albedo, w, u);
+    } else if (t == MAT_CONDUCTOR) {
+        if (FEATURE_CONDUCTOR) s = conductor_sample(m, w);
+    } else if (t == MAT_ROUGHCONDUCTOR) {
+        if (FEATURE_CONDUCTOR && FEATURE_ROUGH) s = roughconductor_sample(m, w, u);
+    } else if (t == MAT_DIELECTRIC) {
+        if (FEATURE_DIELECTRIC) s = dielectric_sample(m, w, u_lobe);
+    } else if (t == MAT_THINDIELECTRIC) {
+        if (FEATURE_DIELECTRIC) s = thindielectric_sample(m, w, u_lobe);
+    } else if (t == MAT_ROUGHDIELECTRIC) {
+        if (FEATURE_DIELECTRIC && FEATURE_ROUGH) s = roughdielectric_sample(m, w, u_lobe, u);
+    } else if (t == MAT_PLASTIC) {
+        if (FEATURE_PLASTIC) s = plastic_sample(m, albedo, w, u_lobe, u);
+    } else if (t == MAT_ROUGHPLASTIC) {
+        if (FEATURE_PLASTIC && FEATURE_ROUGH) s = roughplastic_sample(m, albedo, w, u_lobe, u);
+    } else if (t == MAT_PRINCIPLED) {
+        if (FEATURE_PRINCIPLED) s = principled_sample(m, albedo, w, u_lobe, u);
+    }
+    if (mirror && s.ok) s.wi = flip_z(s.wi);
+    return s;
+}
+
+#ifdef __cplusplus
+}  // namespace vkmech::shader
+#endif
+
+#endif

@@ -1,0 +1,25 @@
+// Perspective and thin-lens cameras, Mitsuba's conventions: camera space looks
+// along +Z with +Y up, and camera +X maps to the left of the image.
+#ifndef VKMECH_CAMERA_GLSL
+#define VKMECH_CAMERA_GLSL
+
+// Specialization: thin lens compiled in only when the scene has one (DESIGN).
+layout(constant_id = 0) const bool HAS_THIN_LENS = false;
+
+void camera_ray(vec2 film_uv, vec2 lens_u, out vec3 origin, out vec3 dir) {
+    vec3 d = vec3((1.0 - 2.0 * film_uv.x) * params.camera.x, (1.0 - 2.0 * film_uv.y) * params.camera.y, 1.0);
+    vec3 o = vec3(0.0);
+    if (HAS_THIN_LENS && params.camera.z > 0.0) {
+        // Concentric-free polar mapping is fine here: only the disk matters.
+        float r = params.camera.z * sqrt(lens_u.x);
+        float phi = 6.28318530718 * lens_u.y;
+        vec3 lens = vec3(r * cos(phi), r * sin(phi), 0.0);
+        vec3 focus = d * params.camera.w;  // d.z == 1: the focus plane is z = focus distance
+        o = lens;
+        d = focus - lens;
+    }
+    origin = (params.camera_to_world * vec4(o, 1.0)).xyz;
+    dir = normalize((params.camera_to_world * vec4(d, 0.0)).xyz);
+}
+
+#endif

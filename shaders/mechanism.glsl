@@ -1,0 +1,37 @@
+// The contribution-event label (SPEC §2, the paper's Algorithm 1): one
+// function, compiled for the GPU and, unchanged, for the C++ tests.
+#ifndef VKMECH_MECHANISM_GLSL
+#define VKMECH_MECHANISM_GLSL
+
+#include "glsl_cpp.h"
+#include "shared/types.h"
+
+#ifdef __cplusplus
+namespace vkmech::shader {
+using namespace vkmech::gpu;
+#endif
+
+// n: surface vertices before the emitter (0: the primary ray hit it);
+// end_lobe: LOBE_D/G/S of the end vertex (sampled lobe for a BSDF hit, the
+// NEE flag rule for an NEE event); delta_before_end: any of V1..V(n-1)
+// sampled a delta lobe. First match wins.
+SHARED_FN uint classify_event(uint n, uint end_lobe, bool delta_before_end) {
+    if (n == 0u) return BUCKET_EMITTER_DIRECT;
+    if (end_lobe == LOBE_S) return BUCKET_SPECULAR_DIRECT;
+    if (end_lobe != LOBE_D && end_lobe != LOBE_G) return BUCKET_OTHER;
+    if (delta_before_end) return BUCKET_DELTA_MEDIATED;
+    if (n == 1u) return BUCKET_DIRECT;
+    if (end_lobe == LOBE_D) return BUCKET_DIFFUSE_INDIRECT;
+    return BUCKET_GLOSSY;
+}
+
+// Heavy-tailed family (SPEC §2): glossy, delta_mediated, specular_direct.
+SHARED_FN bool bucket_is_heavy(uint b) {
+    return b == BUCKET_GLOSSY || b == BUCKET_DELTA_MEDIATED || b == BUCKET_SPECULAR_DIRECT;
+}
+
+#ifdef __cplusplus
+}  // namespace vkmech::shader
+#endif
+
+#endif

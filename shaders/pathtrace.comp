@@ -1,0 +1,290 @@
+#version 460
+// The render entry: one invocation per pixel runs this batch's samples and
+// writes the pixel's batch moments (GpuPixelAccum). The host merges batches.
+#extension GL_GOOGLE_include_directive : require
+#include "shared/types.h"
+#include "bindings.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+#include "scene_data.glsl"
+#include "traversal.glsl"
+#include "rng.glsl"
+#include "camera.glsl"
+#include "features.glsl"
+#include "bsdf.glsl"
+#include "mechanism.glsl"
+
+layout(std430, set = 0, binding = BINDING_ACCUM) writeonly buffer Accum { GpuPixelAccum accum[]; };
+
+const float PI = 3.14159265358979;
+
+// Provisional estimator (foundation issue): emission seen directly plus one
+// NEE bounce off a Lambertian stand-in for every material. The full SPEC §1
+// estimator replaces it.
+vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
+    Hit h;
+    if (!trace_closest(o, d, 0.0, 1e30, h)) return vec3(0.0);
+    SurfaceHit s = surface_hit(h.prim, h.bary);
+    vec3 L = vec3(0.0);
+    bool front = dot(s.ng, d) < 0.0;
+    if (s.emitter != 0u && front) L += emitters[s.emitter - 1u].radiance.rgb;
+    if (params.scene.x == 0u) return L;
+    vec3 ng = front ? s.ng : -s.ng;
+    vec3 ns = dot(s.ns, ng) < 0.0 ? -s.ns : s.ns;
+    GpuMaterial m = materials[s.material];
+    vec3 albedo = (m.header.x == MAT_DIFFUSE || m.header.x == MAT_PLASTIC || m.header.x == MAT_ROUGHPLASTIC ||
+                   m.header.x == MAT_PRINCIPLED) ? m.reflectance.rgb : vec3(0.5);
+    vec3 lu = vec3(rng_next(rng), rng_next(rng), rng_next(rng));
+    LightSample ls = sample_light(lu);
+    vec3 to_light = ls.p - s.p;
+    float dist2 = dot(to_light, to_light);
+    float dist = sqrt(dist2);
+    vec3 wi = to_light / dist;
+    float cos_s = dot(ns, wi);
+    float cos_l = -dot(ls.n, wi);
+    if (cos_s <= 0.0 || cos_l <= 0.0 || dot(ng, wi) <= 0.0) return L;
+    vec3 po = offset_ray_origin(s.p, ng);
+    vec3 pl = offset_ray_origin(ls.p, ls.n);
+    vec3 seg = pl - po;
+    float seg_len = length(seg);
+    if (trace_any(po, seg / seg_len, 0.0, seg_len)) return L;
+    L += albedo / PI * ls.radiance * cos_s * cos_l / (dist2 * ls.pdf_area);
+    return L;
+}
+
+
+// Specialization: estimator mode (SPEC §1): 0 nee, 1 mis-restricted, 2 mis.
+layout(constant_id = 8) const uint ESTIMATOR = 0u;
+const uint EST_NEE = 0u;
+const uint EST_MIS_RESTRICTED = 1u;
+const uint EST_MIS = 2u;
+
+struct Frame3 {
+    vec3 t, b, n;
+};
+
+// Duff et al. 2017, "Building an orthonormal basis, revisited".
+Frame3 frame_from_normal(vec3 n) {
+    float s = n.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (s + n.z);
+    float b = n.x * n.y * a;
+    Frame3 f;
+    f.t = vec3(1.0 + s * n.x * n.x * a, s * b, -s * n.x);
+    f.b = vec3(b, s + n.y * n.y * a, -n.y);
+    f.n = n;
+    return f;
+}
+vec3 to_local(Frame3 f, vec3 v) { return vec3(dot(v, f.t), dot(v, f.b), dot(v, f.n)); }
+vec3 to_world(Frame3 f, vec3 v) { return v.x * f.t + v.y * f.b + v.z * f.n; }
+
+float power_heuristic(float a, float b) {
+    float a2 = a * a;
+    float b2 = b * b;
+    return a2 + b2 > 0.0 ? a2 / (a2 + b2) : 0.0;
+}
+
+// Per-sample tallies of the descriptor (SPEC §3), discarded with the sample
+// if it turns out non-finite.
+struct Tally {
+    vec3 L;
+    float bucket[BUCKET_COUNT];
+    float glossy;       // energy of events whose V1..Vn has a glossy lobe
+    float depth_sum;    // sum of energy * n over events with n >= 1
+    float depth_w;      // sum of energy over events with n >= 1
+};
+
+void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_before, bool glossy_before) {
+    t.L += contrib;
+    if (!FEATURE_CAPTURE) return;
+    float e = luminance(contrib);
+    uint b = classify_event(n, end_lobe, delta_before);
+    t.bucket[b] += e;
+    if (glossy_before || end_lobe == LOBE_G) t.glossy += e;
+    if (n >= 1u) {
+        t.depth_sum += e * float(n);
+        t.depth_w += e;
+    }
+}
+
+// The SPEC §1 estimator: unidirectional path tracing with NEE at every
+// non-delta vertex, BSDF-sampled emitter hits accepted only from the camera
+// or after a delta lobe (or MIS-weighted in the MIS modes), Russian roulette
+// from depth rr_depth, at most max_depth segments.
+void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
+    uint max_depth = params.sampling.y;
+    uint rr_depth = params.sampling.z;
+    vec3 throughput = vec3(1.0);
+    bool delta_before = false;   // any of V1..V(k-1) sampled a delta lobe
+    bool glossy_before = false;  // any of V1..V(k-1) sampled a glossy lobe
+    uint prev_lobe = LOBE_NONE;  // lobe sampled at V(k-1)
+    float prev_pdf = 0.0;        // its solid-angle pdf (non-delta)
+    bool prev_mis = false;       // V(k-1) uses MIS for its BSDF-sampled emitter hits
+    bool prev_delta_before = false;
+    bool prev_glossy_before = false;
+    vec3 prev_p = o;
+    for (uint k = 1u; k <= max_depth; ++k) {
+        Hit h;
+        if (!trace_closest(o, d, 0.0, 1e30, h)) break;
+        SurfaceHit s = surface_hit(h.prim, h.bary);
+
+        // ---- emission seen by this segment ----
+        if (s.emitter != 0u && dot(s.ng, d) < 0.0) {
+            vec3 Le = emitters[s.emitter - 1u].radiance.rgb;
+            if (k == 1u) {
+                add_event(tally, throughput * Le, 0u, LOBE_NONE, false, false);
+            } else if (prev_lobe == LOBE_S) {
+                add_event(tally, throughput * Le, k - 1u, prev_lobe, prev_delta_before, prev_glossy_before);
+            } else if (prev_mis && prev_pdf > 0.0) {
+                float cos_l = -dot(s.ng, d);
+                float dist2 = h.t * h.t;
+                float p_light = luminance(Le) / params.lights.x * dist2 / max(cos_l, 1e-12);
+                float w = power_heuristic(prev_pdf, p_light);
+                add_event(tally, throughput * Le * w, k - 1u, prev_lobe, prev_delta_before, prev_glossy_before);
+            }
+        }
+        if (k >= max_depth) break;  // no segment left for NEE or a bounce
+
+        GpuMaterial m = materials[s.material];
+        Frame3 fr = frame_from_normal(s.ns);
+        vec3 wo_world = -d;
+        vec3 wo = to_local(fr, wo_world);
+        // Shading-normal consistency: wo must lie on the same side of both normals.
+        if (wo.z * dot(wo_world, s.ng) <= 0.0) break;
+        vec3 albedo = m.reflectance.rgb;
+
+        // ---- next-event estimation (SPEC §1: at every non-delta vertex) ----
+        uint nee_lobe = bsdf_nee_lobe(m);
+        bool vertex_mis = false;
+        if (nee_lobe != LOBE_NONE) {
+            if (ESTIMATOR == EST_MIS) {
+                vertex_mis = true;
+            } else if (ESTIMATOR == EST_MIS_RESTRICTED) {
+                uint b = classify_event(k, nee_lobe, delta_before);
+                vertex_mis = b == BUCKET_GLOSSY || b == BUCKET_DELTA_MEDIATED;
+            }
+        }
+        if (nee_lobe != LOBE_NONE && params.scene.x > 0u) {
+            vec3 lu = vec3(rng_next(rng), rng_next(rng), rng_next(rng));
+            LightSample ls = sample_light(lu);
+            vec3 to_light = ls.p - s.p;
+            float dist2 = dot(to_light, to_light);
+            float dist = sqrt(dist2);
+            vec3 wi_world = to_light / dist;
+            float cos_l = -dot(ls.n, wi_world);
+            vec3 wi = to_local(fr, wi_world);
+            if (cos_l > 0.0 && dist2 > 0.0 && wi.z * dot(wi_world, s.ng) > 0.0) {
+                vec3 f = bsdf_eval(m, albedo, wo, wi);
+                if (f.x > 0.0 || f.y > 0.0 || f.z > 0.0) {
+                    vec3 ng_side = dot(wi_world, s.ng) > 0.0 ? s.ng : -s.ng;
+                    vec3 po = offset_ray_origin(s.p, ng_side);
+                    vec3 pl = offset_ray_origin(ls.p, ls.n);
+                    vec3 seg = pl - po;
+                    float seg_len = length(seg);
+                    if (!trace_any(po, seg / seg_len, 0.0, seg_len)) {
+                        float p_light = ls.pdf_area * dist2 / cos_l;
+                        float w = 1.0;
+                        if (vertex_mis) w = power_heuristic(p_light, bsdf_pdf(m, albedo, wo, wi));
+                        add_event(tally, throughput * f * ls.radiance * (w / p_light), k, nee_lobe, delta_before,
+                                  glossy_before);
+                    }
+                }
+            }
+        } else {
+            // Keep the dimension count independent of the branch taken.
+            rng.dim += 3u;
+        }
+
+        // ---- BSDF sampling ----
+        float u_lobe = rng_next(rng);
+        vec2 u2 = rng_next2(rng);
+        BsdfSample bs = bsdf_sample(m, albedo, wo, u_lobe, u2);
+        if (!bs.ok) break;
+        vec3 wi_world = to_world(fr, bs.wi);
+        if (bs.wi.z * dot(wi_world, s.ng) <= 0.0) break;
+        throughput *= bs.weight;
+
+        prev_delta_before = delta_before;
+        prev_glossy_before = glossy_before;
+        prev_lobe = bs.lobe;
+        prev_pdf = bs.pdf;
+        prev_mis = vertex_mis && bs.lobe != LOBE_S;
+        if (bs.lobe == LOBE_S) delta_before = true;
+        if (bs.lobe == LOBE_G) glossy_before = true;
+
+        // ---- Russian roulette (SPEC §1: from depth rr_depth) ----
+        float u_rr = rng_next(rng);
+        if (k >= rr_depth) {
+            float q = min(max(throughput.x, max(throughput.y, throughput.z)), 0.95);
+            if (!(u_rr < q)) break;
+            throughput /= q;
+        }
+        if (!(max(throughput.x, max(throughput.y, throughput.z)) > 0.0)) break;
+
+        vec3 ng_side = dot(wi_world, s.ng) > 0.0 ? s.ng : -s.ng;
+        o = offset_ray_origin(s.p, ng_side);
+        d = wi_world;
+    }
+}
+
+void main() {
+    uvec2 px = gl_GlobalInvocationID.xy;
+    uint width = params.film.x;
+    uint height = params.film.y;
+    if (px.x >= width || px.y >= height) return;
+    uint pixel = px.y * width + px.x;
+    uint first = params.sampling.x;
+    uint count = params.film.w;
+
+    vec3 rgb_sum = vec3(0.0);
+    float n_ok = 0.0;
+    float mean = 0.0;
+    float m2 = 0.0;
+    float nonfinite = 0.0;
+    float bucket_sum[BUCKET_COUNT];
+    for (uint b = 0u; b < BUCKET_COUNT; ++b) bucket_sum[b] = 0.0;
+    float glossy_sum = 0.0;
+    float depth_sum = 0.0;
+    float depth_w = 0.0;
+    for (uint i = 0u; i < count; ++i) {
+        Rng rng = rng_init(params.film.z, pixel, first + i);
+        vec2 jitter = rng_next2(rng);  // box filter: uniform inside the pixel
+        vec2 lens = rng_next2(rng);
+        vec2 film_uv = (vec2(px) + jitter) / vec2(width, height);
+        vec3 o, d;
+        camera_ray(film_uv, lens, o, d);
+        Tally t;
+        t.L = vec3(0.0);
+        for (uint b = 0u; b < BUCKET_COUNT; ++b) t.bucket[b] = 0.0;
+        t.glossy = 0.0;
+        t.depth_sum = 0.0;
+        t.depth_w = 0.0;
+        if (params.scene.w == MODE_PATH) {
+            path_sample(rng, o, d, t);
+        } else {
+            t.L = preview_radiance(rng, o, d);
+        }
+        float lum = luminance(t.L);
+        bool bad = any(isnan(t.L)) || any(isinf(t.L)) || isnan(lum) || isinf(lum);
+        if (bad) {
+            nonfinite += 1.0;  // counted, never added (SPEC §3)
+            continue;
+        }
+        rgb_sum += t.L;
+        n_ok += 1.0;
+        float delta = lum - mean;  // Welford within the batch
+        mean += delta / n_ok;
+        m2 += delta * (lum - mean);
+        for (uint b = 0u; b < BUCKET_COUNT; ++b) bucket_sum[b] += t.bucket[b];
+        glossy_sum += t.glossy;
+        depth_sum += t.depth_sum;
+        depth_w += t.depth_w;
+    }
+    GpuPixelAccum a;
+    a.rgb = vec4(rgb_sum, n_ok);
+    a.lum = vec4(mean, m2, nonfinite, 0.0);
+    a.bucket0 = vec4(bucket_sum[0], bucket_sum[1], bucket_sum[2], bucket_sum[3]);
+    a.bucket1 = vec4(bucket_sum[4], bucket_sum[5], bucket_sum[6], glossy_sum);
+    a.side = vec4(depth_sum, depth_w, 0.0, 0.0);
+    accum[pixel] = a;
+}

@@ -1,0 +1,99 @@
+// Scene buffers and hit-point reconstruction shared by the render entries.
+#ifndef VKMECH_SCENE_DATA_GLSL
+#define VKMECH_SCENE_DATA_GLSL
+
+layout(std140, set = 0, binding = BINDING_PARAMS) uniform ParamsBlock { GpuParams params; };
+layout(std430, set = 0, binding = BINDING_VERTICES) readonly buffer Vertices { GpuVertex vertices[]; };
+layout(std430, set = 0, binding = BINDING_TRIANGLES) readonly buffer Triangles { uvec4 triangles[]; };
+layout(std430, set = 0, binding = BINDING_MATERIALS) readonly buffer Materials { GpuMaterial materials[]; };
+layout(std430, set = 0, binding = BINDING_LIGHT_TRIS) readonly buffer LightTris { GpuLightTriangle light_tris[]; };
+layout(std430, set = 0, binding = BINDING_EMITTERS) readonly buffer Emitters { GpuEmitter emitters[]; };
+
+struct SurfaceHit {
+    vec3 p;        // world position
+    vec3 ng;       // geometric normal (winding order)
+    vec3 ns;       // shading normal, same hemisphere as ng
+    vec2 uv;
+    uint material;
+    uint emitter;  // emitter index + 1, 0 when not emissive
+};
+
+SurfaceHit surface_hit(uint prim, vec2 bary) {
+    uvec4 tri = triangles[prim];
+    GpuVertex a = vertices[tri.x];
+    GpuVertex b = vertices[tri.y];
+    GpuVertex c = vertices[tri.z];
+    float w0 = 1.0 - bary.x - bary.y;
+    SurfaceHit s;
+    s.p = w0 * a.position.xyz + bary.x * b.position.xyz + bary.y * c.position.xyz;
+    s.ng = normalize(cross(b.position.xyz - a.position.xyz, c.position.xyz - a.position.xyz));
+    if ((tri.w & TRI_FLAT_BIT) != 0u) {
+        s.ns = s.ng;
+    } else {
+        vec3 n = w0 * a.normal.xyz + bary.x * b.normal.xyz + bary.y * c.normal.xyz;
+        float len = length(n);
+        s.ns = len > 0.0 ? n / len : s.ng;
+        if (dot(s.ns, s.ng) < 0.0) s.ng = -s.ng;  // winding disagrees with the authored normals
+    }
+    s.uv = w0 * vec2(a.position.w, a.normal.w) + bary.x * vec2(b.position.w, b.normal.w) + bary.y * vec2(c.position.w, c.normal.w);
+    s.material = tri.w & TRI_MATERIAL_MASK;
+    s.emitter = (tri.w >> TRI_EMITTER_SHIFT) & TRI_EMITTER_MASK;
+    return s;
+}
+
+// Scale-aware self-intersection avoidance (Wächter & Binder, Ray Tracing
+// Gems ch. 6): move p along n by a few ulps, or by a small absolute step near
+// the origin. n must point to the side the new ray leaves from.
+vec3 offset_ray_origin(vec3 p, vec3 n) {
+    const float origin = 1.0 / 32.0;
+    const float float_scale = 1.0 / 65536.0;
+    const float int_scale = 256.0;
+    ivec3 of_i = ivec3(int_scale * n);
+    vec3 p_i = vec3(intBitsToFloat(floatBitsToInt(p.x) + ((p.x < 0.0) ? -of_i.x : of_i.x)),
+                    intBitsToFloat(floatBitsToInt(p.y) + ((p.y < 0.0) ? -of_i.y : of_i.y)),
+                    intBitsToFloat(floatBitsToInt(p.z) + ((p.z < 0.0) ? -of_i.z : of_i.z)));
+    return vec3(abs(p.x) < origin ? p.x + float_scale * n.x : p_i.x,
+                abs(p.y) < origin ? p.y + float_scale * n.y : p_i.y,
+                abs(p.z) < origin ? p.z + float_scale * n.z : p_i.z);
+}
+
+float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
+
+// Power-proportional light selection (host/render/gpu_scene.cpp builds the cdf).
+uint select_light_triangle(float u) {
+    uint lo = 0u;
+    uint hi = params.scene.x - 1u;
+    while (lo < hi) {
+        uint mid = (lo + hi) / 2u;
+        if (light_tris[mid].cdf.x < u) lo = mid + 1u; else hi = mid;
+    }
+    return lo;
+}
+
+struct LightSample {
+    vec3 p;
+    vec3 n;         // emitting side
+    vec3 radiance;
+    float pdf_area; // selection * uniform area
+};
+
+LightSample sample_light(vec3 u) {
+    uint li = select_light_triangle(u.x);
+    GpuLightTriangle lt = light_tris[li];
+    uint prim = lt.info.x;
+    uvec4 tri = triangles[prim];
+    vec3 a = vertices[tri.x].position.xyz;
+    vec3 b = vertices[tri.y].position.xyz;
+    vec3 c = vertices[tri.z].position.xyz;
+    float su = sqrt(u.y);
+    float b0 = 1.0 - su;
+    float b1 = u.z * su;
+    LightSample s;
+    s.p = b0 * a + b1 * b + (1.0 - b0 - b1) * c;
+    s.n = normalize(cross(b - a, c - a));
+    s.radiance = emitters[lt.info.y].radiance.rgb;
+    s.pdf_area = lt.cdf.z;
+    return s;
+}
+
+#endif

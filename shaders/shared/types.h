@@ -1,0 +1,131 @@
+// Struct layouts shared by GLSL (std430 / std140) and C++ (DESIGN: one source
+// of truth). Only vec4 / uvec4 / mat4 members: never a bare vec3, whose size
+// differs between glm (12 bytes) and std430 (16-aligned).
+// host/render/layout_check.cpp static_asserts every size.
+#ifndef VKMECH_SHARED_TYPES_H
+#define VKMECH_SHARED_TYPES_H
+
+#ifdef __cplusplus
+#include <glm/glm.hpp>
+#include <cstdint>
+namespace vkmech::gpu {
+using vec4 = glm::vec4;
+using uvec4 = glm::uvec4;
+using mat4 = glm::mat4;
+using uint = uint32_t;
+#define VKM_CONST static constexpr uint
+#else
+#define VKM_CONST const uint
+#endif
+
+// Bucket indices, the paper's Table 1 order (SPEC §2).
+VKM_CONST BUCKET_EMITTER_DIRECT = 0u;
+VKM_CONST BUCKET_DIRECT = 1u;
+VKM_CONST BUCKET_DIFFUSE_INDIRECT = 2u;
+VKM_CONST BUCKET_GLOSSY = 3u;
+VKM_CONST BUCKET_DELTA_MEDIATED = 4u;
+VKM_CONST BUCKET_SPECULAR_DIRECT = 5u;
+VKM_CONST BUCKET_OTHER = 6u;
+VKM_CONST BUCKET_COUNT = 7u;
+
+// End-vertex lobes (SPEC §2): diffuse, glossy, delta specular; NONE for "no
+// lobe" (primary ray hits the emitter) and anything unclassifiable.
+VKM_CONST LOBE_D = 0u;
+VKM_CONST LOBE_G = 1u;
+VKM_CONST LOBE_S = 2u;
+VKM_CONST LOBE_NONE = 3u;
+
+// Material types (host BsdfType values).
+VKM_CONST MAT_DIFFUSE = 0u;
+VKM_CONST MAT_PLASTIC = 1u;
+VKM_CONST MAT_ROUGHPLASTIC = 2u;
+VKM_CONST MAT_CONDUCTOR = 3u;
+VKM_CONST MAT_ROUGHCONDUCTOR = 4u;
+VKM_CONST MAT_DIELECTRIC = 5u;
+VKM_CONST MAT_ROUGHDIELECTRIC = 6u;
+VKM_CONST MAT_THINDIELECTRIC = 7u;
+VKM_CONST MAT_PRINCIPLED = 8u;
+
+// Triangle word w: bits 0..15 material, 16..29 emitter + 1 (0: none),
+// bit 30: flat shading (use the geometric normal).
+VKM_CONST TRI_MATERIAL_MASK = 0xFFFFu;
+VKM_CONST TRI_EMITTER_SHIFT = 16u;
+VKM_CONST TRI_EMITTER_MASK = 0x3FFFu;
+VKM_CONST TRI_FLAT_BIT = 0x40000000u;
+
+// Render modes (Params.mode.x).
+VKM_CONST MODE_DIRECT_PREVIEW = 0u;  // provisional: emission + one NEE bounce
+VKM_CONST MODE_PATH = 1u;            // the full estimator (SPEC §1)
+
+struct GpuVertex {
+    vec4 position;  // xyz, w = u texture coordinate
+    vec4 normal;    // xyz shading normal, w = v texture coordinate
+};
+
+struct GpuMaterial {
+    uvec4 header;        // x: type, y: twosided, z: reflectance texture + 1 (0 none), w: distribution
+    vec4 reflectance;    // rgb, w: alpha_u
+    vec4 specular_reflectance;    // rgb, w: alpha_v
+    vec4 specular_transmittance;  // rgb, w: int_ior
+    vec4 eta;            // rgb (conductor), w: ext_ior
+    vec4 k;              // rgb (conductor), w: nonlinear (0/1)
+    vec4 principled0;    // metallic, roughness, specular, spec_tint
+    vec4 principled1;    // anisotropic, sheen, sheen_tint, clearcoat
+    vec4 principled2;    // clearcoat_gloss, spec_trans, eta, unused
+};
+
+struct GpuEmitter {
+    vec4 radiance;  // rgb, w: total area
+    uvec4 info;     // x: mesh index, y: first light triangle, z: light triangle count
+};
+
+// One emissive triangle in the light-selection table: selection probability
+// proportional to luminance(radiance) * area (power), SPEC §3 "light selection
+// proportional to power".
+struct GpuLightTriangle {
+    uvec4 info;  // x: triangle index, y: emitter index
+    vec4 cdf;    // x: cdf up to and including this triangle, y: area, z: pdf_area (selection / area)
+};
+
+// Flattened BVH node (depth-first): interior nodes have count == 0, their
+// first child is the next node and `offset` is the second child; leaves hold
+// `count` triangles starting at `offset` (in BVH triangle order).
+struct GpuBvhNode {
+    vec4 bmin;    // xyz, w: uintBitsToFloat(offset)
+    vec4 bmax;    // xyz, w: uintBitsToFloat(count)
+};
+
+struct GpuParams {
+    mat4 camera_to_world;
+    vec4 camera;       // tan(half fov x), tan(half fov y), aperture radius, focus distance
+    uvec4 film;        // width, height, seed, samples in this batch
+    uvec4 sampling;    // first sample index, max_depth, rr_depth, estimator
+    uvec4 scene;       // light triangle count, emitter count, triangle count, mode
+    vec4 lights;       // x: total light weight, y: scene scale (for ray offsets)
+};
+
+// Per-pixel result of one batch. Welford moments within the batch
+// (DESIGN "stable numerics"); the host merges batches in double.
+struct GpuPixelAccum {
+    vec4 rgb;          // rgb sum, w: samples counted (finite)
+    vec4 lum;          // x: mean luminance, y: M2, z: non-finite samples, w: unused
+    vec4 bucket0;      // energy sums of buckets 0..3
+    vec4 bucket1;      // energy sums of buckets 4..6, w: glossy-touching energy sum
+    vec4 side;         // x: sum(energy * depth) over n >= 1, y: energy sum over n >= 1
+};
+
+// Ray-tracing test kernel (tracerays.comp): one ray in, one hit out.
+struct GpuRay {
+    vec4 origin;     // xyz, w: tmin
+    vec4 direction;  // xyz, w: tmax
+};
+struct GpuHit {
+    vec4 hit;        // x: t (or -1 for a miss), y: u, z: v, w: uintBitsToFloat(primitive)
+};
+
+#ifdef __cplusplus
+}  // namespace vkmech::gpu
+#undef VKM_CONST
+#endif
+
+#endif

@@ -1,0 +1,35 @@
+#include "scene_fixtures.hpp"
+
+#include <algorithm>
+#include <filesystem>
+
+namespace vkmech::testing {
+
+std::vector<std::string> project_scene_paths() {
+    std::vector<std::string> out;
+    for (const auto& e : std::filesystem::directory_iterator(std::string(VKMECH_SOURCE_DIR) + "/scenes"))
+        if (e.is_regular_file() && e.path().extension() == ".xml") out.push_back(e.path().string());
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+Scene quad_scene() {
+    Scene s;
+    s.source = "<quad_scene>";
+    Material m;
+    m.id = "white";
+    s.materials.push_back(m);
+    Mesh q;
+    q.name = "quad";
+    q.kind = ShapeKind::Rectangle;
+    q.positions = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+    q.indices = {{0, 1, 2}, {0, 2, 3}};
+    q.material = 0;
+    s.meshes.push_back(q);
+    s.camera.to_world = glm::mat4(1.0f);
+    s.camera.to_world[3] = glm::vec4(0, 0, -3, 1);  // at z = -3 looking along +z
+    s.camera.width = s.camera.height = 16;
+    return s;
+}
+
+}  // namespace vkmech::testing
