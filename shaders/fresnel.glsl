@@ -26,7 +26,8 @@ SHARED_FN float fresnel_dielectric(float cos_theta_i, float eta, OUT(float) cos_
     eta_it = outside ? eta : rcp_eta;
     eta_ti = outside ? rcp_eta : eta;
     // Snell: sin^2(theta_t) = eta_ti^2 sin^2(theta_i).
-    float cos_t_sqr = 1.0 - eta_ti * eta_ti * max(1.0 - cos_theta_i * cos_theta_i, 0.0);
+    float sin_i_sqr = 1.0 - cos_theta_i * cos_theta_i;
+    float cos_t_sqr = 1.0 - eta_ti * eta_ti * max(sin_i_sqr, float(0.0));
     float ci = abs(cos_theta_i);
     float ct = safe_sqrt(cos_t_sqr);
     cos_theta_t = cos_theta_i >= 0.0 ? -ct : ct;
@@ -107,7 +108,8 @@ SHARED_FN float schlick_fresnel_angle_weight(float cos_theta_i, float eta) {
     float eta_it = outside ? eta : 1.0 / eta;
     float eta_ti = outside ? 1.0 / eta : eta;
     if (eta_it > 1.0) return schlick_weight(abs(cos_theta_i));
-    float cos_t_sqr = 1.0 - eta_ti * eta_ti * max(1.0 - cos_theta_i * cos_theta_i, 0.0);
+    float sin_i_sqr = 1.0 - cos_theta_i * cos_theta_i;
+    float cos_t_sqr = 1.0 - eta_ti * eta_ti * max(sin_i_sqr, float(0.0));
     return schlick_weight(safe_sqrt(cos_t_sqr));
 }
 SHARED_FN float schlick_fresnel(float r0, float cos_theta_i, float eta) {

@@ -56,7 +56,7 @@ TEST_CASE("cli: bad usage and bad input exit with code 2 and say what is wrong")
     CHECK(r.output.find("devices") != std::string::npos);
 }
 
-TEST_CASE("cli: a malformed scene file is reported with file and line, exit 2") {
+TEST_CASE("cli: a malformed scene file is reported with file and line - exit 2") {
     fs::path dir = fs::temp_directory_path() / ("vkmech_cli_bad_" + std::to_string(::getpid()));
     fs::create_directories(dir);
     fs::path bad = dir / "broken.xml";

@@ -62,7 +62,7 @@ const std::string kUncreatable = "/proc/vkmech_no_such_dir/sub/out";
 
 }  // namespace
 
-TEST_CASE("io: EXR round-trip of named, layered channels keeps order and exact values") {
+TEST_CASE("io: EXR round-trip of named - layered channels keeps order and exact values") {
     TempDir tmp("exr");
     const int w = 7, h = 5;
     const size_t n = static_cast<size_t>(w) * h;

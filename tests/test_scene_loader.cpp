@@ -69,7 +69,7 @@ void check_facing(const Mesh& m, const glm::vec3& n) {
 // Primitives
 // ---------------------------------------------------------------------------
 
-TEST_CASE("primitives: rectangle is [-1,1]^2 at z = 0, two CCW triangles facing +z") {
+TEST_CASE("primitives: rectangle is [-1/1]^2 at z = 0 - two CCW triangles facing +z") {
     Mesh m = make_rectangle(glm::mat4(1.0f));
     CHECK(m.kind == ShapeKind::Rectangle);
     CHECK(m.indices.size() == 2);
@@ -98,7 +98,7 @@ TEST_CASE("primitives: cube has 12 outward triangles and area 24 s^2") {
     CHECK(inward == 0);
 }
 
-TEST_CASE("primitives: sphere is smooth, closed, CCW outward, with no pole slivers") {
+TEST_CASE("primitives: sphere is smooth - closed - CCW outward - with no pole slivers") {
     glm::vec3 c(1, 2, 3);
     float r = 0.5f;
     Mesh m = make_sphere(c, r, glm::mat4(1.0f));
@@ -141,7 +141,7 @@ TEST_CASE("primitives: sphere under a similarity transform keeps (p - c) / r nor
                                                                     inward.center) < 0.0f);
 }
 
-TEST_CASE("primitives: a non-uniformly scaled sphere is an ellipsoid with exact normals, not a sphere") {
+TEST_CASE("primitives: a non-uniformly scaled sphere is an ellipsoid with exact normals - not a sphere") {
     glm::vec3 axes(0.045f, 0.033f, 0.02f);
     Mesh m = make_sphere(glm::vec3(0.0f), 1.0f, glm::scale(glm::mat4(1.0f), axes));
     CHECK(m.kind == ShapeKind::Mesh);  // must not be sampled as an analytic sphere
@@ -156,7 +156,7 @@ TEST_CASE("primitives: a non-uniformly scaled sphere is an ellipsoid with exact 
     CHECK(off == 0);
 }
 
-TEST_CASE("primitives: disk is the unit disk facing +z, area close to pi") {
+TEST_CASE("primitives: disk is the unit disk facing +z - area close to pi") {
     Mesh m = make_disk(glm::mat4(1.0f));
     CHECK(m.indices.size() == 128);
     check_mesh_invariants(m);
@@ -200,7 +200,7 @@ TEST_CASE("primitives: a mirroring transform keeps the facing of the normal fiel
 // Mesh files
 // ---------------------------------------------------------------------------
 
-TEST_CASE("mesh_io: OBJ with v/vt/vn, negative indices and a polygon") {
+TEST_CASE("mesh_io: OBJ with v/vt/vn - negative indices and a polygon") {
     Mesh m = load_obj(data("loader/meshes/quad.obj"));
     // Quad fan (2) + triangle (1); corners deduplicated by (v, vt, vn).
     CHECK(m.indices.size() == 3);
@@ -212,7 +212,7 @@ TEST_CASE("mesh_io: OBJ with v/vt/vn, negative indices and a polygon") {
     CHECK(surface_area(m) == doctest::Approx(1.5));
 }
 
-TEST_CASE("mesh_io: OBJ face forms v, v/vt, v//vn, v/vt/vn; partial normals are dropped") {
+TEST_CASE("mesh_io: OBJ face forms v - v/vt - v//vn - v/vt/vn - partial normals are dropped") {
     Mesh m = load_obj(data("loader/meshes/forms.obj"));
     CHECK(m.indices.size() == 4 + 3);  // 4 triangles + a fan-triangulated pentagon
     CHECK(m.normals.empty());
@@ -221,7 +221,7 @@ TEST_CASE("mesh_io: OBJ face forms v, v/vt, v//vn, v/vt/vn; partial normals are 
     check_facing(m, {0, 0, 1});
 }
 
-TEST_CASE("mesh_io: PLY ascii, binary little and big endian read the same mesh") {
+TEST_CASE("mesh_io: PLY ascii - binary little and big endian read the same mesh") {
     const char* files[] = {"loader/meshes/quad_ascii.ply", "loader/meshes/quad_binary_le.ply",
                            "loader/meshes/quad_binary_be.ply"};
     for (const char* f : files) {
@@ -257,7 +257,7 @@ TEST_CASE("mesh_io: a missing file and an unknown extension are SceneErrors nami
 // Valid Mitsuba scenes
 // ---------------------------------------------------------------------------
 
-TEST_CASE("mitsuba: every shape, bsdf family, sensor and integrator setting") {
+TEST_CASE("mitsuba: every shape - bsdf family - sensor and integrator setting") {
     Scene s = load_scene(data("loader/all_shapes.xml"));
     CHECK(s.source == data("loader/all_shapes.xml"));
     CHECK(s.meshes.size() == 10);
@@ -427,7 +427,7 @@ TEST_CASE("mitsuba: every shape, bsdf family, sensor and integrator setting") {
     }
 }
 
-TEST_CASE("mitsuba: 0.6-style camelCase names, toWorld, spectra, maxDepth -1") {
+TEST_CASE("mitsuba: 0.6-style camelCase names - toWorld - spectra - maxDepth -1") {
     Scene s = load_mitsuba_xml(data("loader/camelcase_06.xml"));
     CHECK(s.meshes.size() == 4);
     for (const auto& m : s.meshes) check_mesh_invariants(m);
@@ -476,7 +476,7 @@ TEST_CASE("mitsuba: 0.6-style camelCase names, toWorld, spectra, maxDepth -1") {
     CHECK(s.emitters[0].mesh == 3);
 }
 
-TEST_CASE("mitsuba: $param defaults, -D overrides, unused -D is fine") {
+TEST_CASE("mitsuba: $param defaults - -D overrides - unused -D is fine") {
     Scene d = load_mitsuba_xml(data("loader/params.xml"));
     CHECK(d.meshes[0].radius == doctest::Approx(2.0f));
     CHECK(near(d.meshes[0].center, {1.5f, 0, -1.5f}));
@@ -493,7 +493,7 @@ TEST_CASE("mitsuba: $param defaults, -D overrides, unused -D is fine") {
     CHECK(s.materials[s.meshes[0].material].int_ior == doctest::Approx(2.419f));
 }
 
-TEST_CASE("mitsuba: nested includes relative to the including file, bitmap textures") {
+TEST_CASE("mitsuba: nested includes relative to the including file - bitmap textures") {
     Scene s = load_mitsuba_xml(data("loader/include_main.xml"));
     REQUIRE(s.meshes.size() == 2);
     const Material& red = s.materials[s.meshes[0].material];
@@ -550,7 +550,7 @@ TEST_CASE("mitsuba: envmap/constant are errors unless substitution is asked for"
     }
 }
 
-TEST_CASE("mitsuba: mirroring transforms, binary PLY shapes, face_normals") {
+TEST_CASE("mitsuba: mirroring transforms - binary PLY shapes - face_normals") {
     Scene s = load_mitsuba_xml(data("loader/mirror_transform.xml"));
     for (const auto& m : s.meshes) check_mesh_invariants(m);
     // A one-sided emitter keeps facing +z (Mitsuba transforms its frame).

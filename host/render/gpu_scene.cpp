@@ -1,5 +1,7 @@
 #include "render/gpu_scene.hpp"
 
+#include "bsdf.glsl"
+
 #include <cmath>
 #include <stdexcept>
 
@@ -51,6 +53,8 @@ gpu::GpuMaterial pack_material(const Material& m) {
     g.principled0 = glm::vec4(m.metallic, m.roughness, m.specular, m.spec_tint);
     g.principled1 = glm::vec4(m.anisotropic, m.sheen, m.sheen_tint, m.clearcoat);
     g.principled2 = glm::vec4(m.clearcoat_gloss, m.spec_trans, m.eta_principled, 0.0f);
+    // roughplastic: precomputed coat transmittance table in the unused fields.
+    if (m.type == BsdfType::RoughPlastic) g = shader::roughplastic_prepare(g);
     return g;
 }
 

@@ -84,6 +84,7 @@ Frame Renderer::render(const RenderSpec& spec) {
         });
         accum_.download(ctx_, batch.data(), batch.size() * sizeof(gpu::GpuPixelAccum));
         frame.merge(batch);
+        if (spec.on_batch) spec.on_batch(batch);
         done += n;
         if (spec.progress) spec.progress(done, spec.spp);
     }

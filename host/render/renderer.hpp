@@ -18,6 +18,8 @@ struct RenderSpec {
     uint32_t mode = gpu::MODE_PATH;
     // Called after each batch with (samples done, samples total).
     std::function<void(uint32_t, uint32_t)> progress;
+    // Called with each batch's raw per-pixel moments (tests, per-frame studies).
+    std::function<void(const std::vector<gpu::GpuPixelAccum>&)> on_batch;
 };
 
 class Renderer {

@@ -1,0 +1,24 @@
+#include "render_fixture.hpp"
+
+#include <cmath>
+
+namespace vkmech::testing {
+
+Frame render_scene(vk::Context& ctx, const std::string& path, const RenderSetup& setup) {
+    Scene scene = load_scene(path, setup.load);
+    double aspect = static_cast<double>(scene.camera.height) / scene.camera.width;
+    scene.camera.width = setup.res;
+    scene.camera.height = std::max(1, static_cast<int>(std::lround(setup.res * aspect)));
+    SceneArrays arrays = flatten_scene(scene);
+    GpuScene gpu(ctx, arrays, setup.traversal);
+    Features f = setup.generic ? Features::generic(setup.estimator) : Features::from_scene(scene, setup.estimator);
+    Renderer r(ctx, scene, arrays, gpu, f);
+    RenderSpec spec;
+    spec.spp = setup.spp;
+    spec.seed = setup.seed;
+    spec.batch_spp = setup.batch;
+    spec.on_batch = setup.on_batch;
+    return r.render(spec);
+}
+
+}  // namespace vkmech::testing

@@ -1,0 +1,29 @@
+// Renders a scene on the test device with one call, for the estimator tests.
+#pragma once
+
+#include "render/descriptor.hpp"
+#include "render/features.hpp"
+#include "render/gpu_scene.hpp"
+#include "render/renderer.hpp"
+#include "scene/scene.hpp"
+#include "vk/context.hpp"
+
+#include <functional>
+
+namespace vkmech::testing {
+
+struct RenderSetup {
+    int res = 32;  // film width (height by aspect)
+    uint32_t spp = 16;
+    uint32_t seed = 0;
+    uint32_t batch = 8;
+    Traversal traversal = Traversal::Bvh;
+    Estimator estimator = Estimator::Nee;
+    bool generic = false;
+    LoadOptions load;
+    std::function<void(const std::vector<gpu::GpuPixelAccum>&)> on_batch;
+};
+
+Frame render_scene(vk::Context& ctx, const std::string& path, const RenderSetup& setup);
+
+}  // namespace vkmech::testing

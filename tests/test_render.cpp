@@ -1,0 +1,212 @@
+// The SPEC §1-§3 estimator and descriptor on the device (lavapipe in CI).
+#include "gpu_fixture.hpp"
+#include "render_fixture.hpp"
+#include "scene_fixtures.hpp"
+
+#include "mechanism.glsl"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstring>
+#include <functional>
+
+using namespace vkmech;
+using testing::RenderSetup;
+
+namespace {
+
+std::string test_scene(const std::string& name) { return std::string(VKMECH_TEST_DATA) + "/render/" + name + ".xml"; }
+std::string project_scene(const std::string& name) { return std::string(VKMECH_SOURCE_DIR) + "/scenes/" + name + ".xml"; }
+
+struct ImageStats {
+    double mean_lum = 0.0;     // mean over pixels of the per-pixel mean luminance
+    double std_error = 0.0;    // its standard error from the per-pixel sample variances
+};
+
+ImageStats image_stats(const Frame& f) {
+    ImageStats s;
+    double var_sum = 0.0;
+    for (const auto& p : f.pixels) {
+        s.mean_lum += p.lum_mean;
+        var_sum += p.lum_var() / std::max(1.0, p.count);
+    }
+    double n = static_cast<double>(f.pixels.size());
+    s.mean_lum /= n;
+    s.std_error = std::sqrt(var_sum) / n;
+    return s;
+}
+
+}  // namespace
+
+TEST_SUITE("gpu") {
+    TEST_CASE("render: bucket energies sum to the pixel luminance and `other` gets nothing - on every scene") {
+        VKMECH_REQUIRE_GPU(ctx);
+        for (const auto& path : testing::project_scene_paths()) {
+            CAPTURE(path);
+            RenderSetup setup;
+            setup.res = 24;
+            setup.spp = 4;
+            Frame f = testing::render_scene(*ctx, path, setup);
+            Descriptor d = derive_descriptor(f);
+            DescriptorSummary s = summarize(f, d);
+            CHECK(s.other_energy == 0.0);
+            CHECK(s.nonfinite_samples == 0);
+            CHECK(s.labelled_pixels > 0);
+            for (size_t i = 0; i < f.pixels.size(); ++i) {
+                double lum = f.pixels[i].lum_mean;
+                double sum = d.total_energy[i];
+                if (std::abs(sum - lum) > 1e-4 * std::max(lum, 1e-6)) {
+                    CAPTURE(i);
+                    CHECK(sum == doctest::Approx(lum).epsilon(1e-4));
+                    break;
+                }
+            }
+        }
+    }
+
+    TEST_CASE("render: integrator furnace (albedo 0.5 - Le 0.5 inside a closed sphere) gives 1 - 0.5^12") {
+        VKMECH_REQUIRE_GPU(ctx);
+        RenderSetup setup;
+        setup.res = 16;
+        setup.spp = 256;
+        setup.batch = 64;
+        Frame f = testing::render_scene(*ctx, test_scene("furnace"), setup);
+        ImageStats s = image_stats(f);
+        double expected = 1.0 - std::pow(0.5, 12);
+        CAPTURE(s.mean_lum);
+        CAPTURE(s.std_error);
+        CHECK(std::abs(s.mean_lum - expected) < 4.0 * s.std_error + 1e-4);
+        // Event labels: the primary hit is emitter_direct (half the energy),
+        // NEE at V1 is direct, deeper NEE is diffuse_indirect.
+        Descriptor d = derive_descriptor(f);
+        double e[kBucketCount] = {};
+        for (const auto& b : d.bucket_energy)
+            for (uint32_t k = 0; k < kBucketCount; ++k) e[k] += b[k] / d.bucket_energy.size();
+        CHECK(e[gpu::BUCKET_EMITTER_DIRECT] == doctest::Approx(0.5).epsilon(1e-4));
+        CHECK(e[gpu::BUCKET_DIRECT] == doctest::Approx(0.25).epsilon(0.02));
+        CHECK(e[gpu::BUCKET_DIFFUSE_INDIRECT] == doctest::Approx(0.25 - std::pow(0.5, 12)).epsilon(0.04));
+        CHECK(e[gpu::BUCKET_GLOSSY] + e[gpu::BUCKET_DELTA_MEDIATED] + e[gpu::BUCKET_SPECULAR_DIRECT] + e[gpu::BUCKET_OTHER] == 0.0);
+    }
+
+    TEST_CASE("render: the same seed gives bit-identical frames - batching changes only float rounding") {
+        VKMECH_REQUIRE_GPU(ctx);
+        RenderSetup setup;
+        setup.res = 24;
+        setup.spp = 64;
+        setup.batch = 64;
+        std::string path = project_scene("glass_caustic");
+        Frame a = testing::render_scene(*ctx, path, setup);
+        Frame b = testing::render_scene(*ctx, path, setup);
+        setup.batch = 32;
+        Frame c = testing::render_scene(*ctx, path, setup);
+        bool identical = true;
+        double worst = 0.0;
+        for (size_t i = 0; i < a.pixels.size(); ++i) {
+            const auto &pa = a.pixels[i], &pb = b.pixels[i], &pc = c.pixels[i];
+            identical = identical && std::memcmp(&pa, &pb, sizeof(PixelStats)) == 0;
+            for (int k = 0; k < 3; ++k)
+                worst = std::max(worst, std::abs(pa.rgb_sum[k] - pc.rgb_sum[k]) / std::max(1e-6, std::abs(pa.rgb_sum[k])));
+            CHECK(pa.count == pc.count);
+        }
+        CHECK(identical);
+        CHECK(worst < 1e-5);  // 64 in one batch == 2 x 32, to float rounding
+        setup.seed = 1;
+        Frame d = testing::render_scene(*ctx, path, setup);
+        CHECK(std::memcmp(&a.pixels[0], &d.pixels[0], sizeof(PixelStats) * a.pixels.size()) != 0);
+    }
+
+    TEST_CASE("render: ray query and BVH images agree on every scene") {
+        VKMECH_REQUIRE_GPU(ctx);
+        if (!ctx->ray_query_enabled()) {
+            MESSAGE("skipped: device has no ray query");
+            return;
+        }
+        for (const auto& path : testing::project_scene_paths()) {
+            CAPTURE(path);
+            RenderSetup setup;
+            setup.res = 24;
+            setup.spp = 8;
+            Frame a = testing::render_scene(*ctx, path, setup);
+            setup.traversal = Traversal::RayQuery;
+            Frame b = testing::render_scene(*ctx, path, setup);
+            // Identical sample streams; a path may only diverge where the two
+            // traversals legitimately differ (ties at shared edges, float
+            // rounding of hit points feeding a chain of bounces).
+            size_t differing = 0;
+            double sum_a = 0.0, sum_b = 0.0;
+            for (size_t i = 0; i < a.pixels.size(); ++i) {
+                double la = a.pixels[i].lum_mean, lb = b.pixels[i].lum_mean;
+                sum_a += la;
+                sum_b += lb;
+                if (std::abs(la - lb) > 1e-3 * std::max({la, lb, 1e-3})) differing++;
+            }
+            CAPTURE(differing);
+            CHECK(differing <= a.pixels.size() / 20);
+            CHECK(sum_a == doctest::Approx(sum_b).epsilon(0.02));
+        }
+    }
+
+    TEST_CASE("render: hard cases stay finite and lum_var matches a two-pass double reference over 4096 samples") {
+        VKMECH_REQUIRE_GPU(ctx);
+        const int res = 6;
+        RenderSetup setup;
+        setup.res = res;
+        setup.spp = 4096;
+        setup.batch = 64;
+        Frame f = testing::render_scene(*ctx, test_scene("hard_cases"), setup);
+        for (const auto& p : f.pixels) {
+            CHECK(p.nonfinite == 0.0);
+            CHECK(p.count == 4096.0);
+            for (double c : p.rgb_sum) CHECK((std::isfinite(c) && c >= 0.0));
+            for (double e : p.bucket_sum) CHECK((std::isfinite(e) && e >= 0.0));
+        }
+        // Two-pass reference in double: batches of one sample hand over each
+        // sample's luminance exactly (the batch mean of one value).
+        setup.batch = 1;
+        std::vector<std::vector<double>> per_sample(f.pixels.size());
+        setup.on_batch = [&](const std::vector<gpu::GpuPixelAccum>& batch) {
+            for (size_t i = 0; i < batch.size(); ++i)
+                if (batch[i].rgb.w > 0.0f) per_sample[i].push_back(batch[i].lum.x);
+        };
+        testing::render_scene(*ctx, test_scene("hard_cases"), setup);
+        for (size_t i = 0; i < f.pixels.size(); ++i) {
+            CAPTURE(i);
+            const auto& v = per_sample[i];
+            REQUIRE(v.size() == 4096);
+            double mean = 0.0;
+            for (double x : v) mean += x;
+            mean /= v.size();
+            double ss = 0.0;
+            for (double x : v) ss += (x - mean) * (x - mean);
+            double var = ss / (v.size() - 1);
+            CHECK(f.pixels[i].lum_mean == doctest::Approx(mean).epsilon(1e-5));
+            CHECK(f.pixels[i].lum_var() == doctest::Approx(var).epsilon(1e-4));
+        }
+    }
+
+    TEST_CASE("render: nee and mis agree within statistical error (unbiasedness cross-check)") {
+        VKMECH_REQUIRE_GPU(ctx);
+        for (const char* name : {"glass_caustic", "kitchen_counter"}) {
+            CAPTURE(name);
+            RenderSetup setup;
+            setup.res = 16;
+            setup.spp = 512;
+            setup.batch = 64;
+            ImageStats nee = image_stats(testing::render_scene(*ctx, project_scene(name), setup));
+            setup.estimator = Estimator::Mis;
+            setup.seed = 1;
+            ImageStats mis = image_stats(testing::render_scene(*ctx, project_scene(name), setup));
+            setup.estimator = Estimator::MisRestricted;
+            setup.seed = 2;
+            ImageStats mres = image_stats(testing::render_scene(*ctx, project_scene(name), setup));
+            CAPTURE(nee.mean_lum);
+            CAPTURE(mis.mean_lum);
+            CAPTURE(mres.mean_lum);
+            double se = std::sqrt(nee.std_error * nee.std_error + mis.std_error * mis.std_error);
+            CHECK(std::abs(nee.mean_lum - mis.mean_lum) < 4.0 * se);
+            double se2 = std::sqrt(nee.std_error * nee.std_error + mres.std_error * mres.std_error);
+            CHECK(std::abs(nee.mean_lum - mres.mean_lum) < 4.0 * se2);
+        }
+    }
+}
