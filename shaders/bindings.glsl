@@ -14,4 +14,5 @@
 #define BINDING_RAYS 10
 #define BINDING_HITS 11
 #define BINDING_TEXELS 12
+#define BINDING_TEXTURES 13
 #endif

@@ -152,6 +152,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
         // Shading-normal consistency: wo must lie on the same side of both normals.
         if (wo.z * dot(wo_world, s.ng) <= 0.0) break;
         vec3 albedo = m.reflectance.rgb;
+        if (FEATURE_TEXTURES && m.header.z != 0u) albedo = texture_lookup(m.header.z - 1u, s.uv);
 
         // ---- next-event estimation (SPEC §1: at every non-delta vertex) ----
         uint nee_lobe = bsdf_nee_lobe(m);

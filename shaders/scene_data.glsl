@@ -8,6 +8,33 @@ layout(std430, set = 0, binding = BINDING_TRIANGLES) readonly buffer Triangles {
 layout(std430, set = 0, binding = BINDING_MATERIALS) readonly buffer Materials { GpuMaterial materials[]; };
 layout(std430, set = 0, binding = BINDING_LIGHT_TRIS) readonly buffer LightTris { GpuLightTriangle light_tris[]; };
 layout(std430, set = 0, binding = BINDING_EMITTERS) readonly buffer Emitters { GpuEmitter emitters[]; };
+// Bitmap textures: linear RGB texels of every texture, and per texture
+// (first texel, width, height).
+layout(std430, set = 0, binding = BINDING_TEXELS) readonly buffer Texels { vec4 texels[]; };
+layout(std430, set = 0, binding = BINDING_TEXTURES) readonly buffer Textures { uvec4 textures[]; };
+
+// Repeat wrap in float (GLSL's integer % is undefined for negative operands).
+vec3 texel_at(uvec4 info, float x, float y) {
+    float w = float(info.y);
+    float h = float(info.z);
+    uint xi = uint(clamp(mod(x, w), 0.0, w - 1.0));
+    uint yi = uint(clamp(mod(y, h), 0.0, h - 1.0));
+    return texels[info.x + yi * info.y + xi].rgb;
+}
+
+// Bilinear lookup with repeat wrap (Mitsuba's bitmap defaults); uv (0, 0) is
+// the top-left corner of the image (host/scene convention).
+vec3 texture_lookup(uint tex, vec2 uv) {
+    uvec4 info = textures[tex];
+    vec2 p = uv * vec2(float(info.y), float(info.z)) - 0.5;
+    vec2 f = floor(p);
+    vec2 t = p - f;
+    vec3 c00 = texel_at(info, f.x, f.y);
+    vec3 c10 = texel_at(info, f.x + 1.0, f.y);
+    vec3 c01 = texel_at(info, f.x, f.y + 1.0);
+    vec3 c11 = texel_at(info, f.x + 1.0, f.y + 1.0);
+    return mix(mix(c00, c10, t.x), mix(c01, c11, t.x), t.y);
+}
 
 struct SurfaceHit {
     vec3 p;        // world position

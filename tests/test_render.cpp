@@ -7,6 +7,7 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <functional>
@@ -208,5 +209,39 @@ TEST_SUITE("gpu") {
             double se2 = std::sqrt(nee.std_error * nee.std_error + mres.std_error * mres.std_error);
             CHECK(std::abs(nee.mean_lum - mres.mean_lum) < 4.0 * se2);
         }
+    }
+}
+
+TEST_SUITE("gpu") {
+    TEST_CASE("render: bitmap reflectance is looked up per hit (2x2 texture, one texel per quadrant)") {
+        VKMECH_REQUIRE_GPU(ctx);
+        RenderSetup setup;
+        setup.res = 32;
+        setup.spp = 64;
+        Frame f = testing::render_scene(*ctx, test_scene("texture"), setup);
+        std::vector<float> rgb = f.rgb_mean();
+        // Pixels 6 and 26 look at uv 0.25 and 0.75: texel centres, no blending.
+        auto colour_at = [&](int x, int y) {
+            size_t i = static_cast<size_t>(y) * 32 + x;
+            glm::vec3 c(rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]);
+            return c / std::max(1e-6f, c.r + c.g + c.b);
+        };
+        auto kind = [&](glm::vec3 c) {
+            if (c.r > 0.85f) return 'r';
+            if (c.g > 0.85f) return 'g';
+            if (c.b > 0.85f) return 'b';
+            if (std::abs(c.r - c.g) < 0.05f && std::abs(c.g - c.b) < 0.05f) return 'w';
+            return '?';
+        };
+        char q00 = kind(colour_at(6, 6)), q10 = kind(colour_at(26, 6)), q01 = kind(colour_at(6, 26)), q11 = kind(colour_at(26, 26));
+        std::string all = {q00, q10, q01, q11};
+        CAPTURE(all);
+        std::string sorted = all;
+        std::sort(sorted.begin(), sorted.end());
+        CHECK(sorted == "bgrw");
+        // The texture's neighbourhoods survive: red is beside green and blue, diagonal to grey.
+        auto diag = [&](char c) { return c == q00 ? q11 : c == q11 ? q00 : c == q10 ? q01 : q10; };
+        CHECK(diag('r') == 'w');
+        CHECK(diag('g') == 'b');
     }
 }

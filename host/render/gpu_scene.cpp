@@ -40,12 +40,21 @@ namespace {
 
 float luminance(const glm::vec3& c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
 
-gpu::GpuMaterial pack_material(const Material& m) {
+gpu::GpuMaterial pack_material(const Material& m, const std::vector<Texture>& textures) {
     gpu::GpuMaterial g{};
     g.header = glm::uvec4(static_cast<uint32_t>(m.type), m.twosided ? 1u : 0u,
                           m.reflectance.texture >= 0 ? static_cast<uint32_t>(m.reflectance.texture + 1) : 0u,
                           static_cast<uint32_t>(m.distribution));
-    g.reflectance = glm::vec4(m.reflectance.value, m.alpha_u);
+    glm::vec3 refl = m.reflectance.value;
+    if (m.reflectance.texture >= 0) {
+        // The texture's mean stands in where a single value is needed (plastic
+        // sampling weights), as Mitsuba takes the texture mean.
+        const Texture& t = textures.at(m.reflectance.texture);
+        glm::dvec3 sum(0.0);
+        for (size_t i = 0; i + 2 < t.rgb.size(); i += 3) sum += glm::dvec3(t.rgb[i], t.rgb[i + 1], t.rgb[i + 2]);
+        refl = glm::vec3(sum / std::max<double>(1.0, static_cast<double>(t.rgb.size() / 3)));
+    }
+    g.reflectance = glm::vec4(refl, m.alpha_u);
     g.specular_reflectance = glm::vec4(m.specular_reflectance, m.alpha_v);
     g.specular_transmittance = glm::vec4(m.specular_transmittance, m.int_ior);
     g.eta = glm::vec4(m.eta, m.ext_ior);
@@ -90,9 +99,14 @@ SceneArrays flatten_scene(const Scene& scene) {
     }
     if (scene.materials.empty()) {
         Material m;
-        a.materials.push_back(pack_material(m));
+        a.materials.push_back(pack_material(m, scene.textures));
     }
-    for (const auto& m : scene.materials) a.materials.push_back(pack_material(m));
+    for (const auto& m : scene.materials) a.materials.push_back(pack_material(m, scene.textures));
+
+    for (const auto& t : scene.textures) {
+        a.textures.push_back(glm::uvec4(static_cast<uint32_t>(a.texels.size()), t.width, t.height, 0u));
+        for (size_t i = 0; i + 2 < t.rgb.size(); i += 3) a.texels.push_back(glm::vec4(t.rgb[i], t.rgb[i + 1], t.rgb[i + 2], 1.0f));
+    }
 
     a.bvh = build_bvh(pos3);
     size_t n = tris.size();
@@ -166,6 +180,8 @@ GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal trave
     materials = vk::Buffer::from_vector(ctx, a.materials, ssbo);
     emitters = vk::Buffer::from_vector(ctx, a.emitters, ssbo);
     light_triangles = vk::Buffer::from_vector(ctx, a.light_triangles, ssbo);
+    texels = vk::Buffer::from_vector(ctx, a.texels, ssbo);
+    textures = vk::Buffer::from_vector(ctx, a.textures, ssbo);
     ::vk::BufferUsageFlags pos_usage = ssbo;
     if (traversal_ == Traversal::RayQuery)
         pos_usage = pos_usage | BU::eAccelerationStructureBuildInputReadOnlyKHR | BU::eShaderDeviceAddress;

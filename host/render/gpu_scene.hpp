@@ -27,6 +27,8 @@ struct SceneArrays {
     std::vector<gpu::GpuMaterial> materials;
     std::vector<gpu::GpuEmitter> emitters;
     std::vector<gpu::GpuLightTriangle> light_triangles;
+    std::vector<glm::vec4> texels;        // every texture's linear RGB texels
+    std::vector<glm::uvec4> textures;     // first texel, width, height
     Bvh bvh;
     float light_weight_total = 0.0f;  // sum of luminance(radiance) * area
     glm::vec3 bbox_lo{0.0f}, bbox_hi{0.0f};
@@ -42,7 +44,7 @@ public:
     Traversal traversal() const { return traversal_; }
     const RayTracingAccel* accel() const { return accel_.get(); }
 
-    vk::Buffer vertices, triangles, materials, emitters, light_triangles, bvh_nodes, tri_positions;
+    vk::Buffer vertices, triangles, materials, emitters, light_triangles, bvh_nodes, tri_positions, texels, textures;
 
 private:
     Traversal traversal_;

@@ -27,7 +27,8 @@ Renderer::Renderer(const vk::Context& ctx, const Scene& scene, const SceneArrays
     using DT = ::vk::DescriptorType;
     std::vector<vk::BindingDesc> bindings = {
         {0, DT::eUniformBuffer}, {1, DT::eStorageBuffer}, {2, DT::eStorageBuffer}, {3, DT::eStorageBuffer},
-        {4, DT::eStorageBuffer}, {5, DT::eStorageBuffer}, {6, DT::eStorageBuffer}};
+        {4, DT::eStorageBuffer}, {5, DT::eStorageBuffer}, {6, DT::eStorageBuffer}, {12, DT::eStorageBuffer},
+        {13, DT::eStorageBuffer}};
     bool rq = gpu_.traversal() == Traversal::RayQuery;
     if (rq) bindings.push_back({7, DT::eAccelerationStructureKHR});
     else {
@@ -47,6 +48,8 @@ Renderer::Renderer(const vk::Context& ctx, const Scene& scene, const SceneArrays
     pipeline_->bind_buffer(4, gpu_.light_triangles.handle());
     pipeline_->bind_buffer(5, gpu_.emitters.handle());
     pipeline_->bind_buffer(6, accum_.handle());
+    pipeline_->bind_buffer(12, gpu_.texels.handle());
+    pipeline_->bind_buffer(13, gpu_.textures.handle());
     if (rq) pipeline_->bind_acceleration_structure(7, gpu_.accel()->tlas());
     else {
         pipeline_->bind_buffer(8, gpu_.bvh_nodes.handle());
