@@ -15,4 +15,5 @@
 #define BINDING_HITS 11
 #define BINDING_TEXELS 12
 #define BINDING_TEXTURES 13
+#define BINDING_DEBUG 14
 #endif

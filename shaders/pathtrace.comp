@@ -59,6 +59,16 @@ layout(constant_id = 8) const uint ESTIMATOR = 0u;
 const uint EST_NEE = 0u;
 const uint EST_MIS_RESTRICTED = 1u;
 const uint EST_MIS = 2u;
+// Specialization: the event-recording debug mode (compiled out otherwise).
+layout(constant_id = 9) const bool DEBUG_EVENTS = false;
+
+layout(std430, set = 0, binding = BINDING_DEBUG) buffer DebugEvents {
+    uint debug_count;
+    uint debug_pad0, debug_pad1, debug_pad2;
+    GpuDebugEvent debug_events[];
+};
+bool g_debug_pixel = false;  // this invocation's pixel is the one recorded
+uint g_sample_index = 0u;
 
 struct Frame3 {
     vec3 t, b, n;
@@ -100,6 +110,13 @@ void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_be
     float e = luminance(contrib);
     uint b = classify_event(n, end_lobe, delta_before);
     t.bucket[b] += e;
+    if (DEBUG_EVENTS && g_debug_pixel) {
+        uint slot = atomicAdd(debug_count, 1u);
+        if (slot < params.debug.y) {
+            debug_events[slot].label = uvec4(n, end_lobe, delta_before ? 1u : 0u, b);
+            debug_events[slot].energy = vec4(e, glossy_before ? 1.0 : 0.0, float(g_sample_index), 0.0);
+        }
+    }
     if (glossy_before || end_lobe == LOBE_G) t.glossy += e;
     if (n >= 1u) {
         t.depth_sum += e * float(n);
@@ -247,7 +264,9 @@ void main() {
     float glossy_sum = 0.0;
     float depth_sum = 0.0;
     float depth_w = 0.0;
+    g_debug_pixel = DEBUG_EVENTS && params.debug.y > 0u && pixel == params.debug.x;
     for (uint i = 0u; i < count; ++i) {
+        g_sample_index = first + i;
         Rng rng = rng_init(params.film.z, pixel, first + i);
         vec2 jitter = rng_next2(rng);  // box filter: uniform inside the pixel
         vec2 lens = rng_next2(rng);

@@ -54,7 +54,7 @@ std::vector<vk::SpecConstant> Features::spec_constants() const {
     // constant_id values: shaders/camera.glsl (0), shaders/features.glsl (1-7), pathtrace.comp (8).
     return {{0, thin_lens}, {1, dielectric}, {2, rough},   {3, plastic},
             {4, principled}, {5, conductor}, {6, textures}, {7, capture},
-            {8, static_cast<uint32_t>(estimator)}};
+            {8, static_cast<uint32_t>(estimator)}, {9, debug_events}};
 }
 
 std::string Features::describe() const {
@@ -70,6 +70,7 @@ std::string Features::describe() const {
     add(conductor, "conductor");
     add(textures, "textures");
     add(capture, "capture");
+    add(debug_events, "debug-events");
     if (s.empty()) s = "diffuse-only";
     return s + " estimator=" + to_string(estimator);
 }

@@ -24,6 +24,7 @@ struct Features {
     bool conductor = true;
     bool textures = true;
     bool capture = true;  // the mechanism descriptor
+    bool debug_events = false;  // record one pixel's contribution events (tests)
     Estimator estimator = Estimator::Nee;
 
     // Everything on: the generic pipeline (for `bench render`).

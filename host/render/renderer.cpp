@@ -3,6 +3,7 @@
 #include "render/shader_modules.hpp"
 
 #include <chrono>
+#include <stdexcept>
 #include <cmath>
 
 namespace vkmech {
@@ -28,7 +29,7 @@ Renderer::Renderer(const vk::Context& ctx, const Scene& scene, const SceneArrays
     std::vector<vk::BindingDesc> bindings = {
         {0, DT::eUniformBuffer}, {1, DT::eStorageBuffer}, {2, DT::eStorageBuffer}, {3, DT::eStorageBuffer},
         {4, DT::eStorageBuffer}, {5, DT::eStorageBuffer}, {6, DT::eStorageBuffer}, {12, DT::eStorageBuffer},
-        {13, DT::eStorageBuffer}};
+        {13, DT::eStorageBuffer}, {14, DT::eStorageBuffer}};
     bool rq = gpu_.traversal() == Traversal::RayQuery;
     if (rq) bindings.push_back({7, DT::eAccelerationStructureKHR});
     else {
@@ -50,6 +51,10 @@ Renderer::Renderer(const vk::Context& ctx, const Scene& scene, const SceneArrays
     pipeline_->bind_buffer(6, accum_.handle());
     pipeline_->bind_buffer(12, gpu_.texels.handle());
     pipeline_->bind_buffer(13, gpu_.textures.handle());
+    // The debug buffer: a counter (16 bytes) then the events; minimal when off.
+    debug_ = vk::Buffer(ctx, 16 + sizeof(gpu::GpuDebugEvent) * (features_.debug_events ? 65536 : 1),
+                        ::vk::BufferUsageFlagBits::eStorageBuffer, vk::MemoryUse::Readback);
+    pipeline_->bind_buffer(14, debug_.handle());
     if (rq) pipeline_->bind_acceleration_structure(7, gpu_.accel()->tlas());
     else {
         pipeline_->bind_buffer(8, gpu_.bvh_nodes.handle());
@@ -74,6 +79,7 @@ Frame Renderer::render(const RenderSpec& spec) {
     p.scene = glm::uvec4(static_cast<uint32_t>(arrays_.light_triangles.size()), static_cast<uint32_t>(arrays_.emitters.size()),
                          static_cast<uint32_t>(arrays_.triangles.size()), spec.mode);
     p.lights = glm::vec4(arrays_.light_weight_total, arrays_.scene_scale, 0.0f, 0.0f);
+    p.debug = glm::uvec4(debug_pixel_, debug_capacity_, 0u, 0u);
 
     auto t0 = std::chrono::steady_clock::now();
     uint32_t batch_spp = std::max(1u, spec.batch_spp);
@@ -94,6 +100,24 @@ Frame Renderer::render(const RenderSpec& spec) {
     frame.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     frame.samples = static_cast<uint64_t>(spec.spp) * pixels;
     return frame;
+}
+
+std::vector<gpu::GpuDebugEvent> Renderer::render_debug_events(const RenderSpec& spec, uint32_t pixel, uint32_t capacity,
+                                                              Frame* frame) {
+    if (!features_.debug_events) throw std::logic_error("render_debug_events needs Features::debug_events");
+    capacity = std::min<uint32_t>(capacity, 65536);
+    uint32_t zero[4] = {0, 0, 0, 0};
+    debug_.upload(ctx_, zero, sizeof(zero));
+    debug_pixel_ = pixel;
+    debug_capacity_ = capacity;
+    Frame f = render(spec);
+    debug_capacity_ = 0;
+    uint32_t count = 0;
+    debug_.download(ctx_, &count, sizeof(count));
+    std::vector<gpu::GpuDebugEvent> events(std::min(count, capacity));
+    debug_.download(ctx_, events.data(), events.size() * sizeof(gpu::GpuDebugEvent), 16);
+    if (frame) *frame = std::move(f);
+    return events;
 }
 
 }  // namespace vkmech

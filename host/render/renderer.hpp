@@ -28,6 +28,10 @@ public:
              const Features& features);
     const Features& features() const { return features_; }
     Frame render(const RenderSpec& spec);
+    // With Features::debug_events: renders `spec` and returns the contribution
+    // events of one pixel (at most `capacity`), in no particular order.
+    std::vector<gpu::GpuDebugEvent> render_debug_events(const RenderSpec& spec, uint32_t pixel, uint32_t capacity,
+                                                        Frame* frame = nullptr);
 
 private:
     const vk::Context& ctx_;
@@ -36,7 +40,8 @@ private:
     const GpuScene& gpu_;
     Features features_;
     std::unique_ptr<vk::ComputePipeline> pipeline_;
-    vk::Buffer params_, accum_;
+    vk::Buffer params_, accum_, debug_;
+    uint32_t debug_pixel_ = 0, debug_capacity_ = 0;
 };
 
 // Camera parameters of Params: tan of the half field of view on x and y.

@@ -102,6 +102,15 @@ struct GpuParams {
     uvec4 sampling;    // first sample index, max_depth, rr_depth, estimator
     uvec4 scene;       // light triangle count, emitter count, triangle count, mode
     vec4 lights;       // x: total light weight, y: scene scale (for ray offsets)
+    uvec4 debug;       // x: pixel whose events are recorded, y: capacity (0: off)
+};
+
+// One recorded contribution event (the GPU debug mode): the inputs of the
+// cascade and the bucket the shader chose, for checking against the C++
+// mirror of SPEC §2.
+struct GpuDebugEvent {
+    uvec4 label;   // x: n, y: end lobe, z: delta before end (0/1), w: bucket chosen by the shader
+    vec4 energy;   // x: luminance energy, y: glossy before end (0/1), z: sample index, w: unused
 };
 
 // Per-pixel result of one batch. Welford moments within the batch
