@@ -71,3 +71,17 @@ TEST_CASE("bvh: the validator detects a corrupted tree") {
         CHECK(validate_bvh(bvh, ordered) != "");
     }
 }
+
+#include "render/gpu_scene.hpp"
+#include "scene_fixtures.hpp"
+
+TEST_CASE("bvh: the BVH of every project scene is well formed") {
+    for (const auto& path : testing::project_scene_paths()) {
+        CAPTURE(path);
+        SceneArrays a = flatten_scene(load_scene(path));
+        std::vector<glm::vec3> pos(a.tri_positions.size());
+        for (size_t i = 0; i < pos.size(); ++i) pos[i] = glm::vec3(a.tri_positions[i]);  // already in BVH order
+        CHECK(validate_bvh(a.bvh, pos) == "");
+        CHECK(bvh_stats(a.bvh).max_leaf <= 8);
+    }
+}

@@ -92,4 +92,22 @@ TEST_SUITE("gpu") {
         for (const auto& e : fs::directory_iterator(out)) CHECK(e.path().filename().string().find(".tmp") == std::string::npos);
         fs::remove_all(out);
     }
+
+    TEST_CASE("cli: --capture off writes the image channels alone; the JSON summary reports the run") {
+        VKMECH_REQUIRE_GPU(ctx);
+        fs::path out = fs::temp_directory_path() / ("vkmech_cli_nocap_" + std::to_string(::getpid()));
+        auto r = run_cli("--scene cubes_dof --spp 2 --res 16 --capture off --out " + out.string());
+        INFO(r.output);
+        REQUIRE(r.code == 0);
+        auto exr = vkmech::read_exr_channels((out / "cubes_dof.exr").string());
+        CHECK(exr.channels.size() == 7);
+        CHECK(exr.channels.count("dominant") == 0);
+        CHECK_FALSE(fs::exists(out / "cubes_dof_dominant.png"));
+        std::ifstream json(out / "cubes_dof.json");
+        std::stringstream ss;
+        ss << json.rdbuf();
+        CHECK(ss.str().find("\"paths_per_second\"") != std::string::npos);
+        CHECK(ss.str().find("\"nonfinite_samples\": 0") != std::string::npos);
+        fs::remove_all(out);
+    }
 }
