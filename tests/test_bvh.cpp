@@ -85,3 +85,7 @@ TEST_CASE("bvh: the BVH of every project scene is well formed") {
         CHECK(bvh_stats(a.bvh).max_leaf <= 8);
     }
 }
+
+TEST_CASE("bvh: an empty triangle list is refused rather than encoded") {
+    CHECK_THROWS_AS(build_bvh({}), std::invalid_argument);
+}

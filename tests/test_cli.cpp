@@ -93,7 +93,7 @@ TEST_SUITE("gpu") {
         fs::remove_all(out);
     }
 
-    TEST_CASE("cli: --capture off writes the image channels alone; the JSON summary reports the run") {
+    TEST_CASE("cli: --capture off writes the image channels alone and the JSON summary reports the run") {
         VKMECH_REQUIRE_GPU(ctx);
         fs::path out = fs::temp_directory_path() / ("vkmech_cli_nocap_" + std::to_string(::getpid()));
         auto r = run_cli("--scene cubes_dof --spp 2 --res 16 --capture off --out " + out.string());

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <stdexcept>
 
 namespace vkmech {
 
@@ -142,18 +143,10 @@ Bvh build_bvh(const std::vector<glm::vec3>& tri_positions, const BvhBuildOptions
     b.order.resize(n);
     std::iota(b.order.begin(), b.order.end(), 0u);
     b.nodes.reserve(2 * n / std::max(1u, options.max_leaf_size) + 2);
-    if (n == 0) {
-        // An empty scene still gets a root that nothing hits.
-        Box empty;
-        empty.lo = glm::vec3(1.0f);
-        empty.hi = glm::vec3(-1.0f);
-        b.make_node(empty, 0, 0);
-        b.nodes[0].bmax.w = std::bit_cast<float>(0u);
-        b.nodes[0].bmin.w = std::bit_cast<float>(0u);
-        // Mark as a zero-count leaf by making it unhittable (lo > hi).
-    } else {
-        b.build(0, n);
-    }
+    // flatten_scene rejects scenes without triangles; an empty tree has no
+    // valid encoding (count 0 means "interior").
+    if (n == 0) throw std::invalid_argument("build_bvh: no triangles");
+    b.build(0, n);
     return Bvh{std::move(b.nodes), std::move(b.order)};
 }
 

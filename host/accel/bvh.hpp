@@ -23,7 +23,8 @@ struct BvhBuildOptions {
     uint32_t bins = 16;
 };
 
-// tri_positions: 3 consecutive points per triangle.
+// tri_positions: 3 consecutive points per triangle; throws std::invalid_argument
+// when there are none.
 Bvh build_bvh(const std::vector<glm::vec3>& tri_positions, const BvhBuildOptions& options = {});
 
 // Empty string when well formed: every triangle in exactly one leaf, every
