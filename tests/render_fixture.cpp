@@ -6,9 +6,7 @@ namespace vkmech::testing {
 
 Frame render_scene(vk::Context& ctx, const std::string& path, const RenderSetup& setup) {
     Scene scene = load_scene(path, setup.load);
-    double aspect = static_cast<double>(scene.camera.height) / scene.camera.width;
-    scene.camera.width = setup.res;
-    scene.camera.height = std::max(1, static_cast<int>(std::lround(setup.res * aspect)));
+    scene.camera.set_film_width(setup.res);
     SceneArrays arrays = flatten_scene(scene);
     GpuScene gpu(ctx, arrays, setup.traversal);
     Features f = setup.generic ? Features::generic(setup.estimator) : Features::from_scene(scene, setup.estimator);

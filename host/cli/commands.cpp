@@ -87,9 +87,7 @@ Scene load_for_cli(const CommonOptions& o) {
     std::string path = resolve_scene_path(o.scene);
     Scene scene = load_scene(path, load_options(o));
     if (o.res) {
-        double aspect = static_cast<double>(scene.camera.height) / scene.camera.width;
-        scene.camera.width = static_cast<int>(*o.res);
-        scene.camera.height = std::max(1, static_cast<int>(std::lround(*o.res * aspect)));
+        scene.camera.set_film_width(static_cast<int>(*o.res));
     }
     for (const auto& s : scene.substitutions) std::cerr << "vkmech: substitution: " << s << "\n";
     return scene;
@@ -247,9 +245,7 @@ int cmd_bench_render(const BenchOptions& o) {
                 "spec. gain");
     for (const auto& n : names) {
         Scene scene = load_scene(resolve_scene_path(n));
-        double aspect = static_cast<double>(scene.camera.height) / scene.camera.width;
-        scene.camera.width = static_cast<int>(o.res);
-        scene.camera.height = std::max(1, static_cast<int>(std::lround(o.res * aspect)));
+        scene.camera.set_film_width(static_cast<int>(o.res));
         SceneArrays arrays = flatten_scene(scene);
         std::vector<Traversal> travs = {Traversal::Bvh};
         if (ctx.ray_query_enabled()) travs.insert(travs.begin(), Traversal::RayQuery);

@@ -6,6 +6,7 @@
 
 #include <glm/glm.hpp>
 
+#include <algorithm>
 #include <cstdint>
 #include <map>
 #include <stdexcept>
@@ -140,6 +141,13 @@ struct Camera {
     float focus_distance = 0.0f;   // thinlens only
     int width = 256;                // SPEC §1 default film
     int height = 256;
+
+    // Resizes the film to `w` pixels wide, keeping the aspect ratio (--res).
+    void set_film_width(int w) {
+        double aspect = static_cast<double>(height) / width;
+        width = w;
+        height = std::max(1, static_cast<int>(aspect * w + 0.5));
+    }
 };
 
 struct IntegratorSettings {
