@@ -277,3 +277,64 @@ int cmd_bench_render(const BenchOptions& o) {
 }
 
 }  // namespace vkmech
+
+#include "study/study_runner.hpp"
+
+namespace vkmech {
+
+void add_study_options(CLI::App* app, StudyCliOptions& o) {
+    app->add_option("name", o.study,
+                    "stability, variance, cost, structure, sweep-roughness, sweep-lights, predictor, or all")
+        ->required()
+        ->check(CLI::IsMember({"stability", "variance", "cost", "structure", "sweep-roughness", "sweep-lights", "predictor",
+                               "all"}));
+    app->add_option("--preset", o.preset,
+                    "quick (tiny images, low SPP: minutes, for CI), reduced (96 px, SPP 64/512/2048: what a CPU device "
+                    "affords), paper (256², SPP 64/512/4096, 10 seeds per level: the paper's protocol)")
+        ->check(CLI::IsMember({"quick", "reduced", "paper"}));
+    app->add_option("--scenes", o.scenes, "Comma-separated scene names or paths (default: the seven first-party scenes)")
+        ->delimiter(',');
+    app->add_option("--res", o.res, "Film width in pixels (overrides the preset)")->check(CLI::Range(4, 4096));
+    app->add_option("--spp-levels", o.spp_levels, "Stability SPP levels, ascending; the last is the reference")
+        ->delimiter(',')
+        ->check(CLI::Range(1u, 1u << 20));
+    app->add_option("--seeds", o.seeds, "Seeds per variance level and per sweep level (even, >= 4)")->check(CLI::Range(4, 1000));
+    app->add_option("--out", o.out_dir, "Output directory (default: out/study-<name>)");
+    app->add_option("--cache", o.cache_dir, "Render cache directory (default: <out>/cache); share it between studies");
+    app->add_option("--curve", o.curve,
+                    "predictor: a frozen predictor_curve.json; predicts each scene's label reliability from its pilot only");
+    app->add_option("--device", o.device, "Vulkan device index (see `vkmech devices`)");
+    app->add_option("--traversal", o.traversal, "Ray traversal: auto, rayquery or bvh")
+        ->check(CLI::IsMember({"auto", "rayquery", "bvh"}));
+    app->add_flag("--no-plots", o.no_plots, "Write the figure specs (JSON) but do not run matplotlib");
+    app->add_flag("--plan", o.plan_only, "Print the plan and its expected cost, render nothing");
+}
+
+int cmd_study(const StudyCliOptions& c) {
+    StudyOptions o;
+    o.study = c.study;
+    o.preset = c.preset;
+    for (const auto& s : c.scenes.empty() ? first_party_scenes() : c.scenes) o.scenes.push_back(resolve_scene_path(s));
+    o.sweep_roughness_scene = resolve_scene_path("sweep_roughness");
+    o.sweep_lights_scene = resolve_scene_path("sweep_lights");
+    o.res = c.res;
+    o.spp_levels = c.spp_levels;
+    o.seeds = c.seeds;
+    o.out_dir = c.out_dir.empty() ? "out/study-" + c.study : c.out_dir;
+    o.cache_dir = c.cache_dir;
+    o.curve = c.curve;
+    if (!o.curve.empty() && !fs::exists(o.curve)) throw UsageError("predictor curve '" + o.curve + "' does not exist");
+    if (!o.curve.empty() && c.study != "predictor") throw UsageError("--curve applies to `vkmech study predictor` only");
+    o.device = c.device;
+    o.traversal = c.traversal;
+    o.no_plots = c.no_plots;
+    o.plan_only = c.plan_only;
+    o.command_line = c.command_line;
+    try {
+        return run_study(o);
+    } catch (const std::invalid_argument& e) {
+        throw UsageError(e.what());
+    }
+}
+
+}  // namespace vkmech

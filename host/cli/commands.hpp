@@ -46,6 +46,22 @@ struct BenchOptions {
     std::optional<uint32_t> device;
 };
 
+struct StudyCliOptions {
+    std::string study;
+    std::string preset = "quick";
+    std::vector<std::string> scenes;
+    std::optional<int> res;
+    std::vector<uint32_t> spp_levels;
+    std::optional<int> seeds;
+    std::string out_dir, cache_dir, curve;
+    std::optional<uint32_t> device;
+    std::string traversal = "auto";
+    bool no_plots = false, plan_only = false;
+    std::string command_line;
+};
+void add_study_options(CLI::App* app, StudyCliOptions& o);
+int cmd_study(const StudyCliOptions& o);
+
 void add_common_options(CLI::App* app, CommonOptions& o);
 
 // Finds scenes/NAME.xml for a bare name, else treats the argument as a path.

@@ -3,6 +3,7 @@
 #include "cli/commands.hpp"
 
 #include "scene/scene.hpp"
+#include "study/study_runner.hpp"
 #include "vk/context.hpp"
 
 #include <CLI/CLI.hpp>
@@ -23,6 +24,7 @@ int main(int argc, char** argv) {
     app.set_version_flag("--version", std::string("vkmech ") + VKMECH_VERSION);
     app.require_subcommand(1);
     app.footer("Examples:\n  vkmech --scene ring_caustic --spp 64\n  vkmech devices\n  vkmech bench traversal\n"
+               "  vkmech study all --preset quick --out out/study\n"
                "Exit codes: 0 ok, 1 runtime failure, 2 bad usage or bad input.");
 
     RenderOptions render_opts;
@@ -58,6 +60,11 @@ int main(int argc, char** argv) {
     bench_render->add_option("--spp", bench_opts.spp, "Samples per pixel per measurement")->check(CLI::Range(1u, 4096u));
     bench_render->add_option("--device", bench_opts.device, "Vulkan device index");
 
+    StudyCliOptions study_opts;
+    auto* study = app.add_subcommand(
+        "study", "Regenerate the paper's analyses (SPEC §5) on a scene set: tables, figures, maps and report.md");
+    add_study_options(study, study_opts);
+
     try {
         std::vector<std::string> rev(args.rbegin(), args.rend());
         app.parse(rev);
@@ -70,6 +77,15 @@ int main(int argc, char** argv) {
         if (*devices) return cmd_devices();
         if (*bench_trav) return cmd_bench_traversal(bench_opts);
         if (*bench_render) return cmd_bench_render(bench_opts);
+        if (*study) {
+            study_opts.command_line = "vkmech";
+            for (const auto& a : args) study_opts.command_line += " " + a;
+            return cmd_study(study_opts);
+        }
+    } catch (const StudyInterrupted&) {
+        std::cerr << "\nvkmech study: interrupted; every finished render is in the cache, run the same command again "
+                     "to resume\n";
+        return 130;
     } catch (const SceneError& e) {
         std::cerr << "vkmech: error: " << e.what() << "\n";
         return 2;

@@ -61,30 +61,40 @@ std::string json_escape(const std::string& s) {
 
 }  // namespace
 
-std::vector<uint8_t> dominant_map_with_legend(const Descriptor& d, int* out_w, int* out_h) {
+std::vector<uint8_t> categorical_map_with_legend(int width, int height, const std::vector<uint8_t>& cls,
+                                                 const std::vector<std::array<uint8_t, 3>>& colors,
+                                                 const std::vector<std::string>& names, const std::string& none_name,
+                                                 int* out_w, int* out_h) {
     const int row = 14, panel = 130;
-    int w = d.width + panel;
-    int h = std::max(d.height, static_cast<int>(kBucketCount + 1) * row + 6);
+    int n = static_cast<int>(names.size());
+    int w = width + panel;
+    int h = std::max(height, (n + 1) * row + 6);
     std::vector<uint8_t> img(static_cast<size_t>(w) * h * 3, 0);
-    for (int y = 0; y < d.height; ++y)
-        for (int x = 0; x < d.width; ++x) {
-            uint8_t b = d.dominant[static_cast<size_t>(y) * d.width + x];
-            if (b == kNoLabel) continue;  // black: no energy, no label
-            fill_rect(img, w, h, x, y, x + 1, y + 1, kBucketColors[b]);
+    for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+            uint8_t b = cls[static_cast<size_t>(y) * width + x];
+            if (b >= colors.size()) continue;  // black: none
+            fill_rect(img, w, h, x, y, x + 1, y + 1, colors[b]);
         }
-    int x0 = d.width + 6;
-    for (uint32_t b = 0; b < kBucketCount; ++b) {
-        int y0 = 4 + static_cast<int>(b) * row;
-        fill_rect(img, w, h, x0, y0, x0 + 10, y0 + 10, kBucketColors[b]);
-        draw_text(img, w, h, x0 + 14, y0 + 1, kBucketNames[b]);
+    int x0 = width + 6;
+    for (int b = 0; b < n; ++b) {
+        int y0 = 4 + b * row;
+        fill_rect(img, w, h, x0, y0, x0 + 10, y0 + 10, colors[b]);
+        draw_text(img, w, h, x0 + 14, y0 + 1, names[b].c_str());
     }
-    int y0 = 4 + static_cast<int>(kBucketCount) * row;
+    int y0 = 4 + n * row;
     fill_rect(img, w, h, x0, y0, x0 + 10, y0 + 10, {0, 0, 0});
     fill_rect(img, w, h, x0, y0, x0 + 10, y0 + 1, {90, 90, 90});
-    draw_text(img, w, h, x0 + 14, y0 + 1, "none (no energy)");
+    draw_text(img, w, h, x0 + 14, y0 + 1, none_name.c_str());
     *out_w = w;
     *out_h = h;
     return img;
+}
+
+std::vector<uint8_t> dominant_map_with_legend(const Descriptor& d, int* out_w, int* out_h) {
+    std::vector<std::array<uint8_t, 3>> colors(kBucketColors.begin(), kBucketColors.end());
+    std::vector<std::string> names(kBucketNames.begin(), kBucketNames.end());
+    return categorical_map_with_legend(d.width, d.height, d.dominant, colors, names, "none (no energy)", out_w, out_h);
 }
 
 std::string summary_json(const RenderInfo& info, const Frame& frame, const DescriptorSummary* s) {

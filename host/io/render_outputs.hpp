@@ -33,6 +33,12 @@ WrittenFiles write_render_outputs(const std::string& out_dir, const RenderInfo& 
                                   const Descriptor* descriptor, const DescriptorSummary* summary);
 
 // The dominant-class map with a legend panel to its right, as 8-bit RGB.
+// A class map (values >= colors.size() drawn black, named `none_name`) with a
+// legend panel on the right.
+std::vector<uint8_t> categorical_map_with_legend(int width, int height, const std::vector<uint8_t>& cls,
+                                                 const std::vector<std::array<uint8_t, 3>>& colors,
+                                                 const std::vector<std::string>& names, const std::string& none_name,
+                                                 int* out_w, int* out_h);
 std::vector<uint8_t> dominant_map_with_legend(const Descriptor& d, int* out_width, int* out_height);
 
 std::string summary_json(const RenderInfo& info, const Frame& frame, const DescriptorSummary* summary);

@@ -1,0 +1,25 @@
+// The label-reliability predictor (paper §8.2, SPEC §5): agreement rate of the
+// pilot label with the reference per pilot purity / argmax-margin bin, pooled
+// over scenes into a 20-bin monotone (isotonic) curve. A scene's predicted
+// agreement is the mean of the curve over its labelled pilot pixels.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace vkmech {
+
+struct ReliabilityCurve {
+    int bins = 20;          // equal-width bins on [0, 1]
+    std::vector<double> margin, purity;  // monotone agreement rate per bin
+    unsigned pilot_spp = 0, reference_spp = 0;
+    std::vector<std::string> scenes;  // what it was fitted on
+
+    // Mean curve value over the given per-pixel values (margin or purity).
+    static double predict(const std::vector<double>& curve, const std::vector<double>& x);
+    std::string json() const;
+    // Throws std::runtime_error naming the file on a missing or malformed curve.
+    static ReliabilityCurve load(const std::string& path);
+};
+
+}  // namespace vkmech

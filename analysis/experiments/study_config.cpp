@@ -1,0 +1,184 @@
+#include "experiments/study_config.hpp"
+
+#include <algorithm>
+#include <sstream>
+#include <stdexcept>
+
+namespace vkmech {
+
+namespace {
+const std::vector<std::pair<StudyKind, const char*>> kStudyNames = {
+    {StudyKind::Stability, "stability"},           {StudyKind::Variance, "variance"},
+    {StudyKind::Cost, "cost"},                     {StudyKind::Structure, "structure"},
+    {StudyKind::SweepRoughness, "sweep-roughness"}, {StudyKind::SweepLights, "sweep-lights"},
+    {StudyKind::Predictor, "predictor"}};
+
+std::string join(const std::vector<uint32_t>& v) {
+    std::string s;
+    for (size_t i = 0; i < v.size(); ++i) s += (i ? "/" : "") + std::to_string(v[i]);
+    return s;
+}
+
+void check_ascending(const std::vector<uint32_t>& v, const char* what) {
+    if (v.empty()) throw std::invalid_argument(std::string(what) + ": no levels");
+    for (size_t i = 0; i < v.size(); ++i) {
+        if (v[i] == 0) throw std::invalid_argument(std::string(what) + ": a level of 0 spp");
+        if (i && v[i] <= v[i - 1]) throw std::invalid_argument(std::string(what) + ": levels must be strictly ascending");
+    }
+}
+}  // namespace
+
+const char* to_string(StudyKind k) {
+    for (const auto& [kind, name] : kStudyNames)
+        if (kind == k) return name;
+    return "?";
+}
+
+std::vector<StudyKind> parse_study(const std::string& name) {
+    if (name == "all") {
+        std::vector<StudyKind> all;
+        for (const auto& [kind, n] : kStudyNames) all.push_back(kind);
+        return all;
+    }
+    for (const auto& [kind, n] : kStudyNames)
+        if (name == n) return {kind};
+    std::string valid = "all";
+    for (const auto& [kind, n] : kStudyNames) valid += std::string(", ") + n;
+    throw std::invalid_argument("unknown study '" + name + "' (valid: " + valid + ")");
+}
+
+void StudyConfig::validate(bool needs_cost) const {
+    check_ascending(stability_spp, "stability levels");
+    if (stability_spp.size() < 2)
+        throw std::invalid_argument("stability levels: need at least two (a pilot and the reference)");
+    check_ascending(variance_spp, "variance levels");
+    if (variance_spp.size() < 2) throw std::invalid_argument("variance levels: need at least two for the exponent fit");
+    check_ascending(cost_spp, "cost levels");
+    if (needs_cost && cost_spp.back() >= stability_reference_spp())
+        throw std::invalid_argument("cost levels must stay below the reference (" + std::to_string(stability_reference_spp()) +
+                                    " spp)");
+    if (variance_seeds < 4 || variance_seeds % 2)
+        throw std::invalid_argument("--seeds must be even and at least 4 (split-half uses two equal halves)");
+    if (sweep_seeds < 4 || sweep_seeds % 2) throw std::invalid_argument("sweep seeds must be even and at least 4");
+    if (res < 4 || res > 4096) throw std::invalid_argument("--res must be in [4, 4096]");
+}
+
+std::string StudyConfig::describe() const {
+    std::ostringstream o;
+    o << "preset " << preset << ": film width " << res << " px; stability SPP " << join(stability_spp)
+      << " (reference " << stability_reference_spp() << ", pilot " << pilot_spp() << "); variance SPP "
+      << join(variance_spp) << " x " << variance_seeds << " seeds; time-to-quality SPP " << join(cost_spp)
+      << " against the reference (tau " << cost_tau << "); sweeps " << sweep_seeds << " seeds x " << sweep_spp
+      << " SPP + a " << sweep_ref_spp << "-SPP reference per level";
+    return o.str();
+}
+
+StudyConfig preset_config(const std::string& name) {
+    StudyConfig c;
+    c.preset = name;
+    if (name == "quick") {
+        return c;  // the defaults: tiny images, low spp, the whole pipeline in minutes
+    }
+    if (name == "reduced") {
+        c.res = 96;
+        c.stability_spp = {64, 512, 2048};
+        c.variance_spp = {8, 32, 128, 512};
+        c.cost_spp = {16, 32, 64, 128, 256, 512, 1024};
+        c.sweep_spp = 32;
+        c.sweep_ref_spp = 512;
+        c.batch_spp = 64;
+        return c;
+    }
+    if (name == "paper") {
+        c.res = 256;
+        c.stability_spp = {64, 512, 4096};
+        c.variance_spp = {64, 256, 1024, 4096};
+        c.cost_spp = {16, 32, 64, 128, 256, 512, 1024, 2048};
+        c.sweep_spp = 128;
+        c.sweep_seeds = 30;
+        c.sweep_ref_spp = 4096;
+        c.sweep_lights = {1, 2, 3, 4, 6, 8, 12, 16};
+        c.batch_spp = 64;
+        return c;
+    }
+    throw std::invalid_argument("unknown preset '" + name + "' (valid: quick, reduced, paper)");
+}
+
+namespace seeds {
+uint32_t stability(size_t level) { return 100 + static_cast<uint32_t>(level); }
+uint32_t variance(size_t level, int s) { return 2000 + 100 * static_cast<uint32_t>(level) + static_cast<uint32_t>(s); }
+uint32_t cost(size_t level) { return 3000 + static_cast<uint32_t>(level); }
+uint32_t sweep(int s) { return 4000 + static_cast<uint32_t>(s); }
+uint32_t sweep_reference() { return 4999; }
+}  // namespace seeds
+
+std::vector<SceneVariant> roughness_variants(const StudyConfig& cfg) {
+    std::vector<SceneVariant> v;
+    for (const auto& a : cfg.sweep_alphas) v.push_back({"sweep_roughness alpha=" + a, cfg.sweep_roughness_scene, {{"alpha", a}}});
+    return v;
+}
+
+std::vector<SceneVariant> light_variants(const StudyConfig& cfg) {
+    std::vector<SceneVariant> v;
+    for (int n : cfg.sweep_lights)
+        v.push_back({"sweep_lights lights=" + std::to_string(n), cfg.sweep_lights_scene, {{"lights", std::to_string(n)}}});
+    return v;
+}
+
+std::vector<RenderRequest> plan_renders(const StudyConfig& cfg, StudyKind kind) {
+    std::vector<RenderRequest> out;
+    auto stability_ref = [&](const SceneVariant& s, Estimator e) {
+        out.push_back({s, cfg.stability_reference_spp(), seeds::stability(cfg.stability_spp.size() - 1), e});
+    };
+    auto pilot = [&](const SceneVariant& s, Estimator e) { out.push_back({s, cfg.pilot_spp(), seeds::stability(0), e}); };
+    auto sweep = [&](const std::vector<SceneVariant>& variants) {
+        for (const auto& v : variants) {
+            out.push_back({v, cfg.sweep_ref_spp, seeds::sweep_reference(), Estimator::Nee});
+            for (int s = 0; s < cfg.sweep_seeds; ++s) out.push_back({v, cfg.sweep_spp, seeds::sweep(s), Estimator::Nee});
+        }
+    };
+    switch (kind) {
+    case StudyKind::Stability:
+        for (const auto& s : cfg.scenes) {
+            for (size_t i = 0; i < cfg.stability_spp.size(); ++i)
+                out.push_back({s, cfg.stability_spp[i], seeds::stability(i), Estimator::Nee});
+            // SPEC §5 / paper tab:robust-mis: the restricted-MIS estimator at the pilot and the reference.
+            pilot(s, Estimator::MisRestricted);
+            stability_ref(s, Estimator::MisRestricted);
+        }
+        break;
+    case StudyKind::Variance:
+        for (const auto& s : cfg.scenes) {
+            stability_ref(s, Estimator::Nee);  // labels for the per-bucket split
+            for (size_t l = 0; l < cfg.variance_spp.size(); ++l)
+                for (int k = 0; k < cfg.variance_seeds; ++k)
+                    out.push_back({s, cfg.variance_spp[l], seeds::variance(l, k), Estimator::Nee});
+        }
+        break;
+    case StudyKind::Cost:
+        for (const auto& s : cfg.scenes) {
+            stability_ref(s, Estimator::Nee);
+            for (size_t l = 0; l < cfg.cost_spp.size(); ++l)
+                out.push_back({s, cfg.cost_spp[l], seeds::cost(l), Estimator::Nee});
+        }
+        break;
+    case StudyKind::Structure:
+        for (const auto& s : cfg.scenes) stability_ref(s, Estimator::Nee);
+        break;
+    case StudyKind::SweepRoughness:
+        sweep(roughness_variants(cfg));
+        break;
+    case StudyKind::SweepLights:
+        sweep(light_variants(cfg));
+        break;
+    case StudyKind::Predictor:
+        for (const auto& s : cfg.scenes) {
+            pilot(s, Estimator::Nee);
+            if (cfg.predictor_curve.empty()) stability_ref(s, Estimator::Nee);
+        }
+        break;
+    }
+    return out;
+}
+
+}  // namespace vkmech

@@ -1,0 +1,100 @@
+// What a study renders and how (SPEC §4 seed layouts, §5 analyses): scene
+// variants, render requests, budgets and the presets (`--preset quick|
+// reduced|paper`). Pure data; no Vulkan.
+#pragma once
+
+#include "render/features.hpp"
+
+#include <cstdint>
+#include <map>
+#include <tuple>
+#include <string>
+#include <vector>
+
+namespace vkmech {
+
+// A scene file plus its -D parameters (the sweeps are one file, many variants).
+struct SceneVariant {
+    std::string name;  // display name: the file stem, plus "alpha=0.03" style suffixes
+    std::string path;  // resolved scene file
+    std::map<std::string, std::string> params;
+    bool operator<(const SceneVariant& o) const { return std::tie(path, params) < std::tie(o.path, o.params); }
+    bool operator==(const SceneVariant& o) const { return path == o.path && params == o.params; }
+};
+
+// One render of the study: everything that determines it besides the code,
+// the device and the film size (those are in the cache key too).
+struct RenderRequest {
+    SceneVariant scene;
+    uint32_t spp = 0;
+    uint32_t seed = 0;
+    Estimator estimator = Estimator::Nee;
+    bool operator<(const RenderRequest& o) const {
+        return std::tie(scene, spp, seed, estimator) < std::tie(o.scene, o.spp, o.seed, o.estimator);
+    }
+    bool operator==(const RenderRequest& o) const {
+        return scene == o.scene && spp == o.spp && seed == o.seed && estimator == o.estimator;
+    }
+};
+
+enum class StudyKind { Stability, Variance, Cost, Structure, SweepRoughness, SweepLights, Predictor };
+const char* to_string(StudyKind k);
+// "all" expands to every kind; throws std::invalid_argument naming the valid ones.
+std::vector<StudyKind> parse_study(const std::string& name);
+
+struct StudyConfig {
+    std::string preset = "quick";
+    std::vector<SceneVariant> scenes;  // the first-party set unless --scenes
+    int res = 32;                      // film width (height by the scene's aspect)
+    uint32_t batch_spp = 16;
+
+    // Stability (SPEC §5 agreement): ascending; the last level is the reference,
+    // rendered with a seed disjoint from every lower level. The first level is
+    // the pilot of the reliability predictor.
+    std::vector<uint32_t> stability_spp{4, 16, 64};
+    // Variance sweeps: `variance_seeds` seeds per level (SPEC §4; 10 in the paper).
+    std::vector<uint32_t> variance_spp{4, 8, 16, 32};
+    int variance_seeds = 10;
+    int split_half_partitions = 20;  // SPEC §5: 20 random 5+5 partitions, base seed 0
+    // Time-to-quality: independent renders per level; reference = the top stability render.
+    std::vector<uint32_t> cost_spp{4, 8, 16, 32};
+    double cost_tau = 0.10;
+    // Sweeps (paper §5.4): per level `sweep_seeds` x `sweep_spp` plus a reference.
+    std::vector<std::string> sweep_alphas{"0.01", "0.02", "0.03", "0.042", "0.06", "0.10", "0.18", "0.30"};
+    std::vector<int> sweep_lights{1, 2, 4, 8, 16};
+    uint32_t sweep_spp = 8;
+    int sweep_seeds = 10;
+    uint32_t sweep_ref_spp = 64;
+    std::string sweep_roughness_scene, sweep_lights_scene;  // resolved paths
+    std::string predictor_curve;  // --curve: predict new scenes from their pilots only
+
+    uint32_t stability_reference_spp() const { return stability_spp.back(); }
+    uint32_t pilot_spp() const { return stability_spp.front(); }
+    // Throws std::invalid_argument when a budget is unusable (explains why).
+    // `needs_cost`: the time-to-quality study runs (its levels must stay below the reference).
+    void validate(bool needs_cost = true) const;
+    std::string describe() const;  // one paragraph for the report and the start line
+};
+
+// quick (CI: tiny images, low spp), reduced (what lavapipe affords for the
+// committed docs/results run) and paper (SPEC §4/§5 protocol, 256²).
+// Throws std::invalid_argument for an unknown name.
+StudyConfig preset_config(const std::string& name);
+
+// SPEC §4 seed layouts. Disjoint by construction: every family has its own
+// range, and the levels within a family use distinct seeds.
+namespace seeds {
+uint32_t stability(size_t level);                // 100 + level
+uint32_t variance(size_t level, int seed_index); // 2000 + 100 * level + s
+uint32_t cost(size_t level);                     // 3000 + level
+uint32_t sweep(int seed_index);                  // 4000 + s
+uint32_t sweep_reference();                      // 4999
+}  // namespace seeds
+
+// The renders each study needs (stable order, may repeat across studies).
+std::vector<RenderRequest> plan_renders(const StudyConfig& cfg, StudyKind kind);
+// Sweep variants of the roughness and light-count scenes.
+std::vector<SceneVariant> roughness_variants(const StudyConfig& cfg);
+std::vector<SceneVariant> light_variants(const StudyConfig& cfg);
+
+}  // namespace vkmech

@@ -1,0 +1,114 @@
+#include "experiments/study_context.hpp"
+
+#include "io/png.hpp"
+
+#include <algorithm>
+#include <filesystem>
+#include <map>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace vkmech {
+
+void StudyOutput::table(const std::string& section, const report::Table& t, const std::string& how) {
+    std::string md = report::write_table((fs::path(dir_) / "tables").string(), t);
+    entries_.push_back({section, "table", "tables/" + t.name + ".md", how, t.markdown()});
+}
+
+void StudyOutput::figure(const std::string& section, const report::Figure& f, const std::string& how) {
+    report::write_figure((fs::path(dir_) / "figures").string(), f);
+    entries_.push_back({section, "figure", "figures/" + f.name + ".png", how, ""});
+}
+
+void StudyOutput::image(const std::string& section, const std::string& rel, int w, int h, const std::vector<uint8_t>& rgb,
+                        const std::string& how) {
+    write_png_rgb8((fs::path(dir_) / rel).string(), w, h, rgb);
+    entries_.push_back({section, "image", rel, how, ""});
+}
+
+void StudyOutput::text(const std::string& section, const std::string& md) {
+    entries_.push_back({section, "text", "", "", md});
+}
+
+std::vector<double> lum_mean_field(const Frame& f) {
+    std::vector<double> v(f.pixels.size());
+    for (size_t i = 0; i < v.size(); ++i) v[i] = f.pixels[i].lum_mean;
+    return v;
+}
+
+std::vector<double> lum_var_field(const Frame& f) {
+    std::vector<double> v(f.pixels.size());
+    for (size_t i = 0; i < v.size(); ++i) v[i] = f.pixels[i].lum_var();
+    return v;
+}
+
+std::vector<double> margin_field(const Frame& f) {
+    std::vector<double> v(f.pixels.size(), 0.0);
+    for (size_t i = 0; i < v.size(); ++i) {
+        std::array<double, kBucketCount> e = f.pixels[i].bucket_sum;
+        double sum = 0.0;
+        for (double x : e) sum += x;
+        if (sum <= 0.0) continue;
+        std::sort(e.begin(), e.end(), std::greater<>());
+        v[i] = (e[0] - e[1]) / sum;
+    }
+    return v;
+}
+
+std::vector<double> bucket_field(const Frame& f, uint32_t b) {
+    std::vector<double> v(f.pixels.size(), 0.0);
+    for (size_t i = 0; i < v.size(); ++i)
+        if (f.pixels[i].count > 0) v[i] = f.pixels[i].bucket_sum[b] / f.pixels[i].count;
+    return v;
+}
+
+const std::vector<bool>& light_tailed_buckets() {
+    static const std::vector<bool> v = {true, true, true, false, false, false, false};
+    return v;
+}
+const std::vector<bool>& heavy_buckets() {
+    static const std::vector<bool> v = {false, false, false, true, true, true, false};
+    return v;
+}
+
+std::string build_report(const StudyOutput& out, const std::string& header) {
+    std::ostringstream o;
+    o << header << "\n";
+    // Headline tables first, then pictures, then the long per-scene detail.
+    std::vector<std::string> sections = {"Cross-SPP stability", "Coverage", "Dominant-class maps", "Agreement maps",
+                                         "Variance baseline", "Time-to-quality", "Correlation structure",
+                                         "Roughness sweep", "Light-count sweep", "Reliability predictor",
+                                         "Label transitions"};
+    for (const auto& e : out.entries())
+        if (std::find(sections.begin(), sections.end(), e.section) == sections.end()) sections.push_back(e.section);
+    std::erase_if(sections, [&](const std::string& s) {
+        return std::none_of(out.entries().begin(), out.entries().end(), [&](const auto& e) { return e.section == s; });
+    });
+    o << "## Contents\n\n";
+    for (const auto& s : sections) {
+        std::string anchor;
+        for (char c : s) anchor += std::isalnum(static_cast<unsigned char>(c)) ? static_cast<char>(std::tolower(c)) : (c == ' ' || c == '-' ? '-' : '\0');
+        anchor.erase(std::remove(anchor.begin(), anchor.end(), '\0'), anchor.end());
+        o << "- [" << s << "](#" << anchor << ")\n";
+    }
+    o << "\n";
+    for (const auto& s : sections) {
+        o << "## " << s << "\n\n";
+        for (const auto& e : out.entries()) {
+            if (e.section != s) continue;
+            if (e.kind == "text") {
+                o << e.markdown << "\n\n";
+            } else if (e.kind == "table") {
+                o << e.markdown << "\n";
+                o << "*How to read:* " << e.how_to_read << " ([" << e.path << "](" << e.path << "), CSV beside it)\n\n";
+            } else {
+                o << "![" << e.path << "](" << e.path << ")\n\n";
+                o << "*How to read:* " << e.how_to_read << " (`" << e.path << "`)\n\n";
+            }
+        }
+    }
+    return o.str();
+}
+
+}  // namespace vkmech

@@ -1,0 +1,82 @@
+// What an experiment sees: the configuration, a source of finished renders
+// (from the cache; experiments never touch Vulkan except through the
+// separation callback) and the output collector that becomes report.md.
+#pragma once
+
+#include "experiments/study_config.hpp"
+#include "render/descriptor.hpp"
+#include "render/frame.hpp"
+#include "report/figure.hpp"
+#include "report/table.hpp"
+
+#include <array>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace vkmech {
+
+struct SeparationMeasures;
+
+class FrameSource {
+public:
+    virtual ~FrameSource() = default;
+    virtual Frame get(const RenderRequest& r) = 0;
+};
+
+// Collects the study's outputs and their one-sentence reading guides.
+class StudyOutput {
+public:
+    explicit StudyOutput(std::string dir) : dir_(std::move(dir)) {}
+    struct Entry {
+        std::string section, kind, path, how_to_read, markdown;  // kind: table | figure | image | text
+    };
+    const std::string& dir() const { return dir_; }
+    void table(const std::string& section, const report::Table& t, const std::string& how_to_read);
+    void figure(const std::string& section, const report::Figure& f, const std::string& how_to_read);
+    void image(const std::string& section, const std::string& rel_path, int w, int h, const std::vector<uint8_t>& rgb,
+               const std::string& how_to_read);
+    void text(const std::string& section, const std::string& markdown);
+    const std::vector<Entry>& entries() const { return entries_; }
+
+private:
+    std::string dir_;
+    std::vector<Entry> entries_;
+};
+
+struct StudyContext {
+    const StudyConfig& cfg;
+    FrameSource& frames;
+    StudyOutput& out;
+    std::string device;  // device name, for "ms on <device>"
+    // Separation measures of a scene variant (needs the device); may be empty.
+    std::function<SeparationMeasures(const SceneVariant&)> separation;
+};
+
+// ---- per-pixel fields shared by the experiments ----
+std::vector<double> lum_mean_field(const Frame& f);
+std::vector<double> lum_var_field(const Frame& f);  // ddof 1
+// (L_top1 - L_top2) / sum_b L_b, 0 for unlabelled pixels (paper §8.2 "argmax margin").
+std::vector<double> margin_field(const Frame& f);
+// Mean per-sample energy of one bucket.
+std::vector<double> bucket_field(const Frame& f, uint32_t bucket);
+
+// The light-tailed family {emitter-direct, direct, diffuse-indirect} and the
+// heavy family {glossy, delta-mediated, specular-direct} (SPEC §5 weights).
+const std::vector<bool>& light_tailed_buckets();
+const std::vector<bool>& heavy_buckets();
+
+// One function per study (SPEC §5); each writes tables, figures and images.
+void run_stability(StudyContext& ctx);
+void run_variance(StudyContext& ctx);
+void run_cost(StudyContext& ctx);
+void run_structure(StudyContext& ctx);
+void run_sweep_roughness(StudyContext& ctx);
+void run_sweep_lights(StudyContext& ctx);
+void run_predictor(StudyContext& ctx);
+
+// report.md: every table inline, every figure and image linked, each with its
+// reading guide, under `header` (command, preset, device, wall time).
+std::string build_report(const StudyOutput& out, const std::string& header);
+
+}  // namespace vkmech

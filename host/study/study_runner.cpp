@@ -1,0 +1,309 @@
+#include "study/study_runner.hpp"
+
+#include "experiments/separation.hpp"
+#include "experiments/study_context.hpp"
+#include "io/atomic_file.hpp"
+#include "render/features.hpp"
+#include "render/gpu_scene.hpp"
+#include "render/renderer.hpp"
+#include "render/shader_modules.hpp"
+#include "scene/scene.hpp"
+#include "study/render_cache.hpp"
+#include "vk/context.hpp"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <set>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace vkmech {
+
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+
+extern "C" void on_sigint(int) {
+    g_interrupted = true;
+    std::signal(SIGINT, SIG_DFL);  // a second Ctrl-C kills at once
+}
+
+struct SigintGuard {
+    SigintGuard() {
+        g_interrupted = false;
+        previous_ = std::signal(SIGINT, on_sigint);
+    }
+    ~SigintGuard() { std::signal(SIGINT, previous_); }
+    void (*previous_)(int);
+};
+
+using clock_type = std::chrono::steady_clock;
+
+std::string hms(double s) {
+    if (!std::isfinite(s) || s < 0) return "?";
+    long t = static_cast<long>(s + 0.5);
+    char b[32];
+    if (t >= 3600) std::snprintf(b, sizeof b, "%ldh%02ldm", t / 3600, (t / 60) % 60);
+    else if (t >= 60) std::snprintf(b, sizeof b, "%ldm%02lds", t / 60, t % 60);
+    else std::snprintf(b, sizeof b, "%lds", t);
+    return b;
+}
+
+std::string describe(const RenderRequest& r) {
+    return r.scene.name + ", " + std::to_string(r.spp) + " spp, seed " + std::to_string(r.seed) + ", " + to_string(r.estimator);
+}
+
+// A loaded scene variant at the study's film size.
+struct LoadedScene {
+    Scene scene;
+    SceneArrays arrays;
+    std::string digest;
+};
+
+LoadedScene load_variant(const SceneVariant& v, int res) {
+    LoadOptions lo;
+    lo.params = v.params;
+    LoadedScene ls;
+    ls.scene = load_scene(v.path, lo);
+    ls.scene.camera.set_film_width(res);
+    ls.arrays = flatten_scene(ls.scene);
+    ls.digest = scene_digest(ls.scene, ls.arrays);
+    return ls;
+}
+
+class CacheFrames : public FrameSource {
+public:
+    CacheFrames(const RenderCache& cache, const std::map<RenderRequest, std::string>& keys) : cache_(cache), keys_(keys) {}
+    Frame get(const RenderRequest& r) override {
+        auto it = keys_.find(r);
+        if (it == keys_.end()) throw std::logic_error("study: render not planned: " + describe(r));
+        return cache_.load(it->second);
+    }
+
+private:
+    const RenderCache& cache_;
+    const std::map<RenderRequest, std::string>& keys_;
+};
+
+std::string now_utc() {
+    std::time_t t = std::time(nullptr);
+    char b[64];
+    std::strftime(b, sizeof b, "%Y-%m-%d %H:%M UTC", std::gmtime(&t));
+    return b;
+}
+
+}  // namespace
+
+const std::vector<std::string>& first_party_scenes() {
+    static const std::vector<std::string> s = {"cubes_dof",        "glass_caustic",      "snooker",        "tabletop_mixed",
+                                               "tabletop_separated", "ring_caustic",     "kitchen_counter"};
+    return s;
+}
+
+int run_study(const StudyOptions& o) {
+    const auto t_start = clock_type::now();
+    StudyConfig cfg = preset_config(o.preset);
+    if (o.res) cfg.res = *o.res;
+    if (!o.spp_levels.empty()) cfg.stability_spp = o.spp_levels;
+    if (o.seeds) cfg.variance_seeds = cfg.sweep_seeds = *o.seeds;
+    cfg.predictor_curve = o.curve;
+    cfg.sweep_roughness_scene = o.sweep_roughness_scene;
+    cfg.sweep_lights_scene = o.sweep_lights_scene;
+    for (const auto& path : o.scenes) cfg.scenes.push_back({fs::path(path).stem().string(), path, {}});
+    const std::vector<StudyKind> kinds = parse_study(o.study);
+    cfg.validate(std::find(kinds.begin(), kinds.end(), StudyKind::Cost) != kinds.end());
+    const std::string out_dir = o.out_dir;
+    const std::string cache_dir = o.cache_dir.empty() ? (fs::path(out_dir) / "cache").string() : o.cache_dir;
+
+    // The plan: every render of every requested study, deduplicated, in a stable order.
+    std::vector<RenderRequest> plan;
+    std::set<RenderRequest> seen;
+    for (StudyKind k : kinds)
+        for (auto& r : plan_renders(cfg, k))
+            if (seen.insert(r).second) plan.push_back(r);
+
+    vk::ContextOptions co;
+    co.device_index = o.device;
+    vk::Context ctx(co);
+    const Traversal trav = resolve_traversal(ctx, parse_traversal(o.traversal));
+    const auto spirv = pathtrace_spirv(trav);
+    const std::string code_digest =
+        Digest().str(VKMECH_VERSION).bytes(spirv.data(), spirv.size_bytes()).str("frame-merge-v1").hex();
+
+    std::fprintf(stderr, "vkmech study %s: %s\n", o.study.c_str(), cfg.describe().c_str());
+    std::fprintf(stderr, "vkmech study: device '%s', %s traversal; cache %s\n", ctx.info().name.c_str(), to_string(trav),
+                 cache_dir.c_str());
+
+    // Keys: load each scene variant once to digest its content at the study's film size.
+    RenderCache cache(cache_dir);
+    std::map<RenderRequest, std::string> keys;
+    std::map<SceneVariant, std::pair<int, int>> film;
+    {
+        std::map<SceneVariant, std::string> digests;
+        for (const auto& r : plan) {
+            if (!digests.count(r.scene)) {
+                LoadedScene ls = load_variant(r.scene, cfg.res);
+                digests[r.scene] = ls.digest;
+                film[r.scene] = {ls.scene.camera.width, ls.scene.camera.height};
+            }
+            auto [w, h] = film[r.scene];
+            keys[r] = cache_key({digests[r.scene], w, h, r.spp, r.seed, static_cast<uint32_t>(r.estimator), cfg.batch_spp,
+                                 to_string(trav), ctx.info().name, code_digest});
+        }
+    }
+    std::vector<RenderRequest> missing;
+    double paths_total = 0, paths_missing = 0;
+    for (const auto& r : plan) {
+        auto [w, h] = film[r.scene];
+        double paths = static_cast<double>(r.spp) * w * h;
+        paths_total += paths;
+        if (!cache.contains(keys[r])) {
+            missing.push_back(r);
+            paths_missing += paths;
+        }
+    }
+
+    // Expected cost: a short probe render of the first scene to be rendered.
+    double probe_rate = 0;
+    if (!missing.empty()) {
+        LoadedScene ls = load_variant(missing.front().scene, cfg.res);
+        GpuScene g(ctx, ls.arrays, trav);
+        Renderer r(ctx, ls.scene, ls.arrays, g, Features::from_scene(ls.scene));
+        RenderSpec spec;
+        spec.spp = 4;
+        spec.batch_spp = 4;
+        r.render(spec);  // warm-up
+        Frame f = r.render(spec);
+        probe_rate = f.seconds > 0 ? f.samples / f.seconds : 0;
+    }
+    std::fprintf(stderr,
+                 "vkmech study: plan %zu renders (%zu cached, %zu to render), %.3g paths to trace; probe %.3g paths/s on "
+                 "%s -> expected render time ~%s (the scenes differ in cost; the progress line refines it)\n",
+                 plan.size(), plan.size() - missing.size(), missing.size(), paths_missing, probe_rate,
+                 missing.empty() ? "-" : missing.front().scene.name.c_str(),
+                 missing.empty() ? "0s" : hms(paths_missing / std::max(probe_rate, 1.0)).c_str());
+    if (o.plan_only) return 0;
+
+    // Render what is missing, grouped by scene variant; each finished render is cached atomically.
+    double render_seconds = 0, paths_done = 0;
+    size_t done = 0;
+    const bool tty = isatty(STDERR_FILENO);
+    const auto t_render = clock_type::now();
+    {
+        SigintGuard guard;
+        std::vector<SceneVariant> order;
+        for (const auto& r : missing)
+            if (std::find(order.begin(), order.end(), r.scene) == order.end()) order.push_back(r.scene);
+        for (const auto& variant : order) {
+            LoadedScene ls = load_variant(variant, cfg.res);
+            GpuScene g(ctx, ls.arrays, trav);
+            std::map<Estimator, std::unique_ptr<Renderer>> renderers;
+            for (const auto& r : missing) {
+                if (!(r.scene == variant)) continue;
+                if (g_interrupted) throw StudyInterrupted("interrupted");
+                auto& rr = renderers[r.estimator];
+                if (!rr) rr = std::make_unique<Renderer>(ctx, ls.scene, ls.arrays, g, Features::from_scene(ls.scene, r.estimator));
+                RenderSpec spec;
+                spec.spp = r.spp;
+                spec.seed = r.seed;
+                spec.batch_spp = std::min(cfg.batch_spp, r.spp);
+                auto [w, h] = film[r.scene];
+                const double px = static_cast<double>(w) * h;
+                spec.progress = [&](uint32_t d, uint32_t) {
+                    if (g_interrupted) throw StudyInterrupted("interrupted");
+                    double spent = std::chrono::duration<double>(clock_type::now() - t_render).count();
+                    double traced = paths_done + d * px;
+                    double left = traced > 0 ? spent * (paths_missing - traced) / traced : NAN;
+                    if (tty) {
+                        std::fprintf(stderr, "\rstudy: %zu/%zu renders done, %s spent, ~%s left | %s: %u/%u spp      ", done,
+                                     missing.size(), hms(spent).c_str(), hms(left).c_str(), r.scene.name.c_str(), d, r.spp);
+                        std::fflush(stderr);
+                    }
+                };
+                Frame f = rr->render(spec);
+                cache.store(keys[r], f, describe(r) + ", " + std::to_string(w) + "x" + std::to_string(h));
+                render_seconds += f.seconds;
+                paths_done += r.spp * px;
+                ++done;
+                double spent = std::chrono::duration<double>(clock_type::now() - t_render).count();
+                double left = spent * (paths_missing - paths_done) / std::max(paths_done, 1.0);
+                if (tty) std::fprintf(stderr, "\r\033[K");
+                std::fprintf(stderr, "study: %zu/%zu renders done, %s spent, ~%s left (%s: %.1fs)\n", done, missing.size(),
+                             hms(spent).c_str(), hms(left).c_str(), describe(r).c_str(), f.seconds);
+            }
+        }
+    }
+
+    // Experiments on cached frames only: a resumed study computes from exactly the same bytes.
+    fs::create_directories(out_dir);
+    StudyOutput out(out_dir);
+    CacheFrames frames(cache, keys);
+    std::map<SceneVariant, SeparationMeasures> separations;
+    StudyContext sc{cfg, frames, out, ctx.info().name, [&](const SceneVariant& v) {
+                        auto it = separations.find(v);
+                        if (it != separations.end()) return it->second;
+                        LoadedScene ls = load_variant(v, cfg.res);
+                        GpuScene g(ctx, ls.arrays, trav);
+                        return separations[v] = measure_separation(ctx, ls.scene, ls.arrays, g);
+                    }};
+    for (StudyKind k : kinds) {
+        std::fprintf(stderr, "study: analysing %s\n", to_string(k));
+        switch (k) {
+        case StudyKind::Stability: run_stability(sc); break;
+        case StudyKind::Variance: run_variance(sc); break;
+        case StudyKind::Cost: run_cost(sc); break;
+        case StudyKind::Structure: run_structure(sc); break;
+        case StudyKind::SweepRoughness: run_sweep_roughness(sc); break;
+        case StudyKind::SweepLights: run_sweep_lights(sc); break;
+        case StudyKind::Predictor: run_predictor(sc); break;
+        }
+    }
+
+    // Figures: matplotlib draws the JSON specs (analysis/plot_figures.py).
+    int rc = 0;
+    std::string fig_dir = (fs::path(out_dir) / "figures").string();
+    if (!o.no_plots && fs::exists(fig_dir)) {
+        std::string script = std::getenv("VKMECH_PLOT_SCRIPT") ? std::getenv("VKMECH_PLOT_SCRIPT")
+                                                               : std::string(VKMECH_SOURCE_DIR) + "/analysis/plot_figures.py";
+        std::string cmd = "python3 '" + script + "' '" + fig_dir + "' > /dev/null";
+        int status = std::system(cmd.c_str());
+        if (status != 0) {
+            std::fprintf(stderr, "vkmech study: plotting failed (%s); the figure specs are in %s\n", cmd.c_str(),
+                         fig_dir.c_str());
+            rc = 1;
+        }
+    }
+
+    const double wall = std::chrono::duration<double>(clock_type::now() - t_start).count();
+    std::ostringstream header;
+    header << "# vkmech study: " << o.study << "\n\n";
+    header << "Generated " << now_utc() << " by vkmech " << VKMECH_VERSION << ".\n\n";
+    header << "- Command: `" << o.command_line << "`\n";
+    header << "- Protocol: " << cfg.describe() << ".\n";
+    header << "- Scenes: ";
+    for (size_t i = 0; i < cfg.scenes.size(); ++i) header << (i ? ", " : "") << cfg.scenes[i].name;
+    header << "\n- Device: " << ctx.info().name << " (" << ctx.info().type << "), " << to_string(trav) << " traversal.\n";
+    header << "- Renders: " << plan.size() << " (" << done << " rendered in this run, " << plan.size() - done
+           << " from the cache), " << report::format("%.3g", paths_total) << " paths in all.\n";
+    header << "- Wall time of this run: " << hms(wall) << " (GPU time of the renders done in this run: "
+           << hms(render_seconds) << ").\n\n";
+    header << "Tables are in `tables/` (Markdown and CSV), figures in `figures/` (PNG drawn by "
+              "`analysis/plot_figures.py` from the JSON beside each), maps in `maps/`. Re-running the same command "
+              "reuses the render cache and regenerates every table identically.\n";
+    std::string report_path = (fs::path(out_dir) / "report.md").string();
+    write_file_atomic(report_path, build_report(out, header.str()));
+    std::printf("vkmech study %s: %zu renders (%zu new), wall time %s; report: %s\n", o.study.c_str(), plan.size(), done,
+                hms(wall).c_str(), report_path.c_str());
+    return rc;
+}
+
+}  // namespace vkmech

@@ -1,0 +1,45 @@
+// `vkmech study`: plans the renders of the requested studies (SPEC §4 seed
+// layouts), renders what the on-disk cache lacks with a progress line and
+// SIGINT-safe resumption, then runs the experiments on cached frames and
+// writes tables, figures, maps and report.md.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace vkmech {
+
+struct StudyOptions {
+    std::string study;                    // stability | variance | ... | all
+    std::string preset = "quick";         // quick | reduced | paper
+    std::vector<std::string> scenes;      // resolved scene files (the CLI resolves names)
+    std::string sweep_roughness_scene, sweep_lights_scene;  // resolved sweep scene files
+    std::optional<int> res;               // film width
+    std::vector<uint32_t> spp_levels;     // stability levels (last = reference)
+    std::optional<int> seeds;             // seeds per variance level (and per sweep level)
+    std::string out_dir;                  // default out/study-<study>
+    std::string cache_dir;                // default <out>/cache
+    std::string curve;                    // predictor: frozen curve for new scenes
+    std::optional<uint32_t> device;
+    std::string traversal = "auto";
+    bool no_plots = false;
+    bool plan_only = false;               // print the plan and the expected cost, render nothing
+    std::string command_line;             // for the report
+};
+
+// Thrown when SIGINT arrives during rendering: finished renders are cached.
+class StudyInterrupted : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+// Returns the process exit code (0 ok; 1 when plotting failed).
+int run_study(const StudyOptions& options);
+
+// The seven first-party scenes of SPEC §7, in the paper's order.
+const std::vector<std::string>& first_party_scenes();
+
+}  // namespace vkmech
