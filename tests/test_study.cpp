@@ -153,6 +153,30 @@ TEST_CASE("study: presets and budgets are validated with a reason") {
     CHECK_NOTHROW(preset_config("reduced").validate());
 }
 
+TEST_CASE("study: bad study arguments exit 2 with the reason") {
+    auto run = [](const std::string& args) {
+        fs::path log = fs::temp_directory_path() / ("vkmech_study_args_" + std::to_string(::getpid()) + ".log");
+        int rc = run_shell(std::string(VKMECH_CLI) + " " + args + " > " + log.string() + " 2>&1");
+        std::string text = slurp(log);
+        fs::remove(log);
+        return std::make_pair(rc, text);
+    };
+    auto [rc, text] = run("study stabilty");
+    CHECK(rc == 2);
+    std::tie(rc, text) = run("study all --seeds 5 --out /tmp/never");
+    CHECK(rc == 2);
+    CHECK(text.find("even") != std::string::npos);
+    std::tie(rc, text) = run("study stability --scenes no_such_scene");
+    CHECK(rc == 2);
+    CHECK(text.find("no scene named 'no_such_scene'") != std::string::npos);
+    std::tie(rc, text) = run("study all --spp-levels 64,16");
+    CHECK(rc == 2);
+    CHECK(text.find("ascending") != std::string::npos);
+    std::tie(rc, text) = run("study stability --curve /nonexistent.json");
+    CHECK(rc == 2);
+    CHECK_FALSE(fs::exists("/tmp/never"));
+}
+
 TEST_SUITE("gpu") {
     TEST_CASE("study: vkmech study all --preset quick writes every table, figure and map, and a rerun is all cache") {
         VKMECH_REQUIRE_GPU(ctx);
@@ -210,6 +234,16 @@ TEST_SUITE("gpu") {
             ++rows;
         }
         CHECK(rows == 7 * 5);
+
+        // A new scene predicted from its own pilot with the frozen curve (no reference render).
+        fs::path pred = out.string() + "_pred";
+        rc = run_shell(std::string(VKMECH_CLI) + " study predictor --preset quick --scenes sweep_lights --curve " +
+                       (out / "predictor_curve.json").string() + " --out " + pred.string() + " > /dev/null 2>&1");
+        CHECK(rc == 0);
+        std::string predicted = slurp(pred / "tables" / "predictor_new.csv");
+        CAPTURE(predicted);
+        CHECK(predicted.find("sweep_lights,4,") != std::string::npos);
+        fs::remove_all(pred);
 
         auto before = tables_of(out);
         rc = run_shell(cmd + " > " + (out.string() + ".log") + " 2>&1");

@@ -31,6 +31,11 @@ void StudyOutput::text(const std::string& section, const std::string& md) {
     entries_.push_back({section, "text", "", "", md});
 }
 
+void StudyOutput::check(const std::string& claim, bool holds, const std::string& detail) {
+    entries_.push_back({"Checks against the paper's shape", "check", "", "",
+                        std::string("- **") + (holds ? "holds" : "differs") + "**: " + claim + " — " + detail});
+}
+
 std::vector<double> lum_mean_field(const Frame& f) {
     std::vector<double> v(f.pixels.size());
     for (size_t i = 0; i < v.size(); ++i) v[i] = f.pixels[i].lum_mean;
@@ -76,7 +81,7 @@ std::string build_report(const StudyOutput& out, const std::string& header) {
     std::ostringstream o;
     o << header << "\n";
     // Headline tables first, then pictures, then the long per-scene detail.
-    std::vector<std::string> sections = {"Cross-SPP stability", "Coverage", "Dominant-class maps", "Agreement maps",
+    std::vector<std::string> sections = {"Checks against the paper's shape", "Cross-SPP stability", "Coverage", "Dominant-class maps", "Agreement maps",
                                          "Variance baseline", "Time-to-quality", "Correlation structure",
                                          "Roughness sweep", "Light-count sweep", "Reliability predictor",
                                          "Label transitions"};
@@ -97,7 +102,9 @@ std::string build_report(const StudyOutput& out, const std::string& header) {
         o << "## " << s << "\n\n";
         for (const auto& e : out.entries()) {
             if (e.section != s) continue;
-            if (e.kind == "text") {
+            if (e.kind == "check") {
+                o << e.markdown << "\n";
+            } else if (e.kind == "text") {
                 o << e.markdown << "\n\n";
             } else if (e.kind == "table") {
                 o << e.markdown << "\n";
@@ -107,6 +114,7 @@ std::string build_report(const StudyOutput& out, const std::string& header) {
                 o << "*How to read:* " << e.how_to_read << " (`" << e.path << "`)\n\n";
             }
         }
+        o << "\n";
     }
     return o.str();
 }

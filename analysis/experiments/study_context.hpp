@@ -37,6 +37,8 @@ public:
     void image(const std::string& section, const std::string& rel_path, int w, int h, const std::vector<uint8_t>& rgb,
                const std::string& how_to_read);
     void text(const std::string& section, const std::string& markdown);
+    // A result whose shape the paper states (SPEC §7): listed first in report.md as "holds" or "differs".
+    void check(const std::string& claim, bool holds, const std::string& detail);
     const std::vector<Entry>& entries() const { return entries_; }
 
 private:

@@ -283,6 +283,9 @@ int run_study(const StudyOptions& o) {
         }
     }
 
+    // GPU time of every render the tables rest on (this run's and the cached ones), as recorded in the cache.
+    double all_render_seconds = 0;
+    for (const auto& r : plan) all_render_seconds += frames.get(r).seconds;
     const double wall = std::chrono::duration<double>(clock_type::now() - t_start).count();
     std::ostringstream header;
     header << "# vkmech study: " << o.study << "\n\n";
@@ -295,7 +298,8 @@ int run_study(const StudyOptions& o) {
     header << "- Renders: " << plan.size() << " (" << done << " rendered in this run, " << plan.size() - done
            << " from the cache), " << report::format("%.3g", paths_total) << " paths in all.\n";
     header << "- Wall time of this run: " << hms(wall) << " (GPU time of the renders done in this run: "
-           << hms(render_seconds) << ").\n\n";
+           << hms(render_seconds) << "); GPU time of all " << plan.size() << " renders, cached ones included: "
+           << hms(all_render_seconds) << ".\n\n";
     header << "Tables are in `tables/` (Markdown and CSV), figures in `figures/` (PNG drawn by "
               "`analysis/plot_figures.py` from the JSON beside each), maps in `maps/`. Re-running the same command "
               "reuses the render cache and regenerates every table identically.\n";
