@@ -62,6 +62,10 @@ const uint EST_MIS = 2u;
 // Specialization: the event-recording debug mode (compiled out otherwise).
 layout(constant_id = 9) const bool DEBUG_EVENTS = false;
 
+// Adaptive rendering (SPEC §6): n(p) per pixel; a pixel takes only the samples
+// of this batch whose index is below n(p), so n(p) samples of a seed are
+// exactly the first n(p) frames of that seed's sample stream.
+layout(std430, set = 0, binding = BINDING_SAMPLE_COUNTS) readonly buffer SampleCounts { uint sample_counts[]; };
 layout(std430, set = 0, binding = BINDING_DEBUG) buffer DebugEvents {
     uint debug_count;
     uint debug_pad0, debug_pad1, debug_pad2;
@@ -253,6 +257,10 @@ void main() {
     uint pixel = px.y * width + px.x;
     uint first = params.sampling.x;
     uint count = params.film.w;
+    if (params.adaptive.x != 0u) {
+        uint n = sample_counts[pixel];
+        count = n > first ? min(count, n - first) : 0u;
+    }
 
     vec3 rgb_sum = vec3(0.0);
     float n_ok = 0.0;

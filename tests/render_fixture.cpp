@@ -16,6 +16,7 @@ Frame render_scene(vk::Context& ctx, const std::string& path, const RenderSetup&
     spec.seed = setup.seed;
     spec.batch_spp = setup.batch;
     spec.on_batch = setup.on_batch;
+    spec.sample_counts = setup.sample_counts;
     return r.render(spec);
 }
 

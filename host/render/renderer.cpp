@@ -2,6 +2,7 @@
 
 #include "render/shader_modules.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
 #include <cmath>
@@ -29,7 +30,7 @@ Renderer::Renderer(const vk::Context& ctx, const Scene& scene, const SceneArrays
     std::vector<vk::BindingDesc> bindings = {
         {0, DT::eUniformBuffer}, {1, DT::eStorageBuffer}, {2, DT::eStorageBuffer}, {3, DT::eStorageBuffer},
         {4, DT::eStorageBuffer}, {5, DT::eStorageBuffer}, {6, DT::eStorageBuffer}, {12, DT::eStorageBuffer},
-        {13, DT::eStorageBuffer}, {14, DT::eStorageBuffer}};
+        {13, DT::eStorageBuffer}, {14, DT::eStorageBuffer}, {15, DT::eStorageBuffer}};
     bool rq = gpu_.traversal() == Traversal::RayQuery;
     if (rq) bindings.push_back({7, DT::eAccelerationStructureKHR});
     else {
@@ -55,6 +56,9 @@ Renderer::Renderer(const vk::Context& ctx, const Scene& scene, const SceneArrays
     debug_ = vk::Buffer(ctx, 16 + sizeof(gpu::GpuDebugEvent) * (features_.debug_events ? 65536 : 1),
                         ::vk::BufferUsageFlagBits::eStorageBuffer, vk::MemoryUse::Readback);
     pipeline_->bind_buffer(14, debug_.handle());
+    sample_counts_ = vk::Buffer(ctx, pixels * sizeof(uint32_t), ::vk::BufferUsageFlagBits::eStorageBuffer,
+                                vk::MemoryUse::Upload);
+    pipeline_->bind_buffer(15, sample_counts_.handle());
     if (rq) pipeline_->bind_acceleration_structure(7, gpu_.accel()->tlas());
     else {
         pipeline_->bind_buffer(8, gpu_.bvh_nodes.handle());
@@ -81,10 +85,24 @@ Frame Renderer::render(const RenderSpec& spec) {
     p.lights = glm::vec4(arrays_.light_weight_total, arrays_.scene_scale, 0.0f, 0.0f);
     p.debug = glm::uvec4(debug_pixel_, debug_capacity_, 0u, 0u);
 
+    // Adaptive: n(p) samples at each pixel, samples [0, n(p)) of the seed (SPEC §6).
+    uint32_t total_spp = spec.spp;
+    uint64_t total_samples = static_cast<uint64_t>(spec.spp) * pixels;
+    if (!spec.sample_counts.empty()) {
+        if (spec.sample_counts.size() != pixels)
+            throw std::invalid_argument("per-pixel sample counts: " + std::to_string(spec.sample_counts.size()) +
+                                        " entries for " + std::to_string(pixels) + " pixels");
+        sample_counts_.upload(ctx_, spec.sample_counts.data(), pixels * sizeof(uint32_t));
+        p.adaptive = glm::uvec4(1u, 0u, 0u, 0u);
+        total_spp = *std::max_element(spec.sample_counts.begin(), spec.sample_counts.end());
+        total_samples = 0;
+        for (uint32_t n : spec.sample_counts) total_samples += n;
+    }
+
     auto t0 = std::chrono::steady_clock::now();
     uint32_t batch_spp = std::max(1u, spec.batch_spp);
-    for (uint32_t done = 0; done < spec.spp;) {
-        uint32_t n = std::min(batch_spp, spec.spp - done);
+    for (uint32_t done = 0; done < total_spp;) {
+        uint32_t n = std::min(batch_spp, total_spp - done);
         p.film = glm::uvec4(cam.width, cam.height, spec.seed, n);
         p.sampling.x = done;
         params_.upload(ctx_, &p, sizeof(p));
@@ -95,10 +113,10 @@ Frame Renderer::render(const RenderSpec& spec) {
         frame.merge(batch);
         if (spec.on_batch) spec.on_batch(batch);
         done += n;
-        if (spec.progress) spec.progress(done, spec.spp);
+        if (spec.progress) spec.progress(done, total_spp);
     }
     frame.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    frame.samples = static_cast<uint64_t>(spec.spp) * pixels;
+    frame.samples = total_samples;
     return frame;
 }
 

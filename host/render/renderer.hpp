@@ -16,6 +16,9 @@ struct RenderSpec {
     uint32_t seed = 0;
     uint32_t batch_spp = 8;  // samples per dispatch
     uint32_t mode = gpu::MODE_PATH;
+    // Adaptive rendering (SPEC §6): when non-empty (one entry per pixel), pixel p
+    // takes exactly samples [0, n(p)) of `seed` and `spp` is ignored.
+    std::vector<uint32_t> sample_counts;
     // Called after each batch with (samples done, samples total).
     std::function<void(uint32_t, uint32_t)> progress;
     // Called with each batch's raw per-pixel moments (tests, per-frame studies).
@@ -40,7 +43,7 @@ private:
     const GpuScene& gpu_;
     Features features_;
     std::unique_ptr<vk::ComputePipeline> pipeline_;
-    vk::Buffer params_, accum_, debug_;
+    vk::Buffer params_, accum_, debug_, sample_counts_;
     uint32_t debug_pixel_ = 0, debug_capacity_ = 0;
 };
 

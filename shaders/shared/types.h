@@ -103,6 +103,7 @@ struct GpuParams {
     uvec4 scene;       // light triangle count, emitter count, triangle count, mode
     vec4 lights;       // x: total light weight, y: scene scale (for ray offsets)
     uvec4 debug;       // x: pixel whose events are recorded, y: capacity (0: off)
+    uvec4 adaptive;    // x: 1 = per-pixel sample counts (binding 15): pixel p takes samples [0, n(p)) only
 };
 
 // One recorded contribution event (the GPU debug mode): the inputs of the

@@ -1,0 +1,11 @@
+// Downstream sample allocation (SPEC §6, paper §7 "Downstream
+// Demonstration"): strategies, the bucket floor and its placebo, the
+// median-of-means variance, Neyman allocation, and the error metrics.
+// Pure C++, no Vulkan.
+#pragma once
+
+#include "allocation/floor.hpp"
+#include "allocation/metrics.hpp"
+#include "allocation/mom.hpp"
+#include "allocation/neyman.hpp"
+#include "allocation/strategy.hpp"
