@@ -77,6 +77,12 @@ std::vector<double> pooled_curve(const std::vector<stats::BinnedRate>& per_scene
 
 }  // namespace
 
+PilotPrediction predict_from_pilot(const ReliabilityCurve& curve, const Frame& pilot) {
+    auto px = pilot_pixels(pilot, nullptr);
+    return {ReliabilityCurve::predict(curve.margin, px.margin), ReliabilityCurve::predict(curve.purity, px.purity),
+            px.margin.size()};
+}
+
 double ReliabilityCurve::predict(const std::vector<double>& curve, const std::vector<double>& x) {
     if (x.empty() || curve.empty()) return NAN;
     double s = 0;

@@ -22,4 +22,12 @@ struct ReliabilityCurve {
     static ReliabilityCurve load(const std::string& path);
 };
 
+struct Frame;
+struct PilotPrediction {
+    double margin = 0.0, purity = 0.0;  // predicted share of labelled pixels keeping their pilot label
+    size_t labelled = 0;
+};
+// A scene's predicted label reliability from its own pilot (paper §8.2).
+PilotPrediction predict_from_pilot(const ReliabilityCurve& curve, const Frame& pilot);
+
 }  // namespace vkmech

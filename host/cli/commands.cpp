@@ -124,7 +124,10 @@ private:
 
 }  // namespace
 
+int cmd_render_adaptive(const RenderOptions& o);
+
 int cmd_render(const RenderOptions& o) {
+    if (!o.adaptive.empty()) return cmd_render_adaptive(o);
     Scene scene = load_for_cli(o.common);
     std::string name = scene_stem(o.common.scene);
     std::string out_dir = o.out_dir.empty() ? "out/" + name : o.out_dir;
@@ -335,6 +338,117 @@ int cmd_study(const StudyCliOptions& c) {
     } catch (const std::invalid_argument& e) {
         throw UsageError(e.what());
     }
+}
+
+}  // namespace vkmech
+
+#include "allocation/allocation.hpp"
+#include "experiments/predictor.hpp"
+#include "io/png.hpp"
+#include "study/adaptive.hpp"
+
+namespace vkmech {
+
+// `vkmech render --adaptive STRATEGY --pilot N0 --budget B`: pilot, predicted
+// label reliability, Neyman allocation, final render of n(p) pool samples.
+int cmd_render_adaptive(const RenderOptions& o) {
+    alloc::Strategy strategy;
+    try {
+        strategy = alloc::parse_strategy(o.adaptive);
+    } catch (const std::invalid_argument& e) {
+        throw UsageError(std::string("--adaptive: ") + e.what());
+    }
+    if (strategy == alloc::Strategy::Oracle || strategy == alloc::Strategy::LabelOracle)
+        throw UsageError(std::string("--adaptive ") + alloc::to_string(strategy) +
+                         " needs a converged reference; it is a control of `vkmech study allocation`, not a renderer");
+    const bool robust = alloc::needs_mom(strategy);
+    if (robust) {
+        try {
+            alloc::mom_block_size(static_cast<int>(o.pilot));
+        } catch (const std::invalid_argument& e) {
+            throw UsageError(std::string("--adaptive ") + alloc::to_string(strategy) + " at --pilot " +
+                             std::to_string(o.pilot) + ": " + e.what());
+        }
+    }
+    if (o.floor > 1 + o.budget) throw UsageError("--floor exceeds the per-pixel average (1 + --budget)");
+    Scene scene = load_for_cli(o.common);
+    std::string name = scene_stem(o.common.scene);
+    std::string out_dir = o.out_dir.empty() ? "out/" + name : o.out_dir;
+    Estimator estimator = parse_estimator(o.estimator);
+
+    vk::ContextOptions co;
+    co.device_index = o.common.device;
+    co.validation = o.common.validation;
+    vk::Context ctx(co);
+    Traversal trav = resolve_traversal(ctx, parse_traversal(o.common.traversal));
+    SceneArrays arrays = flatten_scene(scene);
+    GpuScene gpu_scene(ctx, arrays, trav);
+    Features features = Features::from_scene(scene, estimator, true);
+    Renderer renderer(ctx, scene, arrays, gpu_scene, features);
+    const size_t pixels = static_cast<size_t>(scene.camera.width) * scene.camera.height;
+    std::fprintf(stderr, "vkmech: %s: %dx%d adaptive (%s, pilot %u spp, budget 1 + %u spp per pixel, floor %u) on '%s'\n",
+                 name.c_str(), scene.camera.width, scene.camera.height, alloc::to_string(strategy), o.pilot, o.budget,
+                 o.floor, ctx.info().name.c_str());
+
+    Pilot pilot = render_pilot(renderer, o.pilot, downstream_seeds::pilot(o.pilot_draw), robust);
+    std::printf("pilot: %u spp (seed %u), %.2f s\n", o.pilot, downstream_seeds::pilot(o.pilot_draw), pilot.seconds);
+
+    // The pilot's predicted label reliability (paper §8.2), before anything is allocated.
+    std::string curve_path = o.curve.empty() ? std::string(VKMECH_SOURCE_DIR) + "/docs/results/predictor_curve.json" : o.curve;
+    if (fs::exists(curve_path)) {
+        ReliabilityCurve curve = ReliabilityCurve::load(curve_path);
+        PilotPrediction pred = predict_from_pilot(curve, pilot.frame);
+        std::printf("predicted label reliability (share of the pilot's labels a converged render keeps): %.3f by "
+                    "margin, %.3f by purity (curve %s, fitted on %u-spp pilots)\n",
+                    pred.margin, pred.purity, curve_path.c_str(), curve.pilot_spp);
+        if (curve.pilot_spp != 0 && curve.pilot_spp != o.pilot)
+            std::printf("note: this pilot has %u spp; the curve was fitted on %u-spp pilots, so the prediction is "
+                        "indicative only\n",
+                        o.pilot, curve.pilot_spp);
+    } else if (!o.curve.empty()) {
+        throw UsageError("predictor curve '" + o.curve + "' does not exist");
+    } else {
+        std::printf("predicted label reliability: no frozen curve at %s (run `vkmech study predictor`)\n",
+                    curve_path.c_str());
+    }
+
+    alloc::ScoreInputs in;
+    in.pilot_var = &pilot.var;
+    in.pilot_labels = &pilot.labels;
+    if (robust) in.mom_var = &pilot.mom_var;
+    AdaptivePlan plan = plan_allocation(strategy, in, o.budget, o.floor, o.pilot_draw);
+
+    RenderSpec spec;
+    spec.seed = downstream_seeds::kPool;
+    spec.batch_spp = o.batch_spp;
+    spec.sample_counts = plan.n;
+    Progress progress("render " + name);
+    spec.progress = [&](uint32_t d, uint32_t t) { progress(d, t); };
+    Frame frame = renderer.render(spec);
+
+    uint32_t max_n = 0, min_n = ~0u;
+    for (uint32_t n : plan.n) {
+        max_n = std::max(max_n, n);
+        min_n = std::min(min_n, n);
+    }
+    RenderInfo info{name, resolve_scene_path(o.common.scene), ctx.info().name, to_string(trav), to_string(estimator),
+                    features.describe() + " adaptive=" + alloc::to_string(strategy),
+                    static_cast<uint32_t>(plan.total / pixels), downstream_seeds::kPool, true};
+    Descriptor desc = derive_descriptor(frame);
+    DescriptorSummary summary = summarize(frame, desc);
+    WrittenFiles files = write_render_outputs(out_dir, info, frame, &desc, &summary);
+    std::vector<float> nmap(plan.n.begin(), plan.n.end());
+    std::string spp_png = (fs::path(out_dir) / (name + "_spp.png")).string();
+    write_png_rgb8(spp_png, frame.width, frame.height, grey_to_rgb8(nmap, 0.0f, static_cast<float>(max_n)));
+
+    std::printf("allocation: %llu samples in all (%.2f per pixel), n(p) from %u to %u, %.2f ms\n",
+                static_cast<unsigned long long>(plan.total), static_cast<double>(plan.total) / pixels, min_n, max_n,
+                plan.allocation_ms);
+    std::printf("final: %.2f s; wall time pilot + allocation + final: %.2f s\n", frame.seconds,
+                pilot.seconds + plan.allocation_ms / 1000.0 + frame.seconds);
+    for (const auto& f : {files.exr, files.png, files.dominant_png, spp_png, files.json})
+        if (!f.empty()) std::printf("wrote %s\n", f.c_str());
+    return 0;
 }
 
 }  // namespace vkmech

@@ -36,6 +36,13 @@ struct RenderOptions {
     std::string capture = "on";     // on | off: the mechanism descriptor
     bool generic = false;           // the unspecialized pipeline (for comparisons)
     bool preview = false;           // provisional direct-light preview instead of the estimator
+    // Two-stage adaptive rendering (SPEC §6): strategy, pilot N0, extra budget, floor, pilot draw.
+    std::string adaptive;
+    uint32_t pilot = 16;
+    uint32_t budget = 32;
+    uint32_t floor = 1;
+    uint32_t pilot_draw = 0;
+    std::string curve;              // frozen predictor curve (default: docs/results/predictor_curve.json)
 };
 
 struct BenchOptions {

@@ -40,6 +40,20 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"on", "off"}));
     render->add_flag("--generic", render_opts.generic, "Use the unspecialized pipeline (every effect compiled in)");
     render->add_flag("--preview", render_opts.preview, "Fast direct-light preview instead of the full estimator");
+    render->add_option("--adaptive", render_opts.adaptive,
+                       "Two-stage adaptive rendering (SPEC §6) with this allocation strategy: uniform, observed-var, "
+                       "bucket-floor, robust-var, robust-floor, placebo, robust-placebo");
+    render->add_option("--pilot", render_opts.pilot, "Adaptive: pilot samples per pixel N0 (default 16)")
+        ->check(CLI::Range(2u, 4096u));
+    render->add_option("--budget", render_opts.budget,
+                       "Adaptive: extra samples per pixel on average, on top of the baseline of 1 (default 32)")
+        ->check(CLI::Range(0u, 255u));
+    render->add_option("--floor", render_opts.floor, "Adaptive: minimum samples per pixel (default 1)")
+        ->check(CLI::Range(1u, 256u));
+    render->add_option("--pilot-draw", render_opts.pilot_draw, "Adaptive: pilot draw k (pilot seed 100000 + 1000k)")
+        ->check(CLI::Range(0u, 899u));
+    render->add_option("--curve", render_opts.curve,
+                       "Adaptive: frozen label-reliability curve (default: docs/results/predictor_curve.json)");
 
     auto* devices = app.add_subcommand("devices", "List Vulkan devices with their ray-query support and limits");
 
