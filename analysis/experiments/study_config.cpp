@@ -11,7 +11,7 @@ const std::vector<std::pair<StudyKind, const char*>> kStudyNames = {
     {StudyKind::Stability, "stability"},           {StudyKind::Variance, "variance"},
     {StudyKind::Cost, "cost"},                     {StudyKind::Structure, "structure"},
     {StudyKind::SweepRoughness, "sweep-roughness"}, {StudyKind::SweepLights, "sweep-lights"},
-    {StudyKind::Predictor, "predictor"}};
+    {StudyKind::Predictor, "predictor"},           {StudyKind::Allocation, "allocation"}};
 
 std::string join(const std::vector<uint32_t>& v) {
     std::string s;
@@ -72,7 +72,10 @@ std::string StudyConfig::describe() const {
       << " (reference " << stability_reference_spp() << ", pilot " << pilot_spp() << "); variance SPP "
       << join(variance_spp) << " x " << variance_seeds << " seeds; time-to-quality SPP " << join(cost_spp)
       << " against the reference (tau " << cost_tau << "); sweeps " << sweep_seeds << " seeds x " << sweep_spp
-      << " SPP + a " << sweep_ref_spp << "-SPP reference per level";
+      << " SPP + a " << sweep_ref_spp << "-SPP reference per level; allocation at " << alloc_res
+      << " px: pilots " << join(alloc_pilots) << " SPP x " << alloc_draws << " draws, extra budget " << alloc_extra
+      << " SPP (sweep " << join(alloc_budget_sweep) << "), floors " << join(alloc_floors) << ", reference "
+      << alloc_ref_chunks * alloc_ref_chunk_spp << " SPP, pool " << 256 << " frames";
     return o.str();
 }
 
@@ -90,6 +93,9 @@ StudyConfig preset_config(const std::string& name) {
         c.sweep_spp = 32;
         c.sweep_ref_spp = 512;
         c.batch_spp = 64;
+        c.alloc_res = 64;
+        c.alloc_ref_chunks = 4;
+        c.alloc_ref_chunk_spp = 512;
         return c;
     }
     if (name == "paper") {
@@ -102,6 +108,9 @@ StudyConfig preset_config(const std::string& name) {
         c.sweep_ref_spp = 4096;
         c.sweep_lights = {1, 2, 3, 4, 6, 8, 12, 16};
         c.batch_spp = 64;
+        c.alloc_res = 256;
+        c.alloc_ref_chunks = 8;
+        c.alloc_ref_chunk_spp = 512;
         return c;
     }
     throw std::invalid_argument("unknown preset '" + name + "' (valid: quick, reduced, paper)");
@@ -173,6 +182,8 @@ std::vector<RenderRequest> plan_renders(const StudyConfig& cfg, StudyKind kind) 
         break;
     case StudyKind::SweepLights:
         sweep(light_variants(cfg));
+        break;
+    case StudyKind::Allocation:  // renders its own pool, pilots and reference (host/study/allocation_study.cpp)
         break;
     case StudyKind::Predictor:
         for (const auto& s : cfg.scenes) {

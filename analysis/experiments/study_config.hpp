@@ -37,7 +37,7 @@ struct RenderRequest {
     }
 };
 
-enum class StudyKind { Stability, Variance, Cost, Structure, SweepRoughness, SweepLights, Predictor };
+enum class StudyKind { Stability, Variance, Cost, Structure, SweepRoughness, SweepLights, Predictor, Allocation };
 const char* to_string(StudyKind k);
 // "all" expands to every kind; throws std::invalid_argument naming the valid ones.
 std::vector<StudyKind> parse_study(const std::string& name);
@@ -67,6 +67,19 @@ struct StudyConfig {
     uint32_t sweep_ref_spp = 64;
     std::string sweep_roughness_scene, sweep_lights_scene;  // resolved paths
     std::string predictor_curve;  // --curve: predict new scenes from their pilots only
+
+    // Downstream allocation (SPEC §6): pilots N0, K disjoint pilot draws, extra
+    // budget (on top of the baseline 1), the budget sweep, the f = 4 control,
+    // and an independent reference of alloc_ref_chunks x alloc_ref_chunk_spp.
+    std::vector<uint32_t> alloc_pilots{4, 16, 64};
+    int alloc_draws = 10;
+    uint32_t alloc_extra = 32;
+    std::vector<uint32_t> alloc_budget_sweep{32, 64, 128};
+    std::vector<uint32_t> alloc_floors{1, 4};
+    uint32_t alloc_ref_chunks = 2, alloc_ref_chunk_spp = 128;
+    int alloc_res = 32;
+    bool equal_time = false;
+    std::vector<uint32_t> equal_time_budgets{8, 16, 32, 64, 128};
 
     uint32_t stability_reference_spp() const { return stability_spp.back(); }
     uint32_t pilot_spp() const { return stability_spp.front(); }

@@ -287,10 +287,10 @@ namespace vkmech {
 
 void add_study_options(CLI::App* app, StudyCliOptions& o) {
     app->add_option("name", o.study,
-                    "stability, variance, cost, structure, sweep-roughness, sweep-lights, predictor, or all")
+                    "stability, variance, cost, structure, sweep-roughness, sweep-lights, predictor, allocation, or all")
         ->required()
         ->check(CLI::IsMember({"stability", "variance", "cost", "structure", "sweep-roughness", "sweep-lights", "predictor",
-                               "all"}));
+                               "allocation", "all"}));
     app->add_option("--preset", o.preset,
                     "quick (tiny images, low SPP: minutes, for CI), reduced (96 px, SPP 64/512/2048: what a CPU device "
                     "affords), paper (256², SPP 64/512/4096, 10 seeds per level: the paper's protocol)")
@@ -311,6 +311,8 @@ void add_study_options(CLI::App* app, StudyCliOptions& o) {
         ->check(CLI::IsMember({"auto", "rayquery", "bvh"}));
     app->add_flag("--no-plots", o.no_plots, "Write the figure specs (JSON) but do not run matplotlib");
     app->add_flag("--plan", o.plan_only, "Print the plan and its expected cost, render nothing");
+    app->add_flag("--equal-time", o.equal_time,
+                  "allocation: also compare strategies at equal wall-clock time (error versus measured seconds)");
 }
 
 int cmd_study(const StudyCliOptions& c) {
@@ -332,6 +334,7 @@ int cmd_study(const StudyCliOptions& c) {
     o.traversal = c.traversal;
     o.no_plots = c.no_plots;
     o.plan_only = c.plan_only;
+    o.equal_time = c.equal_time;
     o.command_line = c.command_line;
     try {
         return run_study(o);

@@ -63,7 +63,7 @@ struct StudyCliOptions {
     std::string out_dir, cache_dir, curve;
     std::optional<uint32_t> device;
     std::string traversal = "auto";
-    bool no_plots = false, plan_only = false;
+    bool no_plots = false, plan_only = false, equal_time = false;
     std::string command_line;
 };
 void add_study_options(CLI::App* app, StudyCliOptions& o);

@@ -8,6 +8,7 @@
 #include "render/renderer.hpp"
 #include "render/shader_modules.hpp"
 #include "scene/scene.hpp"
+#include "study/allocation_study.hpp"
 #include "study/render_cache.hpp"
 #include "vk/context.hpp"
 
@@ -62,24 +63,6 @@ std::string describe(const RenderRequest& r) {
     return r.scene.name + ", " + std::to_string(r.spp) + " spp, seed " + std::to_string(r.seed) + ", " + to_string(r.estimator);
 }
 
-// A loaded scene variant at the study's film size.
-struct LoadedScene {
-    Scene scene;
-    SceneArrays arrays;
-    std::string digest;
-};
-
-LoadedScene load_variant(const SceneVariant& v, int res) {
-    LoadOptions lo;
-    lo.params = v.params;
-    LoadedScene ls;
-    ls.scene = load_scene(v.path, lo);
-    ls.scene.camera.set_film_width(res);
-    ls.arrays = flatten_scene(ls.scene);
-    ls.digest = scene_digest(ls.scene, ls.arrays);
-    return ls;
-}
-
 class CacheFrames : public FrameSource {
 public:
     CacheFrames(const RenderCache& cache, const std::map<RenderRequest, std::string>& keys) : cache_(cache), keys_(keys) {}
@@ -103,6 +86,19 @@ std::string now_utc() {
 
 }  // namespace
 
+LoadedScene load_variant(const SceneVariant& v, int res) {
+    LoadOptions lo;
+    lo.params = v.params;
+    LoadedScene ls;
+    ls.scene = load_scene(v.path, lo);
+    ls.scene.camera.set_film_width(res);
+    ls.arrays = flatten_scene(ls.scene);
+    ls.digest = scene_digest(ls.scene, ls.arrays);
+    return ls;
+}
+
+bool study_interrupted() { return g_interrupted; }
+
 const std::vector<std::string>& first_party_scenes() {
     static const std::vector<std::string> s = {"cubes_dof",        "glass_caustic",      "snooker",        "tabletop_mixed",
                                                "tabletop_separated", "ring_caustic",     "kitchen_counter"};
@@ -112,7 +108,8 @@ const std::vector<std::string>& first_party_scenes() {
 int run_study(const StudyOptions& o) {
     const auto t_start = clock_type::now();
     StudyConfig cfg = preset_config(o.preset);
-    if (o.res) cfg.res = *o.res;
+    if (o.res) cfg.res = cfg.alloc_res = *o.res;
+    cfg.equal_time = o.equal_time;
     if (!o.spp_levels.empty()) cfg.stability_spp = o.spp_levels;
     if (o.seeds) cfg.variance_seeds = cfg.sweep_seeds = *o.seeds;
     cfg.predictor_curve = o.curve;
@@ -198,8 +195,8 @@ int run_study(const StudyOptions& o) {
     size_t done = 0;
     const bool tty = isatty(STDERR_FILENO);
     const auto t_render = clock_type::now();
+    SigintGuard guard;  // until the end: the allocation study renders during its analysis
     {
-        SigintGuard guard;
         std::vector<SceneVariant> order;
         for (const auto& r : missing)
             if (std::find(order.begin(), order.end(), r.scene) == order.end()) order.push_back(r.scene);
@@ -265,6 +262,11 @@ int run_study(const StudyOptions& o) {
         case StudyKind::SweepRoughness: run_sweep_roughness(sc); break;
         case StudyKind::SweepLights: run_sweep_lights(sc); break;
         case StudyKind::Predictor: run_predictor(sc); break;
+        case StudyKind::Allocation: {
+            AllocationStudyContext ac{cfg, out, ctx, trav, cache, code_digest, [] { return study_interrupted(); }};
+            run_allocation_study(ac);
+            break;
+        }
         }
     }
 

@@ -4,6 +4,10 @@
 // writes tables, figures, maps and report.md.
 #pragma once
 
+#include "experiments/study_config.hpp"
+#include "render/gpu_scene.hpp"
+#include "scene/scene.hpp"
+
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
@@ -27,6 +31,7 @@ struct StudyOptions {
     std::string traversal = "auto";
     bool no_plots = false;
     bool plan_only = false;               // print the plan and the expected cost, render nothing
+    bool equal_time = false;              // allocation: also compare strategies at equal wall-clock time
     std::string command_line;             // for the report
 };
 
@@ -38,6 +43,17 @@ public:
 
 // Returns the process exit code (0 ok; 1 when plotting failed).
 int run_study(const StudyOptions& options);
+
+// A scene variant loaded at a film width, with the digest of its content.
+struct LoadedScene {
+    Scene scene;
+    SceneArrays arrays;
+    std::string digest;
+};
+LoadedScene load_variant(const SceneVariant& v, int res);
+
+// True once SIGINT arrived during a study (the handler is installed while rendering).
+bool study_interrupted();
 
 // The seven first-party scenes of SPEC §7, in the paper's order.
 const std::vector<std::string>& first_party_scenes();
