@@ -169,25 +169,45 @@ int run_study(const StudyOptions& o) {
         }
     }
 
-    // Expected cost: a short probe render of the first scene to be rendered.
-    double probe_rate = 0;
-    if (!missing.empty()) {
-        LoadedScene ls = load_variant(missing.front().scene, cfg.res);
+    // Expected cost: a short probe render (4 spp) of every scene file with something to render,
+    // and the allocation study's renders (reference, pool, pilots, timing renders) estimated alike.
+    std::map<std::string, double> rate;  // scene file -> paths/s
+    auto probe = [&](const SceneVariant& v, int res) {
+        if (rate.count(v.path)) return rate[v.path];
+        LoadedScene ls = load_variant(v, res);
         GpuScene g(ctx, ls.arrays, trav);
         Renderer r(ctx, ls.scene, ls.arrays, g, Features::from_scene(ls.scene));
         RenderSpec spec;
         spec.spp = 4;
         spec.batch_spp = 4;
-        r.render(spec);  // warm-up
+        r.render(spec);  // warm-up (pipeline compilation)
         Frame f = r.render(spec);
-        probe_rate = f.seconds > 0 ? f.samples / f.seconds : 0;
+        return rate[v.path] = f.seconds > 0 ? f.samples / f.seconds : 1e6;
+    };
+    double expected_s = 0;
+    for (const auto& r : missing) {
+        auto [w, h] = film[r.scene];
+        expected_s += static_cast<double>(r.spp) * w * h / probe(r.scene, cfg.res);
+    }
+    double alloc_paths = 0;
+    if (std::find(kinds.begin(), kinds.end(), StudyKind::Allocation) != kinds.end()) {
+        double per_pixel = cfg.alloc_ref_chunks * cfg.alloc_ref_chunk_spp + 256.0;
+        for (uint32_t n0 : cfg.alloc_pilots) per_pixel += cfg.alloc_draws * n0 + 5 * (1.0 + cfg.alloc_extra);
+        if (cfg.equal_time)
+            for (uint32_t e : cfg.equal_time_budgets) per_pixel += 3 * (1.0 + e);
+        for (const auto& sc : cfg.scenes) {
+            LoadedScene ls = load_variant(sc, cfg.alloc_res);
+            double paths = per_pixel * ls.scene.camera.width * ls.scene.camera.height;
+            alloc_paths += paths;
+            expected_s += paths / probe(sc, cfg.res);
+        }
     }
     std::fprintf(stderr,
-                 "vkmech study: plan %zu renders (%zu cached, %zu to render), %.3g paths to trace; probe %.3g paths/s on "
-                 "%s -> expected render time ~%s (the scenes differ in cost; the progress line refines it)\n",
-                 plan.size(), plan.size() - missing.size(), missing.size(), paths_missing, probe_rate,
-                 missing.empty() ? "-" : missing.front().scene.name.c_str(),
-                 missing.empty() ? "0s" : hms(paths_missing / std::max(probe_rate, 1.0)).c_str());
+                 "vkmech study: plan %zu renders (%zu cached, %zu to render), %.3g paths to trace%s; probed %zu scene "
+                 "files -> expected render time ~%s on this device (the progress line refines it)\n",
+                 plan.size(), plan.size() - missing.size(), missing.size(), paths_missing,
+                 alloc_paths > 0 ? (" + about " + report::format("%.3g", alloc_paths) + " for the allocation study").c_str() : "",
+                 rate.size(), hms(expected_s).c_str());
     if (o.plan_only) return 0;
 
     // Render what is missing, grouped by scene variant; each finished render is cached atomically.
