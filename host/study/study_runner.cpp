@@ -317,11 +317,21 @@ int run_study(const StudyOptions& o) {
     header << "- Scenes: ";
     for (size_t i = 0; i < cfg.scenes.size(); ++i) header << (i ? ", " : "") << cfg.scenes[i].name;
     header << "\n- Device: " << ctx.info().name << " (" << ctx.info().type << "), " << to_string(trav) << " traversal.\n";
-    header << "- Renders: " << plan.size() << " (" << done << " rendered in this run, " << plan.size() - done
-           << " from the cache), " << report::format("%.3g", paths_total) << " paths in all.\n";
-    header << "- Wall time of this run: " << hms(wall) << " (GPU time of the renders done in this run: "
-           << hms(render_seconds) << "); GPU time of all " << plan.size() << " renders, cached ones included: "
-           << hms(all_render_seconds) << ".\n\n";
+    if (!plan.empty())
+        header << "- Renders: " << plan.size() << " (" << done << " rendered in this run, " << plan.size() - done
+               << " from the cache), " << report::format("%.3g", paths_total) << " paths in all.\n";
+    if (std::find(kinds.begin(), kinds.end(), StudyKind::Allocation) != kinds.end())
+        header << "- The allocation study renders its reference chunks, its 256-frame pool and its pilot draws itself "
+                  "(cached in the same cache, about "
+               << report::format("%.3g", alloc_paths)
+               << " paths), and re-renders each timed strategy's final image on every run: its time tables "
+                  "(alloc_time, equal_time) are measurements that vary run to run; every other table is "
+                  "regenerated identically from the cache.\n";
+    header << "- Wall time of this run: " << hms(wall);
+    if (!plan.empty())
+        header << " (GPU time of the planned renders done in this run: " << hms(render_seconds) << "); GPU time of all "
+               << plan.size() << " planned renders, cached ones included: " << hms(all_render_seconds);
+    header << ".\n\n";
     header << "Tables are in `tables/` (Markdown and CSV), figures in `figures/` (PNG drawn by "
               "`analysis/plot_figures.py` from the JSON beside each), maps in `maps/`. Re-running the same command "
               "reuses the render cache and regenerates every table identically.\n";
