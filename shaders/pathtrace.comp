@@ -64,7 +64,11 @@ layout(constant_id = 9) const bool DEBUG_EVENTS = false;
 
 // Adaptive rendering (SPEC §6): n(p) per pixel; a pixel takes only the samples
 // of this batch whose index is below n(p), so n(p) samples of a seed are
-// exactly the first n(p) frames of that seed's sample stream.
+// exactly the first n(p) frames of that seed's sample stream. After the P
+// counts the buffer holds the pixels sorted by n(p), largest first: a batch
+// starting at sample `first` is dispatched over the prefix of pixels that
+// still need samples only (params.adaptive.y of them), so finished pixels
+// cost no invocations.
 layout(std430, set = 0, binding = BINDING_SAMPLE_COUNTS) readonly buffer SampleCounts { uint sample_counts[]; };
 layout(std430, set = 0, binding = BINDING_DEBUG) buffer DebugEvents {
     uint debug_count;
@@ -250,9 +254,16 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
 }
 
 void main() {
-    uvec2 px = gl_GlobalInvocationID.xy;
     uint width = params.film.x;
     uint height = params.film.y;
+    uvec2 px = gl_GlobalInvocationID.xy;
+    if (params.adaptive.x != 0u) {
+        // 1D over the active pixels (rows of at most 65535 workgroups).
+        uint slot = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * 64u + gl_LocalInvocationIndex;
+        if (slot >= params.adaptive.y) return;
+        uint p = sample_counts[width * height + slot];
+        px = uvec2(p % width, p / width);
+    }
     if (px.x >= width || px.y >= height) return;
     uint pixel = px.y * width + px.x;
     uint first = params.sampling.x;

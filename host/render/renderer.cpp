@@ -56,7 +56,7 @@ Renderer::Renderer(const vk::Context& ctx, const Scene& scene, const SceneArrays
     debug_ = vk::Buffer(ctx, 16 + sizeof(gpu::GpuDebugEvent) * (features_.debug_events ? 65536 : 1),
                         ::vk::BufferUsageFlagBits::eStorageBuffer, vk::MemoryUse::Readback);
     pipeline_->bind_buffer(14, debug_.handle());
-    sample_counts_ = vk::Buffer(ctx, pixels * sizeof(uint32_t), ::vk::BufferUsageFlagBits::eStorageBuffer,
+    sample_counts_ = vk::Buffer(ctx, 2 * pixels * sizeof(uint32_t), ::vk::BufferUsageFlagBits::eStorageBuffer,
                                 vk::MemoryUse::Upload);
     pipeline_->bind_buffer(15, sample_counts_.handle());
     if (rq) pipeline_->bind_acceleration_structure(7, gpu_.accel()->tlas());
@@ -86,13 +86,22 @@ Frame Renderer::render(const RenderSpec& spec) {
     p.debug = glm::uvec4(debug_pixel_, debug_capacity_, 0u, 0u);
 
     // Adaptive: n(p) samples at each pixel, samples [0, n(p)) of the seed (SPEC §6).
+    std::vector<uint32_t> order;
     uint32_t total_spp = spec.spp;
     uint64_t total_samples = static_cast<uint64_t>(spec.spp) * pixels;
     if (!spec.sample_counts.empty()) {
         if (spec.sample_counts.size() != pixels)
             throw std::invalid_argument("per-pixel sample counts: " + std::to_string(spec.sample_counts.size()) +
                                         " entries for " + std::to_string(pixels) + " pixels");
-        sample_counts_.upload(ctx_, spec.sample_counts.data(), pixels * sizeof(uint32_t));
+        // Counts, then the pixels sorted by count (largest first, ties by index): each batch
+        // is dispatched over the prefix that still needs samples.
+        order.resize(pixels);
+        for (size_t i = 0; i < pixels; ++i) order[i] = static_cast<uint32_t>(i);
+        std::stable_sort(order.begin(), order.end(),
+                         [&](uint32_t a, uint32_t b) { return spec.sample_counts[a] > spec.sample_counts[b]; });
+        std::vector<uint32_t> buffer(spec.sample_counts);
+        buffer.insert(buffer.end(), order.begin(), order.end());
+        sample_counts_.upload(ctx_, buffer.data(), buffer.size() * sizeof(uint32_t));
         p.adaptive = glm::uvec4(1u, 0u, 0u, 0u);
         total_spp = *std::max_element(spec.sample_counts.begin(), spec.sample_counts.end());
         total_samples = 0;
@@ -105,11 +114,25 @@ Frame Renderer::render(const RenderSpec& spec) {
         uint32_t n = std::min(batch_spp, total_spp - done);
         p.film = glm::uvec4(cam.width, cam.height, spec.seed, n);
         p.sampling.x = done;
+        size_t active = pixels;
+        if (!order.empty()) {  // the pixels with n(p) > done form a prefix of `order`
+            active = static_cast<size_t>(std::partition_point(order.begin(), order.end(), [&](uint32_t q) {
+                                             return spec.sample_counts[q] > done;
+                                         }) - order.begin());
+            p.adaptive.y = static_cast<uint32_t>(active);
+        }
         params_.upload(ctx_, &p, sizeof(p));
         ctx_.submit_and_wait([&](::vk::CommandBuffer cmd) {
-            pipeline_->record(cmd, (cam.width + 7) / 8, (cam.height + 7) / 8, 1);
+            if (order.empty()) pipeline_->record(cmd, (cam.width + 7) / 8, (cam.height + 7) / 8, 1);
+            else {
+                uint32_t groups = static_cast<uint32_t>((active + 63) / 64);
+                uint32_t gx = std::min(groups, 65535u);  // the guaranteed maxComputeWorkGroupCount
+                pipeline_->record(cmd, gx, (groups + gx - 1) / gx, 1);
+            }
         });
         accum_.download(ctx_, batch.data(), batch.size() * sizeof(gpu::GpuPixelAccum));
+        // Pixels outside the active prefix were not written in this batch: they took no samples.
+        for (size_t i = active; i < order.size(); ++i) batch[order[i]] = gpu::GpuPixelAccum{};
         frame.merge(batch);
         if (spec.on_batch) spec.on_batch(batch);
         done += n;
