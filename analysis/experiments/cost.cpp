@@ -52,7 +52,8 @@ void run_cost(StudyContext& ctx) {
     report::Figure fig{"cost_by_bucket", "Median time-to-quality per bucket", "", 1, {}};
     report::Panel panel;
     panel.kind = "bar";
-    panel.title = "median c(p) per dominant bucket (hatched: censored lower bound)";
+    panel.title = "median c(p) per dominant bucket (hatched: censored, a lower bound)";
+    fig.panel_size = std::make_pair(9.0, 4.0);
     panel.ylabel = "SPP";
     panel.logy = true;
     for (uint32_t b : rows) panel.categories.push_back(kBucketNames[b]);

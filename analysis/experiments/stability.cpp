@@ -45,6 +45,14 @@ std::vector<uint8_t> variance_bins(const std::vector<double>& var, const std::ve
     return out;
 }
 
+// Nearest-neighbour enlargement so that small study films stay legible (about 256 px wide).
+std::vector<uint8_t> enlarge(const std::vector<uint8_t>& cls, int w, int h, int s) {
+    std::vector<uint8_t> out(static_cast<size_t>(w) * s * h * s);
+    for (int y = 0; y < h * s; ++y)
+        for (int x = 0; x < w * s; ++x) out[static_cast<size_t>(y) * w * s + x] = cls[static_cast<size_t>(y / s) * w + x / s];
+    return out;
+}
+
 std::string scene_file_name(const std::string& name) {
     std::string s;
     for (char c : name) s += (std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.') ? c : '_';
@@ -177,9 +185,14 @@ void run_stability(StudyContext& ctx) {
 
         // Pictures: dominant maps at each level and the agreement map.
         std::string stem = scene_file_name(scene.name);
+        const int fw = frames.front().width, fh = frames.front().height;
+        const int s = std::max(1, 256 / fw);
+        const std::vector<std::array<uint8_t, 3>> bucket_colors(kBucketColors.begin(), kBucketColors.end());
+        const std::vector<std::string> bucket_names(kBucketNames.begin(), kBucketNames.end());
         for (size_t i = 0; i < nl; ++i) {
             int w = 0, h = 0;
-            auto img = dominant_map_with_legend(desc[i], &w, &h);
+            auto img = categorical_map_with_legend(fw * s, fh * s, enlarge(desc[i].dominant, fw, fh, s), bucket_colors,
+                                                   bucket_names, "none (no energy)", &w, &h);
             ctx.out.image("Dominant-class maps", "maps/" + stem + "_dominant_" + std::to_string(cfg.stability_spp[i]) + ".png",
                           w, h, img,
                           scene.name + " at " + std::to_string(cfg.stability_spp[i]) +
@@ -187,7 +200,7 @@ void run_stability(StudyContext& ctx) {
         }
         {
             int w = 0, h = 0;
-            auto img = categorical_map_with_legend(frames.front().width, frames.front().height, agreement_classes(pil, ref),
+            auto img = categorical_map_with_legend(fw * s, fh * s, enlarge(agreement_classes(pil, ref), fw, fh, s),
                                                    {kAgreeGrey, kLightBlue, kStructRed},
                                                    {"agree", "light-tailed swap", "structural swap"}, "unlabelled", &w, &h);
             ctx.out.image("Agreement maps", "maps/" + stem + "_agreement.png", w, h, img,

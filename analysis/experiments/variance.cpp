@@ -110,6 +110,7 @@ void run_variance(StudyContext& ctx) {
     panel.xlabel = "SPP";
     panel.ylabel = "rho";
     panel.logx = true;
+    fig.panel_size = std::make_pair(6.5, 4.0);
 
     // Shape check: split-half lowest on the caustic-dominated scene (largest delta-mediated energy share).
     std::string lowest_scene, caustic_scene;

@@ -24,6 +24,7 @@ std::string Figure::json() const {
     o << "{\n  \"title\": " << q(title) << ",\n";
     if (!caption.empty()) o << "  \"caption\": " << q(caption) << ",\n";
     if (columns > 0) o << "  \"columns\": " << columns << ",\n";
+    if (panel_size) o << "  \"panel_size\": [" << num(panel_size->first) << ", " << num(panel_size->second) << "],\n";
     o << "  \"panels\": [\n";
     for (size_t pi = 0; pi < panels.size(); ++pi) {
         const Panel& p = panels[pi];

@@ -38,6 +38,7 @@ struct Figure {
     std::string title, caption;
     int columns = 0;
     std::vector<Panel> panels;
+    std::optional<std::pair<double, double>> panel_size;  // inches per panel (the script's default: 4 x 3.2)
     std::string json() const;
 };
 
