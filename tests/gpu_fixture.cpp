@@ -3,13 +3,20 @@
 #include <doctest/doctest.h>
 
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <memory>
 
 namespace vkmech::testing {
 
+namespace {
+std::unique_ptr<vk::Context> ctx;
+bool tried = false;
+}  // namespace
+
+void release_test_context() { ctx.reset(); }
+
 vk::Context* test_context() {
-    static std::unique_ptr<vk::Context> ctx;
-    static bool tried = false;
     if (!tried) {
         tried = true;
         try {
@@ -21,6 +28,11 @@ vk::Context* test_context() {
         }
     }
     return ctx.get();
+}
+
+bool gpu_required() {
+    const char* v = std::getenv("VKMECH_REQUIRE_GPU");
+    return v && *v && std::strcmp(v, "0") != 0;
 }
 
 }  // namespace vkmech::testing

@@ -11,11 +11,21 @@ namespace vkmech::testing {
 // when installed.
 vk::Context* test_context();
 
+// Destroys the shared context (tests/main.cpp, before main returns).
+void release_test_context();
+
+// True when the environment says a device must be there (VKMECH_REQUIRE_GPU=1,
+// set by ci/gpu-check.sh): a missing device then fails the GPU tests instead
+// of skipping them, so a GPU run cannot pass by testing nothing.
+bool gpu_required();
+
 }  // namespace vkmech::testing
 
 #define VKMECH_REQUIRE_GPU(ctx)                                      \
     vkmech::vk::Context* ctx = vkmech::testing::test_context();     \
     if (!ctx) {                                                      \
+        if (vkmech::testing::gpu_required())                         \
+            FAIL("no Vulkan device, and VKMECH_REQUIRE_GPU is set"); \
         MESSAGE("skipped: no Vulkan device");                        \
         return;                                                      \
     }

@@ -272,6 +272,7 @@ TEST_SUITE("gpu") {
         REQUIRE(run_shell(std::string(VKMECH_CLI) + args + " --out " + (base / "a").string() + " > /dev/null 2>&1") == 0);
         // Interrupted run: SIGINT once the second render is in the cache, mid-way through the plan.
         fs::path b = base / "b";
+        std::fflush(nullptr);  // the child must not inherit unflushed output
         pid_t pid = fork();
         REQUIRE(pid >= 0);
         if (pid == 0) {
