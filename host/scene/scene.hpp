@@ -54,10 +54,16 @@ struct Spectrum3 {
     int texture = -1;  // index into Scene::textures, or -1 for the constant
 };
 
+enum class TextureKind : uint32_t { Bitmap = 0, Checkerboard = 1 };
+
 struct Texture {
-    std::string path;  // absolute path of the image file
+    TextureKind kind = TextureKind::Bitmap;
+    std::string path;  // absolute path of the image file (bitmap), or a description
     int width = 0, height = 0;
-    std::vector<float> rgb;  // linear RGB, row-major, top row first
+    std::vector<float> rgb;  // linear RGB, row-major, top row first (checkerboard: color0, color1)
+    bool nearest = false;    // Mitsuba's filter_type="nearest" (default bilinear)
+    // Mitsuba's `to_uv`: uv' = to_uv * (u, v, 1), an affine 2D map (rows 0 and 1).
+    glm::mat3 to_uv{1.0f};
 };
 
 struct Material {
@@ -70,6 +76,10 @@ struct Material {
     Spectrum3 reflectance{glm::vec3(0.5f)};
     glm::vec3 specular_reflectance{1.0f};
     glm::vec3 specular_transmittance{1.0f};
+    // Textures on the specular colours (index into Scene::textures, -1: the
+    // constants above, which then hold the texture's mean).
+    int specular_reflectance_texture = -1;
+    int specular_transmittance_texture = -1;
 
     // conductor family: complex index of refraction (RGB), relative to ext_ior.
     glm::vec3 eta{0.0f};  // default "none" = perfect mirror (eta 0, k 1)
@@ -164,6 +174,9 @@ struct Scene {
     Camera camera;
     IntegratorSettings integrator;
     std::vector<std::string> substitutions;  // user-requested plugin substitutions, reported
+    // Everything the loader read but did not use, or approximated without
+    // being asked ("file:line: what"); printed and recorded in every output.
+    std::vector<std::string> warnings;
 
     size_t triangle_count() const;
 };
@@ -177,7 +190,11 @@ struct LoadOptions {
 // Mitsuba 3 (and 0.5/0.6 camelCase) XML subset of SPEC §8. Throws SceneError.
 Scene load_mitsuba_xml(const std::string& path, const LoadOptions& options = {});
 
-// Dispatches on the extension (.xml). Throws SceneError.
+// glTF 2.0 (.gltf with external or embedded buffers, .glb), SPEC §8. Throws
+// SceneError.
+Scene load_gltf(const std::string& path, const LoadOptions& options = {});
+
+// Dispatches on the extension (.xml, .gltf, .glb). Throws SceneError.
 Scene load_scene(const std::string& path, const LoadOptions& options = {});
 
 }  // namespace vkmech
