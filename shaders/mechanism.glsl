@@ -25,6 +25,24 @@ SHARED_FN uint classify_event(uint n, uint end_lobe, bool delta_before_end) {
     return BUCKET_GLOSSY;
 }
 
+// The end vertex of a BSDF-sampled emitter hit shot from Vn (SPEC §2). lobe_n:
+// the lobe sampled at Vn; last_nondelta_lobe: the lobe sampled at the last
+// non-delta vertex of V1..V(n-1) (LOBE_NONE if every one was delta);
+// delta_before_n: any of V1..V(n-1) sampled a delta lobe.
+// Default reading (literal = false): the end vertex is the last non-delta
+// vertex of the path, and the delta flag looks at every other vertex, so a
+// caustic found by BSDF sampling (E-D-S-L) ends at the diffuse vertex with the
+// glass as "other" delta vertex; only an all-delta path (E-S-L, E-S-S-L) has
+// l = S. Literal reading: the end vertex is Vn itself.
+SHARED_FN uint bsdf_hit_end_lobe(bool literal, uint lobe_n, uint last_nondelta_lobe) {
+    if (literal || lobe_n != LOBE_S) return lobe_n;
+    return last_nondelta_lobe == LOBE_NONE ? LOBE_S : last_nondelta_lobe;
+}
+SHARED_FN bool bsdf_hit_delta(bool literal, uint lobe_n, uint last_nondelta_lobe, bool delta_before_n) {
+    if (literal || lobe_n != LOBE_S || last_nondelta_lobe == LOBE_NONE) return delta_before_n;
+    return true;  // Vn itself is a delta vertex other than the end vertex
+}
+
 // Heavy-tailed family (SPEC §2): glossy, delta_mediated, specular_direct.
 SHARED_FN bool bucket_is_heavy(uint b) {
     return b == BUCKET_GLOSSY || b == BUCKET_DELTA_MEDIATED || b == BUCKET_SPECULAR_DIRECT;

@@ -61,6 +61,9 @@ const uint EST_MIS_RESTRICTED = 1u;
 const uint EST_MIS = 2u;
 // Specialization: the event-recording debug mode (compiled out otherwise).
 layout(constant_id = 9) const bool DEBUG_EVENTS = false;
+// Specialization: SPEC §2's end-vertex reading: false = the last non-delta
+// vertex (default), true = the literal last surface vertex.
+layout(constant_id = 10) const bool END_VERTEX_LITERAL = false;
 
 // Adaptive rendering (SPEC §6): n(p) per pixel; a pixel takes only the samples
 // of this batch whose index is below n(p), so n(p) samples of a seed are
@@ -147,6 +150,9 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
     bool prev_mis = false;       // V(k-1) uses MIS for its BSDF-sampled emitter hits
     bool prev_delta_before = false;
     bool prev_glossy_before = false;
+    uint last_nondelta = LOBE_NONE;       // lobe of the last non-delta vertex among V1..V(k-1)
+    uint prev_last_nondelta = LOBE_NONE;  // the same among V1..V(k-2)
+    float eta_path = 1.0;  // product of the relative IORs crossed (SPEC §1 Russian roulette)
     vec3 prev_p = o;
     for (uint k = 1u; k <= max_depth; ++k) {
         Hit h;
@@ -155,15 +161,21 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
 
         // ---- emission seen by this segment ----
         if (s.emitter != 0u && dot(s.ng, d) < 0.0) {
-            vec3 Le = emitters[s.emitter - 1u].radiance.rgb;
+            GpuEmitter em = emitters[s.emitter - 1u];
+            vec3 Le = em.radiance.rgb;
             if (k == 1u) {
                 add_event(tally, throughput * Le, 0u, LOBE_NONE, false, false);
             } else if (prev_lobe == LOBE_S) {
-                add_event(tally, throughput * Le, k - 1u, prev_lobe, prev_delta_before, prev_glossy_before);
+                add_event(tally, throughput * Le, k - 1u,
+                          bsdf_hit_end_lobe(END_VERTEX_LITERAL, prev_lobe, prev_last_nondelta),
+                          bsdf_hit_delta(END_VERTEX_LITERAL, prev_lobe, prev_last_nondelta, prev_delta_before),
+                          prev_glossy_before);
             } else if (prev_mis && prev_pdf > 0.0) {
                 float cos_l = -dot(s.ng, d);
                 float dist2 = h.t * h.t;
-                float p_light = luminance(Le) / params.lights.x * dist2 / max(cos_l, 1e-12);
+                // NEE's area pdf of this point: the emitter's selection
+                // probability over its area (uniform or power selection).
+                float p_light = uintBitsToFloat(em.info.w) * dist2 / max(cos_l, 1e-12);
                 float w = power_heuristic(prev_pdf, p_light);
                 add_event(tally, throughput * Le * w, k - 1u, prev_lobe, prev_delta_before, prev_glossy_before);
             }
@@ -235,13 +247,19 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
         prev_lobe = bs.lobe;
         prev_pdf = bs.pdf;
         prev_mis = vertex_mis && bs.lobe != LOBE_S;
+        prev_last_nondelta = last_nondelta;
         if (bs.lobe == LOBE_S) delta_before = true;
+        else last_nondelta = bs.lobe;
         if (bs.lobe == LOBE_G) glossy_before = true;
+        eta_path *= bs.eta;
 
         // ---- Russian roulette (SPEC §1: from depth rr_depth) ----
+        // Survival as Mitsuba 3's path integrator: max throughput times eta^2,
+        // so a path inside glass is not killed for the 1/eta^2 its radiance
+        // scaling put into the throughput.
         float u_rr = rng_next(rng);
         if (k >= rr_depth) {
-            float q = min(max(throughput.x, max(throughput.y, throughput.z)), 0.95);
+            float q = min(max(throughput.x, max(throughput.y, throughput.z)) * eta_path * eta_path, 0.95);
             if (!(u_rr < q)) break;
             throughput /= q;
         }

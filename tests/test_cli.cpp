@@ -50,6 +50,13 @@ TEST_CASE("cli: bad usage and bad input exit with code 2 and say what is wrong")
     r = run_cli("render --scene ring_caustic --traversal warp");
     CHECK(r.code == 2);
 
+    r = run_cli("render --scene ring_caustic --light-selection brightest");
+    CHECK(r.code == 2);
+    r = run_cli("render --scene ring_caustic --end-vertex first");
+    CHECK(r.code == 2);
+    r = run_cli("render --scene ring_caustic --exposure 99");
+    CHECK(r.code == 2);
+
     r = run_cli("--help");
     CHECK(r.code == 0);
     CHECK(r.output.find("render") != std::string::npos);
@@ -88,6 +95,13 @@ TEST_SUITE("gpu") {
         }
         CHECK(sum > 0.0);
         for (float v : exr.channels.at("spp")) CHECK(v == 4.0f);
+        // SPEC §1/§2 defaults of plain `render`, recorded in the EXR header.
+        using Attr = std::vector<std::string>;
+        CHECK(exr.attributes["vkmech.estimator"] == Attr{"mis"});
+        CHECK(exr.attributes["vkmech.lightSelection"] == Attr{"uniform"});
+        CHECK(exr.attributes["vkmech.endVertex"] == Attr{"last-nondelta"});
+        CHECK(exr.attributes["vkmech.spp"] == Attr{"4"});
+        CHECK(exr.attributes.count("vkmech.warnings") == 1);
         // No temporary files are left behind by the atomic writes.
         for (const auto& e : fs::directory_iterator(out)) CHECK(e.path().filename().string().find(".tmp") == std::string::npos);
         fs::remove_all(out);
@@ -96,7 +110,8 @@ TEST_SUITE("gpu") {
     TEST_CASE("cli: --capture off writes the image channels alone and the JSON summary reports the run") {
         VKMECH_REQUIRE_GPU(ctx);
         fs::path out = fs::temp_directory_path() / ("vkmech_cli_nocap_" + std::to_string(::getpid()));
-        auto r = run_cli("--scene cubes_dof --spp 2 --res 16 --capture off --out " + out.string());
+        auto r = run_cli("--scene cubes_dof --spp 2 --res 16 --capture off --estimator nee --light-selection power "
+                         "--end-vertex literal --exposure -1.5 --out " + out.string());
         INFO(r.output);
         REQUIRE(r.code == 0);
         auto exr = vkmech::read_exr_channels((out / "cubes_dof.exr").string());
@@ -108,6 +123,13 @@ TEST_SUITE("gpu") {
         ss << json.rdbuf();
         CHECK(ss.str().find("\"paths_per_second\"") != std::string::npos);
         CHECK(ss.str().find("\"nonfinite_samples\": 0") != std::string::npos);
+        // Every non-default setting is recorded.
+        CHECK(ss.str().find("\"estimator\": \"nee\"") != std::string::npos);
+        CHECK(ss.str().find("\"light_selection\": \"power\"") != std::string::npos);
+        CHECK(ss.str().find("\"end_vertex\": \"literal\"") != std::string::npos);
+        CHECK(ss.str().find("\"preview_exposure_ev\": -1.5") != std::string::npos);
+        CHECK(ss.str().find("\"preview_clipped_pixel_share\"") != std::string::npos);
+        CHECK(exr.attributes["vkmech.endVertex"] == std::vector<std::string>{"literal"});
         fs::remove_all(out);
     }
 }

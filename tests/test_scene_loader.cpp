@@ -2,6 +2,7 @@
 // primitives and the OBJ/PLY readers. Valid fixtures pin counts, transforms,
 // smoothness, areas and orientation; the malformed corpus pins that every
 // fault is a SceneError naming the file, the line and the fault.
+#include "io/exr.hpp"
 #include "scene/mesh_io.hpp"
 #include "scene/mesh_ops.hpp"
 #include "scene/primitives.hpp"
@@ -11,11 +12,17 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <numbers>
+#include <sstream>
 #include <string>
 
 using namespace vkmech;
+namespace fs = std::filesystem;
 
 namespace {
 
@@ -530,9 +537,28 @@ TEST_CASE("mitsuba: nested includes relative to the including file - bitmap text
 TEST_CASE("mitsuba: envmap/constant are errors unless substitution is asked for") {
     CHECK_THROWS_WITH_AS(load_mitsuba_xml(data("loader/envmap.xml")),
                          doctest::Contains("unsupported emitter plugin 'envmap'"), SceneError);
+    // With --substitute the map is read to calibrate the panel, so a missing
+    // map is still an error.
     LoadOptions o;
     o.substitute_unsupported = true;
-    Scene s = load_mitsuba_xml(data("loader/envmap.xml"), o);
+    CHECK_THROWS_WITH_AS(load_mitsuba_xml(data("loader/envmap.xml"), o),
+                         doctest::Contains("cannot open environment map 'sky.exr'"), SceneError);
+
+    // A 4x2 latitude-longitude map written here: the upper row (theta = pi/4)
+    // is 3, the lower row (theta = 3 pi / 4) is 1; both rows have the same
+    // solid angle (sin pi/4 = sin 3pi/4), so the mean radiance is 2, and the
+    // panel's radiance is 2 x scale 0.5 = 1.
+    fs::path dir = fs::temp_directory_path() / ("vkmech_envmap_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    std::vector<float> px = {3, 3, 3, 3, 1, 1, 1, 1};
+    write_exr_layers((dir / "sky.exr").string(), 4, 2, {{"R", px}, {"G", px}, {"B", px}});
+    std::ifstream in(data("loader/envmap.xml"));
+    std::stringstream xml;
+    xml << in.rdbuf();
+    std::string text = xml.str();
+    text.replace(text.find("</emitter>"), 10, "<float name=\"scale\" value=\"0.5\"/></emitter>");
+    std::ofstream(dir / "envmap.xml") << text;
+    Scene s = load_mitsuba_xml((dir / "envmap.xml").string(), o);
     REQUIRE(s.substitutions.size() == 2);
     CHECK(s.substitutions[0].find("envmap") != std::string::npos);
     CHECK(s.substitutions[1].find("constant") != std::string::npos);
@@ -548,6 +574,7 @@ TEST_CASE("mitsuba: envmap/constant are errors unless substitution is asked for"
         for (const auto& p : panel.positions) CHECK(p.y > 2.0f);
         CHECK(surface_area(panel) >= 4.0 * 6.0 - 1e-3);
     }
+    fs::remove_all(dir);
 }
 
 TEST_CASE("mitsuba: mirroring transforms - binary PLY shapes - face_normals") {
@@ -615,7 +642,7 @@ const Fault kFaults[] = {
     {"nan_number.xml", "nan_number.xml", 4, "non-finite number 'nan'"},
     {"inf_number.xml", "inf_number.xml", 8, "non-finite number 'inf'"},
     {"unparsable_number.xml", "unparsable_number.xml", 8, "cannot parse '1.2.3' as a number"},
-    {"unknown_bsdf_ref.xml", "unknown_bsdf_ref.xml", 8, "unknown bsdf reference 'rde'"},
+    {"unknown_bsdf_ref.xml", "unknown_bsdf_ref.xml", 8, "unknown reference 'rde'"},
     {"no_sensor.xml", "no_sensor.xml", 3, "has no <sensor>"},
     {"negative_radius.xml", "negative_radius.xml", 6, "radius must be positive"},
     {"zero_film.xml", "zero_film.xml", 5, "film size must be positive"},
@@ -634,7 +661,7 @@ const Fault kFaults[] = {
     {"unknown_conductor.xml", "unknown_conductor.xml", 7, "unknown conductor material 'Unobtainium'"},
     {"unknown_ior.xml", "unknown_ior.xml", 7, "unknown IOR name 'kryptonite'"},
     {"duplicate_id.xml", "duplicate_id.xml", 7, "duplicate id 'm'"},
-    {"area_emitter_toplevel.xml", "area_emitter_toplevel.xml", 6, "must be nested inside a <shape>"},
+    {"area_emitter_toplevel.xml", "area_emitter_toplevel.xml", 6, "outside a <shape> needs an id"},
     {"camera_scale.xml", "camera_scale.xml", 3, "must not scale the camera"},
     {"include_cycle.xml", "include_cycle.xml", 6, "include cycle"},
     {"error_in_include.xml", "bad_part.xml", 3, "'alpha_u' and 'alpha_v' go together"},

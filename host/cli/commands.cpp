@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <optional>
 
 namespace fs = std::filesystem;
@@ -23,7 +24,8 @@ namespace fs = std::filesystem;
 namespace vkmech {
 
 void add_common_options(CLI::App* app, CommonOptions& o) {
-    app->add_option("--scene", o.scene, "Scene name in scenes/ (e.g. ring_caustic) or a path to a Mitsuba XML file")
+    app->add_option("--scene", o.scene,
+                    "Scene name in scenes/ (e.g. ring_caustic) or a path to a Mitsuba XML (.xml) or glTF (.gltf, .glb) file")
         ->required();
     app->add_option("-D,--define", o.defines, "Override a scene parameter: -D name=value (as Mitsuba's -D)");
     app->add_option("--res", o.res, "Film width in pixels (height follows the scene's aspect)")->check(CLI::Range(1u, 16384u));
@@ -44,7 +46,9 @@ std::vector<std::string> scene_dirs() {
 }
 
 std::string resolve_scene_path(const std::string& arg) {
-    bool looks_like_path = arg.find('/') != std::string::npos || (arg.size() > 4 && arg.substr(arg.size() - 4) == ".xml");
+    std::string ext = fs::path(arg).extension().string();
+    for (auto& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    bool looks_like_path = arg.find('/') != std::string::npos || ext == ".xml" || ext == ".gltf" || ext == ".glb";
     if (looks_like_path) {
         if (!fs::exists(arg)) throw UsageError("scene file '" + arg + "' does not exist");
         return arg;
@@ -83,13 +87,16 @@ LoadOptions load_options(const CommonOptions& o) {
     return lo;
 }
 
-Scene load_for_cli(const CommonOptions& o) {
+Scene load_for_cli(const CommonOptions& o, bool report = true) {
     std::string path = resolve_scene_path(o.scene);
     Scene scene = load_scene(path, load_options(o));
     if (o.res) {
         scene.camera.set_film_width(static_cast<int>(*o.res));
     }
-    for (const auto& s : scene.substitutions) std::cerr << "vkmech: substitution: " << s << "\n";
+    if (report) {
+        for (const auto& s : scene.substitutions) std::cerr << "vkmech: substitution: " << s << "\n";
+        for (const auto& w : scene.warnings) std::cerr << "vkmech: warning: " << w << "\n";
+    }
     return scene;
 }
 
@@ -126,12 +133,35 @@ private:
 
 int cmd_render_adaptive(const RenderOptions& o);
 
+namespace {
+
+// SPEC §1: plain `render` defaults to MIS; the paper's protocol (adaptive
+// rendering, studies) to NEE.
+Estimator render_estimator(const RenderOptions& o, Estimator fallback) {
+    return o.estimator.empty() ? fallback : parse_estimator(o.estimator);
+}
+
+RenderInfo render_info(const std::string& name, const RenderOptions& o, const vk::Context& ctx, Traversal trav,
+                       Estimator estimator, const Features& features, const Scene& scene, uint32_t spp, uint32_t seed,
+                       bool capture) {
+    RenderInfo info{name, resolve_scene_path(o.common.scene), ctx.info().name, to_string(trav), to_string(estimator),
+                    features.describe(), spp, seed, capture};
+    info.light_selection = o.light_selection;
+    info.end_vertex = o.end_vertex;
+    info.exposure_ev = o.exposure;
+    info.warnings = scene.warnings;
+    info.substitutions = scene.substitutions;
+    return info;
+}
+
+}  // namespace
+
 int cmd_render(const RenderOptions& o) {
     if (!o.adaptive.empty()) return cmd_render_adaptive(o);
     Scene scene = load_for_cli(o.common);
     std::string name = scene_stem(o.common.scene);
     std::string out_dir = o.out_dir.empty() ? "out/" + name : o.out_dir;
-    Estimator estimator = parse_estimator(o.estimator);
+    Estimator estimator = render_estimator(o, Estimator::Mis);
     bool capture = o.capture == "on";
 
     vk::ContextOptions co;
@@ -139,14 +169,16 @@ int cmd_render(const RenderOptions& o) {
     co.validation = o.common.validation;
     vk::Context ctx(co);
     Traversal trav = resolve_traversal(ctx, parse_traversal(o.common.traversal));
-    SceneArrays arrays = flatten_scene(scene);
+    SceneArrays arrays = flatten_scene(scene, parse_light_selection(o.light_selection));
     GpuScene gpu_scene(ctx, arrays, trav);
     Features features = o.generic ? Features::generic(estimator, capture) : Features::from_scene(scene, estimator, capture);
+    features.end_vertex = parse_end_vertex(o.end_vertex);
     Renderer renderer(ctx, scene, arrays, gpu_scene, features);
 
-    std::fprintf(stderr, "vkmech: %s: %dx%d, %zu triangles, %zu emitters, %u spp on '%s' (%s traversal; %s)\n",
+    std::fprintf(stderr, "vkmech: %s: %dx%d, %zu triangles, %zu emitters, %u spp on '%s' (%s traversal; %s; %s light "
+                 "selection)\n",
                  name.c_str(), scene.camera.width, scene.camera.height, arrays.triangles.size(), scene.emitters.size(),
-                 o.spp, ctx.info().name.c_str(), to_string(trav), features.describe().c_str());
+                 o.spp, ctx.info().name.c_str(), to_string(trav), features.describe().c_str(), o.light_selection.c_str());
     RenderSpec spec;
     spec.spp = o.spp;
     spec.seed = o.seed;
@@ -156,8 +188,7 @@ int cmd_render(const RenderOptions& o) {
     spec.progress = [&](uint32_t d, uint32_t t) { progress(d, t); };
     Frame frame = renderer.render(spec);
 
-    RenderInfo info{name, resolve_scene_path(o.common.scene), ctx.info().name, to_string(trav), to_string(estimator),
-                    features.describe(), o.spp, o.seed, capture};
+    RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene, o.spp, o.seed, capture);
     std::optional<Descriptor> desc;
     std::optional<DescriptorSummary> summary;
     if (capture) {
@@ -179,8 +210,82 @@ int cmd_render(const RenderOptions& o) {
         std::printf("labelled pixels: %llu of %zu; other energy: %g\n",
                     static_cast<unsigned long long>(summary->labelled_pixels), frame.pixels.size(), summary->other_energy);
     }
+    double clipped = clipped_share(frame.rgb_mean(), o.exposure);
+    std::printf("preview: exposure %+.2f EV, %.2f%% of pixels clip%s\n", o.exposure, 100.0 * clipped,
+                clipped > 0.05 ? " (lower --exposure to see them; the EXR keeps every value)" : "");
     for (const auto& f : {files.exr, files.png, files.dominant_png, files.purity_png, files.json})
         if (!f.empty()) std::printf("wrote %s\n", f.c_str());
+    return 0;
+}
+
+namespace {
+
+// SPEC §2's lobe classes a material can sample: D diffuse, G glossy, S delta.
+std::string lobe_classes(const Material& m) {
+    switch (m.type) {
+        case BsdfType::Diffuse: return "D";
+        case BsdfType::Plastic: return "D+S";
+        case BsdfType::RoughPlastic: return "D+G";
+        case BsdfType::Conductor:
+        case BsdfType::Dielectric:
+        case BsdfType::ThinDielectric: return "S";
+        case BsdfType::RoughConductor:
+        case BsdfType::RoughDielectric: return "G";
+        case BsdfType::Principled: return m.has_diffuse() ? "D+G" : "G";
+    }
+    return "?";
+}
+
+}  // namespace
+
+// `vkmech check --scene FILE`: loads without rendering and says what the
+// renderer will see, so a user can trust (or fix) a third-party scene.
+int cmd_check(const CommonOptions& o) {
+    Scene scene = load_for_cli(o, /*report=*/false);
+    SceneArrays arrays = flatten_scene(scene);
+    Features f = Features::from_scene(scene, Estimator::Mis);
+    std::printf("scene: %s\n", resolve_scene_path(o.scene).c_str());
+    size_t tris = scene.triangle_count();
+    std::map<std::string, int> kinds;
+    for (const auto& m : scene.meshes) kinds[to_string(m.kind)]++;
+    std::printf("shapes: %zu (", scene.meshes.size());
+    bool first = true;
+    for (const auto& [k, n] : kinds) std::printf("%s%d %s", first ? "" : ", ", n, k.c_str()), first = false;
+    std::printf("), %zu triangles\n", tris);
+    std::printf("bounds: (%g, %g, %g) .. (%g, %g, %g)\n", arrays.bbox_lo.x, arrays.bbox_lo.y, arrays.bbox_lo.z,
+                arrays.bbox_hi.x, arrays.bbox_hi.y, arrays.bbox_hi.z);
+    std::printf("materials: %zu\n", scene.materials.size());
+    for (const auto& m : scene.materials) {
+        int users = 0;
+        for (const auto& mesh : scene.meshes) users += &scene.materials[mesh.material] == &m;
+        std::string tex;
+        if (m.reflectance.texture >= 0) tex += " reflectance=" + scene.textures[m.reflectance.texture].path;
+        if (m.specular_reflectance_texture >= 0)
+            tex += " specular_reflectance=" + scene.textures[m.specular_reflectance_texture].path;
+        if (m.specular_transmittance_texture >= 0)
+            tex += " specular_transmittance=" + scene.textures[m.specular_transmittance_texture].path;
+        std::printf("  %-24s %-16s lobes %-4s %d shape%s%s%s\n", m.id.c_str(), to_string(m.type), lobe_classes(m).c_str(),
+                    users, users == 1 ? "" : "s", m.twosided ? ", twosided" : "", tex.c_str());
+    }
+    std::printf("emitters: %zu\n", scene.emitters.size());
+    for (const auto& e : scene.emitters) {
+        const auto& ge = arrays.emitters[&e - scene.emitters.data()];
+        std::printf("  %-24s radiance (%g, %g, %g), area %g\n", scene.meshes[e.mesh].name.c_str(), e.radiance.x,
+                    e.radiance.y, e.radiance.z, ge.radiance.w);
+    }
+    if (scene.emitters.empty()) std::printf("  (none: the image will be black)\n");
+    const Camera& c = scene.camera;
+    glm::vec3 pos(c.to_world[3]), fwd(c.to_world[2]);
+    std::printf("camera: %s, %d x %d, fov %g deg (%s), at (%g, %g, %g) looking along (%g, %g, %g)%s\n",
+                c.type == CameraType::ThinLens ? "thinlens" : "perspective", c.width, c.height, c.fov_deg,
+                c.fov_axis.c_str(), pos.x, pos.y, pos.z, fwd.x, fwd.y, fwd.z,
+                c.type == CameraType::ThinLens ? (", aperture " + std::to_string(c.aperture_radius)).c_str() : "");
+    std::printf("integrator: max_depth %d, rr_depth %d\n", scene.integrator.max_depth, scene.integrator.rr_depth);
+    std::printf("features: %s\n", f.describe().c_str());
+    std::printf("substitutions: %zu\n", scene.substitutions.size());
+    for (const auto& s : scene.substitutions) std::printf("  %s\n", s.c_str());
+    std::printf("warnings: %zu\n", scene.warnings.size());
+    for (const auto& w : scene.warnings) std::printf("  %s\n", w.c_str());
     return 0;
 }
 
@@ -377,16 +482,17 @@ int cmd_render_adaptive(const RenderOptions& o) {
     Scene scene = load_for_cli(o.common);
     std::string name = scene_stem(o.common.scene);
     std::string out_dir = o.out_dir.empty() ? "out/" + name : o.out_dir;
-    Estimator estimator = parse_estimator(o.estimator);
+    Estimator estimator = render_estimator(o, Estimator::Nee);
 
     vk::ContextOptions co;
     co.device_index = o.common.device;
     co.validation = o.common.validation;
     vk::Context ctx(co);
     Traversal trav = resolve_traversal(ctx, parse_traversal(o.common.traversal));
-    SceneArrays arrays = flatten_scene(scene);
+    SceneArrays arrays = flatten_scene(scene, parse_light_selection(o.light_selection));
     GpuScene gpu_scene(ctx, arrays, trav);
     Features features = Features::from_scene(scene, estimator, true);
+    features.end_vertex = parse_end_vertex(o.end_vertex);
     Renderer renderer(ctx, scene, arrays, gpu_scene, features);
     const size_t pixels = static_cast<size_t>(scene.camera.width) * scene.camera.height;
     std::fprintf(stderr, "vkmech: %s: %dx%d adaptive (%s, pilot %u spp, budget 1 + %u spp per pixel, floor %u) on '%s'\n",
@@ -434,9 +540,9 @@ int cmd_render_adaptive(const RenderOptions& o) {
         max_n = std::max(max_n, n);
         min_n = std::min(min_n, n);
     }
-    RenderInfo info{name, resolve_scene_path(o.common.scene), ctx.info().name, to_string(trav), to_string(estimator),
-                    features.describe() + " adaptive=" + alloc::to_string(strategy),
-                    static_cast<uint32_t>(plan.total / pixels), downstream_seeds::kPool, true};
+    RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene,
+                                  static_cast<uint32_t>(plan.total / pixels), downstream_seeds::kPool, true);
+    info.features += std::string(" adaptive=") + alloc::to_string(strategy);
     Descriptor desc = derive_descriptor(frame);
     DescriptorSummary summary = summarize(frame, desc);
     WrittenFiles files = write_render_outputs(out_dir, info, frame, &desc, &summary);

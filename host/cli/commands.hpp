@@ -32,7 +32,10 @@ struct RenderOptions {
     uint32_t seed = 0;
     uint32_t batch_spp = 8;
     std::string out_dir;
-    std::string estimator = "nee";  // nee | mis-restricted | mis (SPEC §1)
+    std::string estimator;          // nee | mis-restricted | mis (SPEC §1); empty: mis, nee with --adaptive
+    std::string light_selection = "uniform";  // uniform | power (SPEC §1)
+    std::string end_vertex = "last-nondelta"; // last-nondelta | literal (SPEC §2)
+    float exposure = 0.0f;          // PNG preview exposure in EV (stops)
     std::string capture = "on";     // on | off: the mechanism descriptor
     bool generic = false;           // the unspecialized pipeline (for comparisons)
     bool preview = false;           // provisional direct-light preview instead of the estimator
@@ -78,6 +81,7 @@ std::vector<std::string> project_scene_names();
 
 int cmd_render(const RenderOptions& o);
 int cmd_devices();
+int cmd_check(const CommonOptions& o);
 int cmd_bench_traversal(const BenchOptions& o);
 int cmd_bench_render(const BenchOptions& o);
 

@@ -23,7 +23,8 @@ int main(int argc, char** argv) {
                  "vkmech"};
     app.set_version_flag("--version", std::string("vkmech ") + VKMECH_VERSION);
     app.require_subcommand(1);
-    app.footer("Examples:\n  vkmech --scene ring_caustic --spp 64\n  vkmech devices\n  vkmech bench traversal\n"
+    app.footer("Examples:\n  vkmech --scene ring_caustic --spp 64\n  vkmech check --scene my_scene.xml\n  vkmech devices\n"
+               "  vkmech bench traversal\n"
                "  vkmech study all --preset quick --out out/study\n"
                "Exit codes: 0 ok, 1 runtime failure, 2 bad usage or bad input.");
 
@@ -34,8 +35,18 @@ int main(int argc, char** argv) {
     render->add_option("--seed", render_opts.seed, "Random seed (SPEC §4)");
     render->add_option("--batch", render_opts.batch_spp, "Samples per GPU dispatch")->check(CLI::Range(1u, 4096u));
     render->add_option("--out", render_opts.out_dir, "Output directory (default: out/<scene>)");
-    render->add_option("--estimator", render_opts.estimator, "Estimator: nee (default), mis-restricted or mis (SPEC §1)")
+    render->add_option("--estimator", render_opts.estimator,
+                       "Estimator: mis (default), nee (the paper's; the default with --adaptive) or mis-restricted")
         ->check(CLI::IsMember({"nee", "mis-restricted", "mis"}));
+    render->add_option("--light-selection", render_opts.light_selection,
+                       "How NEE picks an emitter: uniform (default, as Mitsuba) or power")
+        ->check(CLI::IsMember({"uniform", "power"}));
+    render->add_option("--end-vertex", render_opts.end_vertex,
+                       "Label's end vertex: last-nondelta (default) or literal (the last surface vertex)")
+        ->check(CLI::IsMember({"last-nondelta", "literal"}));
+    render->add_option("--exposure", render_opts.exposure,
+                       "Exposure of the PNG preview in stops (EV; the EXR is never scaled)")
+        ->check(CLI::Range(-30.0f, 30.0f));
     render->add_option("--capture", render_opts.capture, "Mechanism descriptor capture: on (default) or off")
         ->check(CLI::IsMember({"on", "off"}));
     render->add_flag("--generic", render_opts.generic, "Use the unspecialized pipeline (every effect compiled in)");
@@ -56,6 +67,12 @@ int main(int argc, char** argv) {
                        "Adaptive: frozen label-reliability curve (default: docs/results/predictor_curve.json)");
 
     auto* devices = app.add_subcommand("devices", "List Vulkan devices with their ray-query support and limits");
+
+    CommonOptions check_opts;
+    auto* check = app.add_subcommand(
+        "check", "Load a scene without rendering: shapes, materials and their lobes, emitters, camera, the features the "
+                 "renderer specializes on, and every warning and substitution");
+    add_common_options(check, check_opts);
 
     BenchOptions bench_opts;
     auto* bench = app.add_subcommand("bench", "Benchmarks (not tests)");
@@ -89,6 +106,7 @@ int main(int argc, char** argv) {
     try {
         if (*render) return cmd_render(render_opts);
         if (*devices) return cmd_devices();
+        if (*check) return cmd_check(check_opts);
         if (*bench_trav) return cmd_bench_traversal(bench_opts);
         if (*bench_render) return cmd_bench_render(bench_opts);
         if (*study) {

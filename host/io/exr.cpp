@@ -8,6 +8,7 @@
 #include <OpenEXR/ImfIO.h>
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfStringAttribute.h>
 #include <OpenEXR/ImfStringVectorAttribute.h>
 #include <OpenEXR/ImfThreading.h>
 #include <Imath/half.h>
@@ -86,7 +87,8 @@ int exr_threads() {
 
 }  // namespace
 
-void write_exr_layers(const std::string& path, int width, int height, const std::vector<ExrChannel>& channels) {
+void write_exr_layers(const std::string& path, int width, int height, const std::vector<ExrChannel>& channels,
+                      const std::map<std::string, std::vector<std::string>>& attributes) {
     if (width <= 0 || height <= 0)
         fail(path, "invalid size " + std::to_string(width) + "x" + std::to_string(height));
     if (channels.empty()) fail(path, "no channels");
@@ -107,6 +109,10 @@ void write_exr_layers(const std::string& path, int width, int height, const std:
         order.push_back(c.name);
     }
     header.insert(kOrderAttribute, Imf::StringVectorAttribute(order));
+    for (const auto& [name, values] : attributes) {
+        if (name.empty() || name == kOrderAttribute) fail(path, "invalid header attribute name '" + name + "'");
+        header.insert(name, Imf::StringVectorAttribute(values));
+    }
 
     // Half channels are converted up front; float channels are written in place.
     std::vector<std::vector<half>> halves;
@@ -168,6 +174,12 @@ ExrImage read_exr_channels(const std::string& path) {
             std::set<std::string> seen;
             for (const std::string& s : rec) valid = valid && img.channels.count(s) == 1 && seen.insert(s).second;
             if (valid) img.order = rec;
+        }
+        for (auto it = header.begin(); it != header.end(); ++it) {
+            if (const auto* sv = dynamic_cast<const Imf::StringVectorAttribute*>(&it.attribute()))
+                img.attributes[it.name()] = sv->value();
+            else if (const auto* st = dynamic_cast<const Imf::StringAttribute*>(&it.attribute()))
+                img.attributes[it.name()] = {st->value()};
         }
         return img;
     } catch (const std::exception& e) {

@@ -28,13 +28,17 @@ struct ExrChannel {
 // the reason) when the dimensions are not positive, a channel's data size is
 // not width*height, a name is empty or repeated, or any I/O step fails; no
 // temporary file is left behind.
-void write_exr_layers(const std::string& path, int width, int height, const std::vector<ExrChannel>& channels);
+// `attributes` become string-vector header attributes (e.g. "vkmech.estimator"),
+// so a viewer's header panel and `exrheader` show how the image was made.
+void write_exr_layers(const std::string& path, int width, int height, const std::vector<ExrChannel>& channels,
+                      const std::map<std::string, std::vector<std::string>>& attributes = {});
 
 struct ExrImage {
     int width = 0, height = 0;
     std::map<std::string, std::vector<float>> channels;  // every channel, converted to float
     std::vector<std::string> order;                      // write order if recorded, else file (sorted) order
     std::set<std::string> half_channels;                 // channels stored as HALF in the file
+    std::map<std::string, std::vector<std::string>> attributes;  // string and string-vector header attributes
 };
 
 // Reads every channel of a single-part scanline or tiled EXR as float.

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <sstream>
 
 namespace fs = std::filesystem;
@@ -97,6 +98,18 @@ std::vector<uint8_t> dominant_map_with_legend(const Descriptor& d, int* out_w, i
     return categorical_map_with_legend(d.width, d.height, d.dominant, colors, names, "none (no energy)", out_w, out_h);
 }
 
+double clipped_share(const std::vector<float>& rgb, float exposure_ev) {
+    if (rgb.empty()) return 0.0;
+    const double scale = std::exp2(static_cast<double>(exposure_ev));
+    size_t clipped = 0;
+    for (size_t i = 0; i + 2 < rgb.size(); i += 3) {
+        bool c = false;
+        for (int k = 0; k < 3; ++k) c = c || !(static_cast<double>(rgb[i + k]) * scale <= 1.0);
+        clipped += c;
+    }
+    return static_cast<double>(clipped) / static_cast<double>(rgb.size() / 3);
+}
+
 std::string summary_json(const RenderInfo& info, const Frame& frame, const DescriptorSummary* s) {
     std::ostringstream o;
     o.precision(9);
@@ -109,12 +122,24 @@ std::string summary_json(const RenderInfo& info, const Frame& frame, const Descr
     o << "  \"width\": " << frame.width << ",\n  \"height\": " << frame.height << ",\n";
     o << "  \"spp\": " << info.spp << ",\n  \"seed\": " << info.seed << ",\n";
     o << "  \"estimator\": \"" << info.estimator << "\",\n";
+    o << "  \"light_selection\": \"" << info.light_selection << "\",\n";
+    o << "  \"end_vertex\": \"" << info.end_vertex << "\",\n";
     o << "  \"traversal\": \"" << info.traversal << "\",\n";
     o << "  \"features\": \"" << json_escape(info.features) << "\",\n";
     o << "  \"device\": \"" << json_escape(info.device) << "\",\n";
     o << "  \"wall_seconds\": " << frame.seconds << ",\n";
     o << "  \"paths_per_second\": " << paths_per_s << ",\n";
-    o << "  \"nonfinite_samples\": " << nonfinite;
+    o << "  \"nonfinite_samples\": " << nonfinite << ",\n";
+    o << "  \"preview_exposure_ev\": " << info.exposure_ev << ",\n";
+    o << "  \"preview_clipped_pixel_share\": " << clipped_share(frame.rgb_mean(), info.exposure_ev) << ",\n";
+    auto list = [&](const char* key, const std::vector<std::string>& v) {
+        o << "  \"" << key << "\": [";
+        for (size_t i = 0; i < v.size(); ++i) o << (i ? ", " : "") << "\"" << json_escape(v[i]) << "\"";
+        o << "]";
+    };
+    list("warnings", info.warnings);
+    o << ",\n";
+    list("substitutions", info.substitutions);
     if (s) {
         o << ",\n  \"labelled_pixels\": " << s->labelled_pixels << ",\n";
         o << "  \"other_energy\": " << s->other_energy << ",\n";
@@ -165,9 +190,15 @@ WrittenFiles write_render_outputs(const std::string& out_dir, const RenderInfo& 
     fs::path dir(out_dir);
     const std::string& name = info.scene_name;
     out.exr = (dir / (name + ".exr")).string();
-    write_exr_layers(out.exr, w, h, ch);
+    std::map<std::string, std::vector<std::string>> attrs = {
+        {"vkmech.scene", {info.scene_path}},          {"vkmech.estimator", {info.estimator}},
+        {"vkmech.lightSelection", {info.light_selection}}, {"vkmech.endVertex", {info.end_vertex}},
+        {"vkmech.spp", {std::to_string(info.spp)}},   {"vkmech.seed", {std::to_string(info.seed)}},
+        {"vkmech.device", {info.device}},              {"vkmech.features", {info.features}},
+        {"vkmech.warnings", info.warnings},            {"vkmech.substitutions", info.substitutions}};
+    write_exr_layers(out.exr, w, h, ch, attrs);
     out.png = (dir / (name + ".png")).string();
-    write_png_rgb8(out.png, w, h, tonemap_srgb(rgb));
+    write_png_rgb8(out.png, w, h, tonemap_srgb(rgb, static_cast<float>(std::exp2(static_cast<double>(info.exposure_ev)))));
     if (d) {
         int lw = 0, lh = 0;
         auto map = dominant_map_with_legend(*d, &lw, &lh);

@@ -20,6 +20,11 @@ struct RenderInfo {
     uint32_t spp = 0;
     uint32_t seed = 0;
     bool capture = true;
+    std::string light_selection = "uniform";     // SPEC §1
+    std::string end_vertex = "last-nondelta";    // SPEC §2 reading
+    float exposure_ev = 0.0f;                    // PNG preview exposure (the EXR is never scaled)
+    std::vector<std::string> warnings;           // the loader's (Scene::warnings)
+    std::vector<std::string> substitutions;      // user-requested substitutions (Scene::substitutions)
 };
 
 struct WrittenFiles {
@@ -42,5 +47,9 @@ std::vector<uint8_t> categorical_map_with_legend(int width, int height, const st
 std::vector<uint8_t> dominant_map_with_legend(const Descriptor& d, int* out_width, int* out_height);
 
 std::string summary_json(const RenderInfo& info, const Frame& frame, const DescriptorSummary* summary);
+
+// Share of pixels whose preview at `exposure_ev` clips (a channel above 1 or
+// non-finite).
+double clipped_share(const std::vector<float>& rgb, float exposure_ev);
 
 }  // namespace vkmech

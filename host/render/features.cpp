@@ -20,6 +20,14 @@ Estimator parse_estimator(const std::string& s) {
     throw std::invalid_argument("unknown estimator '" + s + "' (expected nee, mis-restricted or mis)");
 }
 
+const char* to_string(EndVertex e) { return e == EndVertex::Literal ? "literal" : "last-nondelta"; }
+
+EndVertex parse_end_vertex(const std::string& s) {
+    if (s == "last-nondelta") return EndVertex::LastNonDelta;
+    if (s == "literal") return EndVertex::Literal;
+    throw std::invalid_argument("unknown end-vertex reading '" + s + "' (expected last-nondelta or literal)");
+}
+
 Features Features::generic(Estimator e, bool capture) {
     Features f;
     f.estimator = e;
@@ -43,7 +51,8 @@ Features Features::from_scene(const Scene& scene, Estimator e, bool capture) {
             case BsdfType::RoughDielectric: f.dielectric = f.rough = true; break;
             case BsdfType::Principled: f.principled = f.rough = true; break;
         }
-        if (m.reflectance.texture >= 0) f.textures = true;
+        if (m.reflectance.texture >= 0 || m.specular_reflectance_texture >= 0 || m.specular_transmittance_texture >= 0)
+            f.textures = true;
     }
     f.capture = capture;
     f.estimator = e;
@@ -51,10 +60,10 @@ Features Features::from_scene(const Scene& scene, Estimator e, bool capture) {
 }
 
 std::vector<vk::SpecConstant> Features::spec_constants() const {
-    // constant_id values: shaders/camera.glsl (0), shaders/features.glsl (1-7), pathtrace.comp (8).
+    // constant_id values: shaders/camera.glsl (0), shaders/features.glsl (1-7), pathtrace.comp (8-10).
     return {{0, thin_lens}, {1, dielectric}, {2, rough},   {3, plastic},
             {4, principled}, {5, conductor}, {6, textures}, {7, capture},
-            {8, static_cast<uint32_t>(estimator)}, {9, debug_events}};
+            {8, static_cast<uint32_t>(estimator)}, {9, debug_events}, {10, end_vertex == EndVertex::Literal}};
 }
 
 std::string Features::describe() const {
@@ -72,7 +81,9 @@ std::string Features::describe() const {
     add(capture, "capture");
     add(debug_events, "debug-events");
     if (s.empty()) s = "diffuse-only";
-    return s + " estimator=" + to_string(estimator);
+    s += std::string(" estimator=") + to_string(estimator);
+    if (end_vertex != EndVertex::LastNonDelta) s += std::string(" end-vertex=") + to_string(end_vertex);
+    return s;
 }
 
 }  // namespace vkmech

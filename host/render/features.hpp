@@ -15,6 +15,12 @@ enum class Estimator : uint32_t { Nee = 0, MisRestricted = 1, Mis = 2 };
 const char* to_string(Estimator e);
 Estimator parse_estimator(const std::string& s);  // throws std::invalid_argument
 
+// SPEC §2's two readings of the end vertex: the last non-delta vertex
+// (default) or, literally, the last surface vertex before the emitter.
+enum class EndVertex : uint32_t { LastNonDelta = 0, Literal = 1 };
+const char* to_string(EndVertex e);
+EndVertex parse_end_vertex(const std::string& s);  // throws std::invalid_argument
+
 struct Features {
     bool thin_lens = true;
     bool dielectric = true;
@@ -26,6 +32,7 @@ struct Features {
     bool capture = true;  // the mechanism descriptor
     bool debug_events = false;  // record one pixel's contribution events (tests)
     Estimator estimator = Estimator::Nee;
+    EndVertex end_vertex = EndVertex::LastNonDelta;
 
     // Everything on: the generic pipeline (for `bench render`).
     static Features generic(Estimator e = Estimator::Nee, bool capture = true);

@@ -2,6 +2,7 @@
 
 #include "bsdf.glsl"
 
+#include <bit>
 #include <cmath>
 #include <stdexcept>
 
@@ -69,7 +70,15 @@ gpu::GpuMaterial pack_material(const Material& m, const std::vector<Texture>& te
 
 }  // namespace
 
-SceneArrays flatten_scene(const Scene& scene) {
+const char* to_string(LightSelection s) { return s == LightSelection::Power ? "power" : "uniform"; }
+
+LightSelection parse_light_selection(const std::string& s) {
+    if (s == "uniform") return LightSelection::Uniform;
+    if (s == "power") return LightSelection::Power;
+    throw std::invalid_argument("unknown light selection '" + s + "' (expected uniform or power)");
+}
+
+SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
     SceneArrays a;
     if (scene.triangle_count() == 0) throw SceneError(scene.source, 0, "the scene has no geometry to render");
     if (scene.materials.size() > gpu::TRI_MATERIAL_MASK) throw SceneError(scene.source, 0, "too many materials");
@@ -129,35 +138,55 @@ SceneArrays flatten_scene(const Scene& scene) {
     a.bbox_hi = hi;
     a.scene_scale = std::max({std::abs(lo.x), std::abs(lo.y), std::abs(lo.z), std::abs(hi.x), std::abs(hi.y), std::abs(hi.z), 1e-3f});
 
-    // Light table: every emissive triangle, weight = luminance(L) * area.
+    // Light table: every emissive triangle with its selection weight
+    // (SPEC §1). Uniform: 1 / (emitters x the emitter's area) per unit area;
+    // power: luminance(L) x area. Each emitter records its area pdf (info.w)
+    // for the MIS weight of BSDF-sampled hits.
     a.emitters.resize(scene.emitters.size());
+    a.light_selection = selection;
     std::vector<std::vector<uint32_t>> per_emitter(scene.emitters.size());
     for (uint32_t i = 0; i < n; ++i) {
         uint32_t e = (a.triangles[i].w >> gpu::TRI_EMITTER_SHIFT) & gpu::TRI_EMITTER_MASK;
         if (e > 0) per_emitter[e - 1].push_back(i);
     }
+    auto tri_area = [&](uint32_t t) {
+        glm::dvec3 p0(a.tri_positions[3 * t]), p1(a.tri_positions[3 * t + 1]), p2(a.tri_positions[3 * t + 2]);
+        return 0.5 * glm::length(glm::cross(p1 - p0, p2 - p0));
+    };
+    std::vector<double> emitter_area(scene.emitters.size(), 0.0);
+    uint32_t lit_emitters = 0;
+    for (size_t e = 0; e < scene.emitters.size(); ++e) {
+        for (uint32_t t : per_emitter[e]) emitter_area[e] += std::max(tri_area(t), 0.0);
+        if (emitter_area[e] > 0.0 && luminance(scene.emitters[e].radiance) > 0.0) ++lit_emitters;
+    }
     double total = 0.0;
     std::vector<double> weights;
+    std::vector<double> emitter_weight(scene.emitters.size(), 0.0);
     for (size_t e = 0; e < scene.emitters.size(); ++e) {
         const auto& em = scene.emitters[e];
         double lum = luminance(em.radiance);
         uint32_t first = static_cast<uint32_t>(a.light_triangles.size());
-        double area_sum = 0.0;
-        for (uint32_t t : per_emitter[e]) {
-            glm::vec3 p0(a.tri_positions[3 * t]), p1(a.tri_positions[3 * t + 1]), p2(a.tri_positions[3 * t + 2]);
-            double area = 0.5 * glm::length(glm::cross(p1 - p0, p2 - p0));
-            if (area <= 0.0 || lum <= 0.0) continue;
-            gpu::GpuLightTriangle lt{};
-            lt.info = glm::uvec4(t, static_cast<uint32_t>(e), 0u, 0u);
-            lt.cdf = glm::vec4(0.0f, static_cast<float>(area), 0.0f, 0.0f);
-            a.light_triangles.push_back(lt);
-            weights.push_back(lum * area);
-            total += lum * area;
-            area_sum += area;
+        if (emitter_area[e] > 0.0 && lum > 0.0) {
+            for (uint32_t t : per_emitter[e]) {
+                double area = tri_area(t);
+                if (!(area > 0.0)) continue;
+                gpu::GpuLightTriangle lt{};
+                lt.info = glm::uvec4(t, static_cast<uint32_t>(e), 0u, 0u);
+                lt.cdf = glm::vec4(0.0f, static_cast<float>(area), 0.0f, 0.0f);
+                a.light_triangles.push_back(lt);
+                double w = selection == LightSelection::Power ? lum * area : area / emitter_area[e] / lit_emitters;
+                weights.push_back(w);
+                total += w;
+                emitter_weight[e] += w;
+            }
         }
-        a.emitters[e].radiance = glm::vec4(em.radiance, static_cast<float>(area_sum));
+        a.emitters[e].radiance = glm::vec4(em.radiance, static_cast<float>(emitter_area[e]));
         a.emitters[e].info = glm::uvec4(static_cast<uint32_t>(em.mesh), first,
                                         static_cast<uint32_t>(a.light_triangles.size()) - first, 0u);
+    }
+    for (size_t e = 0; e < scene.emitters.size(); ++e) {
+        double pdf_area = total > 0.0 && emitter_area[e] > 0.0 ? emitter_weight[e] / total / emitter_area[e] : 0.0;
+        a.emitters[e].info.w = std::bit_cast<uint32_t>(static_cast<float>(pdf_area));
     }
     double acc = 0.0;
     for (size_t i = 0; i < a.light_triangles.size(); ++i) {

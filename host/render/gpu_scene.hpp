@@ -1,5 +1,5 @@
 // The scene flattened into GPU arrays (one vertex and one triangle list in
-// BVH order, materials, emitters, the power-proportional light table) and
+// BVH order, materials, emitters, the light-selection table) and
 // uploaded with the chosen traversal's acceleration structure.
 #pragma once
 
@@ -19,6 +19,13 @@ enum class Traversal { Auto, RayQuery, Bvh };
 const char* to_string(Traversal t);
 Traversal parse_traversal(const std::string& s);  // throws std::invalid_argument
 
+// How NEE picks an emitter (SPEC §1): uniformly over the emitters, as Mitsuba
+// does (the default), or proportionally to emitted power (luminance x area).
+// Either way a point is then uniform over the chosen emitter's area.
+enum class LightSelection : uint32_t { Uniform = 0, Power = 1 };
+const char* to_string(LightSelection s);
+LightSelection parse_light_selection(const std::string& s);  // throws std::invalid_argument
+
 struct SceneArrays {
     std::vector<gpu::GpuVertex> vertices;
     std::vector<glm::uvec4> triangles;     // i0, i1, i2, material|emitter|flat (BVH order)
@@ -30,13 +37,14 @@ struct SceneArrays {
     std::vector<glm::vec4> texels;        // every texture's linear RGB texels
     std::vector<glm::uvec4> textures;     // first texel, width, height
     Bvh bvh;
-    float light_weight_total = 0.0f;  // sum of luminance(radiance) * area
+    float light_weight_total = 0.0f;  // sum of the light-selection weights (power: luminance x area)
+    LightSelection light_selection = LightSelection::Uniform;
     glm::vec3 bbox_lo{0.0f}, bbox_hi{0.0f};
     float scene_scale = 1.0f;  // largest |coordinate| of the bounding box, for ray offsets
 };
 
 // Throws SceneError for scenes that cannot be rendered (no triangles).
-SceneArrays flatten_scene(const Scene& scene);
+SceneArrays flatten_scene(const Scene& scene, LightSelection selection = LightSelection::Uniform);
 
 class GpuScene {
 public:

@@ -4,7 +4,11 @@
 
 #include "scene/image_texture.hpp"
 
+#include "io/exr.hpp"
+#include "scene/text_parse.hpp"
+
 #include <cmath>
+#include <filesystem>
 #include <memory>
 #include <stdexcept>
 
@@ -23,6 +27,24 @@ Texture load_image_texture(const std::string& path, bool raw) {
     Texture t;
     t.path = path;
     int w = 0, h = 0, channels = 0;
+    if (text::lower(std::filesystem::path(path).extension().string()) == ".exr") {
+        // OpenEXR holds linear values: R, G, B (or a single Y) as they are.
+        ExrImage img = read_exr_channels(path);
+        auto pick = [&](const char* a, const char* b) -> const std::vector<float>* {
+            if (img.channels.count(a)) return &img.channels.at(a);
+            if (img.channels.count(b)) return &img.channels.at(b);
+            return nullptr;
+        };
+        const std::vector<float>* rgb[3] = {pick("R", "Y"), pick("G", "Y"), pick("B", "Y")};
+        if (!rgb[0] || !rgb[1] || !rgb[2]) throw std::runtime_error("the EXR file has no R, G, B or Y channels");
+        t.width = img.width;
+        t.height = img.height;
+        size_t n = static_cast<size_t>(img.width) * img.height;
+        t.rgb.resize(3 * n);
+        for (size_t i = 0; i < n; ++i)
+            for (int c = 0; c < 3; ++c) t.rgb[3 * i + c] = (*rgb[c])[i];
+        return t;
+    }
     if (stbi_is_hdr(path.c_str())) {
         std::unique_ptr<float, void (*)(void*)> px(stbi_loadf(path.c_str(), &w, &h, &channels, 3), stbi_image_free);
         if (!px) throw std::runtime_error(stbi_failure_reason() ? stbi_failure_reason() : "cannot decode image");

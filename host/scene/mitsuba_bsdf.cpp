@@ -7,6 +7,7 @@
 #include "scene/text_parse.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 
 namespace fs = std::filesystem;
@@ -109,6 +110,31 @@ void principled(const XProps& p, Material& m) {
     m.distribution = MicrofacetDistribution::GGX;  // Mitsuba's principled is GGX-based
 }
 
+// The one nested <bsdf> (or <ref>) of a wrapper; unnamed <texture> children
+// (0.6-style bump maps) are skipped.
+const XNode& nested_ignoring_textures(const XProps& p, const XNode& n) {
+    const XNode* inner = nullptr;
+    for (const XNode& o : p.objects()) {
+        if (o.tag() == "texture") continue;
+        if (o.tag() != "bsdf" && o.tag() != "ref") o.fail("unexpected <" + o.tag() + "> inside " + n.describe());
+        if (inner) o.fail(n.describe() + " with two different nested bsdfs is not supported");
+        inner = &o;
+    }
+    if (!inner) n.fail(n.describe() + " needs a nested <bsdf>");
+    return *inner;
+}
+
+void set_specular(Material& m, const Spectrum3& c, bool transmittance) {
+    (transmittance ? m.specular_transmittance : m.specular_reflectance) = c.value;
+    (transmittance ? m.specular_transmittance_texture : m.specular_reflectance_texture) = c.texture;
+}
+
+std::string fmt_weight(float v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g", v);
+    return buf;
+}
+
 }  // namespace
 
 int MitsubaLoader::default_material() {
@@ -123,21 +149,39 @@ int MitsubaLoader::default_material() {
     return default_material_;
 }
 
-void MitsubaLoader::register_id(const XNode& n, bool is_bsdf, int index) {
+const char* MitsubaLoader::to_string(IdKind k) {
+    switch (k) {
+        case IdKind::Bsdf: return "bsdf";
+        case IdKind::Texture: return "texture";
+        case IdKind::Emitter: return "emitter";
+    }
+    return "?";
+}
+
+void MitsubaLoader::register_id(const XNode& n, IdKind kind, int index) {
     auto id = n.attr("id");
     if (!id) return;
-    auto [it, inserted] = ids_.try_emplace(*id, IdEntry{is_bsdf, index, n.line(), n.file()});
+    auto [it, inserted] = ids_.try_emplace(*id, IdEntry{kind, index, n.line(), n.file()});
     if (!inserted)
         n.fail("duplicate id '" + *id + "' (first defined at " + it->second.file + ":" +
                std::to_string(it->second.line) + ")");
 }
 
-int MitsubaLoader::bsdf_ref(const XNode& n) {
+const MitsubaLoader::IdEntry& MitsubaLoader::lookup_ref(const XNode& n) {
     std::string id = n.required("id");
     auto it = ids_.find(id);
-    if (it == ids_.end()) n.fail("unknown bsdf reference '" + id + "' (no <bsdf id=\"" + id + "\"> before it)");
-    if (!it->second.is_bsdf) n.fail("'" + id + "' is a texture, not a bsdf");
-    return it->second.index;
+    if (it == ids_.end())
+        n.fail("unknown reference '" + id + "': no <bsdf>, <texture> or <emitter> with id=\"" + id +
+               "\" is declared before this line (Mitsuba resolves references in document order)");
+    return it->second;
+}
+
+int MitsubaLoader::bsdf_ref(const XNode& n) {
+    const IdEntry& e = lookup_ref(n);
+    if (e.kind != IdKind::Bsdf)
+        n.fail("'" + n.required("id") + "' is " + (e.kind == IdKind::Emitter ? "an " : "a ") + to_string(e.kind) +
+               " (declared at " + e.file + ":" + std::to_string(e.line) + "), not a bsdf");
+    return e.index;
 }
 
 int MitsubaLoader::bsdf(const XNode& n) {
@@ -147,35 +191,76 @@ int MitsubaLoader::bsdf(const XNode& n) {
     const std::string id = n.attr("id").value_or("");
     Material m;
 
-    auto nested = [&]() -> const XNode& {
-        const XNode* inner = nullptr;
-        for (const XNode& o : p.objects()) {
-            if (o.tag() != "bsdf" && o.tag() != "ref") o.fail("unexpected <" + o.tag() + "> inside " + n.describe());
-            if (inner) o.fail(n.describe() + " with two different nested bsdfs is not supported");
-            inner = &o;
-        }
-        if (!inner) n.fail(n.describe() + " needs a nested <bsdf>");
-        return *inner;
-    };
+    auto nested = [&]() -> const XNode& { return nested_ignoring_textures(p, n); };
 
     if (type == "twosided") {
         // SPEC §2: `twosided` is transparent to the lobe flags; the model
         // keeps the inner material and marks it two-sided.
         m = scene_.materials[bsdf(nested())];
         m.twosided = true;
-    } else if (type == "mask" || type == "bumpmap" || type == "normalmap") {
-        if (!options_.substitute_unsupported)
-            unsupported(n, "bsdf", " (the --substitute option uses its nested bsdf instead)");
-        m = scene_.materials[bsdf(nested())];
-        scene_.substitutions.push_back(n.file() + ":" + std::to_string(n.line()) + ": bsdf '" + type +
-                                       "' replaced by its nested bsdf (the map is ignored)");
+    } else if (type == "bumpmap" || type == "normalmap") {
+        // SPEC §8: wrappers that change no lobe load with a warning naming
+        // what is ignored.
+        for (const char* tex : {"texture", "normalmap", "arg"}) p.find({tex});
+        for (const char* f : {"scale", "flip_invert", "strength"}) p.find({f});
+        m = scene_.materials[bsdf(nested_ignoring_textures(p, n))];
+        warn(n, "bsdf '" + type + "': the " + (type == "bumpmap" ? "bump map" : "normal map") +
+                    " is ignored; the nested bsdf is rendered with the shading normals of the mesh");
+    } else if (type == "mask") {
+        float opacity = 0.5f;
+        bool textured = false;
+        if (const XNode* o = p.find({"opacity"})) {
+            textured = o->tag() == "texture" || o->tag() == "ref";
+            if (!textured) opacity = o->as_color().x;
+        } else {
+            opacity = 0.5f;  // Mitsuba's default
+        }
+        if (textured || opacity < 1.0f) require_substitute(n, "bsdf", "its nested bsdf, fully opaque");
+        m = scene_.materials[bsdf(nested_ignoring_textures(p, n))];
+        if (!textured && opacity >= 1.0f) {
+            warn(n, "bsdf 'mask' with opacity 1 changes nothing: its nested bsdf is used");
+        } else {
+            record_substitution(n, "bsdf", "its nested bsdf, fully opaque (the mask's " +
+                                              std::string(textured ? "opacity texture" : "opacity") + " is ignored)");
+        }
+    } else if (type == "blendbsdf") {
+        // The nearest model material: the component with the larger weight.
+        require_substitute(n, "bsdf", "its component of larger weight");
+        float w = 0.5f;
+        if (const XNode* wn = p.find({"weight"})) {
+            if (wn->tag() == "texture" || wn->tag() == "ref") w = 0.5f;
+            else w = wn->as_float();
+        }
+        std::vector<const XNode*> parts;
+        for (const XNode& o : p.objects()) {
+            if (o.tag() != "bsdf" && o.tag() != "ref") o.fail("unexpected <" + o.tag() + "> inside " + n.describe());
+            parts.push_back(&o);
+        }
+        if (parts.size() != 2) n.fail(n.describe() + " needs exactly two nested bsdfs");
+        int a = bsdf(*parts[0]), b = bsdf(*parts[1]);
+        record_substitution(n, "bsdf", std::string("its ") + (w > 0.5f ? "second" : "first") +
+                                          " component (weight " + fmt_weight(w > 0.5f ? w : 1.0f - w) + ")");
+        m = scene_.materials[w > 0.5f ? b : a];
+    } else if (type == "phong") {
+        // The nearest model material: rough plastic whose Beckmann roughness
+        // matches the Phong exponent (alpha = sqrt(2 / (n + 2)), Walter 2007).
+        require_substitute(n, "bsdf", "roughplastic of matching roughness");
+        m.type = BsdfType::RoughPlastic;
+        m.reflectance = reflectance(p, {"diffuse_reflectance", "diffuseReflectance"}, glm::vec3(0.5f));
+        p.find({"specular_reflectance", "specularReflectance"});
+        float e = p.get_float({"exponent"}, 30.0f);
+        if (!(e > 0.0f)) n.fail("'exponent' must be positive");
+        m.alpha_u = m.alpha_v = std::sqrt(2.0f / (e + 2.0f));
+        m.int_ior = kPolypropylene;
+        m.ext_ior = kAir;
+        record_substitution(n, "bsdf", "roughplastic with alpha " + fmt_weight(m.alpha_u) + " (Beckmann)");
     } else if (type == "diffuse") {
         m.type = BsdfType::Diffuse;
         m.reflectance = reflectance(p, {"reflectance"}, glm::vec3(0.5f));
     } else if (type == "plastic" || type == "roughplastic") {
         m.type = type == "plastic" ? BsdfType::Plastic : BsdfType::RoughPlastic;
         m.reflectance = reflectance(p, {"diffuse_reflectance", "diffuseReflectance"}, glm::vec3(0.5f));
-        m.specular_reflectance = color(p, {"specular_reflectance", "specularReflectance"}, glm::vec3(1.0f));
+        set_specular(m, reflectance(p, {"specular_reflectance", "specularReflectance"}, glm::vec3(1.0f)), false);
         m.int_ior = ior(p, {"int_ior", "intIOR"}, kPolypropylene);
         m.ext_ior = ior(p, {"ext_ior", "extIOR"}, kAir);
         m.nonlinear = p.get_bool({"nonlinear"}, false);
@@ -201,7 +286,7 @@ int MitsubaLoader::bsdf(const XNode& n) {
             m.eta = c->eta;
             m.k = c->k;
         }
-        m.specular_reflectance = color(p, {"specular_reflectance", "specularReflectance"}, glm::vec3(1.0f));
+        set_specular(m, reflectance(p, {"specular_reflectance", "specularReflectance"}, glm::vec3(1.0f)), false);
         // Mitsuba 3's conductors have no exterior medium (eta is relative);
         // 0.6's `extEta` divides it.
         m.ext_ior = ior(p, {"ext_eta", "extEta"}, 1.0f);
@@ -212,23 +297,41 @@ int MitsubaLoader::bsdf(const XNode& n) {
                                              : BsdfType::ThinDielectric;
         m.int_ior = ior(p, {"int_ior", "intIOR"}, kBk7);
         m.ext_ior = ior(p, {"ext_ior", "extIOR"}, kAir);
-        m.specular_reflectance = color(p, {"specular_reflectance", "specularReflectance"}, glm::vec3(1.0f));
-        m.specular_transmittance = color(p, {"specular_transmittance", "specularTransmittance"}, glm::vec3(1.0f));
+        set_specular(m, reflectance(p, {"specular_reflectance", "specularReflectance"}, glm::vec3(1.0f)), false);
+        set_specular(m, reflectance(p, {"specular_transmittance", "specularTransmittance"}, glm::vec3(1.0f)), true);
         if (m.type == BsdfType::RoughDielectric) roughness(p, m, /*anisotropic_allowed=*/true);
     } else if (type == "principled") {
         m.type = BsdfType::Principled;
         m.reflectance = reflectance(p, {"base_color", "baseColor"}, glm::vec3(0.5f));
         principled(p, m);
+    } else if (type == "measured" || type == "hair" || type == "pplastic" || type == "polarizer" || type == "retarder" ||
+               type == "circular" || type == "null" || type == "roughcoating" || type == "coating" ||
+               type == "difftrans" || type == "principledthin" || type == "ward" ||
+               type == "irawan" || type == "dipole" || type == "hk" || type == "sssbrdf") {
+        require_substitute(n, "bsdf", "its nested bsdf, or diffuse 0.5");
+        m.type = BsdfType::Diffuse;
+        m.reflectance = Spectrum3{glm::vec3(0.5f), -1};
+        for (const XNode& o : p.objects())
+            if (o.tag() == "bsdf") {  // coatings: keep what they wrap
+                m = scene_.materials[bsdf(o)];
+                break;
+            }
+        record_substitution(n, "bsdf", m.type == BsdfType::Diffuse && p.objects().empty()
+                                          ? std::string("diffuse 0.5")
+                                          : std::string("its nested bsdf"));
+        for (const XNode& u : p.unused()) p.find({u.raw().attribute("name").as_string()});
     } else {
         unsupported(n, "bsdf",
                     " (SPEC §2: diffuse, plastic, roughplastic, conductor, roughconductor, dielectric, "
-                    "roughdielectric, thindielectric, principled, twosided)");
+                    "roughdielectric, thindielectric, principled, twosided; with --substitute also mask, bumpmap, "
+                    "normalmap, blendbsdf, phong)");
     }
+    warn_unused(p);
     if (type != "twosided" || !id.empty()) m.id = id.empty() ? type + "#" + std::to_string(bsdf_count_) : id;
     ++bsdf_count_;
     int index = static_cast<int>(scene_.materials.size());
     scene_.materials.push_back(m);
-    register_id(n, /*is_bsdf=*/true, index);
+    register_id(n, IdKind::Bsdf, index);
     return index;
 }
 
@@ -247,34 +350,81 @@ Spectrum3 MitsubaLoader::reflectance(const XProps& p, std::initializer_list<cons
     return Spectrum3{color(p, names, fallback), -1};
 }
 
+glm::mat3 MitsubaLoader::to_uv(const XProps& p) {
+    // Mitsuba: a 3x3 uv transform, or the upper-left 3x3 of a 4x4 one (so a
+    // <scale> works, and a 4x4 <translate> has no effect, as in Mitsuba).
+    // Mitsuba 0.6 spelled it uscale / vscale / uoffset / voffset.
+    glm::mat4 m = p.get_transform({"to_uv"});
+    glm::mat3 out(1.0f);
+    for (int r = 0; r < 2; ++r)
+        for (int c = 0; c < 3; ++c) out[c][r] = m[c][r];
+    float us = p.get_float({"uscale", "uScale"}, 1.0f), vs = p.get_float({"vscale", "vScale"}, 1.0f);
+    float uo = p.get_float({"uoffset", "uOffset"}, 0.0f), vo = p.get_float({"voffset", "vOffset"}, 0.0f);
+    if (us != 1.0f || vs != 1.0f || uo != 0.0f || vo != 0.0f) {
+        glm::mat3 legacy(1.0f);
+        legacy[0][0] = us;
+        legacy[1][1] = vs;
+        legacy[2][0] = uo;
+        legacy[2][1] = vo;
+        out = legacy * out;
+    }
+    for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < 2; ++r)
+            if (!std::isfinite(out[c][r])) p.plugin().fail(p.plugin().describe() + ": the uv transform is not finite");
+    return out;
+}
+
 int MitsubaLoader::texture(const XNode& n) {
     if (n.tag() == "ref") {
-        std::string id = n.required("id");
-        auto it = ids_.find(id);
-        if (it == ids_.end()) n.fail("unknown texture reference '" + id + "'");
-        if (it->second.is_bsdf) n.fail("'" + id + "' is a bsdf, not a texture");
-        return it->second.index;
+        const IdEntry& e = lookup_ref(n);
+        if (e.kind != IdKind::Texture)
+            n.fail("'" + n.required("id") + "' is " + (e.kind == IdKind::Emitter ? "an " : "a ") + to_string(e.kind) +
+                   ", not a texture");
+        return e.index;
     }
     const std::string type = n.required("type");
-    if (type != "bitmap") unsupported(n, "texture", " (only 'bitmap' is supported)");
     XProps p(n);
-    auto filename = p.opt_string({"filename"});
-    if (!filename) n.fail(n.describe() + " is missing the required property 'filename'");
-    bool raw = p.get_bool({"raw"}, false);
-    std::string path = resolve(n, *filename);
-    std::error_code ec;
-    if (!fs::is_regular_file(path, ec)) n.fail("cannot open texture file '" + *filename + "' (looked for " + path + ")");
     Texture t;
-    try {
-        t = load_image_texture(path, raw);
-    } catch (const std::exception& e) {
-        n.fail("cannot decode texture '" + *filename + "': " + e.what());
+    if (type == "bitmap") {
+        auto filename = p.opt_string({"filename"});
+        if (!filename) n.fail(n.describe() + " is missing the required property 'filename'");
+        bool raw = p.get_bool({"raw"}, false);
+        std::string path = resolve(n, *filename);
+        std::error_code ec;
+        if (!fs::is_regular_file(path, ec))
+            n.fail("cannot open texture file '" + *filename + "' (looked for " + path + ")");
+        try {
+            t = load_image_texture(path, raw);
+        } catch (const std::exception& e) {
+            n.fail("cannot decode texture '" + *filename + "': " + e.what());
+        }
+        fs::path abs = fs::absolute(path, ec);
+        t.path = (ec ? fs::path(path) : abs).lexically_normal().string();
+        if (auto filter = p.opt_string({"filter_type", "filterType"})) {
+            std::string f = text::lower(*filter);
+            if (f == "nearest") t.nearest = true;
+            else if (f != "bilinear" && f != "ewa" && f != "trilinear")
+                p.find({"filter_type", "filterType"})->fail("unknown filter_type '" + *filter + "' (expected bilinear or nearest)");
+        }
+        if (auto wrap = p.opt_string({"wrap_mode", "wrapMode"}); wrap && text::lower(*wrap) != "repeat")
+            warn(n, n.describe() + ": wrap_mode '" + *wrap + "' is not supported; the texture repeats");
+    } else if (type == "checkerboard") {
+        // Mitsuba 3: colour 0 where exactly one of frac(u), frac(v) exceeds 1/2.
+        t.kind = TextureKind::Checkerboard;
+        glm::vec3 c0 = color(p, {"color0"}, glm::vec3(0.4f)), c1 = color(p, {"color1"}, glm::vec3(0.2f));
+        t.width = 2;
+        t.height = 1;
+        t.rgb = {c0.x, c0.y, c0.z, c1.x, c1.y, c1.z};
+        t.path = "checkerboard(" + fmt_weight(c0.x) + " " + fmt_weight(c0.y) + " " + fmt_weight(c0.z) + " / " +
+                 fmt_weight(c1.x) + " " + fmt_weight(c1.y) + " " + fmt_weight(c1.z) + ")";
+    } else {
+        unsupported(n, "texture", " (expected bitmap or checkerboard)");
     }
-    fs::path abs = fs::absolute(path, ec);
-    t.path = (ec ? fs::path(path) : abs).lexically_normal().string();
+    t.to_uv = to_uv(p);
+    warn_unused(p);
     int index = static_cast<int>(scene_.textures.size());
     scene_.textures.push_back(std::move(t));
-    register_id(n, /*is_bsdf=*/false, index);
+    register_id(n, IdKind::Texture, index);
     return index;
 }
 

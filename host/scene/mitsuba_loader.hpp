@@ -20,6 +20,15 @@ public:
     Scene load();
 
 private:
+    enum class IdKind { Bsdf, Texture, Emitter };
+    static const char* to_string(IdKind k);
+    struct IdEntry {
+        IdKind kind = IdKind::Bsdf;
+        int index = -1;
+        int line = 0;
+        std::string file;
+    };
+
     // ---- structure (mitsuba_xml.cpp) ----
     void scene_element(const XmlDocument& doc, int depth);
     void child_of_scene(const XNode& n, int depth);
@@ -30,7 +39,18 @@ private:
     void sensor(const XNode& n);
     void integrator(const XNode& n);
     void add_substituted_panels();
+    void add_substituted_point_lights();
     void prune_unused();
+    void warn(const XNode& n, const std::string& what);
+    // One warning listing the properties of `p` that nothing read (SPEC §8).
+    void warn_unused(const XProps& p);
+    // A plugin vkmech replaces by its nearest model: allowed with
+    // --substitute, else an error naming file, line, plugin and the
+    // replacement; then the substitution is recorded.
+    void require_substitute(const XNode& n, const std::string& kind, const std::string& replacement) const;
+    void record_substitution(const XNode& n, const std::string& kind, const std::string& replacement);
+    int area_emitter(const XNode& n, int mesh_index);  // an <emitter type="area">: index into scene_.emitters
+    glm::vec3 envmap_mean_radiance(const XNode& n, const XProps& p);  // solid-angle mean of a lat-long map
     std::string resolve(const XNode& n, const std::string& filename) const;
     [[noreturn]] void unsupported(const XNode& n, const std::string& kind, const std::string& extra = {}) const;
 
@@ -38,16 +58,14 @@ private:
     int bsdf(const XNode& n);            // <bsdf> or <ref>: index into scene_.materials
     int bsdf_ref(const XNode& n);        // <ref id=...> to a bsdf
     int texture(const XNode& n);         // <texture> or <ref>: index into scene_.textures
+    // A colour-valued BSDF parameter: a constant, or a bitmap / checkerboard
+    // texture (Spectrum3::value then holds the texture's mean).
     Spectrum3 reflectance(const XProps& p, std::initializer_list<const char*> names, glm::vec3 fallback);
+    glm::mat3 to_uv(const XProps& p);
     int default_material();
-    void register_id(const XNode& n, bool is_bsdf, int index);
+    void register_id(const XNode& n, IdKind kind, int index);
+    const IdEntry& lookup_ref(const XNode& n);  // <ref id=...>: its entry, or an error naming what exists
 
-    struct IdEntry {
-        bool is_bsdf = true;
-        int index = -1;
-        int line = 0;
-        std::string file;
-    };
 
     std::string path_;
     LoadOptions options_;
@@ -67,6 +85,19 @@ private:
         glm::vec3 radiance{1.0f};
     };
     std::vector<PendingPanel> panels_;
+    struct PendingPointLight {
+        std::string what;
+        glm::vec3 position{0.0f};
+        glm::vec3 intensity{1.0f};  // W/sr (Mitsuba's `intensity`)
+    };
+    std::vector<PendingPointLight> point_lights_;
+    // Area emitters declared at top level with an id (used through <ref>).
+    struct DeclaredEmitter {
+        glm::vec3 radiance{1.0f};
+        int uses = 0;
+    };
+    std::vector<DeclaredEmitter> declared_emitters_;
+    std::vector<std::string> search_paths_;  // <path value=...>, Mitsuba's file resolver
 };
 
 }  // namespace vkmech

@@ -3,6 +3,7 @@
 // mitsuba_bsdf.cpp.
 #include "scene/mitsuba_loader.hpp"
 
+#include "scene/image_texture.hpp"
 #include "scene/mesh_io.hpp"
 #include "scene/mesh_ops.hpp"
 #include "scene/primitives.hpp"
@@ -71,6 +72,14 @@ Scene MitsubaLoader::load() {
         throw SceneError(path_, docs_.front()->line_of(docs_.front()->root()),
                          "the scene has no <sensor> (SPEC §8: perspective or thinlens)");
     add_substituted_panels();
+    add_substituted_point_lights();
+    for (const auto& name : params_.unused_overrides())
+        scene_.warnings.push_back(path_ + ": -D " + name + "=... is not used by the scene (no $" + name +
+                                  " in it); check the name");
+    for (const auto& [id, e] : ids_)
+        if (e.kind == IdKind::Emitter && declared_emitters_[e.index].uses == 0)
+            scene_.warnings.push_back(e.file + ":" + std::to_string(e.line) + ": emitter '" + id +
+                                      "' is declared but no shape uses it (<ref id=\"" + id + "\"/> inside a shape)");
     prune_unused();
     return std::move(scene_);
 }
@@ -84,6 +93,31 @@ void MitsubaLoader::scene_element(const XmlDocument& doc, int depth) {
 [[noreturn]] void MitsubaLoader::unsupported(const XNode& n, const std::string& kind, const std::string& extra) const {
     n.fail("unsupported " + kind + " plugin '" + n.raw().attribute("type").value() + "'" + extra);
 }
+
+void MitsubaLoader::warn(const XNode& n, const std::string& what) {
+    scene_.warnings.push_back(n.file() + ":" + std::to_string(n.line()) + ": " + what);
+}
+
+void MitsubaLoader::warn_unused(const XProps& p) {
+    std::vector<XNode> unused = p.unused();
+    if (unused.empty()) return;
+    std::string names;
+    for (const XNode& u : unused) names += std::string(names.empty() ? "'" : ", '") + u.raw().attribute("name").as_string() + "'";
+    warn(p.plugin(), p.plugin().describe() + ": " + (unused.size() == 1 ? "property " : "properties ") + names +
+                         (unused.size() == 1 ? " is" : " are") + " not used by vkmech");
+}
+
+void MitsubaLoader::require_substitute(const XNode& n, const std::string& kind, const std::string& replacement) const {
+    if (!options_.substitute_unsupported)
+        n.fail("unsupported " + kind + " plugin '" + n.raw().attribute("type").value() +
+               "' (outside vkmech's model, SPEC §8; the --substitute option replaces it by " + replacement + ")");
+}
+
+void MitsubaLoader::record_substitution(const XNode& n, const std::string& kind, const std::string& replacement) {
+    scene_.substitutions.push_back(n.file() + ":" + std::to_string(n.line()) + ": " + kind + " '" +
+                                   n.raw().attribute("type").value() + "' replaced by " + replacement);
+}
+
 
 void MitsubaLoader::child_of_scene(const XNode& n, int depth) {
     const std::string t = n.tag();
@@ -103,8 +137,23 @@ void MitsubaLoader::child_of_scene(const XNode& n, int depth) {
         sensor(n);
     } else if (t == "integrator") {
         integrator(n);
+    } else if (t == "path") {
+        // Mitsuba's file resolver: later relative file names are also looked
+        // up in this directory (relative to the file that names it).
+        fs::path dir(n.required("value"));
+        if (dir.is_relative()) dir = fs::path(n.file()).parent_path() / dir;
+        search_paths_.push_back(dir.lexically_normal().string());
+    } else if (t == "alias") {
+        std::string id = n.required("id"), as = n.required("as");
+        auto it = ids_.find(id);
+        if (it == ids_.end()) n.fail("<alias> of unknown id '" + id + "'");
+        auto [jt, inserted] = ids_.try_emplace(as, it->second);
+        if (!inserted) n.fail("<alias as=\"" + as + "\">: the id '" + as + "' is already defined");
     } else if (t == "medium" || t == "phase" || t == "volume") {
-        n.fail("unsupported <" + t + "> (participating media are not supported)");
+        if (!options_.substitute_unsupported)
+            n.fail("unsupported <" + t + "> (participating media are outside vkmech's model; --substitute ignores "
+                   "them)");
+        scene_.substitutions.push_back(n.file() + ":" + std::to_string(n.line()) + ": <" + t + "> ignored (no media)");
     } else {
         n.fail("unknown element <" + t + "> in <scene>");
     }
@@ -119,6 +168,10 @@ std::string MitsubaLoader::resolve(const XNode& n, const std::string& filename) 
     if (is_file(here.string())) return here.lexically_normal().string();
     fs::path main = fs::path(path_).parent_path() / p;
     if (is_file(main.string())) return main.lexically_normal().string();
+    for (auto it = search_paths_.rbegin(); it != search_paths_.rend(); ++it) {
+        fs::path q = fs::path(*it) / p;
+        if (is_file(q.string())) return q.lexically_normal().string();
+    }
     return here.lexically_normal().string();
 }
 
@@ -200,6 +253,7 @@ void MitsubaLoader::shape(const XNode& n) {
     mesh.name = n.attr("id").value_or(type + "#" + std::to_string(shape_count_));
     ++shape_count_;
     shape_bsdf_and_emitter(n, p, mesh);
+    warn_unused(p);
     scene_.meshes.push_back(std::move(mesh));
 }
 
@@ -209,55 +263,155 @@ void MitsubaLoader::shape_bsdf_and_emitter(const XNode& n, const XProps& p, Mesh
         if (material >= 0) where.fail(n.describe() + " has more than one bsdf");
         material = m;
     };
+    auto set_emitter = [&](const XNode& where, int e) {
+        if (mesh.emitter >= 0) where.fail(n.describe() + " has more than one emitter");
+        mesh.emitter = e;
+    };
+    const int mesh_index = static_cast<int>(scene_.meshes.size());  // the index this mesh will get
+    auto use_declared_emitter = [&](const XNode& where, int declared) {
+        declared_emitters_[declared].uses++;
+        AreaEmitter e;
+        e.radiance = declared_emitters_[declared].radiance;
+        e.mesh = mesh_index;
+        set_emitter(where, static_cast<int>(scene_.emitters.size()));
+        scene_.emitters.push_back(e);
+    };
     for (const XNode& o : p.objects()) {
         const std::string t = o.tag();
-        if (t == "bsdf" || t == "ref") {
+        if (t == "ref") {
+            // A reference names a bsdf or an area emitter declared at top level.
+            const IdEntry& e = lookup_ref(o);
+            if (e.kind == IdKind::Bsdf) set_material(o, e.index);
+            else if (e.kind == IdKind::Emitter) use_declared_emitter(o, e.index);
+            else o.fail("'" + o.required("id") + "' is a texture; a shape takes a bsdf or an emitter");
+        } else if (t == "bsdf") {
             set_material(o, bsdf(o));
         } else if (t == "emitter") {
             const std::string type = o.required("type");
             if (type != "area") unsupported(o, "emitter", " (only 'area' emitters can be attached to a shape)");
-            if (mesh.emitter >= 0) o.fail(n.describe() + " has more than one emitter");
-            XProps ep(o);
-            glm::vec3 radiance = ep.get_color({"radiance"}, glm::vec3(1.0f));
-            if (radiance.x < 0.0f || radiance.y < 0.0f || radiance.z < 0.0f)
-                o.fail("negative radiance " + fmt_vec(radiance));
-            AreaEmitter e;
-            e.radiance = radiance;
-            e.mesh = static_cast<int>(scene_.meshes.size());  // the index this mesh will get
-            mesh.emitter = static_cast<int>(scene_.emitters.size());
-            scene_.emitters.push_back(e);
+            set_emitter(o, area_emitter(o, mesh_index));
         } else if (t == "medium") {
-            o.fail("unsupported <medium> (participating media are not supported)");
+            if (!options_.substitute_unsupported)
+                o.fail("unsupported <medium> (participating media are outside vkmech's model; --substitute ignores "
+                       "them)");
+            scene_.substitutions.push_back(o.file() + ":" + std::to_string(o.line()) + ": <medium> of " + n.describe() +
+                                           " ignored (no media)");
         } else {
             o.fail("unexpected <" + t + "> inside " + n.describe());
         }
     }
     if (const XNode* r = p.find({"bsdf"})) set_material(*r, r->tag() == "ref" ? bsdf_ref(*r) : bsdf(*r));
+    if (const XNode* r = p.find({"emitter"})) {
+        if (r->tag() != "ref") r->fail("a named emitter property must be a <ref id=...>");
+        const IdEntry& e = lookup_ref(*r);
+        if (e.kind != IdKind::Emitter) r->fail("'" + r->required("id") + "' is not an emitter");
+        use_declared_emitter(*r, e.index);
+    }
     for (const char* medium : {"interior", "exterior"})
-        if (const XNode* r = p.find({medium}))
-            r->fail(std::string("unsupported ") + medium + " medium (participating media are not supported)");
+        if (const XNode* r = p.find({medium})) {
+            if (!options_.substitute_unsupported)
+                r->fail(std::string("unsupported ") + medium +
+                        " medium (participating media are outside vkmech's model; --substitute ignores them)");
+            scene_.substitutions.push_back(r->file() + ":" + std::to_string(r->line()) + ": " + medium +
+                                           " medium of " + n.describe() + " ignored (no media)");
+        }
     // Mitsuba gives a shape without a bsdf a diffuse 0.5 one.
     mesh.material = material >= 0 ? material : default_material();
 }
 
 // ---- emitters, sensor, integrator ----
 
+int MitsubaLoader::area_emitter(const XNode& n, int mesh_index) {
+    XProps ep(n);
+    glm::vec3 radiance = ep.get_color({"radiance"}, glm::vec3(1.0f));
+    if (radiance.x < 0.0f || radiance.y < 0.0f || radiance.z < 0.0f) n.fail("negative radiance " + fmt_vec(radiance));
+    warn_unused(ep);
+    AreaEmitter e;
+    e.radiance = radiance;
+    e.mesh = mesh_index;
+    scene_.emitters.push_back(e);
+    return static_cast<int>(scene_.emitters.size()) - 1;
+}
+
 void MitsubaLoader::emitter_top(const XNode& n) {
     const std::string type = n.required("type");
-    if (type == "area") n.fail("an 'area' emitter must be nested inside a <shape>");
+    XProps p(n);
+    if (type == "area") {
+        // Declared with an id, attached to shapes through <ref id=...>
+        // (Mitsuba 3's own Cornell box does this).
+        if (!n.attr("id"))
+            n.fail("an 'area' emitter outside a <shape> needs an id, and shapes use it with <ref id=\"...\"/>");
+        glm::vec3 radiance = p.get_color({"radiance"}, glm::vec3(1.0f));
+        if (radiance.x < 0.0f || radiance.y < 0.0f || radiance.z < 0.0f) n.fail("negative radiance " + fmt_vec(radiance));
+        warn_unused(p);
+        declared_emitters_.push_back({radiance, 0});
+        register_id(n, IdKind::Emitter, static_cast<int>(declared_emitters_.size()) - 1);
+        return;
+    }
     if (type == "envmap" || type == "constant") {
-        if (!options_.substitute_unsupported)
-            unsupported(n, "emitter",
-                        " (SPEC §1: environment emitters are out of scope; the --substitute option replaces "
-                        "it by an overhead area panel)");
-        XProps p(n);
+        // SPEC §8 (the paper's matpreview treatment): an overhead area panel
+        // whose radiance keeps the environment's mean radiance times its scale.
+        require_substitute(n, "emitter", "an overhead area panel of the environment's mean radiance x scale");
         PendingPanel panel;
-        panel.radiance = type == "constant" ? p.get_color({"radiance"}, glm::vec3(1.0f)) : glm::vec3(1.0f);
+        if (type == "constant") {
+            panel.radiance = p.get_color({"radiance"}, glm::vec3(1.0f));
+        } else {
+            panel.radiance = envmap_mean_radiance(n, p);
+        }
+        float scale = p.get_float({"scale"}, 1.0f);
+        if (!(scale >= 0.0f)) n.fail("'scale' must not be negative");
+        panel.radiance *= scale;
+        p.find({"to_world", "toWorld"});  // orientation does not matter for a uniform panel
+        warn_unused(p);
         panel.what = n.file() + ":" + std::to_string(n.line()) + ": emitter '" + type + "'";
         panels_.push_back(panel);
         return;
     }
-    unsupported(n, "emitter", " (SPEC §1: only area emitters nested in shapes)");
+    if (type == "point" || type == "spot") {
+        require_substitute(n, "emitter", "a small spherical area emitter of the same power");
+        PendingPointLight l;
+        glm::mat4 m = p.get_transform({"to_world", "toWorld"});
+        l.position = p.find({"position"}) ? p.get_vector({"position"}, glm::vec3(0.0f)) : glm::vec3(m[3]);
+        l.intensity = p.get_color({"intensity"}, glm::vec3(1.0f));
+        if (l.intensity.x < 0.0f || l.intensity.y < 0.0f || l.intensity.z < 0.0f) n.fail("negative intensity");
+        for (const char* cone : {"cutoff_angle", "cutoffAngle", "beam_width", "beamWidth"}) p.find({cone});
+        warn_unused(p);
+        l.what = n.file() + ":" + std::to_string(n.line()) + ": emitter '" + type + "'" +
+                 (type == "spot" ? " (its cone is ignored: the sphere emits in every direction)" : "");
+        point_lights_.push_back(l);
+        return;
+    }
+    unsupported(n, "emitter",
+                " (SPEC §1: area emitters; envmap, constant, point and spot only with --substitute)");
+}
+
+glm::vec3 MitsubaLoader::envmap_mean_radiance(const XNode& n, const XProps& p) {
+    auto filename = p.opt_string({"filename"});
+    if (!filename) n.fail(n.describe() + " is missing the required property 'filename'");
+    std::string path = resolve(n, *filename);
+    if (!is_file(path)) n.fail("cannot open environment map '" + *filename + "' (looked for " + path + ")");
+    Texture t;
+    try {
+        t = load_image_texture(path, /*raw=*/true);
+    } catch (const std::exception& e) {
+        n.fail("cannot decode environment map '" + *filename + "': " + e.what());
+    }
+    // Solid-angle mean of an equirectangular (latitude-longitude) map: row
+    // y covers polar angle theta = pi (y + 0.5) / h, weighted by sin(theta).
+    glm::dvec3 sum(0.0);
+    double wsum = 0.0;
+    for (int y = 0; y < t.height; ++y) {
+        double w = std::sin(3.14159265358979 * (y + 0.5) / t.height);
+        for (int x = 0; x < t.width; ++x) {
+            const float* c = &t.rgb[3 * (static_cast<size_t>(y) * t.width + x)];
+            glm::dvec3 v(c[0], c[1], c[2]);
+            if (!std::isfinite(v.x + v.y + v.z) || v.x < 0.0 || v.y < 0.0 || v.z < 0.0)
+                n.fail("environment map '" + *filename + "' has negative or non-finite pixels");
+            sum += w * v;
+            wsum += w;
+        }
+    }
+    return wsum > 0.0 ? glm::vec3(sum / wsum) : glm::vec3(0.0f);
 }
 
 void MitsubaLoader::sensor(const XNode& n) {
@@ -309,6 +463,16 @@ void MitsubaLoader::sensor(const XNode& n) {
     for (const XNode& o : p.objects()) {
         if (o.tag() == "film") {
             XProps fp(o);
+            const std::string ftype = o.required("type");
+            if (ftype != "hdrfilm" && ftype != "ldrfilm")
+                warn(o, "film '" + ftype + "' is read for its size only (vkmech writes a multi-layer EXR and PNGs)");
+            for (const XNode& f : fp.objects()) {
+                if (f.tag() == "rfilter")
+                    warn(f, "reconstruction filter '" + f.required("type") +
+                                "' is not used: vkmech uses a box filter (SPEC §1)");
+                else
+                    f.fail("unexpected <" + f.tag() + "> inside " + o.describe());
+            }
             // SPEC §1: the default film is 256 x 256 (not Mitsuba's 768 x 576).
             cam.width = fp.opt_int({"width"}).value_or(256);
             cam.height = fp.opt_int({"height"}).value_or(256);
@@ -320,24 +484,38 @@ void MitsubaLoader::sensor(const XNode& n) {
             if (cam.width > kMaxFilmSide || cam.height > kMaxFilmSide)
                 o.fail("the film size " + std::to_string(cam.width) + " x " + std::to_string(cam.height) +
                        " exceeds " + std::to_string(kMaxFilmSide) + " per side");
+            warn_unused(fp);
         } else if (o.tag() == "sampler") {
-            // Accepted and ignored: sampling is the renderer's (SPEC §4).
+            // Sampling is the renderer's (SPEC §4): say what was not used.
+            XProps sp(o);
+            auto count = sp.opt_int({"sample_count", "sampleCount"});
+            warn(o, "sampler '" + o.required("type") + "'" +
+                        (count ? " (sample_count " + std::to_string(*count) + ")" : std::string()) +
+                        " is not used: vkmech samples with its counter-based generator; set the samples with --spp");
         } else {
             o.fail("unexpected <" + o.tag() + "> inside " + n.describe());
         }
     }
+    warn_unused(p);
     scene_.camera = cam;
     have_sensor_ = true;
 }
 
 void MitsubaLoader::integrator(const XNode& n) {
     n.required("type");  // any integrator is accepted; its depth settings are read
-    if (have_integrator_) return;
+    if (have_integrator_) {
+        warn(n, "a second <integrator> is ignored (the first one's depths are used)");
+        return;
+    }
     have_integrator_ = true;
     std::optional<int> max_depth, rr_depth;
     // Wrappers (aov, moment, ...) carry the depths on a nested integrator.
     auto read = [&](auto&& self, const XNode& node) -> void {
         XProps p(node);
+        const std::string type = node.required("type");
+        if (type != "path" && type != "volpath" && type != "volpathmis")
+            warn(node, "integrator '" + type + "' is not what vkmech renders: it renders its own unidirectional path "
+                       "tracer (--estimator), reading only max_depth and rr_depth from the scene");
         if (!max_depth) {
             max_depth = p.opt_int({"max_depth", "maxDepth"});
             if (max_depth && *max_depth < -1) node.fail("max_depth must be -1 (unlimited) or >= 0");
@@ -348,6 +526,8 @@ void MitsubaLoader::integrator(const XNode& n) {
         }
         for (const XNode& o : p.objects())
             if (o.tag() == "integrator") self(self, o);
+            else warn(o, "<" + o.tag() + "> inside " + node.describe() + " is not used");
+        warn_unused(p);
     };
     read(read, n);
     if (max_depth) scene_.integrator.max_depth = *max_depth == -1 ? kUnlimitedDepth : *max_depth;
@@ -401,10 +581,40 @@ void MitsubaLoader::add_substituted_panels() {
         scene_.emitters.push_back({panels_[i].radiance, static_cast<int>(scene_.meshes.size())});
         scene_.meshes.push_back(std::move(mesh));
         std::ostringstream s;
-        s << panels_[i].what << " replaced by an overhead area panel (" << 2 * hb << " x " << 2 * hv
+        s << panels_[i].what << " replaced by an overhead area panel of the environment's mean radiance x scale ("
+          << 2 * hb << " x " << 2 * hv
           << ", centre " << fmt_vec(pos) << ", facing " << fmt_vec(n) << ", radiance "
           << fmt_vec(panels_[i].radiance) << ")";
         scene_.substitutions.push_back(s.str());
+    }
+}
+
+void MitsubaLoader::add_substituted_point_lights() {
+    if (point_lights_.empty()) return;
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    for (const auto& m : scene_.meshes)
+        for (const auto& p : m.positions) {
+            lo = glm::min(lo, p);
+            hi = glm::max(hi, p);
+        }
+    for (const auto& l : point_lights_) {
+        lo = glm::min(lo, l.position);
+        hi = glm::max(hi, l.position);
+    }
+    float radius = std::max(1e-2f * glm::length(hi - lo), 1e-4f);
+    for (size_t i = 0; i < point_lights_.size(); ++i) {
+        const auto& l = point_lights_[i];
+        // Same power: a point of intensity I emits 4 pi I; a sphere of radius
+        // r and radiance L emits 4 pi r^2 * pi L, so L = I / (pi r^2).
+        glm::vec3 radiance = l.intensity / (3.14159265f * radius * radius);
+        Mesh mesh = make_sphere(l.position, radius, glm::mat4(1.0f), false);
+        mesh.name = "substituted-point-light#" + std::to_string(i);
+        mesh.material = default_material();
+        mesh.emitter = static_cast<int>(scene_.emitters.size());
+        scene_.emitters.push_back({radiance, static_cast<int>(scene_.meshes.size())});
+        scene_.meshes.push_back(std::move(mesh));
+        scene_.substitutions.push_back(l.what + " replaced by a sphere emitter of the same power, radius " + fmt_num(radius) + ", at " +
+                                       fmt_vec(l.position) + " with radiance " + fmt_vec(radiance));
     }
 }
 
@@ -422,14 +632,18 @@ void MitsubaLoader::prune_unused() {
         }
         mesh.material = slot;
     }
-    for (auto& m : mats) {
-        int t = m.reflectance.texture;
-        if (t < 0) continue;
+    auto keep = [&](int& t) {
+        if (t < 0) return;
         if (tex_map[t] < 0) {
             tex_map[t] = static_cast<int>(texs.size());
-            texs.push_back(std::move(scene_.textures[t]));
+            texs.push_back(scene_.textures[t]);
         }
-        m.reflectance.texture = tex_map[t];
+        t = tex_map[t];
+    };
+    for (auto& m : mats) {
+        keep(m.reflectance.texture);
+        keep(m.specular_reflectance_texture);
+        keep(m.specular_transmittance_texture);
     }
     scene_.materials = std::move(mats);
     scene_.textures = std::move(texs);

@@ -34,7 +34,16 @@ std::string join(std::initializer_list<const char*> names) {
 
 const std::string* XmlParams::find(const std::string& name) const {
     auto it = values_.find(name);
-    return it == values_.end() ? nullptr : &it->second;
+    if (it == values_.end()) return nullptr;
+    used_.insert(name);
+    return &it->second;
+}
+
+std::vector<std::string> XmlParams::unused_overrides() const {
+    std::vector<std::string> out;
+    for (const auto& n : overrides_)
+        if (!used_.count(n)) out.push_back(n);
+    return out;
 }
 
 // ---- XNode ----
@@ -132,7 +141,23 @@ std::string XNode::as_string() const { return required("value"); }
 
 glm::vec3 XNode::as_color() const {
     const std::string t = tag();
-    if (t == "blackbody") fail("<blackbody> spectra are not supported (give an <rgb> value)");
+    if (t == "blackbody") {
+        // Planck's law sampled at the RGB primaries' wavelengths (650, 550,
+        // 450 nm, as for <spectrum> below) and normalized to unit luminance,
+        // times `scale`: the colour of the temperature, its brightness given
+        // by `scale` (vkmech has no absolute spectral units).
+        double temp = number(required("temperature"), "temperature");
+        if (!(temp > 0.0)) fail("<blackbody> temperature must be positive, got " + required("temperature"));
+        double scale = attr("scale") ? number(*attr("scale"), "scale") : 1.0;
+        auto planck = [&](double nm) {
+            const double c = 2.99792458e8, h = 6.62607015e-34, k = 1.380649e-23, l = nm * 1e-9;
+            return 2.0 * h * c * c / (l * l * l * l * l) / std::expm1(h * c / (l * k * temp));
+        };
+        glm::dvec3 rgb(planck(650.0), planck(550.0), planck(450.0));
+        double lum = 0.2126 * rgb.x + 0.7152 * rgb.y + 0.0722 * rgb.z;
+        if (!(lum > 0.0) || !std::isfinite(lum)) fail("<blackbody> temperature " + required("temperature") + " K gives no visible light");
+        return glm::vec3(rgb / lum * scale);
+    }
     if (t == "spectrum" && attr("filename")) fail("<spectrum filename=...> is not supported (give an <rgb> value)");
     std::string v = required("value");
     std::string_view sv = text::trim(v);
@@ -301,12 +326,21 @@ XProps::XProps(const XNode& plugin) : plugin_(plugin) {
     }
 }
 
+std::vector<XNode> XProps::unused() const {
+    std::vector<XNode> out;
+    for (const auto& [name, node] : props_)
+        if (!used_.count(name)) out.push_back(node);
+    std::sort(out.begin(), out.end(), [](const XNode& a, const XNode& b) { return a.line() < b.line(); });
+    return out;
+}
+
 const XNode* XProps::find(std::initializer_list<const char*> names) const {
     const XNode* found = nullptr;
     const char* found_name = nullptr;
     for (const char* n : names) {
         auto it = props_.find(n);
         if (it == props_.end()) continue;
+        used_.insert(n);
         if (found) it->second.fail(std::string("'") + n + "' and '" + found_name + "' name the same property");
         found = &it->second;
         found_name = n;
@@ -317,7 +351,7 @@ const XNode* XProps::find(std::initializer_list<const char*> names) const {
 const XNode& XProps::expect(const XNode& n, std::initializer_list<const char*> tags, const std::string& what) const {
     if (!is_one_of(n.tag(), tags)) {
         std::string hint = n.tag() == "texture" || n.tag() == "ref"
-                               ? " (only reflectances may be textured)"
+                               ? " (textures are supported on colour-valued BSDF parameters only)"
                                : "";
         n.fail("property '" + what + "' must be <" + join(tags) + ">, not <" + n.tag() + ">" + hint);
     }

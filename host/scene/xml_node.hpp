@@ -10,6 +10,7 @@
 #include <initializer_list>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -19,13 +20,20 @@ namespace vkmech {
 // Scene parameters: -D overrides (LoadOptions::params) win over <default>.
 class XmlParams {
 public:
-    explicit XmlParams(std::map<std::string, std::string> overrides) : values_(std::move(overrides)) {}
+    explicit XmlParams(std::map<std::string, std::string> overrides) : values_(std::move(overrides)) {
+        for (const auto& kv : values_) overrides_.push_back(kv.first);
+    }
     // A <default>: sets `name` only if nothing has set it yet.
     void add_default(const std::string& name, const std::string& value) { values_.try_emplace(name, value); }
+    // Looks `name` up and remembers that it was used.
     const std::string* find(const std::string& name) const;
+    // The -D overrides no `$name` ever used (SPEC §8: a warning, never silent).
+    std::vector<std::string> unused_overrides() const;
 
 private:
     std::map<std::string, std::string> values_;
+    std::vector<std::string> overrides_;
+    mutable std::set<std::string> used_;
 };
 
 // An element in its document, with parameter substitution on attributes.
@@ -88,8 +96,12 @@ public:
     const XNode& plugin() const { return plugin_; }
     const std::vector<XNode>& objects() const { return objects_; }
 
-    // The property under any of `names` (two aliases at once is an error).
+    // The property under any of `names` (two aliases at once is an error);
+    // a property found is marked used.
     const XNode* find(std::initializer_list<const char*> names) const;
+    // Named properties nobody asked for, in document order (SPEC §8: the
+    // loader warns about every property it does not use).
+    std::vector<XNode> unused() const;
 
     std::optional<float> opt_float(std::initializer_list<const char*> names) const;
     float get_float(std::initializer_list<const char*> names, float fallback) const;
@@ -106,6 +118,7 @@ private:
 
     XNode plugin_;
     std::map<std::string, XNode> props_;
+    mutable std::set<std::string> used_;
     std::vector<XNode> objects_;
 };
 

@@ -64,7 +64,7 @@ std::string scene_digest(const Scene& scene, const SceneArrays& arrays) {
 std::string cache_key(const CacheKeyParts& k) {
     Digest d;
     d.str("vkmech-render-cache-v1").str(k.scene_digest).pod(k.width).pod(k.height).pod(k.spp).pod(k.seed);
-    d.pod(k.estimator).pod(k.batch_spp).str(k.traversal).str(k.device).str(k.code_digest);
+    d.pod(k.estimator).pod(k.batch_spp).str(k.traversal).str(k.device).str(k.code_digest).pod(k.end_vertex);
     return d.hex();
 }
 
