@@ -687,6 +687,48 @@ TEST_CASE("gltf: what is read but not used is a warning - not an error") {
     for (const auto& w : s.warnings) CHECK(w.rfind(path + ": ", 0) == 0);  // "file: what"
 }
 
+TEST_CASE("gltf: interleaved views - normalized uv - byte indices - 32-bit indices stay exact") {
+    TempDir dir("accessors");
+    Gltf g;
+    // POSITION and NORMAL interleaved in one view (byteStride 24).
+    std::vector<float> inter;
+    for (const auto& p : kQuad) inter.insert(inter.end(), {p.x, p.y, p.z, 0.0f, 0.0f, 2.0f});
+    g.view(inter.data(), inter.size() * 4);
+    g.views.back().insert(g.views.back().size() - 1, ",\"byteStride\":24");
+    g.accessors.push_back("{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\"}");
+    g.accessors.push_back("{\"bufferView\":0,\"byteOffset\":12,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\"}");
+    const uint16_t uv[] = {0, 0, 65535, 0, 65535, 32768, 0, 65535};
+    int uv_view = g.view(uv, sizeof uv);
+    g.accessors.push_back("{\"bufferView\":" + std::to_string(uv_view) +
+                          ",\"componentType\":5123,\"normalized\":true,\"count\":4,\"type\":\"VEC2\"}");
+    const uint8_t idx[] = {0, 1, 2, 0, 2, 3};
+    int idx_view = g.view(idx, sizeof idx);
+    g.accessors.push_back("{\"bufferView\":" + std::to_string(idx_view) +
+                          ",\"componentType\":5121,\"count\":6,\"type\":\"SCALAR\"}");
+    int mesh = g.add(g.meshes, "{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1,\"TEXCOORD_0\":2},"
+                               "\"indices\":3}]}");
+    g.root("{\"mesh\":" + std::to_string(mesh) + "}");
+    Scene s = load_scene(g.write_glb(dir, "inter"));
+    REQUIRE(s.meshes.size() == 1);
+    const Mesh& m = s.meshes[0];
+    for (size_t v = 0; v < 4; ++v) CHECK(near(m.positions[v], kQuad[v]));
+    for (const auto& n : m.normals) CHECK(near(n, {0, 0, 1}));  // renormalised
+    REQUIRE(m.uvs.size() == 4);
+    CHECK(m.uvs[1].x == doctest::Approx(1.0f));
+    CHECK(m.uvs[2].y == doctest::Approx(32768.0f / 65535.0f));
+    CHECK(m.indices.size() == 2);
+    CHECK(m.indices[1] == glm::uvec3(0, 2, 3));
+
+    // 16777217 is not a float: a float round trip would report 16777216.
+    Gltf big;
+    int pos = big.vec3s(kQuad);
+    int bi = big.indices({0, 1, 16777217});
+    int bm = big.add(big.meshes, "{\"primitives\":[{\"attributes\":{\"POSITION\":" + std::to_string(pos) +
+                                     "},\"indices\":" + std::to_string(bi) + "}]}");
+    big.root("{\"mesh\":" + std::to_string(bm) + "}");
+    expect_error(big.write_external(dir, "big"), "index 16777217 (at 2)");
+}
+
 TEST_CASE("gltf: hostile files are SceneErrors naming the file - never a crash") {
     TempDir dir("hostile");
     auto valid = [] {

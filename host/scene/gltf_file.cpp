@@ -276,9 +276,20 @@ std::vector<uint32_t> GltfLoader::read_indices(int index, const std::string& wha
         d.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
         fail(what + ": indices must be unsigned integers (glTF 2.0 §3.7.2.1)");
     std::vector<uint32_t> out(d.count, 0u);
-    if (d.base)
-        for (size_t i = 0; i < d.count; ++i)
-            out[i] = static_cast<uint32_t>(component(d.base + i * d.stride, d.component_type, false));
+    if (!d.base) return out;
+    // As integers: a float holds them exactly only up to 2^24.
+    for (size_t i = 0; i < d.count; ++i) {
+        const unsigned char* p = d.base + i * d.stride;
+        if (d.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) {
+            out[i] = p[0];
+        } else if (d.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT) {
+            uint16_t v;
+            std::memcpy(&v, p, 2);
+            out[i] = v;
+        } else {
+            std::memcpy(&out[i], p, 4);
+        }
+    }
     return out;
 }
 
