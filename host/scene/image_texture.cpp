@@ -7,10 +7,14 @@
 #include "io/exr.hpp"
 #include "scene/text_parse.hpp"
 
+#include <climits>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <stdexcept>
+#include <vector>
 
 namespace vkmech {
 
@@ -23,10 +27,36 @@ float srgb_to_linear(float c) {
 
 }  // namespace
 
+Texture decode_image_texture(const unsigned char* bytes, size_t size, bool raw) {
+    if (size == 0) throw std::runtime_error("the image is empty");
+    if (size > static_cast<size_t>(INT_MAX)) throw std::runtime_error("the image is larger than 2 GiB");
+    int len = static_cast<int>(size);
+    Texture t;
+    int w = 0, h = 0, channels = 0;
+    if (stbi_is_hdr_from_memory(bytes, len)) {
+        std::unique_ptr<float, void (*)(void*)> px(stbi_loadf_from_memory(bytes, len, &w, &h, &channels, 3),
+                                                   stbi_image_free);
+        if (!px) throw std::runtime_error(stbi_failure_reason() ? stbi_failure_reason() : "cannot decode image");
+        t.rgb.assign(px.get(), px.get() + static_cast<size_t>(w) * h * 3);
+    } else {
+        // 16-bit PNGs keep their precision; 8-bit images go through the same path.
+        std::unique_ptr<stbi_us, void (*)(void*)> px(stbi_load_16_from_memory(bytes, len, &w, &h, &channels, 3),
+                                                      stbi_image_free);
+        if (!px) throw std::runtime_error(stbi_failure_reason() ? stbi_failure_reason() : "cannot decode image");
+        size_t n = static_cast<size_t>(w) * h * 3;
+        t.rgb.resize(n);
+        for (size_t i = 0; i < n; ++i) {
+            float c = static_cast<float>(px.get()[i]) / 65535.0f;
+            t.rgb[i] = raw ? c : srgb_to_linear(c);
+        }
+    }
+    t.width = w;
+    t.height = h;
+    return t;
+}
+
 Texture load_image_texture(const std::string& path, bool raw) {
     Texture t;
-    t.path = path;
-    int w = 0, h = 0, channels = 0;
     if (text::lower(std::filesystem::path(path).extension().string()) == ".exr") {
         // OpenEXR holds linear values: R, G, B (or a single Y) as they are.
         ExrImage img = read_exr_channels(path);
@@ -43,26 +73,15 @@ Texture load_image_texture(const std::string& path, bool raw) {
         t.rgb.resize(3 * n);
         for (size_t i = 0; i < n; ++i)
             for (int c = 0; c < 3; ++c) t.rgb[3 * i + c] = (*rgb[c])[i];
+        t.path = path;
         return t;
     }
-    if (stbi_is_hdr(path.c_str())) {
-        std::unique_ptr<float, void (*)(void*)> px(stbi_loadf(path.c_str(), &w, &h, &channels, 3), stbi_image_free);
-        if (!px) throw std::runtime_error(stbi_failure_reason() ? stbi_failure_reason() : "cannot decode image");
-        t.rgb.assign(px.get(), px.get() + static_cast<size_t>(w) * h * 3);
-    } else {
-        // 16-bit PNGs keep their precision; 8-bit images go through the same path.
-        std::unique_ptr<stbi_us, void (*)(void*)> px(stbi_load_16(path.c_str(), &w, &h, &channels, 3),
-                                                      stbi_image_free);
-        if (!px) throw std::runtime_error(stbi_failure_reason() ? stbi_failure_reason() : "cannot decode image");
-        size_t n = static_cast<size_t>(w) * h * 3;
-        t.rgb.resize(n);
-        for (size_t i = 0; i < n; ++i) {
-            float c = static_cast<float>(px.get()[i]) / 65535.0f;
-            t.rgb[i] = raw ? c : srgb_to_linear(c);
-        }
-    }
-    t.width = w;
-    t.height = h;
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::runtime_error("cannot open the file");
+    std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (in.bad()) throw std::runtime_error("cannot read the file");
+    t = decode_image_texture(bytes.data(), bytes.size(), raw);
+    t.path = path;
     return t;
 }
 

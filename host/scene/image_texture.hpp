@@ -1,9 +1,10 @@
 // Bitmap textures for reflectances (SPEC §8: `bitmap` where used for
-// reflectance), decoded with stb_image.
+// reflectance; glTF base-colour textures), decoded with stb_image.
 #pragma once
 
 #include "scene/scene.hpp"
 
+#include <cstddef>
 #include <string>
 
 namespace vkmech {
@@ -13,5 +14,9 @@ namespace vkmech {
 // dropped; grey images are expanded to RGB. Throws std::runtime_error with
 // stb's reason; the caller adds file and line.
 Texture load_image_texture(const std::string& path, bool raw);
+
+// The same decoding from an encoded image in memory (glTF data URIs and
+// buffer views). Texture::path is left empty for the caller to describe.
+Texture decode_image_texture(const unsigned char* bytes, size_t size, bool raw);
 
 }  // namespace vkmech

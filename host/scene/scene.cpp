@@ -60,7 +60,9 @@ size_t Scene::triangle_count() const {
 Scene load_scene(const std::string& path, const LoadOptions& options) {
     std::string ext = text::lower(std::filesystem::path(path).extension().string());
     if (ext == ".xml") return load_mitsuba_xml(path, options);
-    throw SceneError(path, 0, "unsupported scene format '" + ext + "' (expected a Mitsuba .xml file)");
+    if (ext == ".gltf" || ext == ".glb") return load_gltf(path, options);
+    throw SceneError(path, 0,
+                     "unsupported scene format '" + ext + "' (expected .xml (Mitsuba), .gltf or .glb (glTF 2.0))");
 }
 
 }  // namespace vkmech
