@@ -679,7 +679,7 @@ SHARED_FN bool bsdf_is_transmissive(GpuMaterial m) {
 // Mitsuba's `twosided`: a back-side query is answered by the front side with
 // both directions mirrored.
 SHARED_FN bool bsdf_mirrors(GpuMaterial m, vec3 wo) {
-    return m.header.y != 0u && wo.z < 0.0 && !bsdf_is_transmissive(m);
+    return (m.header.y & 1u) != 0u && wo.z < 0.0 && !bsdf_is_transmissive(m);
 }
 
 SHARED_FN vec3 flip_z(vec3 v) { return vec3(v.x, v.y, -v.z); }

@@ -189,7 +189,17 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
         // Shading-normal consistency: wo must lie on the same side of both normals.
         if (wo.z * dot(wo_world, s.ng) <= 0.0) break;
         vec3 albedo = m.reflectance.rgb;
-        if (FEATURE_TEXTURES && m.header.z != 0u) albedo = texture_lookup(m.header.z - 1u, s.uv);
+        if (FEATURE_TEXTURES) {
+            uint t_refl = m.header.z & MAT_TEX_MASK;
+            uint t_spec = m.header.z >> MAT_TEX_SHIFT;
+            uint t_trans = m.header.y >> MAT_TEX_SHIFT;
+            if (t_refl != 0u) albedo = texture_lookup(t_refl - 1u, s.uv);
+            // The constants hold the textures' means (sampling weights use
+            // them); the lookup replaces the colour the BSDF evaluates with.
+            if (t_spec != 0u) m.specular_reflectance = vec4(texture_lookup(t_spec - 1u, s.uv), m.specular_reflectance.w);
+            if (t_trans != 0u)
+                m.specular_transmittance = vec4(texture_lookup(t_trans - 1u, s.uv), m.specular_transmittance.w);
+        }
 
         // ---- next-event estimation (SPEC §1: at every non-delta vertex) ----
         uint nee_lobe = bsdf_nee_lobe(m);

@@ -8,8 +8,8 @@ layout(std430, set = 0, binding = BINDING_TRIANGLES) readonly buffer Triangles {
 layout(std430, set = 0, binding = BINDING_MATERIALS) readonly buffer Materials { GpuMaterial materials[]; };
 layout(std430, set = 0, binding = BINDING_LIGHT_TRIS) readonly buffer LightTris { GpuLightTriangle light_tris[]; };
 layout(std430, set = 0, binding = BINDING_EMITTERS) readonly buffer Emitters { GpuEmitter emitters[]; };
-// Bitmap textures: linear RGB texels of every texture, and per texture
-// (first texel, width, height).
+// Textures: linear RGB texels of every texture, and per texture TEX_WORDS
+// uvec4 (shared/types.h: first texel, size, kind, uv transform).
 layout(std430, set = 0, binding = BINDING_TEXELS) readonly buffer Texels { vec4 texels[]; };
 layout(std430, set = 0, binding = BINDING_TEXTURES) readonly buffer Textures { uvec4 textures[]; };
 
@@ -22,11 +22,25 @@ vec3 texel_at(uvec4 info, float x, float y) {
     return texels[info.x + yi * info.y + xi].rgb;
 }
 
-// Bilinear lookup with repeat wrap (Mitsuba's bitmap defaults); uv (0, 0) is
-// the top-left corner of the image (host/scene convention).
-vec3 texture_lookup(uint tex, vec2 uv) {
-    uvec4 info = textures[tex];
-    vec2 p = uv * vec2(float(info.y), float(info.z)) - 0.5;
+// Mitsuba's bitmap (bilinear or nearest, repeat wrap) and checkerboard
+// textures after their to_uv transform; uv (0, 0) is the top-left corner of
+// an image (host/scene convention).
+vec3 texture_lookup(uint tex, vec2 uv_in) {
+    uvec4 info = textures[TEX_WORDS * tex];
+    uvec4 r0 = textures[TEX_WORDS * tex + 1u];
+    uvec4 r1 = textures[TEX_WORDS * tex + 2u];
+    vec2 uv = vec2(dot(uintBitsToFloat(r0.xyz), vec3(uv_in, 1.0)), dot(uintBitsToFloat(r1.xyz), vec3(uv_in, 1.0)));
+    uint kind = info.w & 0xFFu;
+    if (kind == TEX_CHECKERBOARD) {
+        // Mitsuba 3: colour 0 where exactly one of frac(u), frac(v) exceeds 1/2.
+        vec2 f = uv - floor(uv);
+        bool mu = f.x > 0.5;
+        bool mv = f.y > 0.5;
+        return texels[info.x + (mu != mv ? 0u : 1u)].rgb;
+    }
+    vec2 p = uv * vec2(float(info.y), float(info.z));
+    if ((info.w & TEX_NEAREST_BIT) != 0u) return texel_at(info, floor(p.x), floor(p.y));
+    p -= 0.5;
     vec2 f = floor(p);
     vec2 t = p - f;
     vec3 c00 = texel_at(info, f.x, f.y);

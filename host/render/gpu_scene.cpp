@@ -41,23 +41,37 @@ namespace {
 
 float luminance(const glm::vec3& c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
 
+glm::vec3 texture_mean(const Texture& t) {
+    glm::dvec3 sum(0.0);
+    for (size_t i = 0; i + 2 < t.rgb.size(); i += 3) sum += glm::dvec3(t.rgb[i], t.rgb[i + 1], t.rgb[i + 2]);
+    return glm::vec3(sum / std::max<double>(1.0, static_cast<double>(t.rgb.size() / 3)));
+}
+
+uint32_t texture_slot(int texture) {
+    if (texture < 0) return 0u;
+    if (texture + 1 > static_cast<int>(gpu::MAT_TEX_MASK))
+        throw SceneError("", 0, "more than " + std::to_string(gpu::MAT_TEX_MASK - 1) + " textures");
+    return static_cast<uint32_t>(texture + 1);
+}
+
 gpu::GpuMaterial pack_material(const Material& m, const std::vector<Texture>& textures) {
     gpu::GpuMaterial g{};
-    g.header = glm::uvec4(static_cast<uint32_t>(m.type), m.twosided ? 1u : 0u,
-                          m.reflectance.texture >= 0 ? static_cast<uint32_t>(m.reflectance.texture + 1) : 0u,
+    g.header = glm::uvec4(static_cast<uint32_t>(m.type),
+                          (m.twosided ? 1u : 0u) | texture_slot(m.specular_transmittance_texture) << gpu::MAT_TEX_SHIFT,
+                          texture_slot(m.reflectance.texture) |
+                              texture_slot(m.specular_reflectance_texture) << gpu::MAT_TEX_SHIFT,
                           static_cast<uint32_t>(m.distribution));
-    glm::vec3 refl = m.reflectance.value;
-    if (m.reflectance.texture >= 0) {
-        // The texture's mean stands in where a single value is needed (plastic
-        // sampling weights), as Mitsuba takes the texture mean.
-        const Texture& t = textures.at(m.reflectance.texture);
-        glm::dvec3 sum(0.0);
-        for (size_t i = 0; i + 2 < t.rgb.size(); i += 3) sum += glm::dvec3(t.rgb[i], t.rgb[i + 1], t.rgb[i + 2]);
-        refl = glm::vec3(sum / std::max<double>(1.0, static_cast<double>(t.rgb.size() / 3)));
-    }
+    // A texture's mean stands in where a single value is needed (plastic
+    // sampling weights, Fresnel tints), as Mitsuba takes the texture mean.
+    glm::vec3 refl = m.reflectance.texture >= 0 ? texture_mean(textures.at(m.reflectance.texture)) : m.reflectance.value;
+    glm::vec3 spec = m.specular_reflectance_texture >= 0 ? texture_mean(textures.at(m.specular_reflectance_texture))
+                                                          : m.specular_reflectance;
+    glm::vec3 trans = m.specular_transmittance_texture >= 0
+                          ? texture_mean(textures.at(m.specular_transmittance_texture))
+                          : m.specular_transmittance;
     g.reflectance = glm::vec4(refl, m.alpha_u);
-    g.specular_reflectance = glm::vec4(m.specular_reflectance, m.alpha_v);
-    g.specular_transmittance = glm::vec4(m.specular_transmittance, m.int_ior);
+    g.specular_reflectance = glm::vec4(spec, m.alpha_v);
+    g.specular_transmittance = glm::vec4(trans, m.int_ior);
     g.eta = glm::vec4(m.eta, m.ext_ior);
     g.k = glm::vec4(m.k, m.nonlinear ? 1.0f : 0.0f);
     g.principled0 = glm::vec4(m.metallic, m.roughness, m.specular, m.spec_tint);
@@ -113,7 +127,12 @@ SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
     for (const auto& m : scene.materials) a.materials.push_back(pack_material(m, scene.textures));
 
     for (const auto& t : scene.textures) {
-        a.textures.push_back(glm::uvec4(static_cast<uint32_t>(a.texels.size()), t.width, t.height, 0u));
+        uint32_t kind = (t.kind == TextureKind::Checkerboard ? gpu::TEX_CHECKERBOARD : gpu::TEX_BITMAP) |
+                        (t.nearest ? gpu::TEX_NEAREST_BIT : 0u);
+        a.textures.push_back(glm::uvec4(static_cast<uint32_t>(a.texels.size()), t.width, t.height, kind));
+        for (int r = 0; r < 2; ++r)  // rows of the affine uv transform (glm: to_uv[column][row])
+            a.textures.push_back(glm::uvec4(std::bit_cast<uint32_t>(t.to_uv[0][r]), std::bit_cast<uint32_t>(t.to_uv[1][r]),
+                                            std::bit_cast<uint32_t>(t.to_uv[2][r]), 0u));
         for (size_t i = 0; i + 2 < t.rgb.size(); i += 3) a.texels.push_back(glm::vec4(t.rgb[i], t.rgb[i + 1], t.rgb[i + 2], 1.0f));
     }
 

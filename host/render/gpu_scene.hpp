@@ -35,7 +35,7 @@ struct SceneArrays {
     std::vector<gpu::GpuEmitter> emitters;
     std::vector<gpu::GpuLightTriangle> light_triangles;
     std::vector<glm::vec4> texels;        // every texture's linear RGB texels
-    std::vector<glm::uvec4> textures;     // first texel, width, height
+    std::vector<glm::uvec4> textures;     // gpu::TEX_WORDS per texture (shared/types.h)
     Bvh bvh;
     float light_weight_total = 0.0f;  // sum of the light-selection weights (power: luminance x area)
     LightSelection light_selection = LightSelection::Uniform;

@@ -62,8 +62,22 @@ struct GpuVertex {
     vec4 normal;    // xyz shading normal, w = v texture coordinate
 };
 
+// Texture slots of a material (texture index + 1, 0 = none), 16 bits each:
+// header.z low = reflectance, header.z high = specular_reflectance,
+// header.y high = specular_transmittance (header.y bit 0: twosided).
+VKM_CONST MAT_TEX_MASK = 0xFFFFu;
+VKM_CONST MAT_TEX_SHIFT = 16u;
+
+// Texture table (3 uvec4 per texture): [0] first texel, width, height, kind
+// | nearest << 8; [1], [2]: rows 0 and 1 of the 2D affine uv transform
+// (floatBitsToUint of a, b, c: u' = a u + b v + c).
+VKM_CONST TEX_WORDS = 3u;
+VKM_CONST TEX_BITMAP = 0u;
+VKM_CONST TEX_CHECKERBOARD = 1u;
+VKM_CONST TEX_NEAREST_BIT = 0x100u;
+
 struct GpuMaterial {
-    uvec4 header;        // x: type, y: twosided, z: reflectance texture + 1 (0 none), w: distribution
+    uvec4 header;        // x: type, y: twosided | specular_transmittance texture << 16, z: texture slots (above), w: distribution
     vec4 reflectance;    // rgb, w: alpha_u
     vec4 specular_reflectance;    // rgb, w: alpha_v
     vec4 specular_transmittance;  // rgb, w: int_ior
