@@ -5,10 +5,18 @@
 
 // Specialization: thin lens compiled in only when the scene has one (DESIGN).
 layout(constant_id = 0) const bool HAS_THIN_LENS = false;
+// Specialization: orthographic projection (Mitsuba's `orthographic` sensor):
+// parallel rays along +Z from camera x in [-1, 1] (the film's width) and
+// y in [-h/w, h/w], mapped through to_world, whose scale sizes the view.
+layout(constant_id = 11) const bool CAMERA_ORTHOGRAPHIC = false;
 
 void camera_ray(vec2 film_uv, vec2 lens_u, out vec3 origin, out vec3 dir) {
     vec3 d = vec3((1.0 - 2.0 * film_uv.x) * params.camera.x, (1.0 - 2.0 * film_uv.y) * params.camera.y, 1.0);
     vec3 o = vec3(0.0);
+    if (CAMERA_ORTHOGRAPHIC) {
+        o = vec3(d.x, d.y, 0.0);
+        d = vec3(0.0, 0.0, 1.0);
+    }
     if (HAS_THIN_LENS && params.camera.z > 0.0) {
         // Concentric-free polar mapping is fine here: only the disk matters.
         float r = params.camera.z * sqrt(lens_u.x);

@@ -249,6 +249,33 @@ TEST_SUITE("gpu") {
 }
 
 TEST_SUITE("gpu") {
+    TEST_CASE("render: an orthographic camera sees the same extent at every distance") {
+        VKMECH_REQUIRE_GPU(ctx);
+        for (const char* height : {"2", "7"}) {
+            CAPTURE(height);
+            RenderSetup setup;
+            setup.res = 32;
+            setup.spp = 4;
+            setup.load.params["height"] = height;
+            Frame f = testing::render_scene(*ctx, test_scene("orthographic"), setup);
+            std::vector<float> rgb = f.rgb_mean();
+            // The square spans camera x, y in [-0.25, 0.25] of [-0.5, 0.5]:
+            // columns and rows 8..23 are lit (radiance 1), the rest black.
+            int lit = 0, wrong = 0;
+            for (int y = 0; y < 32; ++y)
+                for (int x = 0; x < 32; ++x) {
+                    float v = rgb[3 * (static_cast<size_t>(y) * 32 + x)];
+                    bool inside = x >= 8 && x < 24 && y >= 8 && y < 24;
+                    bool edge = x == 7 || x == 8 || x == 23 || x == 24 || y == 7 || y == 8 || y == 23 || y == 24;
+                    if (v > 0.5f) ++lit;
+                    if (!edge && (inside ? std::abs(v - 1.0f) > 1e-3f : v != 0.0f)) ++wrong;
+                }
+            CHECK(wrong == 0);
+            CHECK(lit >= 14 * 14);
+            CHECK(lit <= 18 * 18);
+        }
+    }
+
     // Both scenes show a 4 x 4 red/blue checkerboard (to_uv scales the 2 x 2
     // pattern by 2): on a diffuse reflectance and on a mirror's
     // specular_reflectance. Image columns 1, 10, 21 (and rows alike) fall in

@@ -277,7 +277,8 @@ int cmd_check(const CommonOptions& o) {
     const Camera& c = scene.camera;
     glm::vec3 pos(c.to_world[3]), fwd(c.to_world[2]);
     std::printf("camera: %s, %d x %d, fov %g deg (%s), at (%g, %g, %g) looking along (%g, %g, %g)%s\n",
-                c.type == CameraType::ThinLens ? "thinlens" : "perspective", c.width, c.height, c.fov_deg,
+                c.type == CameraType::ThinLens ? "thinlens" : c.type == CameraType::Orthographic ? "orthographic" : "perspective",
+                c.width, c.height, c.type == CameraType::Orthographic ? 0.0f : c.fov_deg,
                 c.fov_axis.c_str(), pos.x, pos.y, pos.z, fwd.x, fwd.y, fwd.z,
                 c.type == CameraType::ThinLens ? (", aperture " + std::to_string(c.aperture_radius)).c_str() : "");
     std::printf("integrator: max_depth %d, rr_depth %d\n", scene.integrator.max_depth, scene.integrator.rr_depth);

@@ -38,6 +38,7 @@ Features Features::generic(Estimator e, bool capture) {
 Features Features::from_scene(const Scene& scene, Estimator e, bool capture) {
     Features f;
     f.thin_lens = scene.camera.type == CameraType::ThinLens && scene.camera.aperture_radius > 0.0f;
+    f.orthographic = scene.camera.type == CameraType::Orthographic;
     f.dielectric = f.rough = f.plastic = f.principled = f.conductor = f.textures = false;
     for (const auto& m : scene.materials) {
         switch (m.type) {
@@ -63,7 +64,8 @@ std::vector<vk::SpecConstant> Features::spec_constants() const {
     // constant_id values: shaders/camera.glsl (0), shaders/features.glsl (1-7), pathtrace.comp (8-10).
     return {{0, thin_lens}, {1, dielectric}, {2, rough},   {3, plastic},
             {4, principled}, {5, conductor}, {6, textures}, {7, capture},
-            {8, static_cast<uint32_t>(estimator)}, {9, debug_events}, {10, end_vertex == EndVertex::Literal}};
+            {8, static_cast<uint32_t>(estimator)}, {9, debug_events}, {10, end_vertex == EndVertex::Literal},
+            {11, orthographic}};
 }
 
 std::string Features::describe() const {
@@ -72,6 +74,7 @@ std::string Features::describe() const {
         if (on) s += std::string(s.empty() ? "" : " ") + name;
     };
     add(thin_lens, "thin-lens");
+    add(orthographic, "orthographic");
     add(dielectric, "dielectric");
     add(rough, "rough");
     add(plastic, "plastic");

@@ -23,6 +23,7 @@ EndVertex parse_end_vertex(const std::string& s);  // throws std::invalid_argume
 
 struct Features {
     bool thin_lens = true;
+    bool orthographic = false;  // a camera type, not an effect: never in the generic pipeline
     bool dielectric = true;
     bool rough = true;
     bool plastic = true;

@@ -12,6 +12,7 @@ namespace vkmech {
 glm::vec2 camera_tangents(const Camera& cam) {
     float t = std::tan(glm::radians(cam.fov_deg) * 0.5f);
     float w = static_cast<float>(cam.width), h = static_cast<float>(cam.height);
+    if (cam.type == CameraType::Orthographic) return {1.0f, h / w};  // half extents in camera space
     std::string axis = cam.fov_axis;
     if (axis == "smaller") axis = w <= h ? "x" : "y";
     if (axis == "larger") axis = w >= h ? "x" : "y";
@@ -26,6 +27,8 @@ glm::vec2 camera_tangents(const Camera& cam) {
 Renderer::Renderer(const vk::Context& ctx, const Scene& scene, const SceneArrays& arrays, const GpuScene& gpu_scene,
                    const Features& features)
     : ctx_(ctx), scene_(scene), arrays_(arrays), gpu_(gpu_scene), features_(features) {
+    // The projection is the camera's, whatever pipeline was asked for.
+    features_.orthographic = scene.camera.type == CameraType::Orthographic;
     using DT = ::vk::DescriptorType;
     std::vector<vk::BindingDesc> bindings = {
         {0, DT::eUniformBuffer}, {1, DT::eStorageBuffer}, {2, DT::eStorageBuffer}, {3, DT::eStorageBuffer},

@@ -416,17 +416,28 @@ glm::vec3 MitsubaLoader::envmap_mean_radiance(const XNode& n, const XProps& p) {
 
 void MitsubaLoader::sensor(const XNode& n) {
     const std::string type = n.required("type");
-    if (type != "perspective" && type != "thinlens") unsupported(n, "sensor", " (expected perspective or thinlens)");
+    if (type != "perspective" && type != "thinlens" && type != "orthographic")
+        unsupported(n, "sensor", " (expected perspective, thinlens or orthographic)");
     XProps p(n);
-    if (have_sensor_) return;  // Mitsuba renders the first sensor
+    if (have_sensor_) {
+        warn(n, "a second <sensor> is ignored (Mitsuba renders the first)");
+        return;
+    }
     Camera cam;
-    cam.type = type == "thinlens" ? CameraType::ThinLens : CameraType::Perspective;
+    cam.type = type == "thinlens" ? CameraType::ThinLens : type == "orthographic" ? CameraType::Orthographic
+                                                                                  : CameraType::Perspective;
     cam.to_world = p.get_transform({"to_world", "toWorld"});
-    for (int c = 0; c < 3; ++c)
-        if (std::abs(glm::length(glm::vec3(cam.to_world[c])) - 1.0f) > 1e-3f)
-            n.fail(n.describe() + ": to_world must not scale the camera (Mitsuba forbids it)");
+    if (cam.type == CameraType::Orthographic) {
+        // The scale of to_world sizes the orthographic view (Mitsuba).
+        if (!(std::abs(glm::determinant(glm::mat3(cam.to_world))) > 0.0f))
+            n.fail(n.describe() + ": the to_world transform is singular");
+    } else {
+        for (int c = 0; c < 3; ++c)
+            if (std::abs(glm::length(glm::vec3(cam.to_world[c])) - 1.0f) > 1e-3f)
+                n.fail(n.describe() + ": to_world must not scale the camera (Mitsuba forbids it)");
+    }
 
-    auto fov = p.opt_float({"fov"});
+    auto fov = cam.type == CameraType::Orthographic ? std::nullopt : p.opt_float({"fov"});
     auto focal = p.opt_string({"focal_length", "focalLength"});
     if (fov && focal) n.fail(n.describe() + ": give either 'fov' or 'focal_length', not both");
     if (fov) {
@@ -436,7 +447,7 @@ void MitsubaLoader::sensor(const XNode& n) {
         const char* axes[] = {"x", "y", "diagonal", "smaller", "larger"};
         if (std::none_of(std::begin(axes), std::end(axes), [&](const char* a) { return cam.fov_axis == a; }))
             n.fail("unknown fov_axis '" + cam.fov_axis + "' (expected x, y, diagonal, smaller or larger)");
-    } else {
+    } else if (cam.type != CameraType::Orthographic) {
         // Mitsuba: a 35 mm-equivalent focal length (default 50mm) gives the
         // diagonal field of view.
         std::string f = focal.value_or("50mm");

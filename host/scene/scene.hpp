@@ -138,11 +138,12 @@ struct AreaEmitter {
     int mesh = -1;
 };
 
-enum class CameraType : uint32_t { Perspective = 0, ThinLens = 1 };
+enum class CameraType : uint32_t { Perspective = 0, ThinLens = 1, Orthographic = 2 };
 
 struct Camera {
     CameraType type = CameraType::Perspective;
     glm::mat4 to_world{1.0f};  // camera space: +Z forward, +Y up, Mitsuba's convention
+                               // (orthographic: its scale sets the view: camera x in [-1, 1] spans the width)
     float fov_deg = 39.3077f;
     std::string fov_axis = "x";  // x, y, diagonal, smaller, larger
     float near_clip = 0.01f;
