@@ -154,6 +154,7 @@ const char* MitsubaLoader::to_string(IdKind k) {
         case IdKind::Bsdf: return "bsdf";
         case IdKind::Texture: return "texture";
         case IdKind::Emitter: return "emitter";
+        case IdKind::Ignored: return "sampler, film or rfilter";
     }
     return "?";
 }

@@ -20,7 +20,7 @@ public:
     Scene load();
 
 private:
-    enum class IdKind { Bsdf, Texture, Emitter };
+    enum class IdKind { Bsdf, Texture, Emitter, Ignored };
     static const char* to_string(IdKind k);
     struct IdEntry {
         IdKind kind = IdKind::Bsdf;
@@ -30,9 +30,14 @@ private:
     };
 
     // ---- structure (mitsuba_xml.cpp) ----
-    void scene_element(const XmlDocument& doc, int depth);
-    void child_of_scene(const XNode& n, int depth);
-    void include(const XNode& n, int depth);
+    // Two passes over the scene and its includes, as Mitsuba resolves
+    // references after parsing: declarations first (defaults, paths,
+    // top-level bsdfs, textures, emitters, aliases), then everything that
+    // may refer to them (shapes, the sensor, the integrator).
+    enum class Pass { Declarations, Objects };
+    void scene_element(const XmlDocument& doc, int depth, Pass pass);
+    void child_of_scene(const XNode& n, int depth, Pass pass);
+    void include(const XNode& n, int depth, Pass pass);
     void shape(const XNode& n);
     void shape_bsdf_and_emitter(const XNode& n, const XProps& p, Mesh& mesh);
     void emitter_top(const XNode& n);
@@ -98,6 +103,7 @@ private:
     };
     std::vector<DeclaredEmitter> declared_emitters_;
     std::vector<std::string> search_paths_;  // <path value=...>, Mitsuba's file resolver
+    std::map<std::string, const XmlDocument*> included_;  // "file:line" of an <include> -> its document
 };
 
 }  // namespace vkmech

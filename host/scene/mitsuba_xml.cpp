@@ -67,7 +67,8 @@ Scene MitsubaLoader::load() {
     scene_.source = path_;
     docs_.push_back(std::make_unique<XmlDocument>(path_));
     include_stack_.push_back(canonical_or_self(path_));
-    scene_element(*docs_.back(), 0);
+    scene_element(*docs_.back(), 0, Pass::Declarations);
+    scene_element(*docs_.front(), 0, Pass::Objects);
     if (!have_sensor_)
         throw SceneError(path_, docs_.front()->line_of(docs_.front()->root()),
                          "the scene has no <sensor> (SPEC §8: perspective or thinlens)");
@@ -84,10 +85,10 @@ Scene MitsubaLoader::load() {
     return std::move(scene_);
 }
 
-void MitsubaLoader::scene_element(const XmlDocument& doc, int depth) {
+void MitsubaLoader::scene_element(const XmlDocument& doc, int depth, Pass pass) {
     XNode root(doc, doc.root(), params_);
     if (root.tag() != "scene") root.fail("the root element must be <scene>, not <" + root.tag() + ">");
-    for (const XNode& c : root.children()) child_of_scene(c, depth);
+    for (const XNode& c : root.children()) child_of_scene(c, depth, pass);
 }
 
 [[noreturn]] void MitsubaLoader::unsupported(const XNode& n, const std::string& kind, const std::string& extra) const {
@@ -119,12 +120,21 @@ void MitsubaLoader::record_substitution(const XNode& n, const std::string& kind,
 }
 
 
-void MitsubaLoader::child_of_scene(const XNode& n, int depth) {
+void MitsubaLoader::child_of_scene(const XNode& n, int depth, Pass pass) {
     const std::string t = n.tag();
+    if (t == "include") return include(n, depth, pass);
+    const bool declaration = t == "default" || t == "path" || t == "alias" || t == "bsdf" || t == "texture" ||
+                             t == "emitter" || t == "sampler" || t == "rfilter" || t == "film";
+    if (declaration != (pass == Pass::Declarations)) return;
     if (t == "default") {
         params_.add_default(n.required("name"), n.required("value"));
-    } else if (t == "include") {
-        include(n, depth);
+    } else if (t == "sampler" || t == "rfilter" || t == "film") {
+        // Mitsuba 3 lets these be declared at top level and referenced from
+        // the sensor: vkmech uses none of them (its sampler, box filter and
+        // outputs are its own), so they are said and skipped.
+        warn(n, "<" + t + " type=\"" + n.raw().attribute("type").value() + "\"> is not used" +
+                    (t == "sampler" ? " (set the samples with --spp)" : t == "rfilter" ? " (vkmech uses a box filter)" : ""));
+        register_id(n, IdKind::Ignored, -1);
     } else if (t == "bsdf") {
         bsdf(n);
     } else if (t == "texture") {
@@ -175,15 +185,29 @@ std::string MitsubaLoader::resolve(const XNode& n, const std::string& filename) 
     return here.lexically_normal().string();
 }
 
-void MitsubaLoader::include(const XNode& n, int depth) {
-    std::string path = resolve(n, n.required("filename"));
-    if (depth + 1 > kMaxIncludeDepth) n.fail("includes nested more than " + std::to_string(kMaxIncludeDepth) + " deep");
-    std::string canon = canonical_or_self(path);
-    if (std::find(include_stack_.begin(), include_stack_.end(), canon) != include_stack_.end())
-        n.fail("include cycle: '" + path + "' includes itself");
-    docs_.push_back(std::make_unique<XmlDocument>(path, n.file(), n.line()));
+void MitsubaLoader::include(const XNode& n, int depth, Pass pass) {
+    // Parsed in the first pass; the second walks the same document.
+    const std::string key = n.file() + ":" + std::to_string(n.line());
+    const XmlDocument* doc = nullptr;
+    std::string canon;
+    if (pass == Pass::Declarations) {
+        std::string path = resolve(n, n.required("filename"));
+        if (depth + 1 > kMaxIncludeDepth)
+            n.fail("includes nested more than " + std::to_string(kMaxIncludeDepth) + " deep");
+        canon = canonical_or_self(path);
+        if (std::find(include_stack_.begin(), include_stack_.end(), canon) != include_stack_.end())
+            n.fail("include cycle: '" + path + "' includes itself");
+        docs_.push_back(std::make_unique<XmlDocument>(path, n.file(), n.line()));
+        doc = docs_.back().get();
+        included_[key] = doc;
+    } else {
+        auto it = included_.find(key);
+        if (it == included_.end()) return;
+        doc = it->second;
+        canon = canonical_or_self(doc->path());
+    }
     include_stack_.push_back(canon);
-    scene_element(*docs_.back(), depth + 1);
+    scene_element(*doc, depth + 1, pass);
     include_stack_.pop_back();
 }
 
@@ -498,11 +522,24 @@ void MitsubaLoader::sensor(const XNode& n) {
             warn_unused(fp);
         } else if (o.tag() == "sampler") {
             // Sampling is the renderer's (SPEC §4): say what was not used.
+            // Its count often is `$spp` with no default (set with -D in
+            // Mitsuba): unbound there, it must not stop a scene that does
+            // not use it.
             XProps sp(o);
-            auto count = sp.opt_int({"sample_count", "sampleCount"});
+            std::optional<int> count;
+            try {
+                count = sp.opt_int({"sample_count", "sampleCount"});
+            } catch (const SceneError&) {
+                sp.find({"sample_count", "sampleCount"});
+            }
             warn(o, "sampler '" + o.required("type") + "'" +
                         (count ? " (sample_count " + std::to_string(*count) + ")" : std::string()) +
                         " is not used: vkmech samples with its counter-based generator; set the samples with --spp");
+        } else if (o.tag() == "ref") {
+            // A sampler, film or rfilter declared at top level (already said).
+            const IdEntry& e = lookup_ref(o);
+            if (e.kind != IdKind::Ignored)
+                o.fail("'" + o.required("id") + "' is a " + to_string(e.kind) + "; a sensor takes a film or a sampler");
         } else {
             o.fail("unexpected <" + o.tag() + "> inside " + n.describe());
         }
