@@ -20,6 +20,9 @@ struct RenderInfo {
     uint32_t spp = 0;
     uint32_t seed = 0;
     bool capture = true;
+    // Creating (and compiling) the pipeline, outside the render time; < 0: not measured.
+    double pipeline_seconds = -1.0;
+    std::string pipeline_cache;  // vk::pipeline_cache_outcome
 };
 
 struct WrittenFiles {
