@@ -20,6 +20,7 @@ PKGS=(
   libpugixml-dev
   libstb-dev
   libcli11-dev
+  zlib1g-dev
   python3-matplotlib
 )
 

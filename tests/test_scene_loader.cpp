@@ -659,7 +659,7 @@ const Fault kFaults[] = {
     {"unsupported_emitter.xml", "unsupported_emitter.xml", 6, "unsupported emitter plugin 'envmap'"},
     {"point_light.xml", "point_light.xml", 6, "unsupported emitter plugin 'point'"},
     {"unsupported_bsdf.xml", "unsupported_bsdf.xml", 7, "unsupported bsdf plugin 'blendbsdf'"},
-    {"unsupported_shape.xml", "unsupported_shape.xml", 6, "unsupported shape plugin 'serialized'"},
+    {"unsupported_shape.xml", "unsupported_shape.xml", 6, "unsupported shape plugin 'bsplinecurve'"},
     {"unsupported_sensor.xml", "unsupported_sensor.xml", 3, "unsupported sensor plugin 'radiancemeter'"},
     {"unknown_conductor.xml", "unknown_conductor.xml", 7, "unknown conductor material 'Unobtainium'"},
     {"unknown_ior.xml", "unknown_ior.xml", 7, "unknown IOR name 'kryptonite'"},

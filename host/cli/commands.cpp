@@ -35,6 +35,13 @@ void add_common_options(CLI::App* app, CommonOptions& o) {
     app->add_flag("--substitute", o.substitute,
                   "Replace unsupported emitters (environment maps) by an overhead area panel, reported");
     app->add_flag("--validation", o.validation, "Enable the Vulkan validation layers when installed");
+    add_pipeline_cache_option(app, o.pipeline_cache);
+}
+
+void add_pipeline_cache_option(CLI::App* app, std::optional<std::string>& dir) {
+    app->add_option("--pipeline-cache", dir,
+                    "Directory of the on-disk Vulkan pipeline cache, or 'off' (default: $VKMECH_CACHE_DIR, else "
+                    "$XDG_CACHE_HOME/vkmech, else ~/.cache/vkmech)");
 }
 
 std::vector<std::string> scene_dirs() {
@@ -167,13 +174,16 @@ int cmd_render(const RenderOptions& o) {
     vk::ContextOptions co;
     co.device_index = o.common.device;
     co.validation = o.common.validation;
+    co.pipeline_cache_dir = o.common.pipeline_cache;
     vk::Context ctx(co);
     Traversal trav = resolve_traversal(ctx, parse_traversal(o.common.traversal));
     SceneArrays arrays = flatten_scene(scene, parse_light_selection(o.light_selection));
     GpuScene gpu_scene(ctx, arrays, trav);
     Features features = o.generic ? Features::generic(estimator, capture) : Features::from_scene(scene, estimator, capture);
     features.end_vertex = parse_end_vertex(o.end_vertex);
+    const vk::PipelineStats before = ctx.pipeline_cache().stats();
     Renderer renderer(ctx, scene, arrays, gpu_scene, features);
+    const vk::PipelineStats pipes = ctx.pipeline_cache().stats() - before;
 
     std::fprintf(stderr, "vkmech: %s: %dx%d, %zu triangles, %zu emitters, %u spp on '%s' (%s traversal; %s; %s light "
                  "selection)\n",
@@ -189,6 +199,8 @@ int cmd_render(const RenderOptions& o) {
     Frame frame = renderer.render(spec);
 
     RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene, o.spp, o.seed, capture);
+    info.pipeline_seconds = pipes.seconds;
+    info.pipeline_cache = vk::pipeline_cache_outcome(pipes, ctx.pipeline_cache().enabled());
     std::optional<Descriptor> desc;
     std::optional<DescriptorSummary> summary;
     if (capture) {
@@ -202,6 +214,8 @@ int cmd_render(const RenderOptions& o) {
     for (const auto& p : frame.pixels) nonfinite += static_cast<uint64_t>(p.nonfinite);
     std::printf("%s: %d x %d, %u spp, %.2f s, %.3g paths/s, non-finite samples: %llu\n", name.c_str(), frame.width,
                 frame.height, o.spp, frame.seconds, paths_per_s, static_cast<unsigned long long>(nonfinite));
+    std::printf("pipeline creation: %.2f s (%s; not in the render time)\n", info.pipeline_seconds,
+                info.pipeline_cache.c_str());
     if (summary) {
         std::printf("%-18s %12s %12s\n", "bucket", "pixel share", "energy share");
         for (uint32_t b = 0; b < kBucketCount; ++b)
@@ -313,6 +327,7 @@ int cmd_bench_traversal(const BenchOptions& o) {
     if (names.empty()) throw UsageError("no scenes to benchmark");
     vk::ContextOptions co;
     co.device_index = o.device;
+    co.pipeline_cache_dir = o.pipeline_cache;
     vk::Context ctx(co);
     std::printf("device: %s (%s), %u random rays per measurement (closest hit; median of 3)\n", ctx.info().name.c_str(),
                 ctx.info().type.c_str(), o.rays);
@@ -347,6 +362,7 @@ int cmd_bench_render(const BenchOptions& o) {
     if (names.empty()) throw UsageError("no scenes to benchmark");
     vk::ContextOptions co;
     co.device_index = o.device;
+    co.pipeline_cache_dir = o.pipeline_cache;
     vk::Context ctx(co);
     std::printf("device: %s (%s); %ux%u film, %u spp per measurement, median of 3; paths/s in millions\n",
                 ctx.info().name.c_str(), ctx.info().type.c_str(), o.res, o.res, o.spp);
@@ -413,6 +429,7 @@ void add_study_options(CLI::App* app, StudyCliOptions& o) {
     app->add_option("--curve", o.curve,
                     "predictor: a frozen predictor_curve.json; predicts each scene's label reliability from its pilot only");
     app->add_option("--device", o.device, "Vulkan device index (see `vkmech devices`)");
+    add_pipeline_cache_option(app, o.pipeline_cache);
     app->add_option("--traversal", o.traversal, "Ray traversal: auto, rayquery or bvh")
         ->check(CLI::IsMember({"auto", "rayquery", "bvh"}));
     app->add_flag("--no-plots", o.no_plots, "Write the figure specs (JSON) but do not run matplotlib");
@@ -437,6 +454,7 @@ int cmd_study(const StudyCliOptions& c) {
     if (!o.curve.empty() && !fs::exists(o.curve)) throw UsageError("predictor curve '" + o.curve + "' does not exist");
     if (!o.curve.empty() && c.study != "predictor") throw UsageError("--curve applies to `vkmech study predictor` only");
     o.device = c.device;
+    o.pipeline_cache = c.pipeline_cache;
     o.traversal = c.traversal;
     o.no_plots = c.no_plots;
     o.plan_only = c.plan_only;
@@ -488,13 +506,18 @@ int cmd_render_adaptive(const RenderOptions& o) {
     vk::ContextOptions co;
     co.device_index = o.common.device;
     co.validation = o.common.validation;
+    co.pipeline_cache_dir = o.common.pipeline_cache;
     vk::Context ctx(co);
     Traversal trav = resolve_traversal(ctx, parse_traversal(o.common.traversal));
     SceneArrays arrays = flatten_scene(scene, parse_light_selection(o.light_selection));
     GpuScene gpu_scene(ctx, arrays, trav);
     Features features = Features::from_scene(scene, estimator, true);
     features.end_vertex = parse_end_vertex(o.end_vertex);
+    const vk::PipelineStats before = ctx.pipeline_cache().stats();
     Renderer renderer(ctx, scene, arrays, gpu_scene, features);
+    const vk::PipelineStats pipes = ctx.pipeline_cache().stats() - before;
+    const std::string pipe_outcome = vk::pipeline_cache_outcome(pipes, ctx.pipeline_cache().enabled());
+    std::printf("pipeline creation: %.2f s (%s; not in the render times)\n", pipes.seconds, pipe_outcome.c_str());
     const size_t pixels = static_cast<size_t>(scene.camera.width) * scene.camera.height;
     std::fprintf(stderr, "vkmech: %s: %dx%d adaptive (%s, pilot %u spp, budget 1 + %u spp per pixel, floor %u) on '%s'\n",
                  name.c_str(), scene.camera.width, scene.camera.height, alloc::to_string(strategy), o.pilot, o.budget,
@@ -544,6 +567,8 @@ int cmd_render_adaptive(const RenderOptions& o) {
     RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene,
                                   static_cast<uint32_t>(plan.total / pixels), downstream_seeds::kPool, true);
     info.features += std::string(" adaptive=") + alloc::to_string(strategy);
+    info.pipeline_seconds = pipes.seconds;
+    info.pipeline_cache = pipe_outcome;
     Descriptor desc = derive_descriptor(frame);
     DescriptorSummary summary = summarize(frame, desc);
     WrittenFiles files = write_render_outputs(out_dir, info, frame, &desc, &summary);

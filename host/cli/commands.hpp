@@ -24,6 +24,7 @@ struct CommonOptions {
     std::string traversal = "auto";     // auto | rayquery | bvh
     bool substitute = false;            // replace unsupported emitters (SPEC §8)
     bool validation = false;            // Vulkan validation layers
+    std::optional<std::string> pipeline_cache;  // --pipeline-cache DIR|off (vk::ContextOptions)
 };
 
 struct RenderOptions {
@@ -54,6 +55,7 @@ struct BenchOptions {
     uint32_t res = 128;  // bench render: film width
     uint32_t spp = 8;    // bench render: samples per measurement
     std::optional<uint32_t> device;
+    std::optional<std::string> pipeline_cache;
 };
 
 struct StudyCliOptions {
@@ -65,6 +67,7 @@ struct StudyCliOptions {
     std::optional<int> seeds;
     std::string out_dir, cache_dir, curve;
     std::optional<uint32_t> device;
+    std::optional<std::string> pipeline_cache;
     std::string traversal = "auto";
     bool no_plots = false, plan_only = false, equal_time = false;
     std::string command_line;
@@ -73,6 +76,8 @@ void add_study_options(CLI::App* app, StudyCliOptions& o);
 int cmd_study(const StudyCliOptions& o);
 
 void add_common_options(CLI::App* app, CommonOptions& o);
+// --pipeline-cache DIR|off (render, bench, study).
+void add_pipeline_cache_option(CLI::App* app, std::optional<std::string>& dir);
 
 // Finds scenes/NAME.xml for a bare name, else treats the argument as a path.
 std::string resolve_scene_path(const std::string& name_or_path);

@@ -82,6 +82,7 @@ int main(int argc, char** argv) {
         ->delimiter(',');
     bench_trav->add_option("--rays", bench_opts.rays, "Rays per measurement")->check(CLI::Range(1000u, 1u << 26));
     bench_trav->add_option("--device", bench_opts.device, "Vulkan device index (see `vkmech devices`)");
+    add_pipeline_cache_option(bench_trav, bench_opts.pipeline_cache);
 
     auto* bench_render = bench->add_subcommand(
         "render", "Paths/s per scene: specialized vs generic pipeline, capture on vs off, ray query vs BVH");
@@ -90,6 +91,7 @@ int main(int argc, char** argv) {
     bench_render->add_option("--res", bench_opts.res, "Film width")->check(CLI::Range(8u, 4096u));
     bench_render->add_option("--spp", bench_opts.spp, "Samples per pixel per measurement")->check(CLI::Range(1u, 4096u));
     bench_render->add_option("--device", bench_opts.device, "Vulkan device index");
+    add_pipeline_cache_option(bench_render, bench_opts.pipeline_cache);
 
     StudyCliOptions study_opts;
     auto* study = app.add_subcommand(

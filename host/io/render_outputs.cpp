@@ -128,6 +128,11 @@ std::string summary_json(const RenderInfo& info, const Frame& frame, const Descr
     o << "  \"features\": \"" << json_escape(info.features) << "\",\n";
     o << "  \"device\": \"" << json_escape(info.device) << "\",\n";
     o << "  \"wall_seconds\": " << frame.seconds << ",\n";
+    if (info.pipeline_seconds >= 0) {
+        // Not part of wall_seconds nor of paths_per_second.
+        o << "  \"pipeline_creation_seconds\": " << info.pipeline_seconds << ",\n";
+        o << "  \"pipeline_cache\": \"" << json_escape(info.pipeline_cache) << "\",\n";
+    }
     o << "  \"paths_per_second\": " << paths_per_s << ",\n";
     o << "  \"nonfinite_samples\": " << nonfinite << ",\n";
     o << "  \"preview_exposure_ev\": " << info.exposure_ev << ",\n";

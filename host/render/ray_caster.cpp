@@ -30,6 +30,7 @@ std::vector<gpu::GpuHit> RayCaster::trace(const std::vector<gpu::GpuRay>& rays, 
         pipe.bind_buffer(8, scene_.bvh_nodes.handle());
         pipe.bind_buffer(9, scene_.tri_positions.handle());
     }
+    pipe.warm_up();  // a lazy driver compiles here, outside the timed dispatch
     uint32_t push[2] = {static_cast<uint32_t>(rays.size()), any_hit ? 1u : 0u};
     auto t0 = std::chrono::steady_clock::now();
     ctx_.submit_and_wait([&](::vk::CommandBuffer cmd) {

@@ -67,6 +67,9 @@ Renderer::Renderer(const vk::Context& ctx, const Scene& scene, const SceneArrays
         pipeline_->bind_buffer(8, gpu_.bvh_nodes.handle());
         pipeline_->bind_buffer(9, gpu_.tri_positions.handle());
     }
+    // Compile now (lavapipe compiles at the first dispatch), so that a
+    // Frame's seconds count rendering only.
+    pipeline_->warm_up();
 }
 
 Frame Renderer::render(const RenderSpec& spec) {

@@ -7,6 +7,7 @@
 #include "scene/mesh_io.hpp"
 #include "scene/mesh_ops.hpp"
 #include "scene/primitives.hpp"
+#include "scene/serialized_io.hpp"
 #include "scene/text_parse.hpp"
 
 #include <algorithm>
@@ -222,13 +223,16 @@ void MitsubaLoader::shape(const XNode& n) {
     bool flip = p.get_bool({"flip_normals", "flipNormals"}, false);
 
     Mesh mesh;
-    if (type == "obj" || type == "ply") {
+    if (type == "obj" || type == "ply" || type == "serialized") {
         auto filename = p.opt_string({"filename"});
         if (!filename) n.fail(n.describe() + " is missing the required property 'filename'");
         std::string path = resolve(n, *filename);
         if (!is_file(path)) n.fail("cannot open mesh file '" + *filename + "' (looked for " + path + ")");
         try {
-            mesh = type == "obj" ? load_obj(path) : load_ply(path);
+            if (type == "serialized")
+                mesh = load_serialized(path, p.opt_int({"shape_index", "shapeIndex"}).value_or(0));
+            else
+                mesh = type == "obj" ? load_obj(path) : load_ply(path);
         } catch (const SceneError& e) {
             // Keep the mesh file's position; say which shape asked for it.
             throw SceneError(e.file(), e.line(),
@@ -272,7 +276,7 @@ void MitsubaLoader::shape(const XNode& n) {
         if (!(glm::length(p1 - p0) > 0.0f)) n.fail(n.describe() + ": p0 and p1 coincide");
         mesh = make_cylinder(p0, p1, radius, to_world, flip);
     } else {
-        unsupported(n, "shape", " (expected obj, ply, rectangle, cube, sphere, disk or cylinder)");
+        unsupported(n, "shape", " (expected obj, ply, serialized, rectangle, cube, sphere, disk or cylinder)");
     }
     mesh.name = n.attr("id").value_or(type + "#" + std::to_string(shape_count_));
     ++shape_count_;

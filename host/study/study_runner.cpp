@@ -130,6 +130,7 @@ int run_study(const StudyOptions& o) {
 
     vk::ContextOptions co;
     co.device_index = o.device;
+    co.pipeline_cache_dir = o.pipeline_cache;
     vk::Context ctx(co);
     const Traversal trav = resolve_traversal(ctx, parse_traversal(o.traversal));
     const auto spirv = pathtrace_spirv(trav);

@@ -28,6 +28,7 @@ struct StudyOptions {
     std::string cache_dir;                // default <out>/cache
     std::string curve;                    // predictor: frozen curve for new scenes
     std::optional<uint32_t> device;
+    std::optional<std::string> pipeline_cache;  // vk::ContextOptions::pipeline_cache_dir
     std::string traversal = "auto";
     bool no_plots = false;
     bool plan_only = false;               // print the plan and the expected cost, render nothing

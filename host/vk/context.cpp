@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <iostream>
@@ -194,6 +195,13 @@ Context::Context(const ContextOptions& options) : messages_(std::make_unique<Mes
         exts = {VK_KHR_RAY_QUERY_EXTENSION_NAME, VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME,
                 VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME};
     }
+    // Creation feedback says whether a pipeline came from the cache (core in
+    // Vulkan 1.3; an extension on 1.2 devices).
+    {
+        auto available = physical_->enumerateDeviceExtensionProperties();
+        creation_feedback_ = has_extension(available, VK_EXT_PIPELINE_CREATION_FEEDBACK_EXTENSION_NAME);
+        if (creation_feedback_) exts.push_back(VK_EXT_PIPELINE_CREATION_FEEDBACK_EXTENSION_NAME);
+    }
     float priority = 1.0f;
     ::vk::DeviceQueueCreateInfo qci{.queueFamilyIndex = queue_family_, .queueCount = 1, .pQueuePriorities = &priority};
 
@@ -220,6 +228,27 @@ Context::Context(const ContextOptions& options) : messages_(std::make_unique<Mes
         *device_, ::vk::CommandPoolCreateInfo{.flags = ::vk::CommandPoolCreateFlagBits::eResetCommandBuffer,
                                               .queueFamilyIndex = queue_family_});
     fence_ = std::make_unique<::vk::raii::Fence>(*device_, ::vk::FenceCreateInfo{});
+    std::string cache_dir = options.pipeline_cache_dir.value_or(default_pipeline_cache_dir());
+    if (cache_dir == "off") cache_dir.clear();
+    pipeline_cache_ = std::make_unique<PipelineCache>(*device_, *physical_, cache_dir);
+}
+
+::vk::raii::Pipeline Context::create_compute_pipeline(const ::vk::ComputePipelineCreateInfo& info) const {
+    ::vk::ComputePipelineCreateInfo ci = info;
+    ::vk::PipelineCreationFeedback whole{};
+    ::vk::PipelineCreationFeedbackCreateInfo feedback{.pPipelineCreationFeedback = &whole};
+    if (creation_feedback_) {
+        feedback.pNext = ci.pNext;
+        ci.pNext = &feedback;
+    }
+    auto t0 = std::chrono::steady_clock::now();
+    ::vk::raii::Pipeline pipeline(*device_, ::vk::Optional<const ::vk::raii::PipelineCache>(pipeline_cache_->raii()), ci);
+    double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    bool hit = (whole.flags & ::vk::PipelineCreationFeedbackFlagBits::eValid) &&
+               (whole.flags & ::vk::PipelineCreationFeedbackFlagBits::eApplicationPipelineCacheHit);
+    pipeline_cache_->record(seconds, hit);
+    pipeline_cache_->save();
+    return pipeline;
 }
 
 Context::~Context() {

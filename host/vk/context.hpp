@@ -1,6 +1,8 @@
 // Vulkan instance, physical-device choice and logical device (RAII).
 #pragma once
 
+#include "vk/pipeline_cache.hpp"
+
 #include <vulkan/vulkan_raii.hpp>
 
 #include <memory>
@@ -37,7 +39,11 @@ struct ContextOptions {
     std::optional<uint32_t> device_index;  // --device N
     bool validation = false;               // enable VK_LAYER_KHRONOS_validation when present
     bool want_ray_query = true;            // enable ray-query extensions when supported
+    // The on-disk pipeline cache directory (vk/pipeline_cache.hpp): unset =
+    // the default from the environment, "off" or "" = no cache.
+    std::optional<std::string> pipeline_cache_dir;
 };
+
 
 class Context {
 public:
@@ -64,6 +70,12 @@ public:
         end_one_shot(cmd);
     }
 
+    // Creates a compute pipeline through the pipeline cache, timing it (and
+    // the driver's compilation) into pipeline_cache().stats(), then saves the
+    // cache so an interrupted run still leaves it on disk.
+    ::vk::raii::Pipeline create_compute_pipeline(const ::vk::ComputePipelineCreateInfo& info) const;
+    PipelineCache& pipeline_cache() const { return *pipeline_cache_; }
+
     uint32_t find_memory_type(uint32_t type_bits, ::vk::MemoryPropertyFlags wanted,
                               ::vk::MemoryPropertyFlags fallback = {}) const;
 
@@ -81,10 +93,12 @@ private:
     std::unique_ptr<::vk::raii::Queue> queue_;
     std::unique_ptr<::vk::raii::CommandPool> pool_;
     std::unique_ptr<::vk::raii::Fence> fence_;
+    std::unique_ptr<PipelineCache> pipeline_cache_;  // destroyed before device_
     uint32_t queue_family_ = 0;
     DeviceInfo info_;
     bool ray_query_enabled_ = false;
     bool validation_enabled_ = false;
+    bool creation_feedback_ = false;  // VK_EXT_pipeline_creation_feedback enabled
     struct Messages;
     std::unique_ptr<Messages> messages_;
 };

@@ -1,5 +1,6 @@
 #include "vk/pipeline.hpp"
 
+#include <chrono>
 #include <map>
 
 namespace vkmech::vk {
@@ -45,7 +46,7 @@ ComputePipeline::ComputePipeline(const Context& ctx, std::span<const uint32_t> s
                                                      .pName = "main",
                                                      .pSpecializationInfo = spec.empty() ? nullptr : &spec_info},
         .layout = **layout_};
-    pipeline_ = std::make_unique<::vk::raii::Pipeline>(dev, nullptr, pci);
+    pipeline_ = std::make_unique<::vk::raii::Pipeline>(ctx.create_compute_pipeline(pci));
 
     std::vector<::vk::DescriptorPoolSize> sizes;
     for (auto [type, n] : counts) sizes.push_back(::vk::DescriptorPoolSize{.type = type, .descriptorCount = n});
@@ -83,6 +84,13 @@ void ComputePipeline::bind_acceleration_structure(uint32_t binding, ::vk::Accele
                                                                 .descriptorCount = 1,
                                                                 .descriptorType = type_of(binding)},
                                        nullptr);
+}
+
+void ComputePipeline::warm_up() const {
+    auto t0 = std::chrono::steady_clock::now();
+    std::vector<uint8_t> zeros(push_bytes_, 0);
+    ctx_.submit_and_wait([&](::vk::CommandBuffer cmd) { record(cmd, 0, 0, 0, zeros.data(), push_bytes_); });
+    ctx_.pipeline_cache().add_seconds(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
 }
 
 void ComputePipeline::record(::vk::CommandBuffer cmd, uint32_t gx, uint32_t gy, uint32_t gz, const void* push,

@@ -28,6 +28,12 @@ public:
     void bind_buffer(uint32_t binding, ::vk::Buffer buffer, ::vk::DeviceSize size = VK_WHOLE_SIZE);
     void bind_acceleration_structure(uint32_t binding, ::vk::AccelerationStructureKHR as);
 
+    // Drivers may compile lazily, at the first dispatch (lavapipe does): an
+    // empty dispatch (0 workgroups; valid Vulkan, does nothing) makes them
+    // compile now. Call it once every descriptor is bound; its time is added
+    // to the context's pipeline-creation time, not to a render's.
+    void warm_up() const;
+
     // Records bind + push + dispatch into cmd.
     void record(::vk::CommandBuffer cmd, uint32_t gx, uint32_t gy, uint32_t gz, const void* push = nullptr,
                 uint32_t push_bytes = 0) const;
