@@ -106,7 +106,8 @@ TEST_CASE("mitsuba third-party: checkerboard and bitmap textures on any colour p
     const Material& plastic = s.materials[s.meshes[2].material];
     REQUIRE(plastic.reflectance.texture >= 0);
     CHECK(s.textures[plastic.reflectance.texture].to_uv[0][0] == 3.0f);  // 0.6's uscale
-    CHECK(s.warnings.empty());
+    REQUIRE(s.warnings.size() == 1);  // only that nothing emits
+    CHECK(has_warning(s, "no emitter"));
 
     // A texture on a float parameter is still refused, with the reason.
     CHECK_THROWS_WITH_AS(load_scene(write_scene("textured_alpha", R"(
@@ -197,6 +198,27 @@ TEST_CASE("mitsuba third-party: --substitute maps point lights, phong and blendb
     CHECK(r > 0.0);
     CHECK(s.emitters[0].radiance.x == doctest::Approx(10.0 / (M_PI * r * r)).epsilon(1e-4));
     CHECK(s.substitutions.size() == 3);
+
+    // A directional light: a distant square whose radiance times its solid
+    // angle is the light's irradiance.
+    std::string sun = write_scene("sun", R"(
+  <emitter type="directional"><vector name="direction" x="0" y="-1" z="0"/><rgb name="irradiance" value="3"/></emitter>
+  <shape type="cube"/>)");
+    CHECK_THROWS_WITH_AS(load_scene(sun), doctest::Contains("unsupported emitter plugin 'directional'"), SceneError);
+    Scene d = load_scene(sun, o);
+    REQUIRE(d.emitters.size() == 1);
+    const Mesh& panel = d.meshes[d.emitters[0].mesh];
+    glm::vec3 c(0.0f);
+    for (const auto& p : panel.positions) c += p / float(panel.positions.size());
+    CHECK(c.y > 10.0f);  // above the unit cube, where the light comes from
+    double half = 0.5 * glm::length(panel.positions[0] - panel.positions[1]);
+    double dist = glm::length(c);
+    double omega = 4.0 * std::asin(half * half / (half * half + dist * dist));
+    CHECK(d.emitters[0].radiance.x * omega == doctest::Approx(3.0).epsilon(1e-3));
+    // Emits downwards, towards the scene.
+    glm::vec3 ng = glm::cross(panel.positions[panel.indices[0].y] - panel.positions[panel.indices[0].x],
+                              panel.positions[panel.indices[0].z] - panel.positions[panel.indices[0].x]);
+    CHECK(ng.y < 0.0f);
 }
 
 TEST_CASE("mitsuba third-party: <path>, <alias> and <blackbody>") {

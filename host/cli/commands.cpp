@@ -33,7 +33,10 @@ void add_common_options(CLI::App* app, CommonOptions& o) {
     app->add_option("--traversal", o.traversal, "Ray traversal: auto, rayquery or bvh")
         ->check(CLI::IsMember({"auto", "rayquery", "bvh"}));
     app->add_flag("--substitute", o.substitute,
-                  "Replace unsupported emitters (environment maps) by an overhead area panel, reported");
+                  "Replace what is outside the model by its nearest model, and record each replacement: environment "
+                  "maps by an overhead panel of their mean radiance, point/spot/directional lights by emitters of the "
+                  "same power or irradiance, phong/blendbsdf/cut-out masks/other BSDFs by the nearest material, media "
+                  "ignored (README: Your own scenes)");
     app->add_flag("--validation", o.validation, "Enable the Vulkan validation layers when installed");
     add_pipeline_cache_option(app, o.pipeline_cache);
 }

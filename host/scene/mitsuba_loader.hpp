@@ -45,6 +45,9 @@ private:
     void integrator(const XNode& n);
     void add_substituted_panels();
     void add_substituted_point_lights();
+    void add_substituted_directional_lights();
+    // Bounds of the geometry so far (a unit box at the camera when empty).
+    void bounds(glm::vec3& lo, glm::vec3& hi) const;
     void prune_unused();
     void warn(const XNode& n, const std::string& what);
     // One warning listing the properties of `p` that nothing read (SPEC §8).
@@ -96,6 +99,12 @@ private:
         glm::vec3 intensity{1.0f};  // W/sr (Mitsuba's `intensity`)
     };
     std::vector<PendingPointLight> point_lights_;
+    struct PendingDirectional {
+        std::string what;
+        glm::vec3 direction{0.0f, 0.0f, 1.0f};  // of propagation
+        glm::vec3 irradiance{1.0f};
+    };
+    std::vector<PendingDirectional> directional_;
     // Area emitters declared at top level with an id (used through <ref>).
     struct DeclaredEmitter {
         glm::vec3 radiance{1.0f};

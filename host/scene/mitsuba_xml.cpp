@@ -75,6 +75,7 @@ Scene MitsubaLoader::load() {
                          "the scene has no <sensor> (SPEC §8: perspective or thinlens)");
     add_substituted_panels();
     add_substituted_point_lights();
+    add_substituted_directional_lights();
     for (const auto& name : params_.unused_overrides())
         scene_.warnings.push_back(path_ + ": -D " + name + "=... is not used by the scene (no $" + name +
                                   " in it); check the name");
@@ -409,8 +410,22 @@ void MitsubaLoader::emitter_top(const XNode& n) {
         point_lights_.push_back(l);
         return;
     }
+    if (type == "directional" || type == "distant") {
+        require_substitute(n, "emitter", "a distant square emitter giving the same irradiance");
+        PendingDirectional l;
+        glm::mat4 m = p.get_transform({"to_world", "toWorld"});
+        l.direction = p.find({"direction"}) ? p.get_vector({"direction"}, glm::vec3(0, 0, 1))
+                                            : glm::vec3(m * glm::vec4(0, 0, 1, 0));
+        if (!(glm::length(l.direction) > 0.0f)) n.fail("the light's direction is zero");
+        l.irradiance = p.get_color({"irradiance"}, glm::vec3(1.0f));
+        if (l.irradiance.x < 0.0f || l.irradiance.y < 0.0f || l.irradiance.z < 0.0f) n.fail("negative irradiance");
+        warn_unused(p);
+        l.what = n.file() + ":" + std::to_string(n.line()) + ": emitter '" + type + "'";
+        directional_.push_back(l);
+        return;
+    }
     unsupported(n, "emitter",
-                " (SPEC §1: area emitters; envmap, constant, point and spot only with --substitute)");
+                " (SPEC §1: area emitters; envmap, constant, point, spot and directional only with --substitute)");
 }
 
 glm::vec3 MitsubaLoader::envmap_mean_radiance(const XNode& n, const XProps& p) {
@@ -588,9 +603,9 @@ void MitsubaLoader::integrator(const XNode& n) {
 
 // ---- end of load ----
 
-void MitsubaLoader::add_substituted_panels() {
-    if (panels_.empty()) return;
-    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+void MitsubaLoader::bounds(glm::vec3& lo, glm::vec3& hi) const {
+    lo = glm::vec3(std::numeric_limits<float>::max());
+    hi = glm::vec3(-std::numeric_limits<float>::max());
     for (const auto& m : scene_.meshes)
         for (const auto& p : m.positions) {
             lo = glm::min(lo, p);
@@ -601,6 +616,47 @@ void MitsubaLoader::add_substituted_panels() {
         lo = c - glm::vec3(1.0f);
         hi = c + glm::vec3(1.0f);
     }
+}
+
+void MitsubaLoader::add_substituted_directional_lights() {
+    if (directional_.empty()) return;
+    glm::vec3 lo, hi;
+    bounds(lo, hi);
+    glm::vec3 center = 0.5f * (lo + hi);
+    float diag = std::max(glm::length(hi - lo), 1e-3f);
+    for (size_t i = 0; i < directional_.size(); ++i) {
+        const auto& l = directional_[i];
+        // A distant square facing along the light's direction: side = the
+        // scene's diagonal, at 10 diagonals, so its rays are within ~3 degrees
+        // of parallel; radiance = irradiance / its solid angle, so a surface
+        // facing it receives the light's irradiance.
+        glm::vec3 n = glm::normalize(l.direction);
+        float half = 0.5f * diag, dist = 10.0f * diag;
+        double omega = 4.0 * std::asin(double(half) * half / (double(half) * half + double(dist) * dist));
+        glm::vec3 radiance = l.irradiance / static_cast<float>(omega);
+        glm::vec3 helper = std::abs(n.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
+        glm::vec3 u = glm::normalize(glm::cross(helper, n)), v = glm::cross(n, u);
+        glm::mat4 m(1.0f);
+        m[0] = glm::vec4(u * half, 0.0f);
+        m[1] = glm::vec4(v * half, 0.0f);
+        m[2] = glm::vec4(n, 0.0f);
+        m[3] = glm::vec4(center - n * dist, 1.0f);
+        Mesh mesh = make_rectangle(m);
+        mesh.name = "substituted-directional#" + std::to_string(i);
+        mesh.material = default_material();
+        mesh.emitter = static_cast<int>(scene_.emitters.size());
+        scene_.emitters.push_back({radiance, static_cast<int>(scene_.meshes.size())});
+        scene_.meshes.push_back(std::move(mesh));
+        scene_.substitutions.push_back(l.what + " replaced by a distant square emitter (side " + fmt_num(diag) +
+                                       ", " + fmt_num(dist) + " away, radiance " + fmt_vec(radiance) +
+                                       ") giving the same irradiance");
+    }
+}
+
+void MitsubaLoader::add_substituted_panels() {
+    if (panels_.empty()) return;
+    glm::vec3 lo, hi;
+    bounds(lo, hi);
     // "Overhead" = along the camera's up vector, snapped to a world axis.
     glm::vec3 cam_up(scene_.camera.to_world[1]);
     int a = 0;
@@ -643,12 +699,8 @@ void MitsubaLoader::add_substituted_panels() {
 
 void MitsubaLoader::add_substituted_point_lights() {
     if (point_lights_.empty()) return;
-    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-    for (const auto& m : scene_.meshes)
-        for (const auto& p : m.positions) {
-            lo = glm::min(lo, p);
-            hi = glm::max(hi, p);
-        }
+    glm::vec3 lo, hi;
+    bounds(lo, hi);
     for (const auto& l : point_lights_) {
         lo = glm::min(lo, l.position);
         hi = glm::max(hi, l.position);

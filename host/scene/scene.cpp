@@ -59,10 +59,19 @@ size_t Scene::triangle_count() const {
 
 Scene load_scene(const std::string& path, const LoadOptions& options) {
     std::string ext = text::lower(std::filesystem::path(path).extension().string());
-    if (ext == ".xml") return load_mitsuba_xml(path, options);
-    if (ext == ".gltf" || ext == ".glb") return load_gltf(path, options);
-    throw SceneError(path, 0,
-                     "unsupported scene format '" + ext + "' (expected .xml (Mitsuba), .gltf or .glb (glTF 2.0))");
+    Scene scene;
+    if (ext == ".xml") scene = load_mitsuba_xml(path, options);
+    else if (ext == ".gltf" || ext == ".glb") scene = load_gltf(path, options);
+    else
+        throw SceneError(path, 0,
+                         "unsupported scene format '" + ext + "' (expected .xml (Mitsuba), .gltf or .glb (glTF 2.0))");
+    // Loads, but would render black: say so (glTF assets often carry no light).
+    if (scene.emitters.empty())
+        scene.warnings.push_back(path + ": the scene has no emitter vkmech renders, so the image will be black" +
+                                 (options.substitute_unsupported ? std::string()
+                                                                 : " (--substitute turns punctual, point and "
+                                                                   "environment lights into emitters)"));
+    return scene;
 }
 
 }  // namespace vkmech
