@@ -8,7 +8,7 @@
 #   bash ci/gpu-check.sh run [WHAT]   # there, from the repository root: runs
 #                                     # WHAT (default: all) and writes logs to $OUT
 #
-# WHAT is a comma-separated list of: devices, tests, bench, main, study-quick,
+# WHAT is a comma-separated list of: devices, tests, bench, main, pipeline-cache, study-quick,
 # paper (the paper preset of every study, as far as PAPER_BUDGET_S allows).
 # Results go to docs/gpu.md by hand, with the device, driver and date.
 set -uo pipefail
@@ -134,6 +134,19 @@ run() {
             timed "main job 2" "$vk" --scene ring_caustic --spp 64 --out out/ring_caustic2
             section "larger: ring_caustic at 1024 px, 1024 spp"
             timed "ring 1024x1024spp" "$vk" --scene ring_caustic --res 1024 --spp 1024 --batch 64 --out out/ring_big
+        fi
+        if has pipeline-cache; then
+            # vkmech's own pipeline cache alone: the driver's shader disk
+            # cache off (__GL_SHADER_DISK_CACHE=0 on NVIDIA, Mesa's too),
+            # an empty cache directory, then the same render again.
+            local pc
+            pc=$(mktemp -d)
+            section "pipeline cache: first run (empty cache), then second run"
+            for run in first second; do
+                __GL_SHADER_DISK_CACHE=0 MESA_SHADER_CACHE_DISABLE=true VKMECH_CACHE_DIR=$pc \
+                    "$vk" --scene kitchen_counter --spp 16 --out out/pc-$run | grep -E "pipeline creation|paths/s"
+            done
+            ls -la "$pc"
         fi
         if has study-quick; then
             section "vkmech study all --preset quick"

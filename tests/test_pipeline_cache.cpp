@@ -222,7 +222,12 @@ TEST_SUITE("gpu") {
                 auto pipe = tracerays_pipeline(*ctx);
             }
             CHECK(ctx->pipeline_cache().stats().created == 1);
-            CHECK(ctx->validation_messages() == 0);
+            // Headers we refuse never reach the driver, so nothing is reported.
+            // A right header over a garbage body does: the NVIDIA driver refuses
+            // it and the validation layer says "unable to load pipeline cache
+            // entry" (seen on an H100, docs/gpu.md) before vkmech starts empty;
+            // lavapipe ignores the body silently. Either way rendering works.
+            if (bytes != &good_header) CHECK(ctx->validation_messages() == 0);
             // The bad file was replaced by a valid one.
             CHECK(vkc::check_pipeline_cache_header(read_bytes(file), device_identity(*ctx)).empty());
         }
