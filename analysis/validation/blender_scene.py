@@ -1,0 +1,348 @@
+"""Build a validation scene in Blender from its Mitsuba XML and render it
+with Cycles to a linear float OpenEXR (R, G, B).
+
+  blender -b --factory-startup --python analysis/validation/blender_scene.py -- \
+      SCENE.xml OUT.exr SPP RES [--bounces B] [--seed S] [--threads N]
+      [--mutate roughness-linear|two-sided-light]
+
+--bounces and --mutate exist only for the sensitivity checks
+(sensitivity.sh): they build a deliberately wrong Cycles scene.
+
+Only the subset of Mitsuba XML that make_scenes.py writes is understood
+(everything else is an error, so nothing is silently dropped):
+  integrator path (max_depth), perspective sensor (fov, fov_axis x, lookat),
+  obj shapes in world coordinates (v, vt, vn, triangles), bsdfs diffuse
+  (rgb or bitmap reflectance), twosided, dielectric, conductor and
+  roughconductor (material none, ggx), area emitters (rgb radiance).
+
+Mapping (Mitsuba -> Cycles 3.4):
+  diffuse            -> Diffuse BSDF, roughness 0 (Lambert)
+  dielectric         -> Glass BSDF, Sharp, IOR int_ior/ext_ior, colour white
+  conductor none     -> Glossy BSDF, Sharp, colour specular_reflectance
+  roughconductor ggx -> Glossy BSDF, GGX, roughness sqrt(alpha)
+                        (Cycles svm closure: alpha = roughness^2)
+  area emitter       -> Emission (colour = radiance, strength 1) on the front
+                        face only: Mix(Backfacing) with black on the back
+  max_depth d        -> max bounces d - 2 for every bounce kind (Mitsuba counts
+                        path segments incl. the emitter segment; Cycles counts
+                        scattering events after the first hit; checked by
+                        rendering both at max_depth 2 and 3)
+  film               -> box pixel filter of width 1, no clamping, no
+                        denoising, no adaptive sampling, filter-glossy 0,
+                        caustics on, black world, view transform Standard.
+"""
+import math
+import os
+import sys
+import xml.etree.ElementTree as ET
+
+import bpy
+from mathutils import Matrix, Vector
+
+
+MUTATE = None
+
+
+def die(msg):
+    print("blender_scene.py: " + msg, file=sys.stderr)
+    sys.exit(2)
+
+
+def floats(s):
+    return [float(x) for x in s.replace(",", " ").split()]
+
+
+def props(node):
+    d = {}
+    for c in node:
+        if "name" in c.attrib:
+            d[c.attrib["name"]] = c
+    return d
+
+
+def load_obj(path):
+    v, vt, vn, tris = [], [], [], []
+    for line in open(path):
+        t = line.split()
+        if not t or t[0].startswith("#"):
+            continue
+        if t[0] == "v":
+            v.append(tuple(map(float, t[1:4])))
+        elif t[0] == "vt":
+            vt.append(tuple(map(float, t[1:3])))
+        elif t[0] == "vn":
+            vn.append(tuple(map(float, t[1:4])))
+        elif t[0] == "f":
+            if len(t) != 4:
+                die(path + ": only triangles")
+            corners = []
+            for c in t[1:]:
+                parts = (c.split("/") + ["", ""])[:3]
+                corners.append(tuple(int(p) - 1 if p else -1 for p in parts))
+            tris.append(corners)
+        else:
+            die(path + ": unexpected OBJ record " + t[0])
+    return v, vt, vn, tris
+
+
+def make_mesh(name, path):
+    v, vt, vn, tris = load_obj(path)
+    me = bpy.data.meshes.new(name)
+    me.from_pydata(v, [], [[c[0] for c in f] for f in tris])
+    me.update()
+    # polygon order and loop order follow the face list exactly
+    if vt:
+        uv = me.uv_layers.new(name="UVMap")
+        for poly, f in zip(me.polygons, tris):
+            for li, c in zip(poly.loop_indices, f):
+                uv.data[li].uv = vt[c[1]]
+    if vn:
+        me.use_auto_smooth = True  # Blender 3.x: needed for custom split normals
+        normals = [None] * len(me.loops)
+        for poly, f in zip(me.polygons, tris):
+            for li, c in zip(poly.loop_indices, f):
+                normals[li] = vn[c[2]]
+        me.normals_split_custom_set(normals)
+    ob = bpy.data.objects.new(name, me)
+    bpy.context.scene.collection.objects.link(ob)
+    return ob
+
+
+def rgb(node):
+    if node.tag != "rgb":
+        die("expected <rgb>, got <%s>" % node.tag)
+    c = floats(node.attrib["value"])
+    return (c[0], c[1], c[2], 1.0)
+
+
+class Materials:
+    def __init__(self, base):
+        self.base = base
+        self.byid = {}
+        self.count = 0
+
+    def new(self, label):
+        self.count += 1
+        m = bpy.data.materials.new("%s_%d" % (label, self.count))
+        m.use_nodes = True
+        nt = m.node_tree
+        for n in list(nt.nodes):
+            nt.nodes.remove(n)
+        out = nt.nodes.new("ShaderNodeOutputMaterial")
+        return m, nt, out
+
+    def bsdf(self, node):
+        t = node.attrib["type"]
+        if t == "twosided":
+            inner = [c for c in node if c.tag == "bsdf"]
+            if len(inner) != 1:
+                die("twosided needs one nested bsdf")
+            return self.bsdf(inner[0])  # Cycles BSDFs are two-sided already
+        p = props(node)
+        m, nt, out = self.new(t)
+        if t == "diffuse":
+            sh = nt.nodes.new("ShaderNodeBsdfDiffuse")
+            sh.inputs["Roughness"].default_value = 0.0
+            r = p.get("reflectance")
+            if r is None:
+                sh.inputs["Color"].default_value = (0.5, 0.5, 0.5, 1)
+            elif r.tag == "texture":
+                tp = props(r)
+                if r.attrib["type"] != "bitmap":
+                    die("only bitmap textures")
+                img = bpy.data.images.load(os.path.join(self.base, tp["filename"].attrib["value"]))
+                img.colorspace_settings.name = "sRGB"  # Mitsuba bitmap raw=false: sRGB-decoded
+                tex = nt.nodes.new("ShaderNodeTexImage")
+                tex.image = img
+                ft = tp["filter_type"].attrib["value"] if "filter_type" in tp else "bilinear"
+                tex.interpolation = "Closest" if ft == "nearest" else "Linear"
+                tex.extension = "REPEAT"
+                uvn = nt.nodes.new("ShaderNodeUVMap")
+                uvn.uv_map = "UVMap"
+                nt.links.new(uvn.outputs["UV"], tex.inputs["Vector"])
+                nt.links.new(tex.outputs["Color"], sh.inputs["Color"])
+            else:
+                sh.inputs["Color"].default_value = rgb(r)
+        elif t == "dielectric":
+            sh = nt.nodes.new("ShaderNodeBsdfGlass")
+            sh.distribution = "SHARP"
+            ior = float(p["int_ior"].attrib["value"]) / float(p["ext_ior"].attrib["value"])
+            sh.inputs["IOR"].default_value = ior
+            sh.inputs["Color"].default_value = (1, 1, 1, 1)
+        elif t in ("conductor", "roughconductor"):
+            if p["material"].attrib["value"] != "none":
+                die("only material none (Fresnel-free) conductors")
+            sh = nt.nodes.new("ShaderNodeBsdfGlossy")
+            if t == "conductor":
+                sh.distribution = "SHARP"
+                sh.inputs["Roughness"].default_value = 0.0
+            else:
+                if p["distribution"].attrib["value"] != "ggx":
+                    die("only ggx")
+                sh.distribution = "GGX"
+                alpha = float(p["alpha"].attrib["value"])
+                sh.inputs["Roughness"].default_value = alpha if MUTATE == "roughness-linear" else math.sqrt(alpha)
+            sh.inputs["Color"].default_value = rgb(p["specular_reflectance"])
+        else:
+            die("unsupported bsdf " + t)
+        nt.links.new(sh.outputs["BSDF"], out.inputs["Surface"])
+        return m
+
+    def emitter(self, radiance):
+        """One-sided emission (front = side of the geometric normal), black
+        non-reflecting back and front (the Mitsuba light's BSDF is black)."""
+        m, nt, out = self.new("emitter")
+        em = nt.nodes.new("ShaderNodeEmission")
+        em.inputs["Color"].default_value = radiance
+        em.inputs["Strength"].default_value = 1.0
+        black = nt.nodes.new("ShaderNodeEmission")
+        black.inputs["Color"].default_value = (0, 0, 0, 1)
+        black.inputs["Strength"].default_value = 0.0
+        geo = nt.nodes.new("ShaderNodeNewGeometry")
+        mix = nt.nodes.new("ShaderNodeMixShader")
+        if MUTATE == "two-sided-light":
+            mix.inputs["Fac"].default_value = 0.0  # emits on both sides
+        else:
+            nt.links.new(geo.outputs["Backfacing"], mix.inputs["Fac"])
+        nt.links.new(em.outputs["Emission"], mix.inputs[1])
+        nt.links.new(black.outputs["Emission"], mix.inputs[2])
+        nt.links.new(mix.outputs["Shader"], out.inputs["Surface"])
+        return m
+
+
+def main():
+    argv = sys.argv[sys.argv.index("--") + 1:]
+    if len(argv) < 4:
+        die("usage: -- SCENE.xml OUT.exr SPP RES [--bounces B] [--seed S]")
+    scene_path, out_path, spp, res = argv[0], argv[1], int(argv[2]), int(argv[3])
+    opts = dict(zip(argv[4::2], argv[5::2]))
+    base = os.path.dirname(os.path.abspath(scene_path))
+    global MUTATE
+    MUTATE = opts.get("--mutate")
+    if MUTATE not in (None, "roughness-linear", "two-sided-light"):
+        die("unknown --mutate " + MUTATE)
+
+    for ob in list(bpy.data.objects):
+        bpy.data.objects.remove(ob, do_unlink=True)
+    sc = bpy.context.scene
+
+    root = ET.parse(scene_path).getroot()
+    mats = Materials(base)
+    max_depth = None
+    for node in root:
+        if node.tag == "integrator":
+            if node.attrib["type"] != "path":
+                die("integrator must be path")
+            p = props(node)
+            max_depth = int(p["max_depth"].attrib["value"])
+        elif node.tag == "sensor":
+            if node.attrib["type"] != "perspective":
+                die("sensor must be perspective")
+            p = props(node)
+            if p.get("fov_axis") is not None and p["fov_axis"].attrib["value"] != "x":
+                die("fov_axis must be x")
+            la = p["to_world"].find("lookat")
+            if la is None or len(p["to_world"]) != 1:
+                die("sensor to_world must be a single lookat")
+            o = Vector(floats(la.attrib["origin"]))
+            tgt = Vector(floats(la.attrib["target"]))
+            up = Vector(floats(la.attrib["up"]))
+            fwd = (tgt - o).normalized()
+            # Mitsuba: camera +x = cross(up, fwd) is image LEFT; Blender camera
+            # +x is image right, +y up, looks along -z.
+            right = fwd.cross(up).normalized()
+            up2 = right.cross(fwd)
+            M = Matrix.Identity(4)
+            for i in range(3):
+                M[i][0], M[i][1], M[i][2], M[i][3] = right[i], up2[i], -fwd[i], o[i]
+            cd = bpy.data.cameras.new("cam")
+            cd.sensor_fit = "HORIZONTAL"
+            cd.angle_x = math.radians(float(p["fov"].attrib["value"]))
+            cd.clip_start = 1e-3
+            cd.clip_end = 1e4
+            cam = bpy.data.objects.new("cam", cd)
+            cam.matrix_world = M
+            sc.collection.objects.link(cam)
+            sc.camera = cam
+        elif node.tag == "bsdf":
+            mats.byid[node.attrib["id"]] = mats.bsdf(node)
+        elif node.tag == "shape":
+            if node.attrib["type"] != "obj":
+                die("only obj shapes")
+            p = props(node)
+            path = os.path.join(base, p["filename"].attrib["value"])
+            ob = make_mesh(os.path.basename(path), path)
+            em = node.find("emitter")
+            ref = node.find("ref")
+            b = node.find("bsdf")
+            if em is not None:
+                if em.attrib["type"] != "area":
+                    die("only area emitters")
+                if b is None or b.attrib["type"] != "diffuse" or max(rgb(props(b)["reflectance"])[:3]) != 0:
+                    die("an emitter's shape must have a black diffuse bsdf here")
+                mat = mats.emitter(rgb(props(em)["radiance"]))
+            elif ref is not None:
+                mat = mats.byid[ref.attrib["id"]]
+            elif b is not None:
+                mat = mats.bsdf(b)
+            else:
+                die("shape without bsdf")
+            ob.data.materials.append(mat)
+        else:
+            die("unsupported top-level element <%s>" % node.tag)
+
+    # World: black (vkmech has no environment here).
+    w = bpy.data.worlds.new("black")
+    w.use_nodes = True
+    w.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
+    w.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    sc.world = w
+
+    r = sc.render
+    r.engine = "CYCLES"
+    r.resolution_x = r.resolution_y = res
+    r.resolution_percentage = 100
+    r.film_transparent = False
+    r.use_persistent_data = False
+    r.threads_mode = "FIXED"
+    r.threads = int(opts.get("--threads", "2"))
+    c = sc.cycles
+    c.device = "CPU"
+    c.samples = spp
+    c.use_adaptive_sampling = False
+    c.use_denoising = False
+    c.seed = int(opts.get("--seed", "0"))
+    bounces = int(opts["--bounces"]) if "--bounces" in opts else max_depth - 2
+    c.max_bounces = bounces
+    c.diffuse_bounces = bounces
+    c.glossy_bounces = bounces
+    c.transmission_bounces = bounces
+    c.volume_bounces = 0
+    c.transparent_max_bounces = bounces
+    c.sample_clamp_direct = 0.0
+    c.sample_clamp_indirect = 0.0
+    c.blur_glossy = 0.0
+    c.caustics_reflective = True
+    c.caustics_refractive = True
+    c.light_sampling_threshold = 0.0
+    c.pixel_filter_type = "BOX"
+    c.filter_width = 1.0
+    c.film_exposure = 1.0  # Cycles film exposure is a linear multiplier (1 = none)
+    vs = sc.view_settings
+    vs.view_transform = "Standard"
+    vs.look = "None"
+    vs.exposure = 0.0
+    vs.gamma = 1.0
+    im = r.image_settings
+    im.file_format = "OPEN_EXR"
+    im.color_mode = "RGB"
+    im.color_depth = "32"
+    im.exr_codec = "ZIP"
+    r.use_compositing = False
+    r.use_sequencer = False
+    r.filepath = os.path.abspath(out_path)
+    print("blender_scene.py: %s -> %s, %d spp, %dx%d, max bounces %d" % (scene_path, out_path, spp, res, res, bounces))
+    bpy.ops.render.render(write_still=True)
+
+
+main()

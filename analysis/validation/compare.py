@@ -1,0 +1,108 @@
+"""Compare vkmech and Cycles renders of the validation scenes.
+
+  /usr/bin/python3 analysis/validation/compare.py OUTDIR SCENE [SCENE ...]
+
+reads OUTDIR/vkmech/SCENE.exr (+ .json for wall_seconds) and
+OUTDIR/cycles/SCENE.exr (+ SCENE.time), prints per scene the channel means,
+relative differences (Cycles as the reference), the vkmech standard error of
+the mean (from its per-pixel lum_var channel), a left/right half check
+(catches a mirrored camera) and the relative RMS difference of 16x16-pixel
+block means; writes OUTDIR/SCENE_side_by_side.png (vkmech | Cycles) and
+OUTDIR/results.md (the same table in Markdown)."""
+import json
+import os
+import sys
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from exr import read_exr  # noqa: E402
+
+TOL = 0.02
+# Regions of interest (pixel circles in the 128x128 image, scaled with RES):
+# the sphere's projection, centre (81.4, 93.9) px and radius 19.9 px from
+# the camera (0,-3.9,1), fov_x 39.3 deg and sphere (0.35,-0.3,0.4), r 0.4;
+# 17 px keeps the silhouette edge out.
+ROI = {"val_glass": ("sphere", 81.4, 93.9, 17.0), "val_metal": ("sphere", 81.4, 93.9, 17.0)}
+
+
+def srgb(x):
+    x = np.clip(x, 0, 1)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+
+
+def blocks(img, b=16):
+    h, w = img.shape[:2]
+    return img[: h // b * b, : w // b * b].reshape(h // b, b, w // b, b, -1).mean(axis=(1, 3))
+
+
+def main():
+    out, scenes = sys.argv[1], sys.argv[2:]
+    md = ["| scene | channel | vkmech | Cycles | rel. diff | within 2 % |", "|---|---|---|---|---|---|"]
+    md2 = ["| scene | vkmech s.e. of mean (lum) | left/right half rel. diff (lum) | block RMS rel. diff (region: lum. rel. diff) | vkmech wall s | Cycles wall s |",
+           "|---|---|---|---|---|---|"]
+    allok = True
+    for s in scenes:
+        v = read_exr(os.path.join(out, "vkmech", s + ".exr"))
+        c = read_exr(os.path.join(out, "cycles", s + ".exr"))
+        vi = np.stack([v[k] for k in "RGB"], -1)
+        ci = np.stack([c[k] for k in "RGB"], -1)
+        vt = json.load(open(os.path.join(out, "vkmech", s + ".json"))).get("wall_seconds", float("nan"))
+        try:
+            ct = float(open(os.path.join(out, "cycles", s + ".time")).read().split()[0])
+        except OSError:
+            ct = float("nan")
+        n = v["R"].size
+        spp = v["spp"]
+        se = np.sqrt(np.sum(v["lum_var"] / spp)) / n
+        lum = lambda im: 0.2126 * im[..., 0] + 0.7152 * im[..., 1] + 0.0722 * im[..., 2]
+        vl, cl = lum(vi), lum(ci)
+        w = vl.shape[1] // 2
+        halves = [(vl[:, :w].mean() / cl[:, :w].mean() - 1), (vl[:, w:].mean() / cl[:, w:].mean() - 1)]
+        bv, bc = blocks(vi), blocks(ci)
+        rms = np.sqrt(np.mean((bv - bc) ** 2)) / np.mean(bc)
+        print("== %s  (%dx%d, vkmech %d spp)" % (s, vi.shape[1], vi.shape[0], int(spp.mean())))
+        print("   channel     vkmech     Cycles   rel.diff")
+        for k, ch in enumerate("RGB"):
+            a, b = vi[..., k].mean(), ci[..., k].mean()
+            rd = a / b - 1
+            ok = abs(rd) <= TOL
+            allok &= ok
+            print("   %s       %9.5f  %9.5f   %+7.2f %%  %s" % (ch, a, b, 100 * rd, "ok" if ok else "OUTSIDE 2 %"))
+            md.append("| %s | %s | %.5f | %.5f | %+.2f %% | %s |" % (s, ch, a, b, 100 * rd, "yes" if ok else "**no**"))
+        if s in ROI:
+            name, cx, cy, r = ROI[s]
+            k = vi.shape[1] / 128.0
+            yy, xx = np.mgrid[0:vi.shape[0], 0:vi.shape[1]] + 0.5
+            m = (xx - cx * k) ** 2 + (yy - cy * k) ** 2 < (r * k) ** 2
+            for q, ch in enumerate("RGB"):
+                a, b = vi[..., q][m].mean(), ci[..., q][m].mean()
+                print("   %s region %s (%d px): %9.5f  %9.5f   %+7.2f %%" % (name, ch, m.sum(), a, b, 100 * (a / b - 1)))
+                md.append("| %s (%s region, %d px) | %s | %.5f | %.5f | %+.2f %% | %s |" % (
+                    s, name, m.sum(), ch, a, b, 100 * (a / b - 1), "yes" if abs(a / b - 1) <= TOL else "**no**"))
+            rl = vl[m].mean()
+            rse = np.sqrt(np.sum((v["lum_var"] / spp)[m])) / m.sum()
+            print("   %s region: vkmech standard error of the mean luminance %.2f %%" % (name, 100 * rse / rl))
+            md2.append("| %s (%s region) | %.2f %% | | %+.2f %% (lum) | | |" % (s, name, 100 * rse / rl, 100 * (rl / cl[m].mean() - 1)))
+        print("   vkmech standard error of the mean luminance: %.3f %%" % (100 * se / vl.mean()))
+        print("   luminance rel.diff left half %+.2f %%, right half %+.2f %%" % (100 * halves[0], 100 * halves[1]))
+        print("   16x16-block RMS rel. difference: %.2f %%" % (100 * rms))
+        print("   wall time: vkmech %.1f s, Cycles %.1f s" % (vt, ct))
+        md2.append("| %s | %.2f %% | %+.2f %% / %+.2f %% | %.2f %% | %.1f | %.1f |" % (
+            s, 100 * se / vl.mean(), 100 * halves[0], 100 * halves[1], 100 * rms, vt, ct))
+        try:
+            import matplotlib
+            matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
+            gap = np.ones((vi.shape[0], 4, 3))
+            plt.imsave(os.path.join(out, s + "_side_by_side.png"),
+                       srgb(np.concatenate([vi, gap, ci], axis=1)).astype(np.float32))
+        except Exception as e:  # previews are optional
+            print("   (no preview: %s)" % e)
+    with open(os.path.join(out, "results.md"), "w") as fh:
+        fh.write("\n".join(md) + "\n\n" + "\n".join(md2) + "\n")
+    print("all channel means within 2 %%: %s" % ("yes" if allok else "no"))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Render the validation scenes with vkmech (--estimator mis) and Blender
+# Cycles, one render at a time, then compare channel means.
+#
+#   analysis/validation/run_validation.sh [SCENE ...]
+#   env: VKMECH (default build/vkmech), BLENDER (default blender),
+#        SPP (1024), RES (128), OUT (out/validation)
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+VKMECH=${VKMECH:-build/vkmech}
+BLENDER=${BLENDER:-blender}
+SPP=${SPP:-1024}
+RES=${RES:-128}
+OUT=${OUT:-out/validation}
+PY=/usr/bin/python3
+SCENES=("$@")
+[ ${#SCENES[@]} -gt 0 ] || SCENES=(val_diffuse val_glass val_metal val_texture)
+D=analysis/validation/scenes
+
+$PY analysis/validation/make_scenes.py   # deterministic: rewrites the committed files identically
+mkdir -p "$OUT/vkmech" "$OUT/cycles"
+for s in "${SCENES[@]}"; do
+    echo "== $s: vkmech"
+    "$VKMECH" render --scene "$D/$s.xml" --spp "$SPP" --res "$RES" --estimator mis --out "$OUT/vkmech" \
+        | grep -E "wall|paths|nonfinite|warning" || true
+    echo "== $s: Cycles"
+    t0=$(date +%s.%N)
+    "$BLENDER" -b --factory-startup --python analysis/validation/blender_scene.py -- \
+        "$D/$s.xml" "$OUT/cycles/$s.exr" "$SPP" "$RES" > "$OUT/cycles/$s.log" 2>&1
+    t1=$(date +%s.%N)
+    echo "$t0 $t1" | awk '{printf "%.1f\n", $2 - $1}' > "$OUT/cycles/$s.time"
+    grep -E "blender_scene|Saved" "$OUT/cycles/$s.log"
+done
+$PY analysis/validation/compare.py "$OUT" "${SCENES[@]}"
