@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <new>
 #include <sstream>
 
 namespace fs = std::filesystem;
@@ -149,6 +150,11 @@ void GltfLoader::parse() {
         }
     } catch (const SceneError&) {
         throw;
+    } catch (const std::bad_alloc&) {
+        // Seen with a malformed image URI ("%!QAAAQAAA5"): tinygltf's decoder
+        // asks for an absurd allocation.
+        fail("cannot load the glTF file: tinygltf ran out of memory decoding it, which means a malformed URI or "
+             "buffer (check the file with the Khronos glTF validator)");
     } catch (const std::exception& e) {
         // tinygltf throws on some malformed input (e.g. an empty data URI).
         fail(std::string("cannot load the glTF file: ") + e.what());

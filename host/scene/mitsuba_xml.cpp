@@ -94,7 +94,17 @@ void MitsubaLoader::scene_element(const XmlDocument& doc, int depth, Pass pass) 
 }
 
 [[noreturn]] void MitsubaLoader::unsupported(const XNode& n, const std::string& kind, const std::string& extra) const {
-    n.fail("unsupported " + kind + " plugin '" + n.raw().attribute("type").value() + "'" + extra);
+    const std::string type = n.raw().attribute("type").value();
+    // Plugin names are case-sensitive; a capitalized known name gets a hint.
+    static const char* known[] = {"obj",         "ply",        "serialized",     "rectangle",   "cube",
+                                  "sphere",      "disk",       "cylinder",       "perspective", "thinlens",
+                                  "orthographic", "diffuse",   "plastic",        "roughplastic", "conductor",
+                                  "roughconductor", "dielectric", "roughdielectric", "thindielectric", "principled",
+                                  "twosided",    "area",       "bitmap",         "checkerboard"};
+    std::string hint;
+    for (const char* k : known)
+        if (type != k && text::lower(type) == k) hint = " (plugin names are lowercase: did you mean '" + std::string(k) + "'?)";
+    n.fail("unsupported " + kind + " plugin '" + type + "'" + extra + hint);
 }
 
 void MitsubaLoader::warn(const XNode& n, const std::string& what) {
