@@ -490,7 +490,8 @@ void MitsubaLoader::sensor(const XNode& n) {
                 n.fail(n.describe() + ": to_world must not scale the camera (Mitsuba forbids it)");
     }
 
-    auto fov = cam.type == CameraType::Orthographic ? std::nullopt : p.opt_float({"fov"});
+    std::optional<float> fov;
+    if (cam.type != CameraType::Orthographic) fov = p.opt_float({"fov"});
     auto focal = p.opt_string({"focal_length", "focalLength"});
     if (fov && focal) n.fail(n.describe() + ": give either 'fov' or 'focal_length', not both");
     if (fov) {
