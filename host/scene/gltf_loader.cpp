@@ -310,11 +310,7 @@ void GltfLoader::set_camera(int n, const glm::dmat4& world) {
 void GltfLoader::scene_bounds(glm::vec3& lo, glm::vec3& hi) const {
     lo = glm::vec3(std::numeric_limits<float>::max());
     hi = glm::vec3(-std::numeric_limits<float>::max());
-    for (const auto& m : scene_.meshes)
-        for (const auto& p : m.positions) {
-            lo = glm::min(lo, p);
-            hi = glm::max(hi, p);
-        }
+    scene_.bounds(lo, hi);  // unchanged (empty) when there is no geometry
 }
 
 // SPEC §8: with no camera, one that frames the scene's bounds: from +Z

@@ -14,13 +14,6 @@ namespace vkmech {
 
 namespace {
 
-std::string read_whole_file(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw SceneError(path, 0, "cannot open mesh file");
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    return std::move(ss).str();
-}
 
 struct Corner {
     long long v = -1, vt = -1, vn = -1;
@@ -158,6 +151,14 @@ Mesh load_mesh_file(const std::string& path) {
     if (ext == ".obj") return load_obj(path);
     if (ext == ".ply") return load_ply(path);
     throw SceneError(path, 0, "unsupported mesh format '" + ext + "' (expected .obj or .ply)");
+}
+
+std::string read_whole_file(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw SceneError(path, 0, "cannot open mesh file");
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    return std::move(ss).str();
 }
 
 }  // namespace vkmech

@@ -26,4 +26,7 @@ Mesh load_ply(const std::string& path);
 // By extension (.obj, .ply; case-insensitive).
 Mesh load_mesh_file(const std::string& path);
 
+// A mesh file's bytes; SceneError(path, 0, "cannot open mesh file").
+std::string read_whole_file(const std::string& path);
+
 }  // namespace vkmech

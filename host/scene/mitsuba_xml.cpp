@@ -615,14 +615,7 @@ void MitsubaLoader::integrator(const XNode& n) {
 // ---- end of load ----
 
 void MitsubaLoader::bounds(glm::vec3& lo, glm::vec3& hi) const {
-    lo = glm::vec3(std::numeric_limits<float>::max());
-    hi = glm::vec3(-std::numeric_limits<float>::max());
-    for (const auto& m : scene_.meshes)
-        for (const auto& p : m.positions) {
-            lo = glm::min(lo, p);
-            hi = glm::max(hi, p);
-        }
-    if (lo.x > hi.x) {  // no geometry: a unit box at the camera
+    if (!scene_.bounds(lo, hi)) {  // no geometry: a unit box at the camera
         glm::vec3 c(scene_.camera.to_world[3]);
         lo = c - glm::vec3(1.0f);
         hi = c + glm::vec3(1.0f);

@@ -3,6 +3,7 @@
 #include "scene/text_parse.hpp"
 
 #include <filesystem>
+#include <limits>
 
 namespace vkmech {
 
@@ -55,6 +56,19 @@ size_t Scene::triangle_count() const {
     size_t n = 0;
     for (const auto& m : meshes) n += m.indices.size();
     return n;
+}
+
+bool Scene::bounds(glm::vec3& lo, glm::vec3& hi) const {
+    glm::vec3 l(std::numeric_limits<float>::max()), h(-std::numeric_limits<float>::max());
+    for (const auto& m : meshes)
+        for (const auto& p : m.positions) {
+            l = glm::min(l, p);
+            h = glm::max(h, p);
+        }
+    if (l.x > h.x) return false;
+    lo = l;
+    hi = h;
+    return true;
 }
 
 Scene load_scene(const std::string& path, const LoadOptions& options) {

@@ -180,6 +180,8 @@ struct Scene {
     std::vector<std::string> warnings;
 
     size_t triangle_count() const;
+    // Bounding box of every mesh vertex; false (lo, hi untouched) without any.
+    bool bounds(glm::vec3& lo, glm::vec3& hi) const;
 };
 
 // Options a loader takes from the command line.

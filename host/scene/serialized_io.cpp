@@ -1,6 +1,8 @@
 // Reader of Mitsuba's `serialized` meshes; the format is in serialized_io.hpp.
 #include "scene/serialized_io.hpp"
 
+#include "scene/mesh_io.hpp"
+
 #include "scene/mesh_ops.hpp"
 
 #include <zlib.h>
@@ -122,13 +124,6 @@ std::string hex(uint64_t v) {
     return h.str();
 }
 
-std::string read_whole_file(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw SceneError(path, 0, "cannot open mesh file");
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    return std::move(ss).str();
-}
 
 }  // namespace
 
