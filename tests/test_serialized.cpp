@@ -68,12 +68,14 @@ struct Options {
     bool dbl = false;
     bool normals = true, uvs = true, colors = false;
     uint64_t vertex_count_override = 0;  // 0: the real count
+    bool no_precision_flag = false;      // Tungsten-written files: flags 0x103, single precision
 };
 
 // The uncompressed body of one mesh.
 std::string mesh_body(const TestMesh& m, const Options& o) {
     std::string s;
-    uint32_t flags = (o.dbl ? 0x2000u : 0x1000u) | (o.normals ? 0x1u : 0u) | (o.uvs ? 0x2u : 0u) | (o.colors ? 0x8u : 0u);
+    uint32_t flags = (o.no_precision_flag ? 0x100u : o.dbl ? 0x2000u : 0x1000u) | (o.normals ? 0x1u : 0u) |
+                     (o.uvs ? 0x2u : 0u) | (o.colors ? 0x8u : 0u);
     put(s, flags);
     if (o.version == 4) s += m.name + '\0';
     put<uint64_t>(s, o.vertex_count_override ? o.vertex_count_override : m.vertex_count());
@@ -184,6 +186,16 @@ TEST_CASE("serialized: versions 3 and 4, single and double precision, with and w
                 check_equal(got, m, o);
                 if (version == 4) CHECK(got.name == m.name);
             }
+}
+
+TEST_CASE("serialized: a file naming no precision (as Tungsten writes them, flags 0x103) is single precision") {
+    TempDir dir("noprecision");
+    const TestMesh m = quad(0.1);
+    Options o;
+    o.version = 3;
+    o.no_precision_flag = true;
+    std::string p = write(dir, "m.serialized", serialized_file({mesh_body(m, o)}, 3));
+    check_equal(load_serialized(p, 0), m, o);
 }
 
 TEST_CASE("serialized: two meshes in one file, vertex colours skipped, shape_index picks the mesh") {

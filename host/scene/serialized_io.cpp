@@ -170,9 +170,14 @@ Mesh load_serialized(const std::string& path, int shape_index) {
     auto zfail = [&](const std::string& what) { z.fail(where + ": " + what); };
     try {
         const uint32_t flags = z.value<uint32_t>("flags");
-        const bool single = flags & kSinglePrecision, dbl = flags & kDoublePrecision;
-        if (single == dbl)
-            zfail("the flags (" + hex(flags) + ") must name exactly one precision (0x1000 single or 0x2000 double)");
+        // Files written by other tools (Tungsten's, in Bitterli's scene
+        // collection: version 3, flags 0x103) name no precision; their sizes
+        // are those of single precision, which is what a missing flag means.
+        bool single = flags & kSinglePrecision;
+        const bool dbl = flags & kDoublePrecision;
+        if (single && dbl)
+            zfail("the flags (" + hex(flags) + ") name both precisions (0x1000 single and 0x2000 double)");
+        if (!single && !dbl) single = true;
         const int real = single ? 4 : 8;
         Mesh m;
         m.kind = ShapeKind::Mesh;
