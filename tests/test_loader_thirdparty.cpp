@@ -179,7 +179,10 @@ TEST_CASE("mitsuba third-party: --substitute maps point lights, phong and blendb
   <emitter type="point"><point name="position" x="0" y="2" z="0"/><rgb name="intensity" value="10"/></emitter>
   <shape type="cube"><bsdf type="phong"><float name="exponent" value="48"/></bsdf></shape>
   <shape type="sphere"><bsdf type="blendbsdf"><float name="weight" value="0.8"/>
-    <bsdf type="diffuse"/><bsdf type="roughconductor"/></bsdf></shape>)");
+    <bsdf type="diffuse"/><bsdf type="roughconductor"/></bsdf></shape>
+  <shape type="disk"><bsdf type="mixturebsdf"><string name="weights" value="0.2, 0.7, 0.1"/>
+    <bsdf type="diffuse"/><bsdf type="conductor"/><bsdf type="plastic"/></bsdf></shape>
+  <shape type="cylinder"><bsdf type="roughdiffuse"><rgb name="reflectance" value="0.3"/></bsdf></shape>)");
     CHECK_THROWS_WITH_AS(load_scene(path), doctest::Contains("--substitute"), SceneError);
     LoadOptions o;
     o.substitute_unsupported = true;
@@ -197,7 +200,11 @@ TEST_CASE("mitsuba third-party: --substitute maps point lights, phong and blendb
     double r = bulb.radius;
     CHECK(r > 0.0);
     CHECK(s.emitters[0].radiance.x == doctest::Approx(10.0 / (M_PI * r * r)).epsilon(1e-4));
-    CHECK(s.substitutions.size() == 3);
+    // mixturebsdf keeps its heaviest component; roughdiffuse becomes Lambertian.
+    CHECK(s.materials[s.meshes[2].material].type == BsdfType::Conductor);
+    CHECK(s.materials[s.meshes[3].material].type == BsdfType::Diffuse);
+    CHECK(s.materials[s.meshes[3].material].reflectance.value.x == doctest::Approx(0.3f));
+    CHECK(s.substitutions.size() == 5);
 
     // A directional light: a distant square whose radiance times its solid
     // angle is the light's irradiance.

@@ -6,6 +6,7 @@
 #include "scene/named_ior.hpp"
 #include "scene/text_parse.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -242,6 +243,31 @@ int MitsubaLoader::bsdf(const XNode& n) {
         record_substitution(n, "bsdf", std::string("its ") + (w > 0.5f ? "second" : "first") +
                                           " component (weight " + fmt_weight(w > 0.5f ? w : 1.0f - w) + ")");
         m = scene_.materials[w > 0.5f ? b : a];
+    } else if (type == "mixturebsdf") {
+        // Mitsuba 0.6's weighted mixture: the component of largest weight.
+        require_substitute(n, "bsdf", "its component of largest weight");
+        std::vector<double> w;
+        if (auto ws = p.opt_string({"weights"})) w = n.numbers(*ws, "weights");
+        std::vector<int> parts;
+        for (const XNode& o : p.objects()) {
+            if (o.tag() != "bsdf" && o.tag() != "ref") o.fail("unexpected <" + o.tag() + "> inside " + n.describe());
+            parts.push_back(bsdf(o));
+        }
+        if (parts.empty()) n.fail(n.describe() + " needs nested bsdfs");
+        if (w.size() != parts.size())
+            n.fail(n.describe() + ": 'weights' must give one weight per nested bsdf (" + std::to_string(parts.size()) + ")");
+        size_t best = static_cast<size_t>(std::max_element(w.begin(), w.end()) - w.begin());
+        record_substitution(n, "bsdf", "its component " + std::to_string(best + 1) + " of " +
+                                           std::to_string(parts.size()) + " (weight " + fmt_weight(float(w[best])) + ")");
+        m = scene_.materials[parts[best]];
+    } else if (type == "roughdiffuse") {
+        // Oren-Nayar: the nearest model is Lambertian with its reflectance.
+        require_substitute(n, "bsdf", "diffuse with the same reflectance");
+        m.type = BsdfType::Diffuse;
+        m.reflectance = reflectance(p, {"reflectance"}, glm::vec3(0.5f));
+        p.find({"alpha"});
+        p.find({"use_fast_approx", "useFastApprox"});
+        record_substitution(n, "bsdf", "diffuse with the same reflectance (the Oren-Nayar roughness is dropped)");
     } else if (type == "phong") {
         // The nearest model material: rough plastic whose Beckmann roughness
         // matches the Phong exponent (alpha = sqrt(2 / (n + 2)), Walter 2007).
