@@ -109,10 +109,16 @@ TEST_CASE("mitsuba third-party: checkerboard and bitmap textures on any colour p
     REQUIRE(s.warnings.size() == 1);  // only that nothing emits
     CHECK(has_warning(s, "no emitter"));
 
-    // A texture on a float parameter is still refused, with the reason.
-    CHECK_THROWS_WITH_AS(load_scene(write_scene("textured_alpha", R"(
-  <shape type="cube"><bsdf type="roughconductor"><texture type="checkerboard" name="alpha"/></bsdf></shape>)")),
-                         doctest::Contains("colour-valued BSDF parameters only"), SceneError);
+    // A texture on a float parameter is outside the model: refused, or with
+    // --substitute reduced to its mean (checkerboard 0.4 / 0.2 -> 0.3).
+    std::string textured_alpha = write_scene("textured_alpha", R"(
+  <shape type="cube"><bsdf type="roughconductor"><texture type="checkerboard" name="alpha"/></bsdf></shape>)");
+    CHECK_THROWS_WITH_AS(load_scene(textured_alpha), doctest::Contains("--substitute"), SceneError);
+    LoadOptions sub;
+    sub.substitute_unsupported = true;
+    Scene ta = load_scene(textured_alpha, sub);
+    CHECK(ta.materials[ta.meshes[0].material].alpha_u == doctest::Approx(0.3f));
+    CHECK(ta.substitutions.size() == 1);
 }
 
 TEST_CASE("mitsuba third-party: every element or property that is not used is a warning") {

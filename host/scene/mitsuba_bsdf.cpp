@@ -192,6 +192,23 @@ int MitsubaLoader::bsdf(const XNode& n) {
     XProps p(n);
     const std::string id = n.attr("id").value_or("");
     Material m;
+    // Textured float parameters (roughness, metallic, ...) are outside the
+    // model: --substitute uses the texture's mean.
+    static const char* float_params[] = {"alpha", "alpha_u", "alpha_v", "alphaU", "alphaV", "roughness", "metallic",
+                                         "specular", "spec_tint", "anisotropic", "sheen", "sheen_tint", "clearcoat",
+                                         "clearcoat_gloss", "spec_trans", "exponent", "opacity", "weight"};
+    for (const char* name : float_params) {
+        const XNode* t = p.peek(name);
+        if (!t || (t->tag() != "texture" && t->tag() != "ref") || type == "mask" || type == "blendbsdf") continue;
+        if (t->tag() == "ref" && lookup_ref(*t).kind != IdKind::Texture) continue;
+        require_substitute(*t, "texture", "its mean value on the float parameter '" + std::string(name) + "'");
+        const Texture& tex = scene_.textures[texture(*t)];
+        double sum = 0.0;
+        for (float v : tex.rgb) sum += v;
+        float mean = tex.rgb.empty() ? 0.0f : static_cast<float>(sum / tex.rgb.size());
+        p.set_float(name, mean);
+        record_substitution(*t, "texture", "its mean " + fmt_weight(mean) + " on the float parameter '" + name + "'");
+    }
 
     auto nested = [&]() -> const XNode& { return nested_ignoring_textures(p, n); };
 

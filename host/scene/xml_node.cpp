@@ -361,6 +361,8 @@ const XNode& XProps::expect(const XNode& n, std::initializer_list<const char*> t
 std::optional<float> XProps::opt_float(std::initializer_list<const char*> names) const {
     const XNode* n = find(names);
     if (!n) return std::nullopt;
+    for (const char* name : names)
+        if (auto it = floats_.find(name); it != floats_.end()) return it->second;
     return expect(*n, {"float", "integer"}, *names.begin()).as_float();
 }
 

@@ -102,8 +102,16 @@ public:
     // Named properties nobody asked for, in document order (SPEC §8: the
     // loader warns about every property it does not use).
     std::vector<XNode> unused() const;
+    // The property `name`, without marking it used.
+    const XNode* peek(const std::string& name) const {
+        auto it = props_.find(name);
+        return it == props_.end() ? nullptr : &it->second;
+    }
 
     std::optional<float> opt_float(std::initializer_list<const char*> names) const;
+    // Replaces a property's value by a number (a textured float parameter
+    // reduced to its texture's mean under --substitute).
+    void set_float(const std::string& name, float value) { floats_[name] = value; }
     float get_float(std::initializer_list<const char*> names, float fallback) const;
     std::optional<int> opt_int(std::initializer_list<const char*> names) const;
     bool get_bool(std::initializer_list<const char*> names, bool fallback) const;
@@ -119,6 +127,7 @@ private:
     XNode plugin_;
     std::map<std::string, XNode> props_;
     mutable std::set<std::string> used_;
+    std::map<std::string, float> floats_;
     std::vector<XNode> objects_;
 };
 
