@@ -1,6 +1,7 @@
 // glTF 2.0 loading (SPEC §8, glTF part). Every fixture is written here, by
 // hand: the JSON as text and the buffers byte by byte (base64 and the GLB
 // container too), so the tests are a reference independent of tinygltf.
+#include "temp_dir.hpp"
 #include "scene/mesh_ops.hpp"
 #include "scene/scene.hpp"
 
@@ -29,18 +30,8 @@ namespace {
 
 constexpr float kPi = std::numbers::pi_v<float>;
 
-struct TempDir {
-    fs::path path;
-    explicit TempDir(const std::string& tag) {
-        path = fs::temp_directory_path() / ("vkmech_gltf_" + tag + "_" + std::to_string(::getpid()));
-        fs::remove_all(path);
-        fs::create_directories(path);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(path, ec);
-    }
-    std::string file(const std::string& name) const { return (path / name).string(); }
+struct TempDir : vkmech::testing::TempDir {
+    explicit TempDir(const std::string& tag) : vkmech::testing::TempDir("gltf_" + tag) {}
 };
 
 std::string join(const std::vector<std::string>& items) {

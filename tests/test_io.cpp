@@ -1,4 +1,5 @@
 // Image output layer: multi-channel EXR, PNG previews, atomic writes.
+#include "temp_dir.hpp"
 #include "io/atomic_file.hpp"
 #include "io/exr.hpp"
 #include "io/png.hpp"
@@ -29,17 +30,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct TempDir {
-    fs::path path;
-    explicit TempDir(const std::string& tag) {
-        path = fs::temp_directory_path() / ("vkmech_io_" + tag + "_" + std::to_string(::getpid()));
-        fs::remove_all(path);
-        fs::create_directories(path);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(path, ec);
-    }
+struct TempDir : vkmech::testing::TempDir {
+    explicit TempDir(const std::string& tag) : vkmech::testing::TempDir("io_" + tag) {}
 };
 
 size_t count_temp_files(const fs::path& dir) {

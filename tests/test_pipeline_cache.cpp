@@ -2,6 +2,7 @@
 // hand-made bytes (no device); on the device, a saved file is loaded by the
 // next context, and a corrupted file or an unusable directory never stops a
 // render. Every test uses its own directory, never the user's cache.
+#include "temp_dir.hpp"
 #include "gpu_fixture.hpp"
 #include "render_fixture.hpp"
 #include "render/shader_modules.hpp"
@@ -25,17 +26,8 @@ namespace vkc = vkmech::vk;  // `vk` alone is Vulkan-Hpp's namespace
 
 namespace {
 
-struct TempDir {
-    fs::path path;
-    explicit TempDir(const std::string& tag) {
-        path = fs::temp_directory_path() / ("vkmech_pcache_" + tag + "_" + std::to_string(::getpid()));
-        fs::remove_all(path);
-        fs::create_directories(path);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(path, ec);
-    }
+struct TempDir : vkmech::testing::TempDir {
+    explicit TempDir(const std::string& tag) : vkmech::testing::TempDir("pcache_" + tag) {}
 };
 
 vkc::PipelineCacheIdentity test_identity() {

@@ -3,6 +3,7 @@
 // with and without normals and uvs, two meshes in one file), load them back,
 // load one through a scene XML, and check that hostile files are SceneErrors
 // naming the file.
+#include "temp_dir.hpp"
 #include "scene/scene.hpp"
 #include "scene/serialized_io.hpp"
 
@@ -22,17 +23,8 @@ using namespace vkmech;
 
 namespace {
 
-struct TempDir {
-    fs::path path;
-    explicit TempDir(const std::string& tag) {
-        path = fs::temp_directory_path() / ("vkmech_serialized_" + tag + "_" + std::to_string(::getpid()));
-        fs::remove_all(path);
-        fs::create_directories(path);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(path, ec);
-    }
+struct TempDir : vkmech::testing::TempDir {
+    explicit TempDir(const std::string& tag) : vkmech::testing::TempDir("serialized_" + tag) {}
 };
 
 // What a test writes: doubles, so the double-precision files hold values a
