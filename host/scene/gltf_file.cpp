@@ -255,25 +255,19 @@ GltfLoader::AccessorData GltfLoader::accessor(int index, int type, const std::st
     return d;
 }
 
-std::vector<glm::vec3> GltfLoader::read_vec3(int index, const std::string& what) const {
-    AccessorData d = accessor(index, TINYGLTF_TYPE_VEC3, what);
-    std::vector<glm::vec3> out(d.count, glm::vec3(0.0f));
+template <int N>
+std::vector<glm::vec<N, float>> GltfLoader::read_vec(int index, const std::string& what) const {
+    AccessorData d = accessor(index, N == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC2, what);
+    std::vector<glm::vec<N, float>> out(d.count, glm::vec<N, float>(0.0f));
     int cs = component_size(d.component_type);
     if (d.base)
         for (size_t i = 0; i < d.count; ++i)
-            for (int c = 0; c < 3; ++c) out[i][c] = component(d.base + i * d.stride + c * cs, d.component_type, d.normalized);
+            for (int c = 0; c < N; ++c) out[i][c] = component(d.base + i * d.stride + c * cs, d.component_type, d.normalized);
     return out;
 }
 
-std::vector<glm::vec2> GltfLoader::read_vec2(int index, const std::string& what) const {
-    AccessorData d = accessor(index, TINYGLTF_TYPE_VEC2, what);
-    std::vector<glm::vec2> out(d.count, glm::vec2(0.0f));
-    int cs = component_size(d.component_type);
-    if (d.base)
-        for (size_t i = 0; i < d.count; ++i)
-            for (int c = 0; c < 2; ++c) out[i][c] = component(d.base + i * d.stride + c * cs, d.component_type, d.normalized);
-    return out;
-}
+std::vector<glm::vec3> GltfLoader::read_vec3(int index, const std::string& what) const { return read_vec<3>(index, what); }
+std::vector<glm::vec2> GltfLoader::read_vec2(int index, const std::string& what) const { return read_vec<2>(index, what); }
 
 std::vector<uint32_t> GltfLoader::read_indices(int index, const std::string& what) const {
     AccessorData d = accessor(index, TINYGLTF_TYPE_SCALAR, what);
