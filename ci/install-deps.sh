@@ -22,6 +22,7 @@ PKGS=(
   libcli11-dev
   zlib1g-dev
   python3-matplotlib
+  clang libclang-rt-14-dev
 )
 
 # Enable bookworm-backports once.
