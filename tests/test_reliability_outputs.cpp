@@ -9,7 +9,6 @@
 #include "io/digest.hpp"
 #include "io/interrupt.hpp"
 #include "io/output_set.hpp"
-#include "io/render_outputs.hpp"
 #include "study/render_cache.hpp"
 #include "temp_dir.hpp"
 
@@ -76,12 +75,16 @@ std::string write_set(const fs::path& dir, const std::string& tag, bool extra) {
     return set.run_id();
 }
 
-// What a render writes, for a synthetic 4x3 frame without capture: staged and committed.
-void write_synthetic_outputs(const fs::path& dir) {
+// A new set of three files, staged one by one as write_render_outputs does
+// (a signal check and a fault point after each), then committed. Plain files:
+// a forked child must not touch OpenEXR, whose thread pool a fork leaves locked.
+void write_new_set(const fs::path& dir) {
     OutputSet set(dir.string(), "scene");
-    RenderInfo info;
-    info.scene_name = "scene";
-    write_render_outputs(set, info, synthetic_frame(4, 3, 1.0), nullptr, nullptr);
+    for (const char* ext : {".exr", ".png", ".json"}) {
+        throw_if_interrupted();
+        put(set.staged(std::string("scene") + ext), std::string("new ") + ext + std::string(500, 'n'));
+        fault_point((std::string("staged-") + ext).c_str());
+    }
     set.commit();
 }
 
@@ -148,7 +151,7 @@ TEST_CASE("outputs: SIGKILL at every step of writing and committing leaves the o
         CAPTURE(point);
         TempDir tmp("rel_kill");
         const std::string old_id = write_set(tmp.path, "old", true);
-        int status = in_child(std::string(point) + ":KILL", [&] { write_synthetic_outputs(tmp.path); });
+        int status = in_child(std::string(point) + ":KILL", [&] { write_new_set(tmp.path); });
         REQUIRE(WIFSIGNALED(status));
         CHECK(WTERMSIG(status) == SIGKILL);
         // Right after the kill: the old set still verifies, or a pending commit holds the complete new one.
@@ -184,7 +187,7 @@ TEST_CASE("outputs: SIGINT and SIGTERM while writing remove the temporaries - ex
         const std::string old_id = write_set(tmp.path, "old", true);
         int status = in_child(std::string("staged-.exr:") + sig, [&] {
             SignalGuard guard;
-            write_synthetic_outputs(tmp.path);
+            write_new_set(tmp.path);
         });
         REQUIRE(WIFEXITED(status));
         CHECK(WEXITSTATUS(status) == (std::string(sig) == "INT" ? 130 : 143));
