@@ -501,10 +501,6 @@ int cmd_study(const StudyCliOptions& c) {
     if (!o.curve.empty() && !fs::exists(o.curve)) throw UsageError("predictor curve '" + o.curve + "' does not exist");
     if (!o.curve.empty() && c.study != "predictor") throw UsageError("--curve applies to `vkmech study predictor` only");
     if (!o.curve.empty()) check_curve_for_cli(o.curve);
-    if (!c.plan_only) {  // before anything renders: exit 2 naming the directory and the reason
-        require_writable_dir(o.out_dir, "--out");
-        require_writable_dir(o.cache_dir.empty() ? (fs::path(o.out_dir) / "cache").string() : o.cache_dir, "--cache");
-    }
     o.device = c.device;
     o.pipeline_cache = c.pipeline_cache;
     o.traversal = c.traversal;

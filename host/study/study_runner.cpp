@@ -105,6 +105,14 @@ int run_study(const StudyOptions& o) {
     cfg.validate(std::find(kinds.begin(), kinds.end(), StudyKind::Cost) != kinds.end());
     const std::string out_dir = o.out_dir;
     const std::string cache_dir = o.cache_dir.empty() ? (fs::path(out_dir) / "cache").string() : o.cache_dir;
+    if (!o.plan_only) {  // before anything renders (and after the arguments are known good): exit 2 otherwise
+        try {
+            check_writable_dir(out_dir, "--out");
+            check_writable_dir(cache_dir, "--cache");
+        } catch (const std::runtime_error& e) {
+            throw std::invalid_argument(e.what());
+        }
+    }
 
     // The plan: every render of every requested study, deduplicated, in a stable order.
     std::vector<RenderRequest> plan;
