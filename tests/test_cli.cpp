@@ -1,5 +1,6 @@
 // The CLI end to end: renders write an EXR and a PNG; bad input exits 2 with
 // a message naming the problem.
+#include "cli_run.hpp"
 #include "gpu_fixture.hpp"
 #include "io/exr.hpp"
 
@@ -17,21 +18,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Run {
-    int code;
-    std::string output;
-};
-
-Run run_cli(const std::string& args) {
-    fs::path log = fs::temp_directory_path() / ("vkmech_cli_" + std::to_string(::getpid()) + ".log");
-    std::string cmd = std::string(VKMECH_CLI) + " " + args + " > " + log.string() + " 2>&1";
-    int status = std::system(cmd.c_str());
-    std::ifstream in(log);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    fs::remove(log);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ss.str()};
-}
+using vkmech::testing::run_cli;
 
 }  // namespace
 

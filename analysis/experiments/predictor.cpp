@@ -20,21 +20,29 @@ namespace {
 
 int bin_of(double x, int bins) { return std::clamp(static_cast<int>(x * bins), 0, bins - 1); }
 
-std::vector<double> parse_array(const std::string& text, const std::string& key, const std::string& where) {
+// The numbers of the array under "key"; throws std::runtime_error with the reason alone.
+std::vector<double> parse_array(const std::string& text, const std::string& key) {
     auto k = text.find("\"" + key + "\"");
-    if (k == std::string::npos) throw std::runtime_error("predictor curve '" + where + "': no \"" + key + "\" entry");
+    if (k == std::string::npos) throw std::runtime_error("no \"" + key + "\" entry");
     auto open = text.find('[', k), close = text.find(']', k);
     if (open == std::string::npos || close == std::string::npos || close < open)
-        throw std::runtime_error("predictor curve '" + where + "': \"" + key + "\" is not an array");
+        throw std::runtime_error("\"" + key + "\" is not an array");
     std::vector<double> v;
     std::stringstream ss(text.substr(open + 1, close - open - 1));
     std::string item;
     while (std::getline(ss, item, ',')) {
+        size_t used = 0;
+        double x = NAN;
         try {
-            v.push_back(std::stod(item));
+            x = std::stod(item, &used);
         } catch (const std::exception&) {
-            throw std::runtime_error("predictor curve '" + where + "': bad number '" + item + "' in \"" + key + "\"");
+            used = 0;
         }
+        if (used == 0 || item.find_first_not_of(" \t\r\n", used) != std::string::npos)
+            throw std::runtime_error("bad number '" + item + "' in \"" + key + "\"");
+        if (!(x >= 0.0 && x <= 1.0))
+            throw std::runtime_error("\"" + key + "\" holds " + item + ", outside the reliability range [0, 1]");
+        v.push_back(x);
     }
     return v;
 }
@@ -118,18 +126,30 @@ ReliabilityCurve ReliabilityCurve::load(const std::string& path) {
     ss << in.rdbuf();
     std::string text = ss.str();
     ReliabilityCurve c;
-    c.margin = parse_array(text, "margin", path);
-    c.purity = parse_array(text, "purity", path);
-    if (c.margin.empty() || c.margin.size() != c.purity.size())
-        throw std::runtime_error("predictor curve '" + path + "': margin and purity must be non-empty and of equal length");
-    c.bins = static_cast<int>(c.margin.size());
-    auto num = [&](const std::string& key) -> unsigned {
-        auto k = text.find("\"" + key + "\"");
-        if (k == std::string::npos) return 0;
-        return static_cast<unsigned>(std::stoul(text.substr(text.find(':', k) + 1)));
-    };
-    c.pilot_spp = num("pilot_spp");
-    c.reference_spp = num("reference_spp");
+    try {
+        if (text.find_first_not_of(" \t\r\n") == std::string::npos) throw std::runtime_error("the file is empty");
+        if (text.find("vkmech label-reliability curve") == std::string::npos)
+            throw std::runtime_error("it lacks the \"what\": \"vkmech label-reliability curve ...\" header that "
+                                     "`vkmech study predictor` writes");
+        c.margin = parse_array(text, "margin");
+        c.purity = parse_array(text, "purity");
+        if (c.margin.empty() || c.margin.size() != c.purity.size())
+            throw std::runtime_error("margin and purity must be non-empty and of equal length");
+        c.bins = static_cast<int>(c.margin.size());
+        auto num = [&](const std::string& key) -> unsigned {
+            auto k = text.find("\"" + key + "\"");
+            if (k == std::string::npos) return 0;
+            const char* p = text.c_str() + text.find(':', k) + 1;
+            char* end = nullptr;
+            unsigned long v = std::strtoul(p, &end, 10);
+            if (end == p || v > (1ul << 31)) throw std::runtime_error("\"" + key + "\" is not a sample count");
+            return static_cast<unsigned>(v);
+        };
+        c.pilot_spp = num("pilot_spp");
+        c.reference_spp = num("reference_spp");
+    } catch (const std::runtime_error& e) {
+        throw std::runtime_error("'" + path + "' is not a valid reliability curve: " + e.what());
+    }
     return c;
 }
 

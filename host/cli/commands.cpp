@@ -1,5 +1,7 @@
 #include "cli/commands.hpp"
 
+#include "io/interrupt.hpp"
+#include "io/output_set.hpp"
 #include "io/render_outputs.hpp"
 #include "render/descriptor.hpp"
 #include "render/features.hpp"
@@ -112,6 +114,12 @@ Scene load_for_cli(const CommonOptions& o, bool report = true) {
 
 std::string scene_stem(const std::string& name_or_path) { return fs::path(name_or_path).stem().string(); }
 
+// The output set of a render (issue 10): --out must be writable before anything renders (exit 2 otherwise).
+std::unique_ptr<OutputSet> open_output_set(const std::string& out_dir, const std::string& name) {
+    require_writable_dir(out_dir, "--out");
+    return std::make_unique<OutputSet>(out_dir, name);
+}
+
 class Progress {
 public:
     explicit Progress(std::string label) : label_(std::move(label)), tty_(isatty(STDERR_FILENO)), t0_(clock::now()) {}
@@ -173,6 +181,8 @@ int cmd_render(const RenderOptions& o) {
     std::string out_dir = o.out_dir.empty() ? "out/" + name : o.out_dir;
     Estimator estimator = render_estimator(o, Estimator::Mis);
     bool capture = o.capture == "on";
+    SignalGuard signals;  // SIGINT/SIGTERM: stop at the next batch, remove the staged files, exit 130/143
+    std::unique_ptr<OutputSet> set = open_output_set(out_dir, name);
 
     vk::ContextOptions co;
     co.device_index = o.common.device;
@@ -198,7 +208,10 @@ int cmd_render(const RenderOptions& o) {
     spec.batch_spp = o.batch_spp;
     spec.mode = o.preview ? gpu::MODE_DIRECT_PREVIEW : gpu::MODE_PATH;
     Progress progress("render " + name);
-    spec.progress = [&](uint32_t d, uint32_t t) { progress(d, t); };
+    spec.progress = [&](uint32_t d, uint32_t t) {
+        throw_if_interrupted();
+        progress(d, t);
+    };
     Frame frame = renderer.render(spec);
 
     RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene, o.spp, o.seed, capture);
@@ -210,7 +223,8 @@ int cmd_render(const RenderOptions& o) {
         desc = derive_descriptor(frame);
         summary = summarize(frame, *desc);
     }
-    WrittenFiles files = write_render_outputs(out_dir, info, frame, desc ? &*desc : nullptr, summary ? &*summary : nullptr);
+    WrittenFiles files = write_render_outputs(*set, info, frame, desc ? &*desc : nullptr, summary ? &*summary : nullptr);
+    set->commit();
 
     double paths_per_s = frame.seconds > 0 ? frame.samples / frame.seconds : 0.0;
     uint64_t nonfinite = 0;
@@ -230,7 +244,8 @@ int cmd_render(const RenderOptions& o) {
     double clipped = clipped_share(frame.rgb_mean(), o.exposure);
     std::printf("preview: exposure %+.2f EV, %.2f%% of pixels clip%s\n", o.exposure, 100.0 * clipped,
                 clipped > 0.05 ? " (lower --exposure to see them; the EXR keeps every value)" : "");
-    for (const auto& f : {files.exr, files.png, files.dominant_png, files.purity_png, files.json})
+    for (const auto& f : {files.exr, files.png, files.dominant_png, files.purity_png, files.json,
+                          set->final_path(manifest_file_name(name))})
         if (!f.empty()) std::printf("wrote %s\n", f.c_str());
     return 0;
 }
@@ -406,9 +421,38 @@ int cmd_bench_render(const BenchOptions& o) {
 
 }  // namespace vkmech
 
+#include "study/render_cache.hpp"
 #include "study/study_runner.hpp"
 
 namespace vkmech {
+
+// `vkmech verify outputs DIR`: every output set in DIR checked against its manifest.
+int cmd_verify_outputs(const std::string& dir) {
+    if (!fs::is_directory(dir)) throw UsageError("'" + dir + "' is not a directory");
+    std::vector<std::string> stale;
+    auto sets = verify_output_dir(dir, &stale);
+    int bad = 0;
+    for (const auto& s : sets) {
+        const char* kind = s.kind == SetStatus::Complete ? "complete" : s.kind == SetStatus::Pending ? "pending" : "BAD";
+        std::printf("%-8s %s%s%s: %s\n", kind, s.name.c_str(), s.run_id.empty() ? "" : " (run ", s.run_id.empty() ? "" :
+                    (s.run_id + ")").c_str(), s.detail.c_str());
+        bad += s.kind == SetStatus::Bad;
+    }
+    for (const auto& f : stale) std::printf("stale    %s: a temporary of an interrupted run (the next run here removes it)\n", f.c_str());
+    std::printf("%zu output sets: %d bad; %zu stale temporaries\n", sets.size(), bad, stale.size());
+    return bad ? 1 : 0;
+}
+
+// `vkmech verify cache DIR`: every render-cache file checked (key, checksum, size, finite data).
+int cmd_verify_cache(const std::string& dir) {
+    if (!fs::is_directory(dir)) throw UsageError("'" + dir + "' is not a directory");
+    CacheVerifyReport r = verify_cache_dir(dir);
+    for (const auto& [f, why] : r.bad) std::printf("BAD   %s\n", why.c_str());
+    for (const auto& [f, why] : r.stale) std::printf("stale %s: %s\n", f.c_str(), why.c_str());
+    std::printf("%zu good, %zu bad, %zu stale cache files in %s%s\n", r.good.size(), r.bad.size(), r.stale.size(),
+                dir.c_str(), r.bad.empty() ? "" : " (a study removes and re-renders bad files)");
+    return r.bad.empty() ? 0 : 1;
+}
 
 void add_study_options(CLI::App* app, StudyCliOptions& o) {
     app->add_option("name", o.study,
@@ -456,6 +500,7 @@ int cmd_study(const StudyCliOptions& c) {
     o.curve = c.curve;
     if (!o.curve.empty() && !fs::exists(o.curve)) throw UsageError("predictor curve '" + o.curve + "' does not exist");
     if (!o.curve.empty() && c.study != "predictor") throw UsageError("--curve applies to `vkmech study predictor` only");
+    if (!o.curve.empty()) check_curve_for_cli(o.curve);
     o.device = c.device;
     o.pipeline_cache = c.pipeline_cache;
     o.traversal = c.traversal;
@@ -479,6 +524,26 @@ int cmd_study(const StudyCliOptions& c) {
 
 namespace vkmech {
 
+namespace {
+ReliabilityCurve load_curve_for_cli(const std::string& path) {
+    try {
+        return ReliabilityCurve::load(path);
+    } catch (const std::runtime_error& e) {
+        throw UsageError(e.what());
+    }
+}
+}  // namespace
+
+void check_curve_for_cli(const std::string& path) { (void)load_curve_for_cli(path); }
+
+void require_writable_dir(const std::string& dir, const std::string& option) {
+    try {
+        check_writable_dir(dir, option);
+    } catch (const std::runtime_error& e) {
+        throw UsageError(e.what());
+    }
+}
+
 // `vkmech render --adaptive STRATEGY --pilot N0 --budget B`: pilot, predicted
 // label reliability, Neyman allocation, final render of n(p) pool samples.
 int cmd_render_adaptive(const RenderOptions& o) {
@@ -501,10 +566,17 @@ int cmd_render_adaptive(const RenderOptions& o) {
         }
     }
     if (o.floor > 1 + o.budget) throw UsageError("--floor exceeds the per-pixel average (1 + --budget)");
+    // The frozen curve is read before anything renders: a bad file is bad input (exit 2).
+    std::string curve_path = o.curve.empty() ? std::string(VKMECH_SOURCE_DIR) + "/docs/results/predictor_curve.json" : o.curve;
+    if (!o.curve.empty() && !fs::exists(curve_path)) throw UsageError("predictor curve '" + o.curve + "' does not exist");
+    std::optional<ReliabilityCurve> curve;
+    if (fs::exists(curve_path)) curve = load_curve_for_cli(curve_path);
     Scene scene = load_for_cli(o.common);
     std::string name = scene_stem(o.common.scene);
     std::string out_dir = o.out_dir.empty() ? "out/" + name : o.out_dir;
     Estimator estimator = render_estimator(o, Estimator::Nee);
+    SignalGuard signals;
+    std::unique_ptr<OutputSet> set = open_output_set(out_dir, name);
 
     vk::ContextOptions co;
     co.device_index = o.common.device;
@@ -526,23 +598,21 @@ int cmd_render_adaptive(const RenderOptions& o) {
                  name.c_str(), scene.camera.width, scene.camera.height, alloc::to_string(strategy), o.pilot, o.budget,
                  o.floor, ctx.info().name.c_str());
 
+    throw_if_interrupted();
     Pilot pilot = render_pilot(renderer, o.pilot, downstream_seeds::pilot(o.pilot_draw), robust);
+    throw_if_interrupted();
     std::printf("pilot: %u spp (seed %u), %.2f s\n", o.pilot, downstream_seeds::pilot(o.pilot_draw), pilot.seconds);
 
     // The pilot's predicted label reliability (paper §8.2), before anything is allocated.
-    std::string curve_path = o.curve.empty() ? std::string(VKMECH_SOURCE_DIR) + "/docs/results/predictor_curve.json" : o.curve;
-    if (fs::exists(curve_path)) {
-        ReliabilityCurve curve = ReliabilityCurve::load(curve_path);
-        PilotPrediction pred = predict_from_pilot(curve, pilot.frame);
+    if (curve) {
+        PilotPrediction pred = predict_from_pilot(*curve, pilot.frame);
         std::printf("predicted label reliability (share of the pilot's labels a converged render keeps): %.3f by "
                     "margin, %.3f by purity (curve %s, fitted on %u-spp pilots)\n",
-                    pred.margin, pred.purity, curve_path.c_str(), curve.pilot_spp);
-        if (curve.pilot_spp != 0 && curve.pilot_spp != o.pilot)
+                    pred.margin, pred.purity, curve_path.c_str(), curve->pilot_spp);
+        if (curve->pilot_spp != 0 && curve->pilot_spp != o.pilot)
             std::printf("note: this pilot has %u spp; the curve was fitted on %u-spp pilots, so the prediction is "
                         "indicative only\n",
-                        o.pilot, curve.pilot_spp);
-    } else if (!o.curve.empty()) {
-        throw UsageError("predictor curve '" + o.curve + "' does not exist");
+                        o.pilot, curve->pilot_spp);
     } else {
         std::printf("predicted label reliability: no frozen curve at %s (run `vkmech study predictor`)\n",
                     curve_path.c_str());
@@ -559,7 +629,10 @@ int cmd_render_adaptive(const RenderOptions& o) {
     spec.batch_spp = o.batch_spp;
     spec.sample_counts = plan.n;
     Progress progress("render " + name);
-    spec.progress = [&](uint32_t d, uint32_t t) { progress(d, t); };
+    spec.progress = [&](uint32_t d, uint32_t t) {
+        throw_if_interrupted();
+        progress(d, t);
+    };
     Frame frame = renderer.render(spec);
 
     uint32_t max_n = 0, min_n = ~0u;
@@ -574,17 +647,20 @@ int cmd_render_adaptive(const RenderOptions& o) {
     info.pipeline_cache = pipe_outcome;
     Descriptor desc = derive_descriptor(frame);
     DescriptorSummary summary = summarize(frame, desc);
-    WrittenFiles files = write_render_outputs(out_dir, info, frame, &desc, &summary);
+    WrittenFiles files = write_render_outputs(*set, info, frame, &desc, &summary);
     std::vector<float> nmap(plan.n.begin(), plan.n.end());
-    std::string spp_png = (fs::path(out_dir) / (name + "_spp.png")).string();
-    write_png_rgb8(spp_png, frame.width, frame.height, grey_to_rgb8(nmap, 0.0f, static_cast<float>(max_n)));
+    write_png_rgb8(set->staged(name + "_spp.png"), frame.width, frame.height,
+                   grey_to_rgb8(nmap, 0.0f, static_cast<float>(max_n)));
+    std::string spp_png = set->final_path(name + "_spp.png");
+    set->commit();
 
     std::printf("allocation: %llu samples in all (%.2f per pixel), n(p) from %u to %u, %.2f ms\n",
                 static_cast<unsigned long long>(plan.total), static_cast<double>(plan.total) / pixels, min_n, max_n,
                 plan.allocation_ms);
     std::printf("final: %.2f s; wall time pilot + allocation + final: %.2f s\n", frame.seconds,
                 pilot.seconds + plan.allocation_ms / 1000.0 + frame.seconds);
-    for (const auto& f : {files.exr, files.png, files.dominant_png, spp_png, files.json})
+    for (const auto& f : {files.exr, files.png, files.dominant_png, spp_png, files.json,
+                          set->final_path(manifest_file_name(name))})
         if (!f.empty()) std::printf("wrote %s\n", f.c_str());
     return 0;
 }

@@ -85,7 +85,15 @@ std::string resolve_scene_path(const std::string& name_or_path);
 std::vector<std::string> project_scene_names();
 
 int cmd_render(const RenderOptions& o);
+// Usage errors (exit 2) before anything renders: `dir` (the value of `option`,
+// e.g. --out) cannot be created or written; `path` is not a valid frozen
+// reliability curve.
+void require_writable_dir(const std::string& dir, const std::string& option);
+void check_curve_for_cli(const std::string& path);
 int cmd_devices();
+// Exit 0 when everything checked is sound, 1 when a bad set or file exists.
+int cmd_verify_outputs(const std::string& dir);
+int cmd_verify_cache(const std::string& dir);
 int cmd_check(const CommonOptions& o);
 int cmd_bench_traversal(const BenchOptions& o);
 int cmd_bench_render(const BenchOptions& o);

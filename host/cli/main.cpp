@@ -4,6 +4,7 @@
 
 #include "scene/scene.hpp"
 #include "study/study_runner.hpp"
+#include "vk/buffer.hpp"
 #include "vk/context.hpp"
 
 #include <CLI/CLI.hpp>
@@ -26,6 +27,7 @@ int main(int argc, char** argv) {
     app.footer("Examples:\n  vkmech --scene ring_caustic --spp 64\n  vkmech check --scene my_scene.xml\n  vkmech devices\n"
                "  vkmech bench traversal\n"
                "  vkmech study all --preset quick --out out/study\n"
+               "  vkmech verify outputs out/ring_caustic\n"
                "Exit codes: 0 ok, 1 runtime failure, 2 bad usage or bad input.");
 
     RenderOptions render_opts;
@@ -98,6 +100,31 @@ int main(int argc, char** argv) {
         "study", "Regenerate the paper's analyses (SPEC §5) on a scene set: tables, figures, maps and report.md");
     add_study_options(study, study_opts);
 
+    // A delimited list of nothing (`--scenes ,,,`): CLI11 drops the empty items and would take the next
+    // argument (`--out`) as the list; say what is wrong instead.
+    for (size_t i = 0; i < args.size(); ++i)
+        for (const std::string opt : {"--scenes", "--spp-levels"}) {
+            std::string value;
+            if (args[i] == opt && i + 1 < args.size()) value = args[i + 1];
+            else if (args[i].rfind(opt + "=", 0) == 0) value = args[i].substr(opt.size() + 1);
+            else continue;
+            if (value.find_first_not_of(", \t") == std::string::npos) {
+                std::cerr << "vkmech: error: " << opt << ": empty " << (opt == "--scenes" ? "scene list" : "list") << "\n";
+                return 2;
+            }
+        }
+
+    std::string verify_dir;
+    auto* verify = app.add_subcommand("verify", "Check written results: output sets against their manifests, or a render cache");
+    verify->require_subcommand(1);
+    auto* verify_outputs = verify->add_subcommand(
+        "outputs", "Check every output set in DIR against its manifest (complete, pending or bad); exit 1 when one is bad");
+    verify_outputs->add_option("dir", verify_dir, "Output directory (a render's --out)")->required();
+    auto* verify_cache = verify->add_subcommand(
+        "cache", "Check every file of a render cache (key, size, checksum, finite data): good, bad or stale; exit 1 when "
+                 "one is bad");
+    verify_cache->add_option("dir", verify_dir, "Cache directory (a study's --cache, default <out>/cache)")->required();
+
     try {
         std::vector<std::string> rev(args.rbegin(), args.rend());
         app.parse(rev);
@@ -108,6 +135,8 @@ int main(int argc, char** argv) {
     try {
         if (*render) return cmd_render(render_opts);
         if (*devices) return cmd_devices();
+        if (*verify_outputs) return cmd_verify_outputs(verify_dir);
+        if (*verify_cache) return cmd_verify_cache(verify_dir);
         if (*check) return cmd_check(check_opts);
         if (*bench_trav) return cmd_bench_traversal(bench_opts);
         if (*bench_render) return cmd_bench_render(bench_opts);
@@ -116,10 +145,17 @@ int main(int argc, char** argv) {
             for (const auto& a : args) study_opts.command_line += " " + a;
             return cmd_study(study_opts);
         }
-    } catch (const StudyInterrupted&) {
-        std::cerr << "\nvkmech study: interrupted; every finished render is in the cache, run the same command again "
-                     "to resume\n";
-        return 130;
+    } catch (const StudyInterrupted& e) {
+        std::cerr << "\nvkmech study: " << e.what() << "; every finished render is in the cache, run the same command "
+                     "again to resume\n";
+        return e.exit_code();
+    } catch (const Interrupted& e) {
+        std::cerr << "\nvkmech: " << e.what() << "; nothing new was committed: the output directory holds the previous "
+                     "complete set, if any (its temporaries are removed)\n";
+        return e.exit_code();
+    } catch (const vkmech::vk::OutOfMemoryError& e) {
+        std::cerr << "vkmech: out of memory: " << e.what() << "\n";
+        return 1;
     } catch (const SceneError& e) {
         std::cerr << "vkmech: error: " << e.what() << "\n";
         return 2;

@@ -2,6 +2,7 @@
 
 #include "io/atomic_file.hpp"
 #include "io/exr.hpp"
+#include "io/interrupt.hpp"
 #include "io/png.hpp"
 
 #include <stb/stb_easy_font.h>
@@ -160,9 +161,8 @@ std::string summary_json(const RenderInfo& info, const Frame& frame, const Descr
     return o.str();
 }
 
-WrittenFiles write_render_outputs(const std::string& out_dir, const RenderInfo& info, const Frame& frame,
-                                  const Descriptor* d, const DescriptorSummary* s) {
-    fs::create_directories(out_dir);
+WrittenFiles write_render_outputs(OutputSet& set, const RenderInfo& info, const Frame& frame, const Descriptor* d,
+                                  const DescriptorSummary* s) {
     const int w = frame.width, h = frame.height;
     const size_t n = frame.pixels.size();
     std::vector<float> rgb = frame.rgb_mean();
@@ -192,28 +192,35 @@ WrittenFiles write_render_outputs(const std::string& out_dir, const RenderInfo& 
     channel("nonfinite", [&](size_t i) { return frame.pixels[i].nonfinite; });
 
     WrittenFiles out;
-    fs::path dir(out_dir);
     const std::string& name = info.scene_name;
-    out.exr = (dir / (name + ".exr")).string();
+    // Each file is staged, then its final path recorded; a signal stops between files.
+    auto stage = [&](std::string& final_path, const std::string& file, auto&& write) {
+        throw_if_interrupted();
+        write(set.staged(file));
+        final_path = set.final_path(file);
+        fault_point(("staged-" + file.substr(name.size())).c_str());
+    };
     std::map<std::string, std::vector<std::string>> attrs = {
         {"vkmech.scene", {info.scene_path}},          {"vkmech.estimator", {info.estimator}},
         {"vkmech.lightSelection", {info.light_selection}}, {"vkmech.endVertex", {info.end_vertex}},
         {"vkmech.spp", {std::to_string(info.spp)}},   {"vkmech.seed", {std::to_string(info.seed)}},
         {"vkmech.device", {info.device}},              {"vkmech.features", {info.features}},
-        {"vkmech.warnings", info.warnings},            {"vkmech.substitutions", info.substitutions}};
-    write_exr_layers(out.exr, w, h, ch, attrs);
-    out.png = (dir / (name + ".png")).string();
-    write_png_rgb8(out.png, w, h, tonemap_srgb(rgb, static_cast<float>(std::exp2(static_cast<double>(info.exposure_ev)))));
+        {"vkmech.warnings", info.warnings},            {"vkmech.substitutions", info.substitutions},
+        {"vkmech.runId", {set.run_id()}}};
+    stage(out.exr, name + ".exr", [&](const std::string& p) { write_exr_layers(p, w, h, ch, attrs); });
+    stage(out.png, name + ".png", [&](const std::string& p) {
+        write_png_rgb8(p, w, h, tonemap_srgb(rgb, static_cast<float>(std::exp2(static_cast<double>(info.exposure_ev)))));
+    });
     if (d) {
-        int lw = 0, lh = 0;
-        auto map = dominant_map_with_legend(*d, &lw, &lh);
-        out.dominant_png = (dir / (name + "_dominant.png")).string();
-        write_png_rgb8(out.dominant_png, lw, lh, map);
-        out.purity_png = (dir / (name + "_purity.png")).string();
-        write_png_rgb8(out.purity_png, w, h, grey_to_rgb8(d->purity, 0.0f, 1.0f));
+        stage(out.dominant_png, name + "_dominant.png", [&](const std::string& p) {
+            int lw = 0, lh = 0;
+            auto map = dominant_map_with_legend(*d, &lw, &lh);
+            write_png_rgb8(p, lw, lh, map);
+        });
+        stage(out.purity_png, name + "_purity.png",
+              [&](const std::string& p) { write_png_rgb8(p, w, h, grey_to_rgb8(d->purity, 0.0f, 1.0f)); });
     }
-    out.json = (dir / (name + ".json")).string();
-    write_file_atomic(out.json, summary_json(info, frame, s));
+    stage(out.json, name + ".json", [&](const std::string& p) { write_file_atomic(p, summary_json(info, frame, s)); });
     return out;
 }
 

@@ -1,10 +1,12 @@
 // Everything a render writes (SPEC §3, issue "outputs"): one multi-layer EXR,
 // PNG previews (image, dominant-class map with legend, purity) and a JSON
-// summary. Every file is written atomically.
+// summary, staged in an OutputSet that the caller commits (io/output_set.hpp:
+// the files appear as a set, with a manifest written last).
 #pragma once
 
 #include "render/descriptor.hpp"
 #include "render/frame.hpp"
+#include "io/output_set.hpp"
 
 #include <string>
 
@@ -37,7 +39,10 @@ struct WrittenFiles {
 // The EXR channel names, in file order (documented in README.md).
 std::vector<std::string> exr_channel_names(bool capture);
 
-WrittenFiles write_render_outputs(const std::string& out_dir, const RenderInfo& info, const Frame& frame,
+// Stages the files in `set` (their final paths are returned); checks for
+// SIGINT/SIGTERM between files (throws Interrupted). The caller adds any
+// files of its own and commits.
+WrittenFiles write_render_outputs(OutputSet& set, const RenderInfo& info, const Frame& frame,
                                   const Descriptor* descriptor, const DescriptorSummary* summary);
 
 // The dominant-class map with a legend panel to its right, as 8-bit RGB.

@@ -7,7 +7,32 @@
 #include <stdexcept>
 #include <cmath>
 
+#include <unistd.h>
+
 namespace vkmech {
+
+namespace {
+
+// Issue 10: what a film costs, said before (or instead of) a raw allocation failure.
+uint64_t film_device_bytes(uint64_t pixels) { return pixels * (sizeof(gpu::GpuPixelAccum) + 2 * sizeof(uint32_t)); }
+uint64_t film_host_bytes(uint64_t pixels) { return pixels * (sizeof(PixelStats) + sizeof(gpu::GpuPixelAccum)); }
+
+[[noreturn]] void film_out_of_memory(const Camera& cam, const std::string& why) {
+    const uint64_t px = static_cast<uint64_t>(cam.width) * static_cast<uint64_t>(cam.height);
+    throw vk::OutOfMemoryError("a " + std::to_string(cam.width) + "x" + std::to_string(cam.height) + " film needs " +
+                                   vk::byte_size_text(film_device_bytes(px)) +
+                                   " of device memory (accumulation and sample-count buffers) and " +
+                                   vk::byte_size_text(film_host_bytes(px)) + " of host memory (the frame and its "
+                                   "readback); " + why + "; lower --res",
+                               film_device_bytes(px));
+}
+
+uint64_t physical_ram_bytes() {
+    long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
+    return pages > 0 && page > 0 ? static_cast<uint64_t>(pages) * static_cast<uint64_t>(page) : 0;
+}
+
+}  // namespace
 
 glm::vec2 camera_tangents(const Camera& cam) {
     float t = std::tan(glm::radians(cam.fov_deg) * 0.5f);
@@ -43,9 +68,19 @@ Renderer::Renderer(const vk::Context& ctx, const Scene& scene, const SceneArrays
     pipeline_ = std::make_unique<vk::ComputePipeline>(ctx, pathtrace_spirv(gpu_.traversal()), bindings, 0,
                                                       features_.spec_constants());
     size_t pixels = static_cast<size_t>(scene.camera.width) * scene.camera.height;
+    if (const uint64_t heap = ctx.info().device_local_bytes; heap > 0 && film_device_bytes(pixels) > heap)
+        film_out_of_memory(scene.camera, "the device's largest memory heap has " + vk::byte_size_text(heap));
+    if (const uint64_t ram = physical_ram_bytes(); ram > 0 && film_host_bytes(pixels) > ram)
+        film_out_of_memory(scene.camera, "this machine has " + vk::byte_size_text(ram) + " of RAM");
     params_ = vk::Buffer(ctx, sizeof(gpu::GpuParams), ::vk::BufferUsageFlagBits::eUniformBuffer, vk::MemoryUse::Upload);
-    accum_ = vk::Buffer(ctx, pixels * sizeof(gpu::GpuPixelAccum), ::vk::BufferUsageFlagBits::eStorageBuffer,
-                        vk::MemoryUse::Readback);
+    try {
+        accum_ = vk::Buffer(ctx, pixels * sizeof(gpu::GpuPixelAccum), ::vk::BufferUsageFlagBits::eStorageBuffer,
+                            vk::MemoryUse::Readback);
+        sample_counts_ = vk::Buffer(ctx, 2 * pixels * sizeof(uint32_t), ::vk::BufferUsageFlagBits::eStorageBuffer,
+                                    vk::MemoryUse::Upload);
+    } catch (const vk::OutOfMemoryError& e) {
+        film_out_of_memory(scene.camera, std::string("allocating failed: ") + e.what());
+    }
     pipeline_->bind_buffer(0, params_.handle());
     pipeline_->bind_buffer(1, gpu_.vertices.handle());
     pipeline_->bind_buffer(2, gpu_.triangles.handle());
@@ -59,8 +94,6 @@ Renderer::Renderer(const vk::Context& ctx, const Scene& scene, const SceneArrays
     debug_ = vk::Buffer(ctx, 16 + sizeof(gpu::GpuDebugEvent) * (features_.debug_events ? 65536 : 1),
                         ::vk::BufferUsageFlagBits::eStorageBuffer, vk::MemoryUse::Readback);
     pipeline_->bind_buffer(14, debug_.handle());
-    sample_counts_ = vk::Buffer(ctx, 2 * pixels * sizeof(uint32_t), ::vk::BufferUsageFlagBits::eStorageBuffer,
-                                vk::MemoryUse::Upload);
     pipeline_->bind_buffer(15, sample_counts_.handle());
     if (rq) pipeline_->bind_acceleration_structure(7, gpu_.accel()->tlas());
     else {
@@ -78,8 +111,13 @@ Frame Renderer::render(const RenderSpec& spec) {
     frame.width = cam.width;
     frame.height = cam.height;
     size_t pixels = static_cast<size_t>(cam.width) * cam.height;
-    frame.pixels.assign(pixels, PixelStats{});
-    std::vector<gpu::GpuPixelAccum> batch(pixels);
+    std::vector<gpu::GpuPixelAccum> batch;
+    try {
+        frame.pixels.assign(pixels, PixelStats{});
+        batch.resize(pixels);
+    } catch (const std::bad_alloc&) {
+        film_out_of_memory(cam, "the host could not allocate it");
+    }
 
     gpu::GpuParams p{};
     p.camera_to_world = cam.to_world;

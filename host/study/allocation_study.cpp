@@ -9,10 +9,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <csignal>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 
 namespace fs = std::filesystem;
@@ -25,13 +28,6 @@ using report::Table;
 namespace {
 
 using alloc::Strategy;
-
-std::string read_file(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
 
 double lum_of(double r, double g, double b) { return 0.2126 * r + 0.7152 * g + 0.0722 * b; }
 
@@ -92,28 +88,9 @@ struct Key {
     bool operator<(const Key& o) const { return std::tie(n0, floor, extra, s) < std::tie(o.n0, o.floor, o.extra, o.s); }
 };
 
-std::string pilot_blob(const Pilot& p) {
-    std::string b = serialize_frame(p.frame, "pilot");
-    uint64_t n = p.mom_var.size();
-    b.append(reinterpret_cast<const char*>(&n), sizeof n);
-    b.append(reinterpret_cast<const char*>(p.mom_var.data()), n * sizeof(double));
-    return b;
-}
-
-Pilot pilot_from_blob(const std::string& b, const std::string& where) {
+Pilot pilot_from_payload(const std::string& b, const std::string& where) {
     Pilot p;
-    p.frame = deserialize_frame(b, where);
-    size_t pos = 8 + 4 + 4 + 8 + 8 + 8 + p.frame.pixels.size() * sizeof(PixelStats);
-    uint64_t dlen = 0;
-    std::memcpy(&dlen, b.data() + pos, 8);
-    pos += 8 + dlen;
-    uint64_t n = 0;
-    if (pos + 8 > b.size()) throw std::runtime_error("pilot cache file '" + where + "': truncated");
-    std::memcpy(&n, b.data() + pos, 8);
-    pos += 8;
-    if (pos + n * sizeof(double) > b.size()) throw std::runtime_error("pilot cache file '" + where + "': truncated");
-    p.mom_var.resize(n);
-    std::memcpy(p.mom_var.data(), b.data() + pos, n * sizeof(double));
+    p.frame = deserialize_pilot(b, where, &p.mom_var);
     p.seconds = p.frame.seconds;
     p.var.resize(p.frame.pixels.size());
     for (size_t i = 0; i < p.var.size(); ++i) p.var[i] = p.frame.pixels[i].lum_var();
@@ -161,7 +138,7 @@ void run_allocation_study(AllocationStudyContext& a) {
                           to_string(a.traversal), a.ctx.info().name, a.code_digest});
     };
     auto check_interrupt = [&] {
-        if (a.interrupted && a.interrupted()) throw StudyInterrupted("interrupted");
+        if (a.interrupted && a.interrupted()) throw StudyInterrupted(pending_signal() ? pending_signal() : SIGINT);
     };
 
     Table main_t{"downstream", "", {"scene", "uniform", "obs-var", "b-floor", "oracle", "label-oracle", "placebo",
@@ -201,8 +178,8 @@ void run_allocation_study(AllocationStudyContext& a) {
             check_interrupt();
             std::string key = key_for(ls, cfg.alloc_ref_chunk_spp, downstream_seeds::reference_chunk(c), 64);
             Frame f;
-            if (a.cache.contains(key)) {
-                f = a.cache.load(key);
+            if (auto cached = a.cache.try_load(key)) {
+                f = std::move(*cached);
             } else {
                 RenderSpec spec;
                 spec.spp = cfg.alloc_ref_chunk_spp;
@@ -244,13 +221,16 @@ void run_allocation_study(AllocationStudyContext& a) {
             check_interrupt();
             const uint32_t F = downstream_seeds::kPoolSize;
             std::string key = key_for(ls, F, downstream_seeds::kPool, 1);
-            std::string blob_path = a.cache.path(key) + ".pool";
             d.pool.assign(static_cast<size_t>(F) * d.P * 4, 0.0f);
             d.oracle_var.assign(d.P, 0.0);
-            if (fs::exists(blob_path)) {
-                std::string b = read_file(blob_path);
-                if (b.size() != d.pool.size() * sizeof(float) + d.P * sizeof(double))
-                    throw std::runtime_error("pool cache file '" + blob_path + "': wrong size");
+            std::optional<std::string> cached = a.cache.try_load_payload(key, "pool");
+            if (cached && cached->size() != d.pool.size() * sizeof(float) + d.P * sizeof(double)) {
+                std::fprintf(stderr, "vkmech: warning: render cache file '%s': wrong size for this film; rendering it again\n",
+                             a.cache.path(key, "pool").c_str());
+                cached.reset();
+            }
+            if (cached) {
+                const std::string& b = *cached;
                 std::memcpy(d.pool.data(), b.data(), d.pool.size() * sizeof(float));
                 std::memcpy(d.oracle_var.data(), b.data() + d.pool.size() * sizeof(float), d.P * sizeof(double));
             } else {
@@ -274,7 +254,7 @@ void run_allocation_study(AllocationStudyContext& a) {
                 for (size_t p = 0; p < d.P; ++p) d.oracle_var[p] = pool.pixels[p].lum_var();  // the pool's converged variance
                 std::string b(reinterpret_cast<const char*>(d.pool.data()), d.pool.size() * sizeof(float));
                 b.append(reinterpret_cast<const char*>(d.oracle_var.data()), d.P * sizeof(double));
-                write_file_atomic(blob_path, b);
+                a.cache.store_payload(key, "pool", b);
             }
         }
 
@@ -284,12 +264,20 @@ void run_allocation_study(AllocationStudyContext& a) {
             for (uint32_t k = 0; k < K; ++k) {
                 check_interrupt();
                 uint32_t batch = rob ? static_cast<uint32_t>(alloc::mom_block_size(static_cast<int>(n0))) : 8;
-                std::string path = a.cache.path(key_for(ls, n0, downstream_seeds::pilot(k), batch)) + ".pilot";
-                if (fs::exists(path)) {
-                    d.pilots[n0].push_back(pilot_from_blob(read_file(path), path));
+                const std::string key = key_for(ls, n0, downstream_seeds::pilot(k), batch);
+                std::optional<Pilot> cached;
+                if (auto b = a.cache.try_load_payload(key, "pilot")) {
+                    try {
+                        cached = pilot_from_payload(*b, a.cache.path(key, "pilot"));
+                    } catch (const CacheFileError& e) {  // sealed but unsound (e.g. non-finite): never used
+                        std::fprintf(stderr, "vkmech: warning: %s; rendering it again\n", e.what());
+                    }
+                }
+                if (cached) {
+                    d.pilots[n0].push_back(std::move(*cached));
                 } else {
                     Pilot p = render_pilot(r, n0, downstream_seeds::pilot(k), rob);
-                    write_file_atomic(path, pilot_blob(p));
+                    a.cache.store_payload(key, "pilot", serialize_pilot(p.frame, p.mom_var));
                     d.pilots[n0].push_back(std::move(p));
                 }
             }

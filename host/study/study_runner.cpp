@@ -3,6 +3,7 @@
 #include "experiments/separation.hpp"
 #include "experiments/study_context.hpp"
 #include "io/atomic_file.hpp"
+#include "io/output_set.hpp"
 #include "render/features.hpp"
 #include "render/gpu_scene.hpp"
 #include "render/renderer.hpp"
@@ -30,22 +31,6 @@ namespace fs = std::filesystem;
 namespace vkmech {
 
 namespace {
-
-std::atomic<bool> g_interrupted{false};
-
-extern "C" void on_sigint(int) {
-    g_interrupted = true;
-    std::signal(SIGINT, SIG_DFL);  // a second Ctrl-C kills at once
-}
-
-struct SigintGuard {
-    SigintGuard() {
-        g_interrupted = false;
-        previous_ = std::signal(SIGINT, on_sigint);
-    }
-    ~SigintGuard() { std::signal(SIGINT, previous_); }
-    void (*previous_)(int);
-};
 
 using clock_type = std::chrono::steady_clock;
 
@@ -97,7 +82,7 @@ LoadedScene load_variant(const SceneVariant& v, int res) {
     return ls;
 }
 
-bool study_interrupted() { return g_interrupted; }
+bool study_interrupted() { return pending_signal() != 0; }
 
 const std::vector<std::string>& first_party_scenes() {
     static const std::vector<std::string> s = {"cubes_dof",        "glass_caustic",      "snooker",        "tabletop_mixed",
@@ -120,6 +105,14 @@ int run_study(const StudyOptions& o) {
     cfg.validate(std::find(kinds.begin(), kinds.end(), StudyKind::Cost) != kinds.end());
     const std::string out_dir = o.out_dir;
     const std::string cache_dir = o.cache_dir.empty() ? (fs::path(out_dir) / "cache").string() : o.cache_dir;
+    if (!o.plan_only) {  // before anything renders (and after the arguments are known good): exit 2 otherwise
+        try {
+            check_writable_dir(out_dir, "--out");
+            check_writable_dir(cache_dir, "--cache");
+        } catch (const std::runtime_error& e) {
+            throw std::invalid_argument(e.what());
+        }
+    }
 
     // The plan: every render of every requested study, deduplicated, in a stable order.
     std::vector<RenderRequest> plan;
@@ -143,6 +136,7 @@ int run_study(const StudyOptions& o) {
 
     // Keys: load each scene variant once to digest its content at the study's film size.
     RenderCache cache(cache_dir);
+    if (!o.plan_only) clean_stale_temporaries(cache_dir);  // `*.tmp-<pid>` of dead processes
     std::map<RenderRequest, std::string> keys;
     std::map<SceneVariant, std::pair<int, int>> film;
     {
@@ -164,7 +158,7 @@ int run_study(const StudyOptions& o) {
         auto [w, h] = film[r.scene];
         double paths = static_cast<double>(r.spp) * w * h;
         paths_total += paths;
-        if (!cache.contains(keys[r])) {
+        if (!cache.try_load(keys[r])) {  // absent, or damaged (warned, removed): render it
             missing.push_back(r);
             paths_missing += paths;
         }
@@ -216,7 +210,7 @@ int run_study(const StudyOptions& o) {
     size_t done = 0;
     const bool tty = isatty(STDERR_FILENO);
     const auto t_render = clock_type::now();
-    SigintGuard guard;  // until the end: the allocation study renders during its analysis
+    SignalGuard guard;  // SIGINT/SIGTERM until the end: the allocation study renders during its analysis
     {
         std::vector<SceneVariant> order;
         for (const auto& r : missing)
@@ -227,7 +221,7 @@ int run_study(const StudyOptions& o) {
             std::map<Estimator, std::unique_ptr<Renderer>> renderers;
             for (const auto& r : missing) {
                 if (!(r.scene == variant)) continue;
-                if (g_interrupted) throw StudyInterrupted("interrupted");
+                if (int sig = pending_signal()) throw StudyInterrupted(sig);
                 auto& rr = renderers[r.estimator];
                 if (!rr) rr = std::make_unique<Renderer>(ctx, ls.scene, ls.arrays, g, Features::from_scene(ls.scene, r.estimator));
                 RenderSpec spec;
@@ -237,7 +231,7 @@ int run_study(const StudyOptions& o) {
                 auto [w, h] = film[r.scene];
                 const double px = static_cast<double>(w) * h;
                 spec.progress = [&](uint32_t d, uint32_t) {
-                    if (g_interrupted) throw StudyInterrupted("interrupted");
+                    if (int sig = pending_signal()) throw StudyInterrupted(sig);
                     double spent = std::chrono::duration<double>(clock_type::now() - t_render).count();
                     double traced = paths_done + d * px;
                     double left = traced > 0 ? spent * (paths_missing - traced) / traced : NAN;

@@ -4,6 +4,8 @@
 // writes tables, figures, maps and report.md.
 #pragma once
 
+#include "io/interrupt.hpp"
+
 #include "experiments/study_config.hpp"
 #include "render/gpu_scene.hpp"
 #include "scene/scene.hpp"
@@ -36,10 +38,10 @@ struct StudyOptions {
     std::string command_line;             // for the report
 };
 
-// Thrown when SIGINT arrives during rendering: finished renders are cached.
-class StudyInterrupted : public std::runtime_error {
+// Thrown when SIGINT or SIGTERM arrives during rendering: finished renders are cached.
+class StudyInterrupted : public Interrupted {
 public:
-    using std::runtime_error::runtime_error;
+    using Interrupted::Interrupted;
 };
 
 // Returns the process exit code (0 ok; 1 when plotting failed).

@@ -1,8 +1,32 @@
 #include "vk/buffer.hpp"
 
+#include <cstdio>
+
 namespace vkmech::vk {
 
+std::string byte_size_text(uint64_t b) {
+    char buf[32];
+    if (b >= (1ull << 30)) std::snprintf(buf, sizeof buf, "%.1f GiB", static_cast<double>(b) / (1ull << 30));
+    else if (b >= (1ull << 20)) std::snprintf(buf, sizeof buf, "%.1f MiB", static_cast<double>(b) / (1ull << 20));
+    else if (b >= (1ull << 10)) std::snprintf(buf, sizeof buf, "%.1f KiB", static_cast<double>(b) / (1ull << 10));
+    else std::snprintf(buf, sizeof buf, "%llu B", static_cast<unsigned long long>(b));
+    return buf;
+}
+
 Buffer::Buffer(const Context& ctx, ::vk::DeviceSize size, ::vk::BufferUsageFlags usage, MemoryUse use) : size_(size) {
+    try {
+        allocate(ctx, usage, use);
+    } catch (const ::vk::OutOfDeviceMemoryError&) {
+        throw OutOfMemoryError("cannot allocate a buffer of " + byte_size_text(size) + " (out of device memory)", size);
+    } catch (const ::vk::OutOfHostMemoryError&) {
+        throw OutOfMemoryError("cannot allocate a buffer of " + byte_size_text(size) + " (out of host memory)", size);
+    } catch (const std::bad_alloc&) {
+        throw OutOfMemoryError("cannot allocate a buffer of " + byte_size_text(size) + " (out of host memory)", size);
+    }
+}
+
+void Buffer::allocate(const Context& ctx, ::vk::BufferUsageFlags usage, MemoryUse use) {
+    const ::vk::DeviceSize size = size_;
     if (use == MemoryUse::Device) usage |= ::vk::BufferUsageFlagBits::eTransferDst | ::vk::BufferUsageFlagBits::eTransferSrc;
     buffer_ = std::make_unique<::vk::raii::Buffer>(ctx.device(), ::vk::BufferCreateInfo{.size = size, .usage = usage});
     auto req = buffer_->getMemoryRequirements();

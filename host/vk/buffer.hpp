@@ -9,6 +9,20 @@
 
 namespace vkmech::vk {
 
+// An allocation the device or the host cannot satisfy (issue 10): says how
+// much was asked; callers that know what it was for add that and what to lower.
+class OutOfMemoryError : public VulkanError {
+public:
+    OutOfMemoryError(const std::string& what, uint64_t bytes) : VulkanError(what), bytes_(bytes) {}
+    uint64_t bytes() const { return bytes_; }
+
+private:
+    uint64_t bytes_;
+};
+
+// "6.4 GiB", "512 MiB", "12 KiB", "80 B".
+std::string byte_size_text(uint64_t bytes);
+
 enum class MemoryUse {
     Device,    // device-local; filled through a staging copy
     Upload,    // host-visible, written by the CPU
@@ -40,6 +54,8 @@ public:
     }
 
 private:
+    void allocate(const Context& ctx, ::vk::BufferUsageFlags usage, MemoryUse use);
+
     std::unique_ptr<::vk::raii::Buffer> buffer_;
     std::unique_ptr<::vk::raii::DeviceMemory> memory_;
     ::vk::DeviceSize size_ = 0;
