@@ -16,13 +16,13 @@
 # times at random moments; after each kill `vkmech verify cache` must report
 # no bad file; at the end a rerun completes and the cache verifies clean.
 #
-# Usage: ci/kill-test.sh [path/to/vkmech]   (env: RENDER_KILLS=50 STUDY_KILLS=10 SCENE=cubes_dof SEED=<n>)
+# Usage: ci/kill-test.sh [path/to/vkmech]   (env: RENDER_KILLS=50 STUDY_KILLS=20 SCENE=cubes_dof SEED=<n>)
 # Prints a summary; exits 1 on any violation.
 set -u
 cd "$(dirname "$0")/.."
 VKMECH=${1:-build/vkmech}
 RENDER_KILLS=${RENDER_KILLS:-50}
-STUDY_KILLS=${STUDY_KILLS:-10}
+STUDY_KILLS=${STUDY_KILLS:-20}
 SCENE=${SCENE:-cubes_dof}
 RANDOM=${SEED:-$$}
 WORK=$(mktemp -d "${TMPDIR:-/tmp}/vkmech-kill.XXXXXX")
@@ -86,7 +86,8 @@ echo "kill-test: renders: $RENDER_KILLS kills: old set kept $old_kept, new set c
 
 # ---- studies ----
 SOUT=$WORK/study
-STUDY=(study stability --preset quick --scenes "$SCENE" --res 24 --spp-levels 2,4,8,64 --no-plots)
+# Large enough that rendering, not start-up, fills most of the run (~3 s on 2 cores).
+STUDY=(study stability --preset quick --scenes "$SCENE" --res 48 --spp-levels 4,16,64,512 --no-plots)
 study() { "$VKMECH" "${STUDY[@]}" --out "$1"; }
 t0=$(now_ms)
 study "$WORK/study-timing" > "$WORK/study.log" 2>&1 || { cat "$WORK/study.log"; echo "kill-test: the study failed"; exit 2; }
