@@ -24,7 +24,7 @@ const float PI = 3.14159265358979;
 // estimator replaces it.
 vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
     Hit h;
-    if (!trace_closest(o, d, 0.0, 1e30, h)) return vec3(0.0);
+    if (!trace_closest(o, d, 0.0, RAY_TMAX, h)) return vec3(0.0);
     SurfaceHit s = surface_hit(h.prim, h.bary);
     vec3 L = vec3(0.0);
     bool front = dot(s.ng, d) < 0.0;
@@ -44,8 +44,8 @@ vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
     float cos_s = dot(ns, wi);
     float cos_l = -dot(ls.n, wi);
     if (cos_s <= 0.0 || cos_l <= 0.0 || dot(ng, wi) <= 0.0) return L;
-    vec3 po = offset_ray_origin(s.p, ng);
-    vec3 pl = offset_ray_origin(ls.p, ls.n);
+    vec3 po = offset_ray_origin(s.p, ng, s.scale);
+    vec3 pl = offset_ray_origin(ls.p, ls.n, ls.scale);
     vec3 seg = pl - po;
     float seg_len = length(seg);
     if (trace_any(po, seg / seg_len, 0.0, seg_len)) return L;
@@ -156,7 +156,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
     vec3 prev_p = o;
     for (uint k = 1u; k <= max_depth; ++k) {
         Hit h;
-        if (!trace_closest(o, d, 0.0, 1e30, h)) break;
+        if (!trace_closest(o, d, 0.0, RAY_TMAX, h)) break;
         SurfaceHit s = surface_hit(h.prim, h.bary);
 
         // ---- emission seen by this segment ----
@@ -225,8 +225,8 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
                 vec3 f = bsdf_eval(m, albedo, wo, wi);
                 if (f.x > 0.0 || f.y > 0.0 || f.z > 0.0) {
                     vec3 ng_side = dot(wi_world, s.ng) > 0.0 ? s.ng : -s.ng;
-                    vec3 po = offset_ray_origin(s.p, ng_side);
-                    vec3 pl = offset_ray_origin(ls.p, ls.n);
+                    vec3 po = offset_ray_origin(s.p, ng_side, s.scale);
+                    vec3 pl = offset_ray_origin(ls.p, ls.n, ls.scale);
                     vec3 seg = pl - po;
                     float seg_len = length(seg);
                     if (!trace_any(po, seg / seg_len, 0.0, seg_len)) {
@@ -276,7 +276,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
         if (!(max(throughput.x, max(throughput.y, throughput.z)) > 0.0)) break;
 
         vec3 ng_side = dot(wi_world, s.ng) > 0.0 ? s.ng : -s.ng;
-        o = offset_ray_origin(s.p, ng_side);
+        o = offset_ray_origin(s.p, ng_side, s.scale);
         d = wi_world;
     }
 }

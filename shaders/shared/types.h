@@ -115,7 +115,7 @@ struct GpuParams {
     uvec4 film;        // width, height, seed, samples in this batch
     uvec4 sampling;    // first sample index, max_depth, rr_depth, estimator
     uvec4 scene;       // light triangle count, emitter count, triangle count, mode
-    vec4 lights;       // x: total light weight, y: scene scale (for ray offsets)
+    vec4 lights;       // x: total light weight (ray offsets follow each hit triangle: scene_data.glsl)
     uvec4 debug;       // x: pixel whose events are recorded, y: capacity (0: off)
     uvec4 adaptive;    // x: 1 = per-pixel sample counts (binding 15): pixel p takes samples [0, n(p)) only
 };
