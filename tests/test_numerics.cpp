@@ -66,4 +66,36 @@ TEST_SUITE("gpu") {
             }
         }
     }
+
+    // Per-pixel Welford moments in float overflowed (M2 ~ 1e60: lum_var inf)
+    // or underflowed (M2 ~ 1e-60: lum_var 0) at extreme radiance; the same
+    // samples scaled by k must give mean * k and variance * k^2.
+    TEST_CASE("numerics: luminance mean and variance scale exactly with radiance 1e30 and 1e-30") {
+        VKMECH_REQUIRE_GPU(ctx);
+        Scene base = load_scene(test_scene("scale_box"));
+        RenderSetup setup;
+        setup.res = 16;
+        setup.spp = 32;
+        Frame ref = testing::render_scene(*ctx, base, setup);
+        for (float k : {1e30f, 1e-30f}) {
+            CAPTURE(k);
+            Scene s = base;
+            for (auto& e : s.emitters) e.radiance *= k;
+            double ratio = static_cast<double>(s.emitters[0].radiance.x) / base.emitters[0].radiance.x;
+            Frame f = testing::render_scene(*ctx, s, setup);
+            size_t bad_mean = 0, bad_var = 0, with_var = 0;
+            for (size_t i = 0; i < f.pixels.size(); ++i) {
+                const PixelStats& a = f.pixels[i];
+                const PixelStats& b = ref.pixels[i];
+                CHECK(a.nonfinite == 0.0);
+                if (!(std::abs(a.lum_mean - b.lum_mean * ratio) <= 1e-4 * b.lum_mean * ratio)) ++bad_mean;
+                if (b.lum_var() > 0.0) ++with_var;
+                double var = b.lum_var() * ratio * ratio;
+                if (!(std::isfinite(a.lum_var()) && std::abs(a.lum_var() - var) <= 1e-3 * var)) ++bad_var;
+            }
+            CHECK(with_var > f.pixels.size() / 2);
+            CHECK(bad_mean == 0);
+            CHECK(bad_var == 0);
+        }
+    }
 }

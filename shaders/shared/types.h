@@ -132,7 +132,7 @@ struct GpuDebugEvent {
 // (DESIGN "stable numerics"); the host merges batches in double.
 struct GpuPixelAccum {
     vec4 rgb;          // rgb sum, w: samples counted (finite)
-    vec4 lum;          // x: mean luminance, y: M2, z: non-finite samples, w: unused
+    vec4 lum;          // x: mean luminance, y: M2 / 4^w (scaled Welford), z: non-finite samples, w: exponent
     vec4 bucket0;      // energy sums of buckets 0..3
     vec4 bucket1;      // energy sums of buckets 4..6, w: glossy-touching energy sum
     vec4 side;         // x: sum(energy * depth) over n >= 1, y: energy sum over n >= 1
