@@ -2,11 +2,17 @@
 // and the warnings a render's outputs carry when they come out empty or
 // beyond float's range.
 #include "gpu_fixture.hpp"
+#include "io/exr.hpp"
+#include "io/render_outputs.hpp"
 #include "render_fixture.hpp"
+#include "temp_dir.hpp"
 
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <fstream>
+#include <limits>
+#include <sstream>
 
 using namespace vkmech;
 using testing::RenderSetup;
@@ -39,7 +45,102 @@ double nonfinite_samples(const Frame& f) {
     return n;
 }
 
+std::string read_text(const std::string& path) {
+    std::ifstream in(path);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+bool contains(const std::string& s, const std::string& what) { return s.find(what) != std::string::npos; }
+
+// A w x 1 frame of `count` samples per pixel, luminance `lum` everywhere, all
+// of it in bucket `direct` (so every pixel is labelled when lum > 0).
+Frame flat_frame(int w, double lum, double count) {
+    Frame f;
+    f.width = w;
+    f.height = 1;
+    f.pixels.assign(static_cast<size_t>(w), PixelStats{});
+    for (auto& p : f.pixels) {
+        p.count = count;
+        p.rgb_sum = {lum * count, lum * count, lum * count};
+        p.lum_mean = lum;
+        p.bucket_sum[gpu::BUCKET_DIRECT] = lum * count;
+    }
+    f.samples = static_cast<uint64_t>(w * count);
+    return f;
+}
+
+struct Written {
+    std::string json;
+    ExrImage exr;
+};
+
+Written write_outputs(const testing::TempDir& dir, const Frame& f) {
+    RenderInfo info;
+    info.scene_name = "synthetic";
+    Descriptor d = derive_descriptor(f);
+    DescriptorSummary s = summarize(f, d);
+    WrittenFiles files = write_render_outputs(dir.path.string(), info, f, &d, &s);
+    return {read_text(files.json), read_exr_channels(files.exr)};
+}
+
 }  // namespace
+
+TEST_CASE("render outputs: an EXR value beyond float range is counted in the JSON and warned of") {
+    testing::TempDir dir("numerics_overflow");
+    Frame f = flat_frame(3, 1e30, 16.0);
+    f.pixels[1].lum_m2 = 1e62;  // lum_var ~7e60: finite in double, inf as the EXR's float
+    Written w = write_outputs(dir, f);
+    size_t nonfinite = 0;
+    for (const auto& [name, data] : w.exr.channels)
+        for (float v : data) nonfinite += !std::isfinite(v);
+    CHECK(nonfinite == 1);
+    INFO(w.json);
+    CHECK(contains(w.json, "\"nonfinite_output_values\": 1,"));
+    CHECK(contains(w.json, "lum_var (1)"));
+    // The same frame with a representable variance: nothing to report.
+    f.pixels[1].lum_m2 = 1e38;
+    w = write_outputs(dir, f);
+    CHECK(contains(w.json, "\"nonfinite_output_values\": 0,"));
+    CHECK(contains(w.json, "\"warnings\": []"));
+}
+
+TEST_CASE("render outputs: a black image and a label map without labels are warned of in the JSON") {
+    testing::TempDir dir("numerics_black");
+    Written w = write_outputs(dir, flat_frame(4, 0.0, 8.0));
+    INFO(w.json);
+    CHECK(contains(w.json, "the image is black"));
+    CHECK(contains(w.json, "no pixel has a label"));
+    CHECK(contains(w.json, "no emitter visible or reachable"));
+    CHECK(contains(w.json, "\"labelled_pixels\": 0,"));
+    // One lit pixel: neither warning.
+    Frame lit = flat_frame(4, 0.0, 8.0);
+    lit.pixels[2] = flat_frame(1, 0.5, 8.0).pixels[0];
+    w = write_outputs(dir, lit);
+    CHECK(contains(w.json, "\"warnings\": []"));
+    // Excluded non-finite samples are a warning too, not only a count.
+    lit.pixels[0].nonfinite = 3.0;
+    w = write_outputs(dir, lit);
+    CHECK(contains(w.json, "3 non-finite samples"));
+}
+
+TEST_CASE("scene: an emitter with zero radiance loads with a warning that it emits nothing") {
+    testing::TempDir dir("numerics_dark_emitter");
+    std::ofstream(dir.file("dark.xml")) << R"(<scene version="3.0.0">
+    <sensor type="perspective"><transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform></sensor>
+    <shape type="rectangle"><bsdf type="diffuse"/></shape>
+    <shape type="rectangle" id="dark">
+        <transform name="to_world"><translate z="2"/></transform>
+        <emitter type="area"><rgb name="radiance" value="0, 0, 0"/></emitter>
+    </shape>
+</scene>
+)";
+    Scene s = load_scene(dir.file("dark.xml"));
+    bool warned = false;
+    for (const auto& w : s.warnings) warned = warned || contains(w, "emitter on shape 'dark' has zero radiance");
+    CHECK(warned);
+}
 
 TEST_SUITE("gpu") {
     // The ray offsets must follow the scene's scale (no absolute epsilon):
