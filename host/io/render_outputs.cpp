@@ -121,8 +121,8 @@ std::vector<std::string> render_warnings(const Frame& frame, const DescriptorSum
     }
     const std::string causes =
         "likely causes: no emitter visible or reachable from the camera (emitters facing away, zero radiance or zero "
-        "area, all occluded), the camera inside geometry, or a scene scale or transform that puts the geometry out of "
-        "view";
+        "area, all occluded), the camera inside geometry or not framing it (its transform or fov), or a scene scale "
+        "that puts the geometry out of view";
     if (black && !frame.pixels.empty())
         out.push_back("the image is black: every pixel's radiance is 0 (" + std::to_string(frame.pixels.size()) +
                       " pixels); " + causes);
@@ -232,8 +232,9 @@ WrittenFiles write_render_outputs(const std::string& out_dir, const RenderInfo& 
     }
     if (nonfinite_outputs > 0)
         out.warnings.push_back(std::to_string(nonfinite_outputs) +
-                               " EXR values are not finite, beyond float's range: " + nonfinite_channels +
-                               "; the radiance scale is extreme (rescale the emitters)");
+                               " EXR values are not finite (inf or NaN): " + nonfinite_channels +
+                               "; a value beyond float's range means an extreme radiance scale (rescale the "
+                               "emitters)");
     RenderInfo reported = info;
     reported.warnings.insert(reported.warnings.end(), out.warnings.begin(), out.warnings.end());
 
@@ -245,7 +246,7 @@ WrittenFiles write_render_outputs(const std::string& out_dir, const RenderInfo& 
         {"vkmech.lightSelection", {info.light_selection}}, {"vkmech.endVertex", {info.end_vertex}},
         {"vkmech.spp", {std::to_string(info.spp)}},   {"vkmech.seed", {std::to_string(info.seed)}},
         {"vkmech.device", {info.device}},              {"vkmech.features", {info.features}},
-        {"vkmech.warnings", reported.warnings},            {"vkmech.substitutions", info.substitutions}};
+        {"vkmech.warnings", reported.warnings},        {"vkmech.substitutions", info.substitutions}};
     write_exr_layers(out.exr, w, h, ch, attrs);
     out.png = (dir / (name + ".png")).string();
     write_png_rgb8(out.png, w, h, tonemap_srgb(rgb, static_cast<float>(std::exp2(static_cast<double>(info.exposure_ev)))));
