@@ -24,7 +24,7 @@ const float PI = 3.14159265358979;
 // estimator replaces it.
 vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
     Hit h;
-    if (!trace_closest(o, d, 0.0, 1e30, h)) return vec3(0.0);
+    if (!trace_closest(o, d, 0.0, RAY_TMAX, h)) return vec3(0.0);
     SurfaceHit s = surface_hit(h.prim, h.bary);
     vec3 L = vec3(0.0);
     bool front = dot(s.ng, d) < 0.0;
@@ -44,8 +44,8 @@ vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
     float cos_s = dot(ns, wi);
     float cos_l = -dot(ls.n, wi);
     if (cos_s <= 0.0 || cos_l <= 0.0 || dot(ng, wi) <= 0.0) return L;
-    vec3 po = offset_ray_origin(s.p, ng);
-    vec3 pl = offset_ray_origin(ls.p, ls.n);
+    vec3 po = offset_ray_origin(s.p, ng, s.scale);
+    vec3 pl = offset_ray_origin(ls.p, ls.n, ls.scale);
     vec3 seg = pl - po;
     float seg_len = length(seg);
     if (trace_any(po, seg / seg_len, 0.0, seg_len)) return L;
@@ -156,7 +156,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
     vec3 prev_p = o;
     for (uint k = 1u; k <= max_depth; ++k) {
         Hit h;
-        if (!trace_closest(o, d, 0.0, 1e30, h)) break;
+        if (!trace_closest(o, d, 0.0, RAY_TMAX, h)) break;
         SurfaceHit s = surface_hit(h.prim, h.bary);
 
         // ---- emission seen by this segment ----
@@ -225,8 +225,8 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
                 vec3 f = bsdf_eval(m, albedo, wo, wi);
                 if (f.x > 0.0 || f.y > 0.0 || f.z > 0.0) {
                     vec3 ng_side = dot(wi_world, s.ng) > 0.0 ? s.ng : -s.ng;
-                    vec3 po = offset_ray_origin(s.p, ng_side);
-                    vec3 pl = offset_ray_origin(ls.p, ls.n);
+                    vec3 po = offset_ray_origin(s.p, ng_side, s.scale);
+                    vec3 pl = offset_ray_origin(ls.p, ls.n, ls.scale);
                     vec3 seg = pl - po;
                     float seg_len = length(seg);
                     if (!trace_any(po, seg / seg_len, 0.0, seg_len)) {
@@ -276,7 +276,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
         if (!(max(throughput.x, max(throughput.y, throughput.z)) > 0.0)) break;
 
         vec3 ng_side = dot(wi_world, s.ng) > 0.0 ? s.ng : -s.ng;
-        o = offset_ray_origin(s.p, ng_side);
+        o = offset_ray_origin(s.p, ng_side, s.scale);
         d = wi_world;
     }
 }
@@ -303,8 +303,15 @@ void main() {
 
     vec3 rgb_sum = vec3(0.0);
     float n_ok = 0.0;
-    float mean = 0.0;
-    float m2 = 0.0;
+    // Welford in a scaled form (issue 10): luminance is divided by 2^lum_exp,
+    // the exponent of the largest |luminance| seen, so mean_s stays in [0, 1]
+    // and m2_s in [0, n]: M2 = m2_s * 4^lum_exp neither overflows (radiance
+    // 1e30: M2 ~ 1e60) nor underflows (1e-30) in float. Power-of-two scaling
+    // is exact, so the result is bit for bit the plain Welford's wherever that
+    // one stays in range.
+    int lum_exp = -126;
+    float mean_s = 0.0;
+    float m2_s = 0.0;
     float nonfinite = 0.0;
     float bucket_sum[BUCKET_COUNT];
     for (uint b = 0u; b < BUCKET_COUNT; ++b) bucket_sum[b] = 0.0;
@@ -332,16 +339,29 @@ void main() {
             t.L = preview_radiance(rng, o, d);
         }
         float lum = luminance(t.L);
-        bool bad = any(isnan(t.L)) || any(isinf(t.L)) || isnan(lum) || isinf(lum);
+        // A sample that would overflow the batch sums is as non-finite as
+        // one that is already: counted, never added (SPEC §3).
+        vec3 rgb_next = rgb_sum + t.L;
+        float depth_next = depth_sum + t.depth_sum;
+        bool bad = any(isnan(rgb_next)) || any(isinf(rgb_next)) || isnan(lum) || isinf(lum) || isnan(depth_next) ||
+                   isinf(depth_next);
         if (bad) {
-            nonfinite += 1.0;  // counted, never added (SPEC §3)
+            nonfinite += 1.0;
             continue;
         }
-        rgb_sum += t.L;
+        rgb_sum = rgb_next;
         n_ok += 1.0;
-        float delta = lum - mean;  // Welford within the batch
-        mean += delta / n_ok;
-        m2 += delta * (lum - mean);
+        int e;
+        frexp(lum, e);
+        if (lum != 0.0 && e > lum_exp) {  // a new largest magnitude: rescale
+            mean_s = ldexp(mean_s, lum_exp - e);
+            m2_s = ldexp(m2_s, 2 * (lum_exp - e));
+            lum_exp = e;
+        }
+        float x = ldexp(lum, -lum_exp);
+        float delta = x - mean_s;  // Welford within the batch
+        mean_s += delta / n_ok;
+        m2_s += delta * (x - mean_s);
         for (uint b = 0u; b < BUCKET_COUNT; ++b) bucket_sum[b] += t.bucket[b];
         glossy_sum += t.glossy;
         depth_sum += t.depth_sum;
@@ -349,7 +369,9 @@ void main() {
     }
     GpuPixelAccum a;
     a.rgb = vec4(rgb_sum, n_ok);
-    a.lum = vec4(mean, m2, nonfinite, 0.0);
+    // x: the mean itself (at most the largest sample: finite); y, w: M2 as
+    // m2_s * 4^w (host/render/frame.hpp, batch_lum_m2).
+    a.lum = vec4(ldexp(mean_s, lum_exp), m2_s, nonfinite, float(lum_exp));
     a.bucket0 = vec4(bucket_sum[0], bucket_sum[1], bucket_sum[2], bucket_sum[3]);
     a.bucket1 = vec4(bucket_sum[4], bucket_sum[5], bucket_sum[6], glossy_sum);
     a.side = vec4(depth_sum, depth_w, 0.0, 0.0);

@@ -50,8 +50,28 @@ vec3 texture_lookup(uint tex, vec2 uv_in) {
     return mix(mix(c00, c10, t.x), mix(c01, c11, t.x), t.y);
 }
 
+// The largest |coordinate| of three points: the magnitude that bounds the
+// rounding error of a point interpolated between them (ray offsets below).
+float max_abs3(vec3 a, vec3 b, vec3 c) {
+    vec3 m = max(abs(a), max(abs(b), abs(c)));
+    return max(m.x, max(m.y, m.z));
+}
+
+// The unit normal of the triangle with edges e1, e2 at any scene scale: the
+// edges are first scaled by a power of two (exact) so that neither the cross
+// product nor its squared length overflows (coordinates ~1e12) or underflows
+// (~1e-12). Zero for a degenerate triangle, never NaN.
+vec3 triangle_normal(vec3 e1, vec3 e2) {
+    float m = max(max_abs3(e1, e2, vec3(0.0)), 1e-38);
+    int ex;
+    frexp(m, ex);
+    vec3 c = cross(ldexp(e1, ivec3(-ex)), ldexp(e2, ivec3(-ex)));
+    return dot(c, c) > 0.0 ? normalize(c) : vec3(0.0);
+}
+
 struct SurfaceHit {
     vec3 p;        // world position
+    float scale;   // max |coordinate| of the hit triangle's vertices (ray offsets)
     vec3 ng;       // geometric normal (winding order)
     vec3 ns;       // shading normal, same hemisphere as ng
     vec2 uv;
@@ -67,7 +87,8 @@ SurfaceHit surface_hit(uint prim, vec2 bary) {
     float w0 = 1.0 - bary.x - bary.y;
     SurfaceHit s;
     s.p = w0 * a.position.xyz + bary.x * b.position.xyz + bary.y * c.position.xyz;
-    s.ng = normalize(cross(b.position.xyz - a.position.xyz, c.position.xyz - a.position.xyz));
+    s.scale = max_abs3(a.position.xyz, b.position.xyz, c.position.xyz);
+    s.ng = triangle_normal(b.position.xyz - a.position.xyz, c.position.xyz - a.position.xyz);
     if ((tri.w & TRI_FLAT_BIT) != 0u) {
         s.ns = s.ng;
     } else {
@@ -82,21 +103,24 @@ SurfaceHit surface_hit(uint prim, vec2 bary) {
     return s;
 }
 
-// Scale-aware self-intersection avoidance (Wächter & Binder, Ray Tracing
-// Gems ch. 6): move p along n by a few ulps, or by a small absolute step near
-// the origin. n must point to the side the new ray leaves from.
-vec3 offset_ray_origin(vec3 p, vec3 n) {
-    const float origin = 1.0 / 32.0;
-    const float float_scale = 1.0 / 65536.0;
-    const float int_scale = 256.0;
-    ivec3 of_i = ivec3(int_scale * n);
-    vec3 p_i = vec3(intBitsToFloat(floatBitsToInt(p.x) + ((p.x < 0.0) ? -of_i.x : of_i.x)),
-                    intBitsToFloat(floatBitsToInt(p.y) + ((p.y < 0.0) ? -of_i.y : of_i.y)),
-                    intBitsToFloat(floatBitsToInt(p.z) + ((p.z < 0.0) ? -of_i.z : of_i.z)));
-    return vec3(abs(p.x) < origin ? p.x + float_scale * n.x : p_i.x,
-                abs(p.y) < origin ? p.y + float_scale * n.y : p_i.y,
-                abs(p.z) < origin ? p.z + float_scale * n.z : p_i.z);
+// Scale-aware self-intersection avoidance (issue 10): the rounding error of
+// a hit point interpolated from its triangle, and of the intersection test
+// that must not find that triangle again from the new origin, is a few ulps
+// of the triangle's largest coordinate (pbrt-v4's error bounds, Wächter &
+// Binder's "A Fast and Robust Method for Avoiding Self-Intersection", Ray
+// Tracing Gems ch. 6), so p moves along n by RAY_OFFSET_ULPS of that
+// magnitude, with no absolute epsilon: a scene scaled by 1e-6 or 1e12
+// renders the same image. `scale` is SurfaceHit.scale (LightSample.scale);
+// n points to the side the new ray leaves from.
+const float RAY_OFFSET_ULPS = 64.0;
+vec3 offset_ray_origin(vec3 p, vec3 n, float scale) {
+    float m = max(scale, max(abs(p.x), max(abs(p.y), abs(p.z))));
+    return p + n * (RAY_OFFSET_ULPS * 1.1920929e-7 * m);
 }
+
+// The farthest t a ray is traced to: beyond any scene whose squared
+// distances are representable (coordinates below ~1e19).
+const float RAY_TMAX = 3.0e38;
 
 float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
 
@@ -116,6 +140,7 @@ struct LightSample {
     vec3 n;         // emitting side
     vec3 radiance;
     float pdf_area; // selection * uniform area
+    float scale;    // max |coordinate| of the light triangle (ray offsets)
 };
 
 LightSample sample_light(vec3 u) {
@@ -131,7 +156,8 @@ LightSample sample_light(vec3 u) {
     float b1 = u.z * su;
     LightSample s;
     s.p = b0 * a + b1 * b + (1.0 - b0 - b1) * c;
-    s.n = normalize(cross(b - a, c - a));
+    s.n = triangle_normal(b - a, c - a);
+    s.scale = max_abs3(a, b, c);
     s.radiance = emitters[lt.info.y].radiance.rgb;
     s.pdf_area = lt.cdf.z;
     return s;

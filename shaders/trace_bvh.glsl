@@ -22,7 +22,11 @@ vec3 safe_inverse(vec3 d) {
                 abs(d.z) > 1e-30 ? 1.0 / d.z : (d.z >= 0.0 ? big : -big));
 }
 
-// Slab test; returns the entry distance or +inf when missed.
+// A box or triangle the ray misses: beyond every t a ray is traced to
+// (RAY_TMAX), so a hit at any scene scale is never mistaken for a miss.
+const float BVH_MISS = 3.4e38;
+
+// Slab test; returns the entry distance or BVH_MISS when missed.
 float bvh_box_entry(vec3 bmin, vec3 bmax, vec3 o, vec3 inv_d, float tmin, float tmax) {
     vec3 t0 = (bmin - o) * inv_d;
     vec3 t1 = (bmax - o) * inv_d;
@@ -32,7 +36,7 @@ float bvh_box_entry(vec3 bmin, vec3 bmax, vec3 o, vec3 inv_d, float tmin, float 
     float leave = min(min(hi.x, hi.y), min(hi.z, tmax));
     // Robust to rounding at grazing slabs (Ize 2013: scale the far bound).
     leave *= 1.0000004;
-    return enter <= leave ? enter : 1e38;
+    return enter <= leave ? enter : BVH_MISS;
 }
 
 // Möller–Trumbore, double-sided.
@@ -50,7 +54,9 @@ bool bvh_tri_intersect(uint i, vec3 o, vec3 d, float tmin, float tmax, out float
     vec3 q = cross(s, e1);
     float v = dot(d, q) * inv_det;
     if (v < 0.0 || u + v > 1.0) return false;
-    t = dot(e2, q) * inv_det;
+    // q * inv_det is O(1): dot(e2, q) alone is O(coordinate^3) and
+    // overflows float for coordinates ~1e13.
+    t = dot(e2, q * inv_det);
     if (t <= tmin || t >= tmax) return false;
     uv = vec2(u, v);
     return true;
@@ -64,7 +70,7 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
     uint stack[BVH_STACK_SIZE];
     uint sp = 0u;
     uint node = 0u;
-    if (bvh_box_entry(bvh_nodes[0].bmin.xyz, bvh_nodes[0].bmax.xyz, o, inv_d, tmin, tmax) > 1e37) return false;
+    if (bvh_box_entry(bvh_nodes[0].bmin.xyz, bvh_nodes[0].bmax.xyz, o, inv_d, tmin, tmax) >= BVH_MISS) return false;
     while (true) {
         GpuBvhNode n = bvh_nodes[node];
         uint offset = floatBitsToUint(n.bmin.w);
@@ -87,16 +93,16 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
             GpuBvhNode nb = bvh_nodes[b];
             float ta = bvh_box_entry(na.bmin.xyz, na.bmax.xyz, o, inv_d, tmin, hit.t);
             float tb = bvh_box_entry(nb.bmin.xyz, nb.bmax.xyz, o, inv_d, tmin, hit.t);
-            if (ta < 1e37 && tb < 1e37) {
+            if (ta < BVH_MISS && tb < BVH_MISS) {
                 // Near child first; push the far one.
                 if (tb < ta) { uint tmp = a; a = b; b = tmp; }
                 if (sp < BVH_STACK_SIZE) { stack[sp] = b; sp += 1u; }
                 node = a;
                 continue;
-            } else if (ta < 1e37) {
+            } else if (ta < BVH_MISS) {
                 node = a;
                 continue;
-            } else if (tb < 1e37) {
+            } else if (tb < BVH_MISS) {
                 node = b;
                 continue;
             }

@@ -5,7 +5,10 @@
 namespace vkmech::testing {
 
 Frame render_scene(vk::Context& ctx, const std::string& path, const RenderSetup& setup) {
-    Scene scene = load_scene(path, setup.load);
+    return render_scene(ctx, load_scene(path, setup.load), setup);
+}
+
+Frame render_scene(vk::Context& ctx, Scene scene, const RenderSetup& setup) {
     scene.camera.set_film_width(setup.res);
     SceneArrays arrays = flatten_scene(scene);
     GpuScene gpu(ctx, arrays, setup.traversal);

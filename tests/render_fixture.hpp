@@ -26,5 +26,7 @@ struct RenderSetup {
 };
 
 Frame render_scene(vk::Context& ctx, const std::string& path, const RenderSetup& setup);
+// The same for a scene already loaded (and perhaps changed by the test).
+Frame render_scene(vk::Context& ctx, Scene scene, const RenderSetup& setup);
 
 }  // namespace vkmech::testing

@@ -94,6 +94,33 @@ TEST_SUITE("gpu") {
         fs::remove_all(out);
     }
 
+    TEST_CASE("cli: a black render warns on stderr and in the JSON - exit 0") {
+        VKMECH_REQUIRE_GPU(ctx);
+        fs::path dir = fs::temp_directory_path() / ("vkmech_cli_black_" + std::to_string(::getpid()));
+        fs::create_directories(dir);
+        // The one emitter is behind the only surface, which hides it from
+        // the camera and faces away from it.
+        std::ofstream(dir / "away.xml") << R"(<scene version="3.0.0">
+    <sensor type="perspective"><transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform></sensor>
+    <shape type="rectangle"><bsdf type="diffuse"/></shape>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="0.2"/><translate z="-2"/></transform>
+        <emitter type="area"><rgb name="radiance" value="5, 5, 5"/></emitter>
+    </shape>
+</scene>
+)";
+        auto r = run_cli("render --scene " + (dir / "away.xml").string() + " --spp 2 --res 16 --out " + (dir / "out").string());
+        INFO(r.output);
+        CHECK(r.code == 0);
+        CHECK(r.output.find("vkmech: warning: the image is black") != std::string::npos);
+        CHECK(r.output.find("vkmech: warning: no pixel has a label") != std::string::npos);
+        std::ifstream json(dir / "out" / "away.json");
+        std::stringstream ss;
+        ss << json.rdbuf();
+        CHECK(ss.str().find("the image is black") != std::string::npos);
+        fs::remove_all(dir);
+    }
+
     TEST_CASE("cli: --capture off writes the image channels alone and the JSON summary reports the run") {
         VKMECH_REQUIRE_GPU(ctx);
         fs::path out = fs::temp_directory_path() / ("vkmech_cli_nocap_" + std::to_string(::getpid()));

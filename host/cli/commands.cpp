@@ -112,6 +112,12 @@ Scene load_for_cli(const CommonOptions& o, bool report = true) {
     return scene;
 }
 
+// Issue 10: a black image, an empty label map or a value beyond float's
+// range is said on stderr (and in the JSON); the exit code stays 0.
+void report_render_warnings(const WrittenFiles& files) {
+    for (const auto& w : files.warnings) std::cerr << "vkmech: warning: " << w << "\n";
+}
+
 std::string scene_stem(const std::string& name_or_path) { return fs::path(name_or_path).stem().string(); }
 
 // The output set of a render (issue 10): --out must be writable before anything renders (exit 2 otherwise).
@@ -225,6 +231,7 @@ int cmd_render(const RenderOptions& o) {
     }
     WrittenFiles files = write_render_outputs(*set, info, frame, desc ? &*desc : nullptr, summary ? &*summary : nullptr);
     set->commit();
+    report_render_warnings(files);
 
     double paths_per_s = frame.seconds > 0 ? frame.samples / frame.seconds : 0.0;
     uint64_t nonfinite = 0;
@@ -648,6 +655,7 @@ int cmd_render_adaptive(const RenderOptions& o) {
     Descriptor desc = derive_descriptor(frame);
     DescriptorSummary summary = summarize(frame, desc);
     WrittenFiles files = write_render_outputs(*set, info, frame, &desc, &summary);
+    report_render_warnings(files);
     std::vector<float> nmap(plan.n.begin(), plan.n.end());
     write_png_rgb8(set->staged(name + "_spp.png"), frame.width, frame.height,
                    grey_to_rgb8(nmap, 0.0f, static_cast<float>(max_n)));

@@ -7,6 +7,7 @@
 
 #include <stb/stb_easy_font.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -111,7 +112,32 @@ double clipped_share(const std::vector<float>& rgb, float exposure_ev) {
     return static_cast<double>(clipped) / static_cast<double>(rgb.size() / 3);
 }
 
-std::string summary_json(const RenderInfo& info, const Frame& frame, const DescriptorSummary* s) {
+std::vector<std::string> render_warnings(const Frame& frame, const DescriptorSummary* s) {
+    std::vector<std::string> out;
+    uint64_t nonfinite = 0;
+    bool black = true;
+    for (const auto& p : frame.pixels) {
+        nonfinite += static_cast<uint64_t>(p.nonfinite);
+        for (double c : p.rgb_sum) black = black && c == 0.0;
+    }
+    const std::string causes =
+        "likely causes: no emitter visible or reachable from the camera (emitters facing away, zero radiance or zero "
+        "area, all occluded), the camera inside geometry or not framing it (its transform or fov), or a scene scale "
+        "that puts the geometry out of view";
+    if (black && !frame.pixels.empty())
+        out.push_back("the image is black: every pixel's radiance is 0 (" + std::to_string(frame.pixels.size()) +
+                      " pixels); " + causes);
+    if (s && s->labelled_pixels == 0 && !frame.pixels.empty())
+        out.push_back("no pixel has a label (zero bucket energy everywhere: the dominant map is empty); " + causes);
+    if (nonfinite > 0)
+        out.push_back(std::to_string(nonfinite) +
+                      " non-finite samples (NaN or inf radiance, or a sample that would overflow float sums) were "
+                      "excluded from the estimates; the EXR's nonfinite channel has them per pixel");
+    return out;
+}
+
+std::string summary_json(const RenderInfo& info, const Frame& frame, const DescriptorSummary* s,
+                         uint64_t nonfinite_outputs) {
     std::ostringstream o;
     o.precision(9);
     double paths_per_s = frame.seconds > 0 ? static_cast<double>(frame.samples) / frame.seconds : 0.0;
@@ -136,6 +162,7 @@ std::string summary_json(const RenderInfo& info, const Frame& frame, const Descr
     }
     o << "  \"paths_per_second\": " << paths_per_s << ",\n";
     o << "  \"nonfinite_samples\": " << nonfinite << ",\n";
+    o << "  \"nonfinite_output_values\": " << nonfinite_outputs << ",\n";
     o << "  \"preview_exposure_ev\": " << info.exposure_ev << ",\n";
     o << "  \"preview_clipped_pixel_share\": " << clipped_share(frame.rgb_mean(), info.exposure_ev) << ",\n";
     auto list = [&](const char* key, const std::vector<std::string>& v) {
@@ -191,7 +218,26 @@ WrittenFiles write_render_outputs(OutputSet& set, const RenderInfo& info, const 
     channel("spp", [&](size_t i) { return frame.pixels[i].count + frame.pixels[i].nonfinite; });
     channel("nonfinite", [&](size_t i) { return frame.pixels[i].nonfinite; });
 
+    // Nothing non-finite reaches a file unreported: a value beyond float's
+    // range (lum_var of radiance ~1e30 is ~1e60) is counted and warned of.
     WrittenFiles out;
+    out.warnings = render_warnings(frame, s);
+    uint64_t nonfinite_outputs = 0;
+    std::string nonfinite_channels;
+    for (const auto& c : ch) {
+        size_t bad = std::count_if(c.data.begin(), c.data.end(), [](float v) { return !std::isfinite(v); });
+        if (bad == 0) continue;
+        nonfinite_outputs += bad;
+        nonfinite_channels += (nonfinite_channels.empty() ? "" : ", ") + c.name + " (" + std::to_string(bad) + ")";
+    }
+    if (nonfinite_outputs > 0)
+        out.warnings.push_back(std::to_string(nonfinite_outputs) +
+                               " EXR values are not finite (inf or NaN): " + nonfinite_channels +
+                               "; a value beyond float's range means an extreme radiance scale (rescale the "
+                               "emitters)");
+    RenderInfo reported = info;
+    reported.warnings.insert(reported.warnings.end(), out.warnings.begin(), out.warnings.end());
+
     const std::string& name = info.scene_name;
     // Each file is staged, then its final path recorded; a signal stops between files.
     auto stage = [&](std::string& final_path, const std::string& file, auto&& write) {
@@ -205,7 +251,7 @@ WrittenFiles write_render_outputs(OutputSet& set, const RenderInfo& info, const 
         {"vkmech.lightSelection", {info.light_selection}}, {"vkmech.endVertex", {info.end_vertex}},
         {"vkmech.spp", {std::to_string(info.spp)}},   {"vkmech.seed", {std::to_string(info.seed)}},
         {"vkmech.device", {info.device}},              {"vkmech.features", {info.features}},
-        {"vkmech.warnings", info.warnings},            {"vkmech.substitutions", info.substitutions},
+        {"vkmech.warnings", reported.warnings},        {"vkmech.substitutions", info.substitutions},
         {"vkmech.runId", {set.run_id()}}};
     stage(out.exr, name + ".exr", [&](const std::string& p) { write_exr_layers(p, w, h, ch, attrs); });
     stage(out.png, name + ".png", [&](const std::string& p) {
@@ -220,7 +266,8 @@ WrittenFiles write_render_outputs(OutputSet& set, const RenderInfo& info, const 
         stage(out.purity_png, name + "_purity.png",
               [&](const std::string& p) { write_png_rgb8(p, w, h, grey_to_rgb8(d->purity, 0.0f, 1.0f)); });
     }
-    stage(out.json, name + ".json", [&](const std::string& p) { write_file_atomic(p, summary_json(info, frame, s)); });
+    stage(out.json, name + ".json",
+          [&](const std::string& p) { write_file_atomic(p, summary_json(reported, frame, s, nonfinite_outputs)); });
     return out;
 }
 

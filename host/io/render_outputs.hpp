@@ -34,6 +34,10 @@ struct RenderInfo {
 
 struct WrittenFiles {
     std::string exr, png, dominant_png, purity_png, json;
+    // What the render itself warns of (render_warnings, and EXR values that
+    // are not finite); recorded with the loader's in the JSON and the EXR
+    // header. The CLI prints them on stderr.
+    std::vector<std::string> warnings;
 };
 
 // The EXR channel names, in file order (documented in README.md).
@@ -54,7 +58,14 @@ std::vector<uint8_t> categorical_map_with_legend(int width, int height, const st
                                                  int* out_w, int* out_h);
 std::vector<uint8_t> dominant_map_with_legend(const Descriptor& d, int* out_width, int* out_height);
 
-std::string summary_json(const RenderInfo& info, const Frame& frame, const DescriptorSummary* summary);
+// Issue 10, "never silent garbage": a black image, a label map without a
+// single label, and excluded non-finite samples, each with its likely causes.
+std::vector<std::string> render_warnings(const Frame& frame, const DescriptorSummary* summary);
+
+// nonfinite_outputs: values written to the EXR as inf or NaN (a lum_var
+// beyond float's range), reported beside the non-finite samples.
+std::string summary_json(const RenderInfo& info, const Frame& frame, const DescriptorSummary* summary,
+                         uint64_t nonfinite_outputs = 0);
 
 // Share of pixels whose preview at `exposure_ev` clips (a channel above 1 or
 // non-finite).

@@ -1,5 +1,7 @@
 #include "render/frame.hpp"
 
+#include <cmath>
+
 namespace vkmech {
 
 void PixelStats::merge_moments(double n, double mean, double m2) {
@@ -11,12 +13,16 @@ void PixelStats::merge_moments(double n, double mean, double m2) {
     count = total;
 }
 
+double batch_lum_m2(const gpu::GpuPixelAccum& a) {
+    return std::ldexp(static_cast<double>(a.lum.y), 2 * static_cast<int>(a.lum.w));
+}
+
 void Frame::merge(const std::vector<gpu::GpuPixelAccum>& batch) {
     for (size_t i = 0; i < pixels.size(); ++i) {
         const auto& a = batch[i];
         PixelStats& p = pixels[i];
         for (int c = 0; c < 3; ++c) p.rgb_sum[c] += a.rgb[c];
-        p.merge_moments(a.rgb.w, a.lum.x, a.lum.y);
+        p.merge_moments(a.rgb.w, a.lum.x, batch_lum_m2(a));
         p.nonfinite += a.lum.z;
         for (int b = 0; b < 4; ++b) p.bucket_sum[b] += a.bucket0[b];
         for (int b = 0; b < 3; ++b) p.bucket_sum[4 + b] += a.bucket1[b];

@@ -26,6 +26,11 @@ struct PixelStats {
     double lum_var() const { return count > 1.0 ? lum_m2 / (count - 1.0) : 0.0; }  // ddof 1
 };
 
+// A batch's M2 of luminance, in double: the shader stores it scaled by a
+// power of two (lum.y * 4^lum.w, shaders/pathtrace.comp) so that it neither
+// overflows nor underflows float.
+double batch_lum_m2(const gpu::GpuPixelAccum& a);
+
 struct Frame {
     int width = 0, height = 0;
     std::vector<PixelStats> pixels;

@@ -155,7 +155,6 @@ SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
     }
     a.bbox_lo = lo;
     a.bbox_hi = hi;
-    a.scene_scale = std::max({std::abs(lo.x), std::abs(lo.y), std::abs(lo.z), std::abs(hi.x), std::abs(hi.y), std::abs(hi.z), 1e-3f});
 
     // Light table: every emissive triangle with its selection weight
     // (SPEC §1). Uniform: 1 / (emitters x the emitter's area) per unit area;

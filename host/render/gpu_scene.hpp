@@ -40,7 +40,6 @@ struct SceneArrays {
     float light_weight_total = 0.0f;  // sum of the light-selection weights (power: luminance x area)
     LightSelection light_selection = LightSelection::Uniform;
     glm::vec3 bbox_lo{0.0f}, bbox_hi{0.0f};
-    float scene_scale = 1.0f;  // largest |coordinate| of the bounding box, for ray offsets
 };
 
 // Throws SceneError for scenes that cannot be rendered (no triangles).

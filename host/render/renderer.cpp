@@ -126,7 +126,7 @@ Frame Renderer::render(const RenderSpec& spec) {
     p.sampling = glm::uvec4(0, scene_.integrator.max_depth, scene_.integrator.rr_depth, 0);
     p.scene = glm::uvec4(static_cast<uint32_t>(arrays_.light_triangles.size()), static_cast<uint32_t>(arrays_.emitters.size()),
                          static_cast<uint32_t>(arrays_.triangles.size()), spec.mode);
-    p.lights = glm::vec4(arrays_.light_weight_total, arrays_.scene_scale, 0.0f, 0.0f);
+    p.lights = glm::vec4(arrays_.light_weight_total, 0.0f, 0.0f, 0.0f);
     p.debug = glm::uvec4(debug_pixel_, debug_capacity_, 0u, 0u);
 
     // Adaptive: n(p) samples at each pixel, samples [0, n(p)) of the seed (SPEC §6).

@@ -1,5 +1,6 @@
 #include "scene/scene.hpp"
 
+#include "scene/mesh_ops.hpp"
 #include "scene/text_parse.hpp"
 
 #include <filesystem>
@@ -80,6 +81,15 @@ Scene load_scene(const std::string& path, const LoadOptions& options) {
         throw SceneError(path, 0,
                          "unsupported scene format '" + ext + "' (expected .xml (Mitsuba), .gltf or .glb (glTF 2.0))");
     // Loads, but would render black: say so (glTF assets often carry no light).
+    for (const auto& e : scene.emitters) {
+        const Mesh& m = scene.meshes.at(static_cast<size_t>(e.mesh));
+        if (!(e.radiance.x > 0.0f || e.radiance.y > 0.0f || e.radiance.z > 0.0f))
+            scene.warnings.push_back(path + ": the emitter on shape '" + m.name +
+                                     "' has zero radiance: it emits nothing");
+        else if (!(surface_area(m) > 0.0))
+            scene.warnings.push_back(path + ": the emitter on shape '" + m.name +
+                                     "' has zero area (degenerate triangles): it emits nothing");
+    }
     if (scene.emitters.empty())
         scene.warnings.push_back(path + ": the scene has no emitter vkmech renders, so the image will be black" +
                                  (options.substitute_unsupported ? std::string()

@@ -20,7 +20,7 @@ Pilot render_pilot(Renderer& r, uint32_t n0, uint32_t seed, bool robust) {
         spec.on_batch = [&](const std::vector<gpu::GpuPixelAccum>& b) {
             if (static_cast<int>(blocks.size()) >= k) return;  // the trailing remainder is not used
             std::vector<alloc::BlockMoments> m(b.size());
-            for (size_t p = 0; p < b.size(); ++p) m[p] = {b[p].rgb.w, b[p].lum.x, b[p].lum.y};
+            for (size_t p = 0; p < b.size(); ++p) m[p] = {b[p].rgb.w, b[p].lum.x, batch_lum_m2(b[p])};
             blocks.push_back(std::move(m));
         };
     }

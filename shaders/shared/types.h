@@ -115,7 +115,7 @@ struct GpuParams {
     uvec4 film;        // width, height, seed, samples in this batch
     uvec4 sampling;    // first sample index, max_depth, rr_depth, estimator
     uvec4 scene;       // light triangle count, emitter count, triangle count, mode
-    vec4 lights;       // x: total light weight, y: scene scale (for ray offsets)
+    vec4 lights;       // x: total light weight (ray offsets follow each hit triangle: scene_data.glsl)
     uvec4 debug;       // x: pixel whose events are recorded, y: capacity (0: off)
     uvec4 adaptive;    // x: 1 = per-pixel sample counts (binding 15): pixel p takes samples [0, n(p)) only
 };
@@ -132,7 +132,7 @@ struct GpuDebugEvent {
 // (DESIGN "stable numerics"); the host merges batches in double.
 struct GpuPixelAccum {
     vec4 rgb;          // rgb sum, w: samples counted (finite)
-    vec4 lum;          // x: mean luminance, y: M2, z: non-finite samples, w: unused
+    vec4 lum;          // x: mean luminance, y: M2 / 4^w (scaled Welford), z: non-finite samples, w: exponent
     vec4 bucket0;      // energy sums of buckets 0..3
     vec4 bucket1;      // energy sums of buckets 4..6, w: glossy-touching energy sum
     vec4 side;         // x: sum(energy * depth) over n >= 1, y: energy sum over n >= 1
