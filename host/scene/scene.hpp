@@ -20,9 +20,11 @@ namespace vkmech {
 class SceneError : public std::runtime_error {
 public:
     SceneError(const std::string& file, int line, const std::string& what)
-        : std::runtime_error(format(file, line, what)), file_(file), line_(line) {}
+        : std::runtime_error(format(file, line, what)), file_(file), line_(line), reason_(what) {}
     const std::string& file() const { return file_; }
     int line() const { return line_; }
+    // What is wrong, without the "file:line: " prefix (to re-wrap it).
+    const std::string& reason() const { return reason_; }
 
 private:
     static std::string format(const std::string& file, int line, const std::string& what) {
@@ -30,6 +32,7 @@ private:
     }
     std::string file_;
     int line_;
+    std::string reason_;
 };
 
 // Material models of SPEC §2 (Mitsuba 3 plugin names).
