@@ -39,6 +39,9 @@ void add_common_options(CLI::App* app, CommonOptions& o) {
                   "maps by an overhead panel of their mean radiance, point/spot/directional lights by emitters of the "
                   "same power or irradiance, phong/blendbsdf/cut-out masks/other BSDFs by the nearest material, media "
                   "ignored (README: Your own scenes)");
+    app->add_option("--max-triangles", o.max_triangles,
+                    "Most triangles the scene may expand to (default: $VKMECH_MAX_TRIANGLES, else 50000000)")
+        ->check(CLI::PositiveNumber);
     app->add_flag("--validation", o.validation, "Enable the Vulkan validation layers when installed");
     add_pipeline_cache_option(app, o.pipeline_cache);
 }
@@ -91,6 +94,7 @@ namespace {
 LoadOptions load_options(const CommonOptions& o) {
     LoadOptions lo;
     lo.substitute_unsupported = o.substitute;
+    lo.max_triangles = o.max_triangles;
     for (const auto& d : o.defines) {
         auto eq = d.find('=');
         if (eq == std::string::npos || eq == 0) throw UsageError("-D expects name=value, got '" + d + "'");

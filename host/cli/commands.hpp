@@ -23,6 +23,7 @@ struct CommonOptions {
     std::optional<uint32_t> device;     // --device N
     std::string traversal = "auto";     // auto | rayquery | bvh
     bool substitute = false;            // replace unsupported emitters (SPEC §8)
+    size_t max_triangles = 0;           // --max-triangles N (0: $VKMECH_MAX_TRIANGLES or the default)
     bool validation = false;            // Vulkan validation layers
     std::optional<std::string> pipeline_cache;  // --pipeline-cache DIR|off (vk::ContextOptions)
 };

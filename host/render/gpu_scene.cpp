@@ -95,6 +95,7 @@ LightSelection parse_light_selection(const std::string& s) {
 SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
     SceneArrays a;
     if (scene.triangle_count() == 0) throw SceneError(scene.source, 0, "the scene has no geometry to render");
+    scene.check();  // the arrays below index normals, uvs and positions by the mesh's indices
     if (scene.materials.size() > gpu::TRI_MATERIAL_MASK) throw SceneError(scene.source, 0, "too many materials");
     if (scene.emitters.size() >= gpu::TRI_EMITTER_MASK) throw SceneError(scene.source, 0, "too many emitters");
 

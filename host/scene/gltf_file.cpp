@@ -3,6 +3,8 @@
 // validated against their buffer views and buffers.
 #include "scene/gltf_loader.hpp"
 
+#include "scene/file_read.hpp"
+
 #include <algorithm>
 #include <cctype>
 #include <climits>
@@ -32,6 +34,47 @@ uint32_t read_u32(const std::vector<unsigned char>& b, size_t at) {
     uint32_t v;
     std::memcpy(&v, b.data() + at, 4);  // GLB is little-endian, as is every supported host
     return v;
+}
+
+// glTF's sizes are 32-bit: no file of it can be larger.
+constexpr uint64_t kMaxGltfFileBytes = UINT_MAX;
+
+// tinygltf's reader of external buffers and images, through the loader's
+// (regular files only: a buffer URI naming a FIFO must not block).
+bool read_referenced_file(std::vector<unsigned char>* out, std::string* err, const std::string& path, void*) {
+    try {
+        const std::string bytes = read_regular_file(path, "file", kMaxGltfFileBytes);
+        out->assign(bytes.begin(), bytes.end());
+        return true;
+    } catch (const SceneError& e) {
+        if (err) *err += e.what();
+        return false;
+    }
+}
+
+// tinygltf's JSON parser recurses once per nesting level: 200,000 '['
+// overflow the stack. glTF itself nests a few levels (extras some more).
+constexpr int kMaxJsonNesting = 256;
+
+void check_json_nesting(const unsigned char* json, size_t size, const std::string& path) {
+    int depth = 0;
+    bool in_string = false;
+    for (size_t i = 0; i < size; ++i) {
+        const unsigned char c = json[i];
+        if (in_string) {
+            if (c == '\\') ++i;
+            else if (c == '"') in_string = false;
+        } else if (c == '"') {
+            in_string = true;
+        } else if (c == '[' || c == '{') {
+            if (++depth > kMaxJsonNesting)
+                throw SceneError(path, 1 + static_cast<int>(std::count(json, json + i, '\n')),
+                                 "JSON nested deeper than " + std::to_string(kMaxJsonNesting) +
+                                     " levels (a corrupt or generated file?)");
+        } else if (c == ']' || c == '}') {
+            --depth;
+        }
+    }
 }
 
 // The GLB container (glTF 2.0 §4.4), checked before tinygltf sees it: the
@@ -124,14 +167,16 @@ constexpr size_t kMaxZeroAccessor = size_t(1) << 24;
 // ---- the file ----
 
 void GltfLoader::parse() {
-    std::ifstream in(path_, std::ios::binary);
-    if (!in) fail("cannot open scene file");
-    std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (in.bad()) fail("cannot read scene file");
-    if (bytes.size() > UINT_MAX) fail("the file is larger than 4 GiB (glTF's limit)");
+    std::vector<unsigned char> bytes;
+    {
+        const std::string text = read_regular_file(path_, "scene file", kMaxGltfFileBytes);
+        bytes.assign(text.begin(), text.end());
+    }
 
     tinygltf::TinyGLTF gltf;
     gltf.SetImageLoader(&keep_encoded_image, nullptr);
+    gltf.SetFsCallbacks({&tinygltf::FileExists, &tinygltf::ExpandFilePath, &read_referenced_file,
+                         &tinygltf::WriteWholeFile, nullptr});
     std::string err, warn_text;
     std::string base_dir = fs::path(path_).parent_path().string();
     bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
@@ -142,9 +187,11 @@ void GltfLoader::parse() {
     try {
         if (binary) {
             size_t length = check_glb(bytes, path_);
+            check_json_nesting(bytes.data() + 20, read_u32(bytes, 12), path_);
             ok = gltf.LoadBinaryFromMemory(&model_, &err, &warn_text, bytes.data(), static_cast<unsigned>(length),
                                            base_dir);
         } else {
+            check_json_nesting(bytes.data(), bytes.size(), path_);
             ok = gltf.LoadASCIIFromString(&model_, &err, &warn_text, reinterpret_cast<const char*>(bytes.data()),
                                           static_cast<unsigned>(bytes.size()), base_dir);
         }

@@ -27,7 +27,8 @@ std::string fmt_vec(const glm::vec3& v) {
 
 }  // namespace
 
-GltfLoader::GltfLoader(const std::string& path, const LoadOptions& options) : path_(path), options_(options) {}
+GltfLoader::GltfLoader(const std::string& path, const LoadOptions& options)
+    : path_(path), options_(options), budget_(max_triangles(options, path)) {}
 
 void GltfLoader::warn_once(const std::string& key, const std::string& what) {
     if (warned_.insert(key).second) warn(what);
@@ -209,6 +210,7 @@ void GltfLoader::add_primitive(int n, int mi, int pi, const glm::dmat4& world) {
     }
     if (idx.size() % 3 != 0)
         fail(label + ": " + std::to_string(idx.size()) + " indices is not a whole number of triangles");
+    budget_.charge(idx.size() / 3, path_, 0, label);  // each instance of a mesh counts
     for (size_t i = 0; i < idx.size(); ++i)
         if (idx[i] >= nv)
             fail(label + ": index " + std::to_string(idx[i]) + " (at " + std::to_string(i) + ") is out of range (" +
@@ -393,6 +395,7 @@ void GltfLoader::add_light_spheres() {
         glm::vec3 color = light.color.empty() ? glm::vec3(1.0f)
                                               : glm::vec3(light.color[0], light.color[1], light.color[2]);
         Mesh s = make_sphere(pl.position, radius, glm::mat4(1.0f), false, SphereTessellation{16, 32});
+        budget_.charge(s.indices.size(), path_, 0, "the sphere standing in for light " + std::to_string(pl.light));
         // Equal power: a point light of intensity I (W/sr in vkmech's units)
         // emits 4 pi I; a sphere of area A with uniform one-sided radiance L
         // emits pi L A. So L = 4 I / A, which is I / (pi r^2) for an exact

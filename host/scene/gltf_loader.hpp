@@ -7,6 +7,7 @@
 #pragma once
 
 #include "scene/scene.hpp"
+#include "scene/triangle_budget.hpp"
 
 #include <tiny_gltf.h>
 
@@ -89,6 +90,7 @@ private:
     std::set<std::string> warned_;
     bool have_camera_ = false;
     size_t skipped_primitives_ = 0;
+    TriangleBudget budget_;
 
     struct PendingLight {
         int light = -1;

@@ -5,13 +5,12 @@
 #include "scene/image_texture.hpp"
 
 #include "io/exr.hpp"
+#include "scene/file_read.hpp"
 #include "scene/text_parse.hpp"
 
 #include <climits>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <memory>
 #include <stdexcept>
 #include <vector>
@@ -25,12 +24,28 @@ float srgb_to_linear(float c) {
     return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
 }
 
+// An image's header may claim any size; stb would try to allocate it.
+constexpr int kMaxImageSide = 16384;
+constexpr long long kMaxImagePixels = 1ll << 26;  // 8192 x 8192: 768 MiB of float RGB
+
+void check_image_size(const unsigned char* bytes, int len) {
+    int w = 0, h = 0, channels = 0;
+    if (!stbi_info_from_memory(bytes, len, &w, &h, &channels))
+        throw std::runtime_error(stbi_failure_reason() ? stbi_failure_reason() : "cannot decode image");
+    if (w > kMaxImageSide || h > kMaxImageSide || static_cast<long long>(w) * h > kMaxImagePixels)
+        throw std::runtime_error("the image claims " + std::to_string(w) + " x " + std::to_string(h) +
+                                 " pixels, more than the loader accepts (" + std::to_string(kMaxImageSide) +
+                                 " per side and " + std::to_string(kMaxImagePixels >> 20) +
+                                 " Mpixels); scale the texture down");
+}
+
 }  // namespace
 
 Texture decode_image_texture(const unsigned char* bytes, size_t size, bool raw) {
     if (size == 0) throw std::runtime_error("the image is empty");
     if (size > static_cast<size_t>(INT_MAX)) throw std::runtime_error("the image is larger than 2 GiB");
     int len = static_cast<int>(size);
+    check_image_size(bytes, len);
     Texture t;
     int w = 0, h = 0, channels = 0;
     if (stbi_is_hdr_from_memory(bytes, len)) {
@@ -59,6 +74,7 @@ Texture load_image_texture(const std::string& path, bool raw) {
     Texture t;
     if (text::lower(std::filesystem::path(path).extension().string()) == ".exr") {
         // OpenEXR holds linear values: R, G, B (or a single Y) as they are.
+        require_regular_file(path, "image file");
         ExrImage img = read_exr_channels(path);
         auto pick = [&](const char* a, const char* b) -> const std::vector<float>* {
             if (img.channels.count(a)) return &img.channels.at(a);
@@ -76,11 +92,8 @@ Texture load_image_texture(const std::string& path, bool raw) {
         t.path = path;
         return t;
     }
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw std::runtime_error("cannot open the file");
-    std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (in.bad()) throw std::runtime_error("cannot read the file");
-    t = decode_image_texture(bytes.data(), bytes.size(), raw);
+    const std::string bytes = read_regular_file(path, "image file");
+    t = decode_image_texture(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), raw);
     t.path = path;
     return t;
 }

@@ -2,12 +2,12 @@
 #include "scene/mesh_io.hpp"
 
 #include "scene/mesh_ops.hpp"
+#include "scene/file_read.hpp"
 #include "scene/text_parse.hpp"
+#include "scene/triangle_budget.hpp"
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <unordered_map>
 
 namespace vkmech {
@@ -31,7 +31,7 @@ struct CornerHash {
 
 class ObjReader {
 public:
-    explicit ObjReader(std::string path) : path_(std::move(path)) {}
+    ObjReader(std::string path, size_t max_triangles) : path_(std::move(path)), max_triangles_(max_triangles) {}
 
     Mesh read() {
         std::string data = read_whole_file(path_);
@@ -51,9 +51,9 @@ private:
     [[noreturn]] void fail(const std::string& what) const { throw SceneError(path_, line_, what); }
 
     float number(std::string_view tok) const {
-        auto v = text::to_double(tok);
-        if (!v) fail("cannot parse '" + std::string(tok) + "' as a number");
-        if (!std::isfinite(*v)) fail("non-finite number '" + std::string(tok) + "'");
+        std::string why;
+        auto v = text::to_finite_float(tok, why);
+        if (!v) fail(why);
         return static_cast<float>(*v);
     }
 
@@ -74,6 +74,7 @@ private:
             if (tok.size() < 4) fail("a face needs at least 3 vertices");
             std::vector<uint32_t> poly;
             for (size_t i = 1; i < tok.size(); ++i) poly.push_back(vertex(tok[i]));
+            if (tris_.size() + poly.size() - 2 > max_triangles_) fail(triangle_limit_message(max_triangles_, "the mesh"));
             for (size_t i = 1; i + 1 < poly.size(); ++i) tris_.push_back({poly[0], poly[i], poly[i + 1]});
         }
         // Everything else (o, g, s, usemtl, mtllib, l, p, ...) is irrelevant
@@ -134,6 +135,7 @@ private:
     }
 
     std::string path_;
+    size_t max_triangles_;
     int line_ = 0;
     std::vector<glm::vec3> pos_, nrm_;
     std::vector<glm::vec2> uv_;
@@ -144,21 +146,15 @@ private:
 
 }  // namespace
 
-Mesh load_obj(const std::string& path) { return ObjReader(path).read(); }
+Mesh load_obj(const std::string& path, size_t max_triangles) { return ObjReader(path, max_triangles).read(); }
 
-Mesh load_mesh_file(const std::string& path) {
+Mesh load_mesh_file(const std::string& path, size_t max_triangles) {
     std::string ext = text::lower(std::filesystem::path(path).extension().string());
-    if (ext == ".obj") return load_obj(path);
-    if (ext == ".ply") return load_ply(path);
+    if (ext == ".obj") return load_obj(path, max_triangles);
+    if (ext == ".ply") return load_ply(path, max_triangles);
     throw SceneError(path, 0, "unsupported mesh format '" + ext + "' (expected .obj or .ply)");
 }
 
-std::string read_whole_file(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw SceneError(path, 0, "cannot open mesh file");
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    return std::move(ss).str();
-}
+std::string read_whole_file(const std::string& path) { return read_regular_file(path, "mesh file"); }
 
 }  // namespace vkmech

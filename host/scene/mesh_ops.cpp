@@ -108,3 +108,36 @@ double surface_area(const Mesh& m) {
 }
 
 }  // namespace vkmech
+
+namespace vkmech {
+
+namespace {
+
+void check_attribute_count(const Mesh& m, size_t n, const char* what, const std::string& file) {
+    if (n != 0 && n != m.positions.size())
+        throw SceneError(file, 0, "mesh '" + m.name + "' has " + std::to_string(n) + " " + what + " for " +
+                                      std::to_string(m.positions.size()) +
+                                      " positions (each vertex needs one, or none at all): a corrupt mesh file");
+}
+
+bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+bool finite(const glm::vec2& v) { return std::isfinite(v.x) && std::isfinite(v.y); }
+
+}  // namespace
+
+void check_mesh(const Mesh& m, const std::string& file) {
+    check_attribute_count(m, m.normals.size(), "normals", file);
+    check_attribute_count(m, m.uvs.size(), "uvs", file);
+    auto fail = [&](const std::string& what) { throw SceneError(file, 0, "mesh '" + m.name + "': " + what); };
+    for (size_t i = 0; i < m.positions.size(); ++i)
+        if (!finite(m.positions[i])) fail("vertex " + std::to_string(i) + " has a non-finite position");
+    for (size_t i = 0; i < m.uvs.size(); ++i)
+        if (!finite(m.uvs[i])) fail("vertex " + std::to_string(i) + " has a non-finite texture coordinate");
+    for (size_t t = 0; t < m.indices.size(); ++t)
+        for (int k = 0; k < 3; ++k)
+            if (m.indices[t][k] >= m.positions.size())
+                fail("triangle " + std::to_string(t) + " refers to vertex " + std::to_string(m.indices[t][k]) +
+                     " of " + std::to_string(m.positions.size()));
+}
+
+}  // namespace vkmech

@@ -7,6 +7,8 @@
 
 #include <glm/glm.hpp>
 
+#include <string>
+
 namespace vkmech {
 
 // Inverse transpose of the linear part: how normals transform.
@@ -42,5 +44,11 @@ void repair_normals(Mesh& m);
 size_t remove_degenerate_triangles(Mesh& m);
 
 double surface_area(const Mesh& m);
+
+// The Mesh invariant every loader must deliver and flatten_scene relies on:
+// normals and uvs empty or one per position, indices below the position
+// count, positions and uvs finite. Throws SceneError(file, 0, ...) naming
+// the mesh otherwise.
+void check_mesh(const Mesh& m, const std::string& file);
 
 }  // namespace vkmech

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "scene/scene.hpp"
+#include "scene/triangle_budget.hpp"
 #include "scene/xml_document.hpp"
 #include "scene/xml_node.hpp"
 
@@ -86,6 +87,7 @@ private:
     bool have_sensor_ = false;
     bool have_integrator_ = false;
     int shape_count_ = 0;
+    TriangleBudget budget_;
     int bsdf_count_ = 0;
 
     struct PendingPanel {

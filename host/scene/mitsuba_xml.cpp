@@ -22,13 +22,6 @@ namespace vkmech {
 
 namespace {
 
-// SceneError's message without its "file:line: " prefix, to re-wrap it.
-std::string bare_message(const SceneError& e) {
-    std::string w = e.what();
-    std::string prefix = e.line() > 0 ? e.file() + ":" + std::to_string(e.line()) + ": " : e.file() + ": ";
-    return w.rfind(prefix, 0) == 0 ? w.substr(prefix.size()) : w;
-}
-
 std::string fmt_num(float v) {
     std::ostringstream s;
     s << v;
@@ -55,6 +48,9 @@ std::string canonical_or_self(const std::string& p) {
 }
 
 constexpr int kMaxIncludeDepth = 16;
+// Each file may include the next many times: without a total, 16 levels
+// of 8 includes each are 8^16 parses.
+constexpr size_t kMaxIncludes = 1000;
 // Mitsuba's max_depth = -1 ("no limit"); Russian roulette ends paths long
 // before this in practice.
 constexpr int kUnlimitedDepth = 1024;
@@ -62,7 +58,7 @@ constexpr int kUnlimitedDepth = 1024;
 }  // namespace
 
 MitsubaLoader::MitsubaLoader(const std::string& path, const LoadOptions& options)
-    : path_(path), options_(options), params_(options.params) {}
+    : path_(path), options_(options), params_(options.params), budget_(max_triangles(options, path)) {}
 
 Scene MitsubaLoader::load() {
     scene_.source = path_;
@@ -209,6 +205,9 @@ void MitsubaLoader::include(const XNode& n, int depth, Pass pass) {
         canon = canonical_or_self(path);
         if (std::find(include_stack_.begin(), include_stack_.end(), canon) != include_stack_.end())
             n.fail("include cycle: '" + path + "' includes itself");
+        if (docs_.size() > kMaxIncludes)
+            n.fail("more than " + std::to_string(kMaxIncludes) + " includes in one scene (files that include "
+                   "others many times over?)");
         docs_.push_back(std::make_unique<XmlDocument>(path, n.file(), n.line()));
         doc = docs_.back().get();
         included_[key] = doc;
@@ -241,13 +240,13 @@ void MitsubaLoader::shape(const XNode& n) {
         if (!is_file(path)) n.fail("cannot open mesh file '" + *filename + "' (looked for " + path + ")");
         try {
             if (type == "serialized")
-                mesh = load_serialized(path, p.opt_int({"shape_index", "shapeIndex"}).value_or(0));
+                mesh = load_serialized(path, p.opt_int({"shape_index", "shapeIndex"}).value_or(0), budget_.left());
             else
-                mesh = type == "obj" ? load_obj(path) : load_ply(path);
+                mesh = type == "obj" ? load_obj(path, budget_.left()) : load_ply(path, budget_.left());
         } catch (const SceneError& e) {
             // Keep the mesh file's position; say which shape asked for it.
             throw SceneError(e.file(), e.line(),
-                             bare_message(e) + " (mesh of " + n.describe() + " at " + n.file() + ":" +
+                             e.reason() + " (mesh of " + n.describe() + " at " + n.file() + ":" +
                                  std::to_string(n.line()) + ")");
         }
         bool face_normals = p.get_bool({"face_normals", "faceNormals"}, false);
@@ -290,6 +289,7 @@ void MitsubaLoader::shape(const XNode& n) {
         unsupported(n, "shape", " (expected obj, ply, serialized, rectangle, cube, sphere, disk or cylinder)");
     }
     mesh.name = n.attr("id").value_or(type + "#" + std::to_string(shape_count_));
+    budget_.charge(mesh.indices.size(), n.file(), n.line(), n.describe() + " '" + mesh.name + "'");
     ++shape_count_;
     shape_bsdf_and_emitter(n, p, mesh);
     warn_unused(p);
@@ -717,6 +717,7 @@ void MitsubaLoader::add_substituted_point_lights() {
         glm::vec3 radiance = l.intensity / (3.14159265f * radius * radius);
         Mesh mesh = make_sphere(l.position, radius, glm::mat4(1.0f), false);
         mesh.name = "substituted-point-light#" + std::to_string(i);
+        budget_.charge(mesh.indices.size(), path_, 0, l.what);
         mesh.material = default_material();
         mesh.emitter = static_cast<int>(scene_.emitters.size());
         scene_.emitters.push_back({radiance, static_cast<int>(scene_.meshes.size())});

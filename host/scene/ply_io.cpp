@@ -3,11 +3,12 @@
 
 #include "scene/mesh_ops.hpp"
 #include "scene/text_parse.hpp"
+#include "scene/triangle_budget.hpp"
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstring>
-#include <fstream>
 #include <sstream>
 
 namespace vkmech {
@@ -58,16 +59,13 @@ enum class Format { Ascii, BinaryLE, BinaryBE };
 
 class PlyReader {
 public:
-    explicit PlyReader(std::string path) : path_(std::move(path)) {}
+    PlyReader(std::string path, size_t max_triangles) : path_(std::move(path)), max_triangles_(max_triangles) {}
 
     Mesh read() {
-        std::ifstream in(path_, std::ios::binary);
-        if (!in) throw SceneError(path_, 0, "cannot open mesh file");
-        std::ostringstream ss;
-        ss << in.rdbuf();
-        data_ = std::move(ss).str();
+        data_ = read_whole_file(path_);
         parse_header();
         for (const Element& e : elements_) {
+            check_count(e);
             if (e.name == "vertex") read_vertices(e);
             else if (e.name == "face") read_faces(e);
             else skip_element(e);
@@ -107,6 +105,7 @@ private:
             } else if (tok[0] == "element") {
                 auto n = tok.size() == 3 ? text::to_int(tok[2]) : std::nullopt;
                 if (!n || *n < 0) fail(line_, "malformed 'element' line");
+                refuse_repeated(tok[1]);
                 elements_.push_back({std::string(tok[1]), static_cast<size_t>(*n), {}, line_});
             } else if (tok[0] == "property") {
                 if (elements_.empty()) fail(line_, "'property' before any 'element'");
@@ -129,6 +128,39 @@ private:
         }
         if (!have_format) fail(line_, "the header has no 'format' line");
         ++line_;  // ascii data starts on the line after end_header
+    }
+
+    // A second 'vertex' or 'face' element would have to be merged with the
+    // first (and its normals or uvs with the first's); no exporter writes one.
+    void refuse_repeated(std::string_view name) {
+        for (const Element& e : elements_)
+            if (e.name == name && (name == "vertex" || name == "face"))
+                fail(line_, "a second element '" + std::string(name) + "' (the first is at line " +
+                                std::to_string(e.line) + "); a PLY mesh has one of each");
+    }
+
+    // The least bytes one value takes: its size in binary; in ascii one
+    // character and a separator.
+    size_t min_value_bytes(Type t) const { return format_ == Format::Ascii ? 2 : type_size(t); }
+
+    // A count is refused when its records cannot fit in the bytes left, so
+    // a hostile count neither allocates nor loops (an element without
+    // properties takes no bytes: it is still held to one per record).
+    void check_count(const Element& e) const {
+        size_t record = 0;
+        for (const Property& p : e.props) record += min_value_bytes(p.is_list ? p.count_type : p.type);
+        check_fits(e.count, std::max<size_t>(record, 1), e, "records");
+    }
+
+    void check_fits(size_t count, size_t each, const Element& e, const char* what) const {
+        // +1: the last value of an ascii file needs no separator after it.
+        const size_t left = data_.size() - std::min(pos_, data_.size());
+        if (count > (left + 1) / each)
+            fail(format_ == Format::Ascii ? line_ : 0,
+                 std::string(format_ == Format::Ascii ? "unexpected end of file" : "unexpected end of binary data") +
+                     ": element '" + e.name + "' (declared at line " + std::to_string(e.line) + ") holds " +
+                     std::to_string(count) + " " + what + ", more than the " + std::to_string(left) +
+                     " bytes left in the file can hold (a truncated file or a corrupt count)");
     }
 
     // ---- values ----
@@ -168,9 +200,10 @@ private:
         size_t start = pos_;
         while (pos_ < data_.size() && !std::isspace(static_cast<unsigned char>(data_[pos_]))) ++pos_;
         std::string_view tok(data_.data() + start, pos_ - start);
-        auto v = text::to_double(tok);
-        if (!v) fail(line_, "cannot parse '" + std::string(tok) + "' as a number");
-        if (is_integer(t) && !(std::isfinite(*v) && *v == std::floor(*v)))
+        std::string why;
+        auto v = text::to_finite_float(tok, why);
+        if (!v) fail(line_, why);
+        if (is_integer(t) && *v != std::floor(*v))
             fail(line_, "expected an integer, got '" + std::string(tok) + "'");
         return *v;
     }
@@ -178,6 +211,7 @@ private:
     size_t list_count(const Property& p, const Element& e) {
         double n = value(p.count_type, e);
         if (n < 0) fail(format_ == Format::Ascii ? line_ : 0, "negative list length in element '" + e.name + "'");
+        check_fits(static_cast<size_t>(n), min_value_bytes(p.type), e, "list values");
         return static_cast<size_t>(n);
     }
 
@@ -222,6 +256,8 @@ private:
             positions_.push_back(pos);
             if (has_normals_) normals_.push_back(glm::vec3(vals[nx], vals[ny], vals[nz]));
             if (has_uvs_) uvs_.push_back(glm::vec2(vals[u], vals[v]));
+            if (has_uvs_ && !(std::isfinite(uvs_.back().x) && std::isfinite(uvs_.back().y)))
+                fail(format_ == Format::Ascii ? line_ : 0, "non-finite texture coordinate of vertex " + std::to_string(i));
         }
     }
 
@@ -244,17 +280,24 @@ private:
                 int line = format_ == Format::Ascii ? line_ : 0;  // after the count: this face's line
                 if (n < 3) fail(line, "face " + std::to_string(i) + " has fewer than 3 vertices");
                 poly.clear();
-                for (size_t j = 0; j < n; ++j) {
-                    double vi = value(p.type, e);
-                    if (vi < 0 || vi >= static_cast<double>(positions_.size()))
-                        fail(line, "face " + std::to_string(i) + " refers to vertex " +
-                                       std::to_string(static_cast<long long>(vi)) + " of " +
-                                       std::to_string(positions_.size()));
-                    poly.push_back(static_cast<uint32_t>(vi));
-                }
+                for (size_t j = 0; j < n; ++j) poly.push_back(vertex_index(value(p.type, e), i, line));
+                if (indices_.size() + poly.size() - 2 > max_triangles_)
+                    fail(line, triangle_limit_message(max_triangles_, "the mesh"));
                 for (size_t j = 1; j + 1 < poly.size(); ++j) indices_.push_back({poly[0], poly[j], poly[j + 1]});
             }
         }
+    }
+
+    // An index read as a double (lists may be of floats): only a whole
+    // number in range names a vertex; NaN would pass a range test.
+    uint32_t vertex_index(double vi, size_t face, int line) const {
+        if (!(std::isfinite(vi) && vi == std::floor(vi) && vi >= 0 && vi < static_cast<double>(positions_.size()))) {
+            std::ostringstream s;
+            s << "face " << face << " refers to vertex " << vi << ", which is not a vertex index (the mesh has "
+              << positions_.size() << " vertices)";
+            fail(line, s.str());
+        }
+        return static_cast<uint32_t>(vi);
     }
 
     Mesh build() {
@@ -271,6 +314,7 @@ private:
     }
 
     std::string path_;
+    size_t max_triangles_;
     std::string data_;
     size_t pos_ = 0;
     int line_ = 0;
@@ -284,6 +328,6 @@ private:
 
 }  // namespace
 
-Mesh load_ply(const std::string& path) { return PlyReader(path).read(); }
+Mesh load_ply(const std::string& path, size_t max_triangles) { return PlyReader(path, max_triangles).read(); }
 
 }  // namespace vkmech

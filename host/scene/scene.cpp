@@ -2,9 +2,12 @@
 
 #include "scene/mesh_ops.hpp"
 #include "scene/text_parse.hpp"
+#include "scene/triangle_budget.hpp"
 
 #include <filesystem>
 #include <limits>
+#include <new>
+#include <stdexcept>
 
 namespace vkmech {
 
@@ -59,6 +62,14 @@ size_t Scene::triangle_count() const {
     return n;
 }
 
+void Scene::check() const {
+    for (const auto& m : meshes) {
+        check_mesh(m, source);
+        if (m.material >= static_cast<int>(materials.size()) || m.emitter >= static_cast<int>(emitters.size()))
+            throw SceneError(source, 0, "mesh '" + m.name + "' names a material or emitter that does not exist");
+    }
+}
+
 bool Scene::bounds(glm::vec3& lo, glm::vec3& hi) const {
     glm::vec3 l(std::numeric_limits<float>::max()), h(-std::numeric_limits<float>::max());
     for (const auto& m : meshes)
@@ -72,14 +83,29 @@ bool Scene::bounds(glm::vec3& lo, glm::vec3& hi) const {
     return true;
 }
 
-Scene load_scene(const std::string& path, const LoadOptions& options) {
+namespace {
+
+Scene load_by_extension(const std::string& path, const LoadOptions& options) {
     std::string ext = text::lower(std::filesystem::path(path).extension().string());
+    if (ext == ".xml") return load_mitsuba_xml(path, options);
+    if (ext == ".gltf" || ext == ".glb") return load_gltf(path, options);
+    throw SceneError(path, 0, "unsupported scene format '" + ext + "' (expected .xml (Mitsuba), .gltf or .glb (glTF 2.0))");
+}
+
+}  // namespace
+
+Scene load_scene(const std::string& path, const LoadOptions& options) {
     Scene scene;
-    if (ext == ".xml") scene = load_mitsuba_xml(path, options);
-    else if (ext == ".gltf" || ext == ".glb") scene = load_gltf(path, options);
-    else
-        throw SceneError(path, 0,
-                         "unsupported scene format '" + ext + "' (expected .xml (Mitsuba), .gltf or .glb (glTF 2.0))");
+    try {
+        scene = load_by_extension(path, options);
+    } catch (const std::bad_alloc&) {
+        throw SceneError(path, 0, "out of memory while loading the scene (lower --max-triangles, now " +
+                                      std::to_string(max_triangles(options, path)) +
+                                      " triangles, or free memory; a corrupt count in a mesh or image?)");
+    } catch (const std::length_error&) {
+        throw SceneError(path, 0, "a size in the scene is too large to hold in memory (a corrupt count?)");
+    }
+    scene.check();
     // Loads, but would render black: say so (glTF assets often carry no light).
     for (const auto& e : scene.emitters) {
         const Mesh& m = scene.meshes.at(static_cast<size_t>(e.mesh));

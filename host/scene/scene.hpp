@@ -20,9 +20,11 @@ namespace vkmech {
 class SceneError : public std::runtime_error {
 public:
     SceneError(const std::string& file, int line, const std::string& what)
-        : std::runtime_error(format(file, line, what)), file_(file), line_(line) {}
+        : std::runtime_error(format(file, line, what)), file_(file), line_(line), reason_(what) {}
     const std::string& file() const { return file_; }
     int line() const { return line_; }
+    // What is wrong, without the "file:line: " prefix (to re-wrap it).
+    const std::string& reason() const { return reason_; }
 
 private:
     static std::string format(const std::string& file, int line, const std::string& what) {
@@ -30,6 +32,7 @@ private:
     }
     std::string file_;
     int line_;
+    std::string reason_;
 };
 
 // Material models of SPEC §2 (Mitsuba 3 plugin names).
@@ -180,6 +183,9 @@ struct Scene {
     std::vector<std::string> warnings;
 
     size_t triangle_count() const;
+    // Every mesh keeps the Mesh invariant (check_mesh, mesh_ops.hpp) and
+    // names a material and emitter that exist; throws SceneError at source.
+    void check() const;
     // Bounding box of every mesh vertex; false (lo, hi untouched) without any.
     bool bounds(glm::vec3& lo, glm::vec3& hi) const;
 };
@@ -188,7 +194,12 @@ struct Scene {
 struct LoadOptions {
     std::map<std::string, std::string> params;  // -D name=value, overrides <default>
     bool substitute_unsupported = false;        // e.g. envmap -> overhead area panel
+    // Most triangles a scene may expand to (--max-triangles); 0: the
+    // environment's VKMECH_MAX_TRIANGLES, else kDefaultMaxTriangles.
+    size_t max_triangles = 0;
 };
+
+constexpr size_t kDefaultMaxTriangles = 50'000'000;
 
 // Mitsuba 3 (and 0.5/0.6 camelCase) XML subset of SPEC §8. Throws SceneError.
 Scene load_mitsuba_xml(const std::string& path, const LoadOptions& options = {});
@@ -197,7 +208,8 @@ Scene load_mitsuba_xml(const std::string& path, const LoadOptions& options = {})
 // SceneError.
 Scene load_gltf(const std::string& path, const LoadOptions& options = {});
 
-// Dispatches on the extension (.xml, .gltf, .glb). Throws SceneError.
+// Dispatches on the extension (.xml, .gltf, .glb), then checks every mesh
+// (check_mesh). Throws SceneError, also for running out of memory.
 Scene load_scene(const std::string& path, const LoadOptions& options = {});
 
 }  // namespace vkmech

@@ -4,6 +4,7 @@
 #include "scene/mesh_io.hpp"
 
 #include "scene/mesh_ops.hpp"
+#include "scene/triangle_budget.hpp"
 
 #include <zlib.h>
 
@@ -83,13 +84,16 @@ public:
         return static_cast<T>(v);
     }
 
-    // n values of `bytes` each (4: float, 8: double) as floats.
+    // n values of `bytes` each (4: float, 8: double) as floats. The vector
+    // grows as the data inflates: a count that lies allocates no more than
+    // the stream holds.
     std::vector<float> reals(size_t n, int bytes, const char* what) {
-        std::vector<float> out(n);
+        std::vector<float> out;
         std::vector<uint8_t> buf(std::min<size_t>(n, 1 << 16) * bytes);
         for (size_t done = 0; done < n;) {
             const size_t k = std::min(n - done, buf.size() / bytes);
             read(buf.data(), k * bytes, what);
+            out.resize(done + k);
             for (size_t i = 0; i < k; ++i) {
                 if (bytes == 4) {
                     uint32_t u = 0;
@@ -127,7 +131,7 @@ std::string hex(uint64_t v) {
 
 }  // namespace
 
-Mesh load_serialized(const std::string& path, int shape_index) {
+Mesh load_serialized(const std::string& path, int shape_index, size_t max_triangles) {
     const std::string data = read_whole_file(path);
     auto fail = [&](const std::string& what) { throw SceneError(path, 0, what); };
     const uint64_t size = data.size();
@@ -196,6 +200,7 @@ Mesh load_serialized(const std::string& path, int shape_index) {
         if (vertices > 0xFFFFFFFFull)
             zfail(std::to_string(vertices) + " vertices: more than 32-bit indices can address (and than this file holds)");
         if (triangles > (1ull << 31)) zfail(std::to_string(triangles) + " triangles: more than this loader accepts (2^31)");
+        if (triangles > max_triangles) zfail(triangle_limit_message(max_triangles, "the mesh"));
         const uint64_t per_vertex = 3 + ((flags & kHasNormals) ? 3 : 0) + ((flags & kHasUvs) ? 2 : 0) +
                                     ((flags & kHasColors) ? 3 : 0);
         const uint64_t expected = vertices * per_vertex * real + triangles * 3 * 4;

@@ -33,11 +33,13 @@
 
 #include "scene/scene.hpp"
 
+#include <cstdint>
 #include <string>
 
 namespace vkmech {
 
-// The `shape_index`-th mesh (0-based) of a .serialized file.
-Mesh load_serialized(const std::string& path, int shape_index = 0);
+// The `shape_index`-th mesh (0-based) of a .serialized file; a mesh of more
+// than `max_triangles` triangles is refused before it is read.
+Mesh load_serialized(const std::string& path, int shape_index = 0, size_t max_triangles = SIZE_MAX);
 
 }  // namespace vkmech

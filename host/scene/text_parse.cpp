@@ -2,6 +2,7 @@
 
 #include <cctype>
 #include <charconv>
+#include <cmath>
 
 namespace vkmech::text {
 
@@ -25,6 +26,16 @@ std::optional<double> to_double(std::string_view s) {
     if (ec == std::errc::result_out_of_range) return std::nullopt;
     if (ec != std::errc() || ptr != s.data() + s.size()) return std::nullopt;
     return v;
+}
+
+std::optional<double> to_finite_float(std::string_view s, std::string& why) {
+    const std::string tok(trim(s));
+    auto v = to_double(tok);
+    if (!v) why = "cannot parse '" + tok + "' as a number";
+    else if (!std::isfinite(*v)) why = "non-finite number '" + tok + "'";
+    else if (!std::isfinite(static_cast<float>(*v))) why = "value " + tok + " overflows a 32-bit float";
+    else return v;
+    return std::nullopt;
 }
 
 std::optional<long long> to_int(std::string_view s) {

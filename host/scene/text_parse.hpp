@@ -17,6 +17,12 @@ std::string_view trim(std::string_view s);
 std::optional<double> to_double(std::string_view s);
 std::optional<long long> to_int(std::string_view s);
 
+// The whole of `s` as a finite number that a 32-bit float (the renderer's
+// precision) can hold, returned as parsed; otherwise nullopt, and `why`
+// says what is wrong: "cannot parse 'x' as a number", "non-finite number
+// 'nan'" or "value 1e39 overflows a 32-bit float".
+std::optional<double> to_finite_float(std::string_view s, std::string& why);
+
 // Splits "1, 2, 3", "1 2 3" or "1,2,3" into tokens (commas and whitespace
 // both separate, as in Mitsuba's value lists).
 std::vector<std::string_view> split_list(std::string_view s);

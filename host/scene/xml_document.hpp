@@ -11,9 +11,12 @@ namespace vkmech {
 
 class XmlDocument {
 public:
-    // Reads and parses `path`. A file that cannot be read is reported at
-    // (`from_file`, `from_line`) when given (an <include>), else at `path`;
-    // malformed XML is reported at `path` with pugixml's reason and line.
+    static constexpr int kMaxNesting = 64;
+
+    // Reads and parses `path` (a regular file of at most 64 MiB). A file
+    // that cannot be read is reported at (`from_file`, `from_line`) when
+    // given (an <include>), else at `path`; malformed XML, or elements
+    // nested deeper than kMaxNesting, at `path` with the line.
     XmlDocument(std::string path, const std::string& from_file = {}, int from_line = 0);
     XmlDocument(const XmlDocument&) = delete;
     XmlDocument& operator=(const XmlDocument&) = delete;
@@ -26,6 +29,8 @@ public:
     int line_at(ptrdiff_t byte_offset) const;
 
 private:
+    void check_nesting() const;
+
     std::string path_;
     std::string text_;
     std::vector<size_t> line_starts_;

@@ -104,9 +104,9 @@ std::vector<XNode> XNode::children() const {
 }
 
 double XNode::number(std::string_view s, std::string_view what) const {
-    auto v = text::to_double(s);
-    if (!v) fail("cannot parse '" + std::string(text::trim(s)) + "' as a number (" + std::string(what) + ")");
-    if (!std::isfinite(*v)) fail("non-finite number '" + std::string(text::trim(s)) + "' (" + std::string(what) + ")");
+    std::string why;
+    auto v = text::to_finite_float(s, why);
+    if (!v) fail(why + " (" + std::string(what) + ")");
     return *v;
 }
 

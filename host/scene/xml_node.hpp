@@ -58,7 +58,8 @@ public:
     // Element children in document order.
     std::vector<XNode> children() const;
 
-    // Strict numbers: the whole token, finite ("nan", "inf", "1.2.3" fail).
+    // Strict numbers: the whole token, finite and within a 32-bit float's
+    // range ("nan", "inf", "1e39", "1.2.3" fail).
     double number(std::string_view s, std::string_view what) const;
     int integer(std::string_view s, std::string_view what) const;
     std::vector<double> numbers(std::string_view s, std::string_view what) const;
