@@ -103,6 +103,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
     vkmech::LoadOptions options;
     options.substitute_unsupported = (n % 2) == 1;  // both the strict and the substituting paths
+    // A budget small enough that a legitimately big scene fits libFuzzer's
+    // time and memory limits; the budget check itself is what is fuzzed.
+    options.max_triangles = 2'000'000;
     try {
         vkmech::Scene scene = vkmech::load_scene(scene_path, options);
         vkmech::SceneArrays arrays = vkmech::flatten_scene(scene);
