@@ -17,6 +17,8 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <utility>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -268,4 +270,46 @@ TEST_CASE("io: tonemap_srgb and grey_to_rgb8 known values") {
     CHECK(g == std::vector<uint8_t>{0, 0, 0, 255, 255, 255, 128, 128, 128, 0, 0, 0, 255, 255, 255, 255, 0, 255});
     auto g2 = vkmech::grey_to_rgb8({2.0f, 3.0f}, 1.0f, 5.0f);
     CHECK(g2 == std::vector<uint8_t>{64, 64, 64, 128, 128, 128});
+}
+
+// Issue 10: the reader allocates what the header claims. A 2x2 file whose
+// dataWindow is patched to claim 100000 x 100000 pixels (or a window whose
+// width overflows int) is refused with a message naming the file, never a
+// 40 GB allocation. (OpenEXR 3.1 itself already refuses both, from the
+// missing line offsets; read_exr_channels checks the claim as well, in 64
+// bits, in case a file gets past that.)
+TEST_CASE("exr: a header claiming a huge data window is refused with the file named") {
+    TempDir dir("exr_huge");
+    const std::string path = (dir.path / "huge.exr").string();
+    vkmech::write_exr_layers(path, 2, 2, {{"Y", {1, 2, 3, 4}, false}});
+    std::string bytes;
+    {
+        std::ifstream in(path, std::ios::binary);
+        std::stringstream ss;
+        ss << in.rdbuf();
+        bytes = ss.str();
+    }
+    const std::string tag("dataWindow\0box2i\0", 17);
+    const size_t at = bytes.find(tag);
+    REQUIRE(at != std::string::npos);
+    const size_t box = at + tag.size() + 4;  // after the attribute's int32 size
+    for (const auto& [min_xy, max_xy] : {std::pair<int32_t, int32_t>{0, 99999},
+                                         std::pair<int32_t, int32_t>{std::numeric_limits<int32_t>::min(),
+                                                                     std::numeric_limits<int32_t>::max()}}) {
+        std::string patched = bytes;
+        const int32_t win[4] = {min_xy, min_xy, max_xy, max_xy};
+        std::memcpy(&patched[box], win, sizeof win);
+        {
+            std::ofstream out(path, std::ios::binary | std::ios::trunc);
+            out << patched;
+        }
+        std::string message;
+        try {
+            vkmech::read_exr_channels(path);
+        } catch (const std::exception& e) {
+            message = e.what();
+        }
+        INFO(message);
+        CHECK(message.find("huge.exr") != std::string::npos);
+    }
 }

@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdint>
 #include <cstring>
 #include <mutex>
 #include <stdexcept>
@@ -140,15 +141,30 @@ void write_exr_layers(const std::string& path, int width, int height, const std:
     });
 }
 
+// Limits on what read_exr_channels allocates from a header's claims.
+constexpr int64_t kMaxExrSide = 65536;
+constexpr uint64_t kMaxExrBytes = uint64_t{4} << 30;
+
 ExrImage read_exr_channels(const std::string& path) {
     try {
         Imf::InputFile file(path.c_str(), exr_threads());
         const Imf::Header& header = file.header();
         const Imath::Box2i dw = header.dataWindow();
         ExrImage img;
-        img.width = dw.max.x - dw.min.x + 1;
-        img.height = dw.max.y - dw.min.y + 1;
-        if (img.width <= 0 || img.height <= 0) throw std::runtime_error("empty data window");
+        // In 64 bits: a hostile window (min -2^31, max 2^31 - 1) overflows int.
+        const int64_t w64 = int64_t{dw.max.x} - dw.min.x + 1, h64 = int64_t{dw.max.y} - dw.min.y + 1;
+        if (w64 <= 0 || h64 <= 0) throw std::runtime_error("empty data window");
+        // The header's size is checked before anything is allocated.
+        size_t channel_count = 0;
+        for (auto it = header.channels().begin(); it != header.channels().end(); ++it) ++channel_count;
+        if (w64 > kMaxExrSide || h64 > kMaxExrSide ||
+            static_cast<uint64_t>(w64 * h64) * std::max<size_t>(channel_count, 1) * sizeof(float) > kMaxExrBytes)
+            throw std::runtime_error("the header claims " + std::to_string(w64) + " x " + std::to_string(h64) +
+                                     " pixels x " + std::to_string(channel_count) +
+                                     " channels, more than vkmech reads (" + std::to_string(kMaxExrSide) +
+                                     " per side, " + std::to_string(kMaxExrBytes >> 30) + " GiB as float)");
+        img.width = static_cast<int>(w64);
+        img.height = static_cast<int>(h64);
         const size_t n = static_cast<size_t>(img.width) * static_cast<size_t>(img.height);
 
         Imf::FrameBuffer fb;
