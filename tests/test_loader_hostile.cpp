@@ -267,3 +267,18 @@ TEST_CASE("hostile: an image wider than the texture limit is refused before deco
                                    "</bsdf></shape>");
     CHECK_THROWS_WITH_AS(load_scene(path), doctest::Contains("16385 x 1 pixels"), SceneError);
 }
+
+// Found by the loader fuzzer (docs/reliability.md): a GLB whose header length
+// is 0 skipped the chunk checks, and the JSON-nesting scan then read the
+// first chunk's claimed 1 GiB past the end of a 37-byte file.
+TEST_CASE("hostile: a GLB whose header length leaves no JSON chunk is refused") {
+    TempDir dir("hostile_glb");
+    std::string glb("glTF", 4);
+    put<uint32_t>(glb, 2);           // version
+    put<uint32_t>(glb, 0);           // length: claims nothing
+    put<uint32_t>(glb, 0x40000000);  // JSON chunk length: 1 GiB
+    put<uint32_t>(glb, 0x4E4F534Au); // "JSON"
+    glb += "{\"scene\": 0}";
+    std::string path = write(dir, "short.glb", glb);
+    CHECK_THROWS_WITH_AS(load_scene(path), doctest::Contains("leaves no JSON chunk"), SceneError);
+}

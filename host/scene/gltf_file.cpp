@@ -88,6 +88,9 @@ size_t check_glb(const std::vector<unsigned char>& b, const std::string& path) {
     if (length > b.size())
         fail("truncated .glb: the header says " + std::to_string(length) + " bytes, the file has " +
              std::to_string(b.size()));
+    // The JSON chunk is required: the chunk loop below must see it (its
+    // length is then known to lie inside the file).
+    if (length < 20) fail("malformed .glb: the header's length " + std::to_string(length) + " leaves no JSON chunk");
     size_t at = 12;
     for (int chunk = 0; at < length; ++chunk) {
         if (length - at < 8) fail("truncated .glb: chunk " + std::to_string(chunk) + " has no complete header");
