@@ -67,12 +67,15 @@ struct Builder {
         for (int axis = 0; axis < 3; ++axis) {
             float lo = cbounds.lo[axis], hi = cbounds.hi[axis];
             if (!(hi > lo)) continue;
-            float scale = nb / (hi - lo);
+            // In double: hi - lo of finite floats near +-3e38 overflows float.
+            const double scale = nb / (static_cast<double>(hi) - lo);
             std::vector<Box> bin_box(nb);
             std::vector<uint32_t> bin_count(nb, 0);
             for (uint32_t i = begin; i < end; ++i) {
                 uint32_t t = order[i];
-                uint32_t b = std::min(nb - 1, static_cast<uint32_t>((centroid[t][axis] - lo) * scale));
+                // A centroid that overflowed float (inf, or NaN from inf - inf) falls in an end bin.
+                const double x = (static_cast<double>(centroid[t][axis]) - lo) * scale;
+                const uint32_t b = x >= 0.0 && x < nb ? static_cast<uint32_t>(x) : (x >= nb ? nb - 1 : 0);
                 bin_box[b].grow(tri_box[t]);
                 bin_count[b] += 1;
             }
@@ -112,7 +115,8 @@ struct Builder {
             float leaf_cost = bounds.area() * count;
             if (best_cost >= leaf_cost && count <= 2 * opt.max_leaf_size) return;  // stays a leaf
             float lo = cbounds.lo[best_axis], hi = cbounds.hi[best_axis];
-            float scale = nb / (hi - lo);
+            // In double: hi - lo of finite floats near +-3e38 overflows float.
+            const double scale = nb / (static_cast<double>(hi) - lo);
             auto it = std::partition(order.begin() + begin, order.begin() + end, [&](uint32_t t) {
                 uint32_t b = std::min(nb - 1, static_cast<uint32_t>((centroid[t][best_axis] - lo) * scale));
                 return b <= best_split;
