@@ -114,7 +114,7 @@ std::string ReliabilityCurve::json() const {
     o << ",\n  \"purity\": ";
     arr(purity);
     o << ",\n  \"scenes\": [";
-    for (size_t i = 0; i < scenes.size(); ++i) o << (i ? ", " : "") << "\"" << report::json_escape(scenes[i]) << "\"";
+    for (size_t i = 0; i < scenes.size(); ++i) o << (i ? ", " : "") << "\"" << json_escape(scenes[i]) << "\"";
     o << "]\n}\n";
     return o.str();
 }

@@ -36,27 +36,6 @@ std::string csv_escape(const std::string& s) {
     return o + "\"";
 }
 
-std::string json_escape(const std::string& s) {
-    std::string o;
-    for (char c : s) {
-        switch (c) {
-        case '"': o += "\\\""; break;
-        case '\\': o += "\\\\"; break;
-        case '\n': o += "\\n"; break;
-        case '\t': o += "\\t"; break;
-        default:
-            if (static_cast<unsigned char>(c) < 0x20) {
-                char b[8];
-                std::snprintf(b, sizeof b, "\\u%04x", c);
-                o += b;
-            } else {
-                o += c;
-            }
-        }
-    }
-    return o;
-}
-
 std::string Table::markdown() const {
     std::ostringstream o;
     if (!title.empty()) o << "**" << title << "**\n\n";

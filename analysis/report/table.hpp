@@ -3,6 +3,8 @@
 // (full-precision numbers, NaN as an empty field).
 #pragma once
 
+#include "io/json.hpp"  // json_escape, for the table and figure writers
+
 #include <string>
 #include <variant>
 #include <vector>
@@ -36,7 +38,6 @@ struct Table {
 std::string write_table(const std::string& dir, const Table& t);
 
 std::string csv_escape(const std::string& s);
-std::string json_escape(const std::string& s);
 std::string format(const char* fmt, double v);
 
 }  // namespace vkmech::report

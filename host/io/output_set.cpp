@@ -2,6 +2,7 @@
 
 #include "io/atomic_file.hpp"
 #include "io/digest.hpp"
+#include "io/json.hpp"
 #include "io/interrupt.hpp"
 
 #include <algorithm>
@@ -69,14 +70,6 @@ std::string read_text(const fs::path& p) {
     return ss.str();
 }
 
-std::string esc(const std::string& s) {
-    std::string o;
-    for (char c : s) {
-        if (c == '"' || c == '\\') o += '\\';
-        o += c;
-    }
-    return o;
-}
 
 // The string value after `"key": "` starting at pos; advances pos past it.
 std::optional<std::string> string_field(const std::string& t, const std::string& key, size_t& pos) {
@@ -175,10 +168,10 @@ std::string manifest_file_name(const std::string& set_name) { return set_name + 
 
 std::string manifest_json(const Manifest& m) {
     std::ostringstream o;
-    o << "{\n  \"vkmech_manifest\": 1,\n  \"set\": \"" << esc(m.set_name) << "\",\n  \"run_id\": \"" << esc(m.run_id)
+    o << "{\n  \"vkmech_manifest\": 1,\n  \"set\": \"" << json_escape(m.set_name) << "\",\n  \"run_id\": \"" << json_escape(m.run_id)
       << "\",\n  \"files\": [\n";
     for (size_t i = 0; i < m.files.size(); ++i)
-        o << "    {\"name\": \"" << esc(m.files[i].name) << "\", \"size\": " << m.files[i].size << ", \"digest\": \""
+        o << "    {\"name\": \"" << json_escape(m.files[i].name) << "\", \"size\": " << m.files[i].size << ", \"digest\": \""
           << m.files[i].digest << "\"}" << (i + 1 < m.files.size() ? "," : "") << "\n";
     o << "  ],\n  \"count\": " << m.files.size() << "\n}\n";
     return o.str();

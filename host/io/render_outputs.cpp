@@ -3,6 +3,7 @@
 #include "io/atomic_file.hpp"
 #include "io/exr.hpp"
 #include "io/interrupt.hpp"
+#include "io/json.hpp"
 #include "io/png.hpp"
 
 #include <stb/stb_easy_font.h>
@@ -50,16 +51,6 @@ void draw_text(std::vector<uint8_t>& img, int w, int h, int x, int y, const char
         fill_rect(img, w, h, std::min(qx0, qx1), std::min(qy0, qy1), std::max(qx0, qx1), std::max(qy0, qy1),
                   {255, 255, 255});
     }
-}
-
-std::string json_escape(const std::string& s) {
-    std::string o;
-    for (char c : s) {
-        if (c == '"' || c == '\\') o += '\\';
-        if (static_cast<unsigned char>(c) < 0x20) continue;
-        o += c;
-    }
-    return o;
 }
 
 }  // namespace
