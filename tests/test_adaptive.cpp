@@ -4,7 +4,7 @@
 #include "allocation/allocation.hpp"
 #include "gpu_fixture.hpp"
 #include "render/gpu_scene.hpp"
-#include "study/adaptive.hpp"
+#include "adaptive/adaptive.hpp"
 #include "render_fixture.hpp"
 #include "scene_fixtures.hpp"
 

@@ -4,7 +4,7 @@
 #include "gpu_fixture.hpp"
 #include "io/exr.hpp"
 #include "io/output_set.hpp"
-#include "io/render_outputs.hpp"
+#include "render/render_outputs.hpp"
 #include "render_fixture.hpp"
 #include "temp_dir.hpp"
 

@@ -5,7 +5,7 @@
 // Finding-1 scenes.
 #include "gpu_fixture.hpp"
 
-#include "experiments/separation.hpp"
+#include "study/separation_gpu.hpp"
 #include "render/gpu_scene.hpp"
 #include "scene/primitives.hpp"
 #include "scene/scene.hpp"

@@ -3,7 +3,6 @@
 #include "experiments/separation.hpp"
 
 #include "accel/bvh.hpp"
-#include "render/ray_caster.hpp"
 
 #include <algorithm>
 #include <bit>
@@ -227,12 +226,8 @@ double mesh_distance(const Mesh& a, const Mesh& b) {
     return std::sqrt(object_distance2(oa, ob, inf));
 }
 
-SeparationMeasures measure_separation(const vk::Context& ctx, const Scene& scene, const SceneArrays& arrays,
-                                      const GpuScene& gpu, uint32_t points_per_object, uint32_t seed, float offset) {
-    if (arrays.triangle_mesh.size() != scene.triangle_count())
-        throw std::invalid_argument("measure_separation: the scene arrays (" + std::to_string(arrays.triangle_mesh.size()) +
-                                    " triangles) do not belong to the scene (" + std::to_string(scene.triangle_count()) +
-                                    " triangles)");
+SeparationMeasures measure_separation(const Scene& scene, const SegmentVisibility& unoccluded,
+                                      uint32_t points_per_object, uint32_t seed, float offset) {
     SeparationMeasures r;
     std::vector<uint32_t> delta, glossy;
     for (size_t i = 0; i < scene.meshes.size(); ++i) {
@@ -265,14 +260,16 @@ SeparationMeasures measure_separation(const vk::Context& ctx, const Scene& scene
     for (uint32_t i : delta) pts_delta.push_back(sample_surface_points(scene.meshes[i], i, points_per_object, seed));
     for (uint32_t j : glossy) pts_glossy.push_back(sample_surface_points(scene.meshes[j], j, points_per_object, seed));
 
-    RayCaster caster(ctx, gpu);
     const size_t chunk = size_t(1) << 20;
     std::vector<gpu::GpuRay> rays;
     rays.reserve(chunk);
     auto flush = [&]() {
         if (rays.empty()) return;
-        auto hits = caster.trace(rays, /*any_hit=*/true);
-        for (const auto& h : hits) r.visible += h.hit.x > 0.0f ? 0u : 1u;
+        std::vector<uint8_t> open = unoccluded(rays);
+        if (open.size() != rays.size())
+            throw std::logic_error("measure_separation: the visibility function answered " + std::to_string(open.size()) +
+                                   " of " + std::to_string(rays.size()) + " segments");
+        for (uint8_t v : open) r.visible += v ? 1u : 0u;
         r.segments += rays.size();
         rays.clear();
     };

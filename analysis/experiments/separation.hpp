@@ -30,7 +30,8 @@
 // mesh index, point index, dimension): the lowbias32 hash of
 // shaders/rng.glsl). For every (delta, glossy) object pair every point pair
 // (a, b) is one segment, tested with an any-hit ray against the full scene
-// (RayCaster, the GpuScene's traversal): origin a + offset * dir, direction
+// (a SegmentVisibility function: the app layer passes one that traces them on
+// the device, study/separation_gpu.hpp): origin a + offset * dir, direction
 // dir = (b - a) / |b - a|, tmin 0, tmax |b - a| - 2 * offset. The segment is
 // visible iff nothing is hit. The sampled points lie on the objects' own
 // surfaces, so a segment passing through either object itself is occluded.
@@ -39,12 +40,12 @@
 // pooled over all pairs.
 #pragma once
 
-#include "render/gpu_scene.hpp"
 #include "scene/scene.hpp"
-#include "vk/context.hpp"
+#include "shared/types.h"
 
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <vector>
 
@@ -70,11 +71,12 @@ enum class SeparationFamily { None, Delta, Glossy };
 // The family of one mesh under the rule above.
 SeparationFamily separation_family(const Scene& scene, size_t mesh_index);
 
-// `arrays` must be flatten_scene(scene) and `gpu` built from it (any
-// traversal). Throws std::invalid_argument when arrays and scene disagree.
-SeparationMeasures measure_separation(const vk::Context& ctx, const Scene& scene, const SceneArrays& arrays,
-                                      const GpuScene& gpu, uint32_t points_per_object = 64, uint32_t seed = 0,
-                                      float offset = 1e-3f);
+// For each ray (origin, tmin in .w = 0; direction, tmax in .w): 1 when nothing
+// is hit on [tmin, tmax], 0 otherwise; one answer per ray, in order.
+using SegmentVisibility = std::function<std::vector<uint8_t>(const std::vector<gpu::GpuRay>&)>;
+
+SeparationMeasures measure_separation(const Scene& scene, const SegmentVisibility& unoccluded,
+                                      uint32_t points_per_object = 64, uint32_t seed = 0, float offset = 1e-3f);
 
 // CPU parts, exposed for tests.
 // `count` points uniformly distributed by area on the mesh, a pure function

@@ -3,7 +3,7 @@
 // variance baseline, coverage (`other` = 0), and restricted-MIS robustness
 // (paper §4.4).
 #include "experiments/study_context.hpp"
-#include "io/render_outputs.hpp"
+#include "render/render_outputs.hpp"
 #include "stats/agreement.hpp"
 #include "stats/quantiles.hpp"
 

@@ -1,4 +1,4 @@
-#include "study/adaptive.hpp"
+#include "adaptive/adaptive.hpp"
 
 #include <chrono>
 #include <stdexcept>

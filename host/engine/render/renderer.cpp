@@ -13,6 +13,16 @@ namespace vkmech {
 
 namespace {
 
+// The pipeline specialization of one Features value.
+std::vector<vk::SpecConstant> spec_constants(const Features& f) {
+    // constant_id values: shaders/camera.glsl (0), shaders/features.glsl (1-7), pathtrace.comp (8-10).
+    return {{0, f.thin_lens}, {1, f.dielectric}, {2, f.rough},   {3, f.plastic},
+            {4, f.principled}, {5, f.conductor}, {6, f.textures}, {7, f.capture},
+            {8, static_cast<uint32_t>(f.estimator)}, {9, f.debug_events}, {10, f.end_vertex == EndVertex::Literal},
+            {11, f.orthographic}};
+}
+
+
 // Issue 10: what a film costs, said before (or instead of) a raw allocation failure.
 uint64_t film_device_bytes(uint64_t pixels) { return pixels * (sizeof(gpu::GpuPixelAccum) + 2 * sizeof(uint32_t)); }
 uint64_t film_host_bytes(uint64_t pixels) { return pixels * (sizeof(PixelStats) + sizeof(gpu::GpuPixelAccum)); }
@@ -66,7 +76,7 @@ Renderer::Renderer(const vk::Context& ctx, const Scene& scene, const SceneArrays
         bindings.push_back({9, DT::eStorageBuffer});
     }
     pipeline_ = std::make_unique<vk::ComputePipeline>(ctx, pathtrace_spirv(gpu_.traversal()), bindings, 0,
-                                                      features_.spec_constants());
+                                                      spec_constants(features_));
     size_t pixels = static_cast<size_t>(scene.camera.width) * scene.camera.height;
     if (const uint64_t heap = ctx.info().device_local_bytes; heap > 0 && film_device_bytes(pixels) > heap)
         film_out_of_memory(scene.camera, "the device's largest memory heap has " + vk::byte_size_text(heap));

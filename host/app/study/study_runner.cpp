@@ -1,6 +1,6 @@
 #include "study/study_runner.hpp"
 
-#include "experiments/separation.hpp"
+#include "study/separation_gpu.hpp"
 #include "experiments/study_context.hpp"
 #include "io/atomic_file.hpp"
 #include "io/output_set.hpp"

@@ -60,14 +60,6 @@ Features Features::from_scene(const Scene& scene, Estimator e, bool capture) {
     return f;
 }
 
-std::vector<vk::SpecConstant> Features::spec_constants() const {
-    // constant_id values: shaders/camera.glsl (0), shaders/features.glsl (1-7), pathtrace.comp (8-10).
-    return {{0, thin_lens}, {1, dielectric}, {2, rough},   {3, plastic},
-            {4, principled}, {5, conductor}, {6, textures}, {7, capture},
-            {8, static_cast<uint32_t>(estimator)}, {9, debug_events}, {10, end_vertex == EndVertex::Literal},
-            {11, orthographic}};
-}
-
 std::string Features::describe() const {
     std::string s;
     auto add = [&](bool on, const char* name) {

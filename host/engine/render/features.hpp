@@ -4,7 +4,6 @@
 #pragma once
 
 #include "scene/scene.hpp"
-#include "vk/pipeline.hpp"
 
 #include <string>
 #include <vector>
@@ -39,7 +38,6 @@ struct Features {
     static Features generic(Estimator e = Estimator::Nee, bool capture = true);
     static Features from_scene(const Scene& scene, Estimator e = Estimator::Nee, bool capture = true);
 
-    std::vector<vk::SpecConstant> spec_constants() const;
     std::string describe() const;  // e.g. "thin-lens dielectric rough capture estimator=nee"
 };
 

@@ -4,7 +4,7 @@
 #include "io/atomic_file.hpp"
 #include "render/renderer.hpp"
 #include "stats/summary.hpp"
-#include "study/adaptive.hpp"
+#include "adaptive/adaptive.hpp"
 #include "study/study_runner.hpp"
 
 #include <algorithm>

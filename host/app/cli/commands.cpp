@@ -2,7 +2,7 @@
 
 #include "io/interrupt.hpp"
 #include "io/output_set.hpp"
-#include "io/render_outputs.hpp"
+#include "render/render_outputs.hpp"
 #include "render/descriptor.hpp"
 #include "render/features.hpp"
 #include "render/gpu_scene.hpp"
@@ -531,7 +531,7 @@ int cmd_study(const StudyCliOptions& c) {
 #include "allocation/allocation.hpp"
 #include "experiments/predictor.hpp"
 #include "io/png.hpp"
-#include "study/adaptive.hpp"
+#include "adaptive/adaptive.hpp"
 
 namespace vkmech {
 
