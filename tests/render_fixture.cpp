@@ -1,5 +1,7 @@
 #include "render_fixture.hpp"
 
+#include "render/session.hpp"
+
 #include <cmath>
 
 namespace vkmech::testing {
@@ -10,10 +12,9 @@ Frame render_scene(vk::Context& ctx, const std::string& path, const RenderSetup&
 
 Frame render_scene(vk::Context& ctx, Scene scene, const RenderSetup& setup) {
     scene.camera.set_film_width(setup.res);
-    SceneArrays arrays = flatten_scene(scene);
-    GpuScene gpu(ctx, arrays, setup.traversal);
-    Features f = setup.generic ? Features::generic(setup.estimator) : Features::from_scene(scene, setup.estimator);
-    Renderer r(ctx, scene, arrays, gpu, f);
+    RenderSession session(ctx, std::move(scene), setup.traversal);
+    Features f = setup.generic ? Features::generic(setup.estimator) : session.features(setup.estimator);
+    Renderer r = session.renderer(f);
     RenderSpec spec;
     spec.spp = setup.spp;
     spec.seed = setup.seed;

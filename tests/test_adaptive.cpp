@@ -4,6 +4,7 @@
 #include "allocation/allocation.hpp"
 #include "gpu_fixture.hpp"
 #include "render/gpu_scene.hpp"
+#include "render/session.hpp"
 #include "adaptive/adaptive.hpp"
 #include "render_fixture.hpp"
 #include "scene_fixtures.hpp"
@@ -104,9 +105,8 @@ TEST_SUITE("gpu") {
         VKMECH_REQUIRE_GPU(ctx);
         Scene scene = load_scene(std::string(VKMECH_SOURCE_DIR) + "/scenes/cubes_dof.xml");
         scene.camera.set_film_width(32);
-        SceneArrays arrays = flatten_scene(scene);
-        GpuScene g(*ctx, arrays, Traversal::Bvh);
-        Renderer r(*ctx, scene, arrays, g, Features::from_scene(scene));
+        RenderSession session(*ctx, scene, Traversal::Bvh);
+        Renderer r = session.renderer(session.features());
         for (uint32_t draw = 0; draw < 3; ++draw) {
             Pilot pilot = render_pilot(r, 4, downstream_seeds::pilot(draw), false);
             for (uint8_t l : pilot.labels) CHECK_FALSE(alloc::is_heavy_tailed(l));
@@ -121,9 +121,8 @@ TEST_SUITE("gpu") {
         // And on a scene with heavy-tailed pixels the floor changes the allocation, with the same total.
         Scene glass = load_scene(std::string(VKMECH_SOURCE_DIR) + "/scenes/glass_caustic.xml");
         glass.camera.set_film_width(32);
-        SceneArrays ga = flatten_scene(glass);
-        GpuScene gg(*ctx, ga, Traversal::Bvh);
-        Renderer gr(*ctx, glass, ga, gg, Features::from_scene(glass));
+        RenderSession glass_session(*ctx, glass, Traversal::Bvh);
+        Renderer gr = glass_session.renderer(glass_session.features());
         Pilot pilot = render_pilot(gr, 4, downstream_seeds::pilot(0), false);
         alloc::ScoreInputs in;
         in.pilot_var = &pilot.var;

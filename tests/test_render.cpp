@@ -1,5 +1,6 @@
 // The SPEC §1-§3 estimator and descriptor on the device (lavapipe in CI).
 #include "gpu_fixture.hpp"
+#include "render/session.hpp"
 #include "render_fixture.hpp"
 #include "scene_fixtures.hpp"
 
@@ -315,11 +316,10 @@ TEST_SUITE("gpu") {
             CAPTURE(name);
             Scene scene = load_scene(project_scene(name));
             scene.camera.width = scene.camera.height = 32;
-            SceneArrays arrays = flatten_scene(scene);
-            GpuScene gpu(*ctx, arrays, Traversal::Bvh);
-            Features f = Features::from_scene(scene);
+            RenderSession session(*ctx, scene, Traversal::Bvh);
+            Features f = session.features();
             f.debug_events = true;
-            Renderer r(*ctx, scene, arrays, gpu, f);
+            Renderer r = session.renderer(f);
             RenderSpec spec;
             spec.spp = 64;
             // Pick the pixels carrying the most heavy-tailed energy, plus the centre.
@@ -377,9 +377,8 @@ LabelledRender render_labelled(vkmech::vk::Context& ctx, const std::string& name
     LabelledRender r;
     r.scene = load_scene(project_scene(name));
     r.scene.camera.width = r.scene.camera.height = res;
-    SceneArrays arrays = flatten_scene(r.scene);
-    GpuScene gpu(ctx, arrays, Traversal::Bvh);
-    Renderer renderer(ctx, r.scene, arrays, gpu, Features::from_scene(r.scene));
+    RenderSession session(ctx, r.scene, Traversal::Bvh);
+    Renderer renderer = session.renderer(session.features());
     RenderSpec spec;
     spec.spp = spp;
     r.frame = renderer.render(spec);

@@ -99,9 +99,7 @@ glm::dvec3 facet_normal(const Mesh& m, const glm::vec3& p3) {
 }
 
 SeparationMeasures measure(vkmech::vk::Context& ctx, const Scene& scene) {
-    SceneArrays arrays = flatten_scene(scene);
-    GpuScene gpu(ctx, arrays, Traversal::Bvh);
-    return measure_separation(ctx, scene, arrays, gpu);
+    return measure_separation(RenderSession(ctx, scene, Traversal::Bvh));
 }
 
 }  // namespace
@@ -267,9 +265,7 @@ TEST_SUITE("gpu") {
         for (std::string name : {"tabletop_mixed", "tabletop_separated", "snooker", "kitchen_counter"}) {
             CAPTURE(name);
             Scene scene = load_scene(scene_path(name));
-            SceneArrays arrays = flatten_scene(scene);
-            GpuScene gpu(*ctx, arrays, Traversal::Bvh);
-            SeparationMeasures m = measure_separation(*ctx, scene, arrays, gpu);
+            SeparationMeasures m = measure_separation(RenderSession(*ctx, scene, Traversal::Bvh));
             MESSAGE(name << ": delta-S objects " << m.delta_objects << ", glossy objects " << m.glossy_objects
                          << ", min distance " << m.min_distance << " m, mutual visibility " << m.mutual_visibility << " ("
                          << m.visible << " of " << m.segments << " segments)");
@@ -280,8 +276,7 @@ TEST_SUITE("gpu") {
             if (ctx->ray_query_enabled()) {
                 // The other traversal sees the same sight lines (up to grazing
                 // segments rounding differently).
-                GpuScene rq(*ctx, arrays, Traversal::RayQuery);
-                SeparationMeasures q = measure_separation(*ctx, scene, arrays, rq);
+                SeparationMeasures q = measure_separation(RenderSession(*ctx, scene, Traversal::RayQuery));
                 CHECK(q.segments == m.segments);
                 CHECK(q.min_distance == m.min_distance);
                 CHECK(std::abs(q.mutual_visibility - m.mutual_visibility) <= 1e-3);

@@ -8,6 +8,7 @@
 #include "render/gpu_scene.hpp"
 #include "render/ray_caster.hpp"
 #include "render/renderer.hpp"
+#include "render/session.hpp"
 #include "scene/scene.hpp"
 #include "vk/context.hpp"
 
@@ -186,7 +187,7 @@ RenderInfo render_info(const std::string& name, const RenderOptions& o, const vk
 
 int cmd_render(const RenderOptions& o) {
     if (!o.adaptive.empty()) return cmd_render_adaptive(o);
-    Scene scene = load_for_cli(o.common);
+    Scene loaded = load_for_cli(o.common);
     std::string name = scene_stem(o.common.scene);
     std::string out_dir = o.out_dir.empty() ? "out/" + name : o.out_dir;
     Estimator estimator = render_estimator(o, Estimator::Mis);
@@ -200,12 +201,13 @@ int cmd_render(const RenderOptions& o) {
     co.pipeline_cache_dir = o.common.pipeline_cache;
     vk::Context ctx(co);
     Traversal trav = resolve_traversal(ctx, parse_traversal(o.common.traversal));
-    SceneArrays arrays = flatten_scene(scene, parse_light_selection(o.light_selection));
-    GpuScene gpu_scene(ctx, arrays, trav);
-    Features features = o.generic ? Features::generic(estimator, capture) : Features::from_scene(scene, estimator, capture);
+    RenderSession session(ctx, std::move(loaded), trav, parse_light_selection(o.light_selection));
+    const Scene& scene = session.scene();
+    const SceneArrays& arrays = session.arrays();
+    Features features = o.generic ? Features::generic(estimator, capture) : session.features(estimator, capture);
     features.end_vertex = parse_end_vertex(o.end_vertex);
     const vk::PipelineStats before = ctx.pipeline_cache().stats();
-    Renderer renderer(ctx, scene, arrays, gpu_scene, features);
+    Renderer renderer = session.renderer(features);
     const vk::PipelineStats pipes = ctx.pipeline_cache().stats() - before;
 
     std::fprintf(stderr, "vkmech: %s: %dx%d, %zu triangles, %zu emitters, %u spp on '%s' (%s traversal; %s; %s light "
@@ -400,13 +402,12 @@ int cmd_bench_render(const BenchOptions& o) {
     for (const auto& n : names) {
         Scene scene = load_scene(resolve_scene_path(n));
         scene.camera.set_film_width(static_cast<int>(o.res));
-        SceneArrays arrays = flatten_scene(scene);
         std::vector<Traversal> travs = {Traversal::Bvh};
         if (ctx.ray_query_enabled()) travs.insert(travs.begin(), Traversal::RayQuery);
         for (Traversal t : travs) {
-            GpuScene g(ctx, arrays, t);
+            RenderSession session(ctx, scene, t);
             auto measure = [&](const Features& f) {
-                Renderer r(ctx, scene, arrays, g, f);
+                Renderer r = session.renderer(f);
                 RenderSpec spec;
                 spec.spp = o.spp;
                 spec.batch_spp = o.spp;
@@ -582,7 +583,7 @@ int cmd_render_adaptive(const RenderOptions& o) {
     if (!o.curve.empty() && !fs::exists(curve_path)) throw UsageError("predictor curve '" + o.curve + "' does not exist");
     std::optional<ReliabilityCurve> curve;
     if (fs::exists(curve_path)) curve = load_curve_for_cli(curve_path);
-    Scene scene = load_for_cli(o.common);
+    Scene loaded = load_for_cli(o.common);
     std::string name = scene_stem(o.common.scene);
     std::string out_dir = o.out_dir.empty() ? "out/" + name : o.out_dir;
     Estimator estimator = render_estimator(o, Estimator::Nee);
@@ -595,12 +596,12 @@ int cmd_render_adaptive(const RenderOptions& o) {
     co.pipeline_cache_dir = o.common.pipeline_cache;
     vk::Context ctx(co);
     Traversal trav = resolve_traversal(ctx, parse_traversal(o.common.traversal));
-    SceneArrays arrays = flatten_scene(scene, parse_light_selection(o.light_selection));
-    GpuScene gpu_scene(ctx, arrays, trav);
-    Features features = Features::from_scene(scene, estimator, true);
+    RenderSession session(ctx, std::move(loaded), trav, parse_light_selection(o.light_selection));
+    const Scene& scene = session.scene();
+    Features features = session.features(estimator, true);
     features.end_vertex = parse_end_vertex(o.end_vertex);
     const vk::PipelineStats before = ctx.pipeline_cache().stats();
-    Renderer renderer(ctx, scene, arrays, gpu_scene, features);
+    Renderer renderer = session.renderer(features);
     const vk::PipelineStats pipes = ctx.pipeline_cache().stats() - before;
     const std::string pipe_outcome = vk::pipeline_cache_outcome(pipes, ctx.pipeline_cache().enabled());
     std::printf("pipeline creation: %.2f s (%s; not in the render times)\n", pipes.seconds, pipe_outcome.c_str());

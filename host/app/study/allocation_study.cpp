@@ -3,6 +3,7 @@
 #include "allocation/allocation.hpp"
 #include "io/atomic_file.hpp"
 #include "render/renderer.hpp"
+#include "render/session.hpp"
 #include "stats/summary.hpp"
 #include "adaptive/adaptive.hpp"
 #include "study/study_runner.hpp"
@@ -133,8 +134,8 @@ void run_allocation_study(AllocationStudyContext& a) {
                                         Strategy::Oracle,  Strategy::Placebo,     Strategy::LabelOracle};
     const std::vector<Strategy> robust = {Strategy::RobustVar, Strategy::RobustFloor, Strategy::RobustPlacebo};
 
-    auto key_for = [&](const LoadedScene& ls, uint32_t spp, uint32_t seed, uint32_t batch) {
-        return cache_key({ls.digest, ls.scene.camera.width, ls.scene.camera.height, spp, seed, 0, batch,
+    auto key_for = [&](const RenderSession& s, const std::string& digest, uint32_t spp, uint32_t seed, uint32_t batch) {
+        return cache_key({digest, s.scene().camera.width, s.scene().camera.height, spp, seed, 0, batch,
                           to_string(a.traversal), a.ctx.info().name, a.code_digest});
     };
     auto check_interrupt = [&] {
@@ -164,11 +165,12 @@ void run_allocation_study(AllocationStudyContext& a) {
 
     for (const auto& scene : cfg.scenes) {
         LoadedScene ls = load_variant(scene, cfg.alloc_res);
-        GpuScene g(a.ctx, ls.arrays, a.traversal);
-        Renderer r(a.ctx, ls.scene, ls.arrays, g, Features::from_scene(ls.scene));
+        const std::string digest = ls.digest;
+        RenderSession session(a.ctx, std::move(ls.scene), std::move(ls.arrays), a.traversal);
+        Renderer r = session.renderer(session.features());
         SceneData d;
-        d.w = ls.scene.camera.width;
-        d.h = ls.scene.camera.height;
+        d.w = session.scene().camera.width;
+        d.h = session.scene().camera.height;
         d.P = static_cast<size_t>(d.w) * d.h;
         std::fprintf(stderr, "allocation: %s (%dx%d)\n", scene.name.c_str(), d.w, d.h);
 
@@ -176,7 +178,7 @@ void run_allocation_study(AllocationStudyContext& a) {
         Frame ref;
         for (uint32_t c = 0; c < cfg.alloc_ref_chunks; ++c) {
             check_interrupt();
-            std::string key = key_for(ls, cfg.alloc_ref_chunk_spp, downstream_seeds::reference_chunk(c), 64);
+            std::string key = key_for(session, digest, cfg.alloc_ref_chunk_spp, downstream_seeds::reference_chunk(c), 64);
             Frame f;
             if (auto cached = a.cache.try_load(key)) {
                 f = std::move(*cached);
@@ -220,7 +222,7 @@ void run_allocation_study(AllocationStudyContext& a) {
         {
             check_interrupt();
             const uint32_t F = downstream_seeds::kPoolSize;
-            std::string key = key_for(ls, F, downstream_seeds::kPool, 1);
+            std::string key = key_for(session, digest, F, downstream_seeds::kPool, 1);
             d.pool.assign(static_cast<size_t>(F) * d.P * 4, 0.0f);
             d.oracle_var.assign(d.P, 0.0);
             std::optional<std::string> cached = a.cache.try_load_payload(key, "pool");
@@ -264,7 +266,7 @@ void run_allocation_study(AllocationStudyContext& a) {
             for (uint32_t k = 0; k < K; ++k) {
                 check_interrupt();
                 uint32_t batch = rob ? static_cast<uint32_t>(alloc::mom_block_size(static_cast<int>(n0))) : 8;
-                const std::string key = key_for(ls, n0, downstream_seeds::pilot(k), batch);
+                const std::string key = key_for(session, digest, n0, downstream_seeds::pilot(k), batch);
                 std::optional<Pilot> cached;
                 if (auto b = a.cache.try_load_payload(key, "pilot")) {
                     try {

@@ -23,4 +23,10 @@ SeparationMeasures measure_separation(const vk::Context& ctx, const Scene& scene
     return measure_separation(scene, unoccluded, points_per_object, seed, offset);
 }
 
+SeparationMeasures measure_separation(const RenderSession& session, uint32_t points_per_object, uint32_t seed,
+                                      float offset) {
+    return measure_separation(session.context(), session.scene(), session.arrays(), session.gpu(), points_per_object,
+                              seed, offset);
+}
+
 }  // namespace vkmech

@@ -7,6 +7,7 @@
 #include "render/features.hpp"
 #include "render/gpu_scene.hpp"
 #include "render/renderer.hpp"
+#include "render/session.hpp"
 #include "render/shader_modules.hpp"
 #include "scene/scene.hpp"
 #include "study/allocation_study.hpp"
@@ -170,8 +171,8 @@ int run_study(const StudyOptions& o) {
     auto probe = [&](const SceneVariant& v, int res) {
         if (rate.count(v.path)) return rate[v.path];
         LoadedScene ls = load_variant(v, res);
-        GpuScene g(ctx, ls.arrays, trav);
-        Renderer r(ctx, ls.scene, ls.arrays, g, Features::from_scene(ls.scene));
+        RenderSession session(ctx, std::move(ls.scene), std::move(ls.arrays), trav);
+        Renderer r = session.renderer(session.features());
         RenderSpec spec;
         spec.spp = 4;
         spec.batch_spp = 4;
@@ -217,13 +218,13 @@ int run_study(const StudyOptions& o) {
             if (std::find(order.begin(), order.end(), r.scene) == order.end()) order.push_back(r.scene);
         for (const auto& variant : order) {
             LoadedScene ls = load_variant(variant, cfg.res);
-            GpuScene g(ctx, ls.arrays, trav);
+            RenderSession session(ctx, std::move(ls.scene), std::move(ls.arrays), trav);
             std::map<Estimator, std::unique_ptr<Renderer>> renderers;
             for (const auto& r : missing) {
                 if (!(r.scene == variant)) continue;
                 if (int sig = pending_signal()) throw StudyInterrupted(sig);
                 auto& rr = renderers[r.estimator];
-                if (!rr) rr = std::make_unique<Renderer>(ctx, ls.scene, ls.arrays, g, Features::from_scene(ls.scene, r.estimator));
+                if (!rr) rr = session.make_renderer(session.features(r.estimator));
                 RenderSpec spec;
                 spec.spp = r.spp;
                 spec.seed = r.seed;
@@ -264,8 +265,8 @@ int run_study(const StudyOptions& o) {
                         auto it = separations.find(v);
                         if (it != separations.end()) return it->second;
                         LoadedScene ls = load_variant(v, cfg.res);
-                        GpuScene g(ctx, ls.arrays, trav);
-                        return separations[v] = measure_separation(ctx, ls.scene, ls.arrays, g);
+                        RenderSession session(ctx, std::move(ls.scene), std::move(ls.arrays), trav);
+                        return separations[v] = measure_separation(session);
                     }};
     for (StudyKind k : kinds) {
         std::fprintf(stderr, "study: analysing %s\n", to_string(k));

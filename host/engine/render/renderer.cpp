@@ -1,5 +1,6 @@
 #include "render/renderer.hpp"
 
+#include "render/session.hpp"
 #include "render/shader_modules.hpp"
 
 #include <algorithm>
@@ -59,9 +60,11 @@ glm::vec2 camera_tangents(const Camera& cam) {
     return {t, t * h / w};
 }
 
-Renderer::Renderer(const vk::Context& ctx, const Scene& scene, const SceneArrays& arrays, const GpuScene& gpu_scene,
-                   const Features& features)
-    : ctx_(ctx), scene_(scene), arrays_(arrays), gpu_(gpu_scene), features_(features) {
+Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Features& features)
+    : on_device_(std::move(on_device)), ctx_(on_device_->ctx), scene_(on_device_->scene), arrays_(on_device_->arrays),
+      gpu_(on_device_->gpu), features_(features) {
+    const vk::Context& ctx = ctx_;
+    const Scene& scene = scene_;
     // The projection is the camera's, whatever pipeline was asked for.
     features_.orthographic = scene.camera.type == CameraType::Orthographic;
     using DT = ::vk::DescriptorType;

@@ -8,6 +8,7 @@
 #include "vk/pipeline.hpp"
 
 #include <functional>
+#include <memory>
 
 namespace vkmech {
 
@@ -25,10 +26,13 @@ struct RenderSpec {
     std::function<void(const std::vector<gpu::GpuPixelAccum>&)> on_batch;
 };
 
+struct SceneOnDevice;  // render/session.hpp
+
+// Made by RenderSession::renderer; shares the session's scene, so it stays
+// valid on its own (only the vk::Context must outlive it).
 class Renderer {
 public:
-    Renderer(const vk::Context& ctx, const Scene& scene, const SceneArrays& arrays, const GpuScene& gpu_scene,
-             const Features& features);
+    Renderer(std::shared_ptr<const SceneOnDevice> scene, const Features& features);
     const Features& features() const { return features_; }
     Frame render(const RenderSpec& spec);
     // With Features::debug_events: renders `spec` and returns the contribution
@@ -37,6 +41,7 @@ public:
                                                         Frame* frame = nullptr);
 
 private:
+    std::shared_ptr<const SceneOnDevice> on_device_;
     const vk::Context& ctx_;
     const Scene& scene_;
     const SceneArrays& arrays_;

@@ -1,0 +1,35 @@
+#include "render/session.hpp"
+
+#include <stdexcept>
+#include <string>
+
+namespace vkmech {
+
+SceneOnDevice::SceneOnDevice(const vk::Context& c, Scene s, Traversal traversal, LightSelection selection)
+    : ctx(c), scene(std::move(s)), arrays(flatten_scene(scene, selection)), gpu(c, arrays, traversal) {}
+
+SceneOnDevice::SceneOnDevice(const vk::Context& c, Scene s, SceneArrays a, Traversal traversal)
+    : ctx(c), scene(std::move(s)), arrays(std::move(a)), gpu(c, arrays, traversal) {
+    if (arrays.triangle_mesh.size() != scene.triangle_count())
+        throw std::invalid_argument("RenderSession: the scene arrays (" + std::to_string(arrays.triangle_mesh.size()) +
+                                    " triangles) do not belong to the scene (" + std::to_string(scene.triangle_count()) +
+                                    " triangles)");
+}
+
+RenderSession::RenderSession(const vk::Context& ctx, Scene scene, Traversal traversal, LightSelection selection)
+    : data_(std::make_shared<const SceneOnDevice>(ctx, std::move(scene), traversal, selection)) {}
+
+RenderSession::RenderSession(const vk::Context& ctx, Scene scene, SceneArrays arrays, Traversal traversal)
+    : data_(std::make_shared<const SceneOnDevice>(ctx, std::move(scene), std::move(arrays), traversal)) {}
+
+Features RenderSession::features(Estimator estimator, bool capture) const {
+    return Features::from_scene(data_->scene, estimator, capture);
+}
+
+Renderer RenderSession::renderer(const Features& features) const { return Renderer(data_, features); }
+
+std::unique_ptr<Renderer> RenderSession::make_renderer(const Features& features) const {
+    return std::make_unique<Renderer>(data_, features);
+}
+
+}  // namespace vkmech
