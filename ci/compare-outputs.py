@@ -6,7 +6,7 @@ to run (wall-clock timings, dates, paths of temporary directories).
 
 EXR files: every channel's pixel values must be bit-identical (the header
 holds timings). PNG/CSV/Markdown tables and other files: bytes identical,
-except lines that carry timings (report.md's header, the time tables). JSON:
+except files made of measured times (the cost and time tables and figures) and report.md (its header has the wall time). JSON:
 identical after removing keys whose name mentions seconds, time, date or
 paths/s. Exit 0 when identical, 1 otherwise (each difference listed).
 """
@@ -21,7 +21,7 @@ from exr import read_exr  # noqa: E402
 import numpy as np  # noqa: E402
 
 VARYING_KEY = re.compile(r"second|time|date|paths_per|_ms$|pipeline_cache|command", re.I)
-VARYING_FILE = re.compile(r"(alloc_time|equal_time|error_vs_time)\.|/cache/|report\.md$|\.manifest\.json$")
+VARYING_FILE = re.compile(r"(alloc_time|equal_time|error_vs_time|cost_by_bucket\w*)\.|/cache/|report\.md$|\.manifest\.json$")
 
 
 def strip(o):

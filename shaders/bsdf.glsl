@@ -1,4 +1,4 @@
-// The materials of SPEC §2, following Mitsuba 3's definitions (src/bsdfs/*.cpp)
+// The materials of docs/descriptor.md §2, following Mitsuba 3's definitions (src/bsdfs/*.cpp)
 // so that renders compare with Mitsuba, written once for GLSL and C++
 // (DESIGN "one code, two compilers").
 //
@@ -460,7 +460,7 @@ SHARED_FN GpuMaterial roughplastic_prepare(GpuMaterial m) {
 // only, reflecting with probability F. Deviation from Mitsuba: the sheen is
 // weighted by the diffuse weight (1-metallic)(1-spec_trans) (Mitsuba:
 // 1-metallic), so that it belongs to the diffuse component, is covered by its
-// sampling, and the SPEC §2 flag rule (D iff the diffuse weight > 0) holds.
+// sampling, and the docs/descriptor.md §2 flag rule (D iff the diffuse weight > 0) holds.
 
 struct Principled {
     vec3 base;
@@ -655,7 +655,7 @@ SHARED_FN bool bsdf_is_delta_only(GpuMaterial m) {
     return t == MAT_CONDUCTOR || t == MAT_DIELECTRIC || t == MAT_THINDIELECTRIC;
 }
 
-// SPEC §2: the NEE end-vertex lobe. D if the BSDF advertises any diffuse
+// docs/descriptor.md §2: the NEE end-vertex lobe. D if the BSDF advertises any diffuse
 // component, G if it is non-delta without one, LOBE_NONE if delta-only (no NEE).
 SHARED_FN uint bsdf_nee_lobe(GpuMaterial m) {
     uint t = m.header.x;

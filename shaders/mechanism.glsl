@@ -1,4 +1,4 @@
-// The contribution-event label (SPEC §2, the paper's Algorithm 1): one
+// The contribution-event label (docs/descriptor.md §2, the paper's Algorithm 1): one
 // function, compiled for the GPU and, unchanged, for the C++ tests.
 #ifndef VKMECH_MECHANISM_GLSL
 #define VKMECH_MECHANISM_GLSL
@@ -25,7 +25,7 @@ SHARED_FN uint classify_event(uint n, uint end_lobe, bool delta_before_end) {
     return BUCKET_GLOSSY;
 }
 
-// The end vertex of a BSDF-sampled emitter hit shot from Vn (SPEC §2). lobe_n:
+// The end vertex of a BSDF-sampled emitter hit shot from Vn (docs/descriptor.md §2). lobe_n:
 // the lobe sampled at Vn; last_nondelta_lobe: the lobe sampled at the last
 // non-delta vertex of V1..V(n-1) (LOBE_NONE if every one was delta);
 // delta_before_n: any of V1..V(n-1) sampled a delta lobe.
@@ -43,7 +43,7 @@ SHARED_FN bool bsdf_hit_delta(bool literal, uint lobe_n, uint last_nondelta_lobe
     return true;  // Vn itself is a delta vertex other than the end vertex
 }
 
-// Heavy-tailed family (SPEC §2): glossy, delta_mediated, specular_direct.
+// Heavy-tailed family (docs/descriptor.md §2): glossy, delta_mediated, specular_direct.
 SHARED_FN bool bucket_is_heavy(uint b) {
     return b == BUCKET_GLOSSY || b == BUCKET_DELTA_MEDIATED || b == BUCKET_SPECULAR_DIRECT;
 }

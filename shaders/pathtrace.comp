@@ -20,7 +20,7 @@ layout(std430, set = 0, binding = BINDING_ACCUM) writeonly buffer Accum { GpuPix
 const float PI = 3.14159265358979;
 
 // Provisional estimator (foundation issue): emission seen directly plus one
-// NEE bounce off a Lambertian stand-in for every material. The full SPEC §1
+// NEE bounce off a Lambertian stand-in for every material. The full docs/descriptor.md §1
 // estimator replaces it.
 vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
     Hit h;
@@ -54,18 +54,18 @@ vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
 }
 
 
-// Specialization: estimator mode (SPEC §1): 0 nee, 1 mis-restricted, 2 mis.
+// Specialization: estimator mode (docs/descriptor.md §1): 0 nee, 1 mis-restricted, 2 mis.
 layout(constant_id = 8) const uint ESTIMATOR = 0u;
 const uint EST_NEE = 0u;
 const uint EST_MIS_RESTRICTED = 1u;
 const uint EST_MIS = 2u;
 // Specialization: the event-recording debug mode (compiled out otherwise).
 layout(constant_id = 9) const bool DEBUG_EVENTS = false;
-// Specialization: SPEC §2's end-vertex reading: false = the last non-delta
+// Specialization: docs/descriptor.md §2's end-vertex reading: false = the last non-delta
 // vertex (default), true = the literal last surface vertex.
 layout(constant_id = 10) const bool END_VERTEX_LITERAL = false;
 
-// Adaptive rendering (SPEC §6): n(p) per pixel; a pixel takes only the samples
+// Adaptive rendering (docs/descriptor.md §6): n(p) per pixel; a pixel takes only the samples
 // of this batch whose index is below n(p), so n(p) samples of a seed are
 // exactly the first n(p) frames of that seed's sample stream. After the P
 // counts the buffer holds the pixels sorted by n(p), largest first: a batch
@@ -105,7 +105,7 @@ float power_heuristic(float a, float b) {
     return a2 + b2 > 0.0 ? a2 / (a2 + b2) : 0.0;
 }
 
-// Per-sample tallies of the descriptor (SPEC §3), discarded with the sample
+// Per-sample tallies of the descriptor (docs/descriptor.md §3), discarded with the sample
 // if it turns out non-finite.
 struct Tally {
     vec3 L;
@@ -135,7 +135,7 @@ void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_be
     }
 }
 
-// The SPEC §1 estimator: unidirectional path tracing with NEE at every
+// The docs/descriptor.md §1 estimator: unidirectional path tracing with NEE at every
 // non-delta vertex, BSDF-sampled emitter hits accepted only from the camera
 // or after a delta lobe (or MIS-weighted in the MIS modes), Russian roulette
 // from depth rr_depth, at most max_depth segments.
@@ -152,7 +152,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
     bool prev_glossy_before = false;
     uint last_nondelta = LOBE_NONE;       // lobe of the last non-delta vertex among V1..V(k-1)
     uint prev_last_nondelta = LOBE_NONE;  // the same among V1..V(k-2)
-    float eta_path = 1.0;  // product of the relative IORs crossed (SPEC §1 Russian roulette)
+    float eta_path = 1.0;  // product of the relative IORs crossed (docs/descriptor.md §1 Russian roulette)
     vec3 prev_p = o;
     for (uint k = 1u; k <= max_depth; ++k) {
         Hit h;
@@ -201,7 +201,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
                 m.specular_transmittance = vec4(texture_lookup(t_trans - 1u, s.uv), m.specular_transmittance.w);
         }
 
-        // ---- next-event estimation (SPEC §1: at every non-delta vertex) ----
+        // ---- next-event estimation (docs/descriptor.md §1: at every non-delta vertex) ----
         uint nee_lobe = bsdf_nee_lobe(m);
         bool vertex_mis = false;
         if (nee_lobe != LOBE_NONE) {
@@ -263,7 +263,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
         if (bs.lobe == LOBE_G) glossy_before = true;
         eta_path *= bs.eta;
 
-        // ---- Russian roulette (SPEC §1: from depth rr_depth) ----
+        // ---- Russian roulette (docs/descriptor.md §1: from depth rr_depth) ----
         // Survival as Mitsuba 3's path integrator: max throughput times eta^2,
         // so a path inside glass is not killed for the 1/eta^2 its radiance
         // scaling put into the throughput.
@@ -340,7 +340,7 @@ void main() {
         }
         float lum = luminance(t.L);
         // A sample that would overflow the batch sums is as non-finite as
-        // one that is already: counted, never added (SPEC §3).
+        // one that is already: counted, never added (docs/descriptor.md §3).
         vec3 rgb_next = rgb_sum + t.L;
         float depth_next = depth_sum + t.depth_sum;
         bool bad = any(isnan(rgb_next)) || any(isinf(rgb_next)) || isnan(lum) || isinf(lum) || isnan(depth_next) ||

@@ -1,6 +1,6 @@
 // Counter-based random numbers (DESIGN "deterministic sampling"): every value
 // is a pure function of (seed, pixel, sample index, dimension), so sample i
-// of seed s is identical whatever the batching or the device (SPEC §4).
+// of seed s is identical whatever the batching or the device (docs/descriptor.md §4).
 #ifndef VKMECH_RNG_GLSL
 #define VKMECH_RNG_GLSL
 

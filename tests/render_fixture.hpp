@@ -22,7 +22,7 @@ struct RenderSetup {
     bool generic = false;
     LoadOptions load;
     std::function<void(const std::vector<gpu::GpuPixelAccum>&)> on_batch;
-    std::vector<uint32_t> sample_counts;  // adaptive: n(p) per pixel (SPEC §6)
+    std::vector<uint32_t> sample_counts;  // adaptive: n(p) per pixel (docs/descriptor.md §6)
 };
 
 Frame render_scene(vk::Context& ctx, const std::string& path, const RenderSetup& setup);

@@ -1,4 +1,4 @@
-// Downstream allocation library (SPEC §6, paper §7): every expected value
+// Downstream allocation library (docs/descriptor.md §6, paper §7): every expected value
 // below is a literal worked out by hand, with the working in the comment next
 // to it, never a value produced by the code under test. Property tests
 // (exact totals, class sizes, determinism) compare the code with invariants

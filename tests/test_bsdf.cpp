@@ -10,7 +10,7 @@
 //  - weight == bsdf_eval / bsdf_pdf for non-delta samples, the pdf's total mass
 //    equals the share of non-delta samples, the eval has no support outside
 //    the pdf's (integral of eval == mean weight);
-//  - white furnaces, hard numerical cases, and the SPEC §2 NEE lobe per material.
+//  - white furnaces, hard numerical cases, and the docs/descriptor.md §2 NEE lobe per material.
 #include "bsdf.glsl"
 
 #include <doctest/doctest.h>
@@ -504,7 +504,7 @@ std::vector<Chi2Outcome> run_chi2_all(const std::vector<Chi2Case>& cases, int n_
 }
 
 // ---------------------------------------------------------------------------
-// The chi-square case lists (every non-delta component, SPEC §2 materials).
+// The chi-square case lists (every non-delta component, docs/descriptor.md §2 materials).
 const double kCosines[] = {1.0, 0.5, 0.1, 0.01};
 const float kAlphas[] = {0.01f, 0.1f, 0.5f, 1.0f};
 const char* dist_name(uint32_t d) { return d == MF_GGX ? "ggx" : "beckmann"; }
@@ -1205,7 +1205,7 @@ TEST_CASE("bsdf: total internal reflection from inside a dielectric always refle
     }
 }
 
-TEST_CASE("bsdf: one-sided and twosided materials and the SPEC §2 NEE lobes") {
+TEST_CASE("bsdf: one-sided and twosided materials and the docs/descriptor.md §2 NEE lobes") {
     SUBCASE("one-sided materials answer nothing from the back; twosided mirrors") {
         glm::vec3 back = dir_cos(-0.6), wi_back = dir_cos(-0.4, 2.0);
         for (uint32_t t : {MAT_DIFFUSE, MAT_PLASTIC, MAT_ROUGHPLASTIC, MAT_CONDUCTOR, MAT_ROUGHCONDUCTOR}) {

@@ -82,7 +82,7 @@ TEST_SUITE("gpu") {
         }
         CHECK(sum > 0.0);
         for (float v : exr.channels.at("spp")) CHECK(v == 4.0f);
-        // SPEC §1/§2 defaults of plain `render`, recorded in the EXR header.
+        // docs/descriptor.md §1/§2 defaults of plain `render`, recorded in the EXR header.
         using Attr = std::vector<std::string>;
         CHECK(exr.attributes["vkmech.estimator"] == Attr{"mis"});
         CHECK(exr.attributes["vkmech.lightSelection"] == Attr{"uniform"});

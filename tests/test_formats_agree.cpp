@@ -1,5 +1,5 @@
 // The same small scene written as Mitsuba XML and as glTF 2.0 renders to the
-// same image within noise (SPEC §8: the glTF mapping of rough plastic,
+// same image within noise (docs/descriptor.md §8: the glTF mapping of rough plastic,
 // emission and cameras). Both files are written by this test.
 #include "gpu_fixture.hpp"
 #include "render_fixture.hpp"

@@ -1,4 +1,4 @@
-// glTF 2.0 loading (SPEC §8, glTF part). Every fixture is written here, by
+// glTF 2.0 loading (docs/descriptor.md §8, glTF part). Every fixture is written here, by
 // hand: the JSON as text and the buffers byte by byte (base64 and the GLB
 // container too), so the tests are a reference independent of tinygltf.
 #include "temp_dir.hpp"

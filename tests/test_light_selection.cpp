@@ -1,4 +1,4 @@
-// SPEC §1 light selection for NEE: uniform over emitters (the default, as
+// docs/descriptor.md §1 light selection for NEE: uniform over emitters (the default, as
 // Mitsuba) or proportional to power, then uniform over the chosen emitter's
 // area. Checked on the light table the GPU samples from, with hand-computed
 // probabilities.

@@ -1,4 +1,4 @@
-// What third-party Mitsuba files need (SPEC §8): emitters by reference,
+// What third-party Mitsuba files need (docs/descriptor.md §8): emitters by reference,
 // textures on any colour parameter, and a warning - never silence - for
 // everything the loader reads but does not use. Every fixture is written here.
 #include "scene/scene.hpp"

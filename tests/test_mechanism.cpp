@@ -1,4 +1,4 @@
-// The seven-bucket cascade of SPEC §2 on synthetic events, through the very
+// The seven-bucket cascade of docs/descriptor.md §2 on synthetic events, through the very
 // function the shader runs (shaders/mechanism.glsl compiled as C++).
 #include "mechanism.glsl"
 
@@ -8,7 +8,7 @@
 
 using namespace vkmech::shader;
 
-TEST_CASE("mechanism: every row of the SPEC §2 cascade") {
+TEST_CASE("mechanism: every row of the docs/descriptor.md §2 cascade") {
     // 1. n = 0 -> emitter_direct, whatever the lobe or flag.
     CHECK(classify_event(0, LOBE_NONE, false) == BUCKET_EMITTER_DIRECT);
     CHECK(classify_event(0, LOBE_S, true) == BUCKET_EMITTER_DIRECT);
@@ -31,7 +31,7 @@ TEST_CASE("mechanism: every row of the SPEC §2 cascade") {
     CHECK(classify_event(2, LOBE_G, false) == BUCKET_GLOSSY);
 }
 
-TEST_CASE("mechanism: the paper's worked examples (SPEC §2)") {
+TEST_CASE("mechanism: the paper's worked examples (docs/descriptor.md §2)") {
     // E-S-D-L: chrome ball reflecting lit felt. NEE at V2 (felt, D); V1 delta.
     CHECK(classify_event(2, LOBE_D, true) == BUCKET_DELTA_MEDIATED);
     // E-G-D-L: rough plate reflecting a lit diffuse wall: end vertex D, no delta.
@@ -57,7 +57,7 @@ static uint label_bsdf_hit(bool literal, std::initializer_list<uint> lobes) {
                           bsdf_hit_delta(literal, lobe_n, last_nondelta, delta_before));
 }
 
-TEST_CASE("mechanism: SPEC §2 worked examples under the last-non-delta reading (the default)") {
+TEST_CASE("mechanism: docs/descriptor.md §2 worked examples under the last-non-delta reading (the default)") {
     // E-S-D-L by BSDF sampling from the felt (D) after the chrome ball (S).
     CHECK(label_bsdf_hit(false, {LOBE_S, LOBE_D}) == BUCKET_DELTA_MEDIATED);
     // E-G-D-L: rough plate, then a diffuse wall whose sampled ray hit the light.

@@ -1,4 +1,4 @@
-// The SPEC §1-§3 estimator and descriptor on the device (lavapipe in CI).
+// The docs/descriptor.md §1-§3 estimator and descriptor on the device (lavapipe in CI).
 #include "gpu_fixture.hpp"
 #include "render/session.hpp"
 #include "render_fixture.hpp"

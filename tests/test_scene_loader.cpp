@@ -1,4 +1,4 @@
-// Scene loading (SPEC §8): the Mitsuba XML loader, the triangulated
+// Scene loading (docs/descriptor.md §8): the Mitsuba XML loader, the triangulated
 // primitives and the OBJ/PLY readers. Valid fixtures pin counts, transforms,
 // smoothness, areas and orientation; the malformed corpus pins that every
 // fault is a SceneError naming the file, the line and the fault.
@@ -506,7 +506,7 @@ TEST_CASE("mitsuba: nested includes relative to the including file - bitmap text
     const Material& red = s.materials[s.meshes[0].material];
     CHECK(red.id == "included_red");
     CHECK(near(red.reflectance.value, {0.9f, 0, 0}));
-    // Film default: SPEC §1, 256 x 256; no fov_axis given: x.
+    // Film default: docs/descriptor.md §1, 256 x 256; no fov_axis given: x.
     CHECK(s.camera.width == 256);
     CHECK(s.camera.height == 256);
 

@@ -1,4 +1,4 @@
-// The project's scenes match their descriptions in SPEC §7 (shapes, materials,
+// The project's scenes match their descriptions in docs/descriptor.md §7 (shapes, materials,
 // emitters), and the sweep parameters do what they say.
 #include "scene_fixtures.hpp"
 
@@ -59,7 +59,7 @@ TEST_CASE("scenes: every scene file loads - has a camera - geometry and a light"
         Scene s = load_scene(p);
         CHECK(s.triangle_count() > 0);
         CHECK(!s.emitters.empty());
-        CHECK(s.camera.width == 256);  // SPEC §1 default film
+        CHECK(s.camera.width == 256);  // docs/descriptor.md §1 default film
         CHECK(s.camera.height == 256);
         CHECK(s.integrator.max_depth == 12);
         CHECK(s.integrator.rr_depth == 5);
@@ -87,7 +87,7 @@ TEST_CASE("scenes: glass_caustic has one smooth glass sphere in a diffuse box") 
     CHECK(s.emitters.size() == 1);
 }
 
-TEST_CASE("scenes: snooker has six balls of the SPEC §7 materials") {
+TEST_CASE("scenes: snooker has six balls of the docs/descriptor.md §7 materials") {
     Scene s = load_scene(scene_path("snooker"));
     auto balls = meshes_of_kind(s, ShapeKind::Sphere);
     REQUIRE(balls.size() == 6);
@@ -140,7 +140,7 @@ TEST_CASE("scenes: ring_caustic has two polished metal rings (open cylinders) an
     CHECK(light_area < 0.05 * ring_area);  // small and bright
 }
 
-TEST_CASE("scenes: kitchen_counter spans the SPEC §7 materials with two lights") {
+TEST_CASE("scenes: kitchen_counter spans the docs/descriptor.md §7 materials with two lights") {
     Scene s = load_scene(scene_path("kitchen_counter"));
     CHECK(s.emitters.size() == 2);
     CHECK(s.meshes.size() >= 15);

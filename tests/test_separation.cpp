@@ -1,5 +1,5 @@
 // Separation measures between the delta-S and glossy object families (paper
-// §5 Finding 1, SPEC §5): the family rule, the vertex-triangle distance, the
+// §5 Finding 1, docs/descriptor.md §5): the family rule, the vertex-triangle distance, the
 // deterministic area sampling, and the ray-tested mutual visibility on
 // synthetic sphere scenes (with an analytic reference) and on the project's
 // Finding-1 scenes.

@@ -1,4 +1,4 @@
-// Statistics library (SPEC §5 "Analyses"): every expected value below is a
+// Statistics library (docs/descriptor.md §5 "Analyses"): every expected value below is a
 // literal worked out by hand (the working is in the comment next to it) or a
 // textbook example, never a value produced by the code under test. Property
 // tests at the end compare the code with itself under transformations whose
@@ -188,7 +188,7 @@ TEST_CASE("stats: ols on noisy points with known fit and r2") {
     CHECK(f.slope == near(0.8));
     CHECK(f.intercept == near(1.5));
     CHECK(f.r2 == near(0.64));
-    // SPEC §5 use: log10 variance on log10 SPP with variance = 1/N gives
+    // docs/descriptor.md §5 use: log10 variance on log10 SPP with variance = 1/N gives
     // slope -1 (alpha_hat = 1): x = log10{16,64}, y = -x.
     auto g = ols({std::log10(16.0), std::log10(64.0)}, {-std::log10(16.0), -std::log10(64.0)});
     CHECK(g.slope == near(-1.0));
@@ -257,7 +257,7 @@ TEST_CASE("stats: pixel shares and max drift use each map's own labelled pixels"
 }
 
 TEST_CASE("stats: weighted kappa - struct share - unweighted kappa on a 3x3 table by hand") {
-    // Classes 0,1 light-tailed, class 2 heavy. SPEC weights:
+    // Classes 0,1 light-tailed, class 2 heavy. descriptor §5 weights:
     //   w = [[1, .8, 0], [.8, 1, 0], [0, 0, 1]].
     // Table (rows a, cols b), N = 30:
     //   [[10, 2, 1],
@@ -286,7 +286,7 @@ TEST_CASE("stats: weighted kappa - struct share - unweighted kappa on a 3x3 tabl
 }
 
 TEST_CASE("stats: spec kappa weights for the seven SPEC buckets") {
-    // SPEC §5: penalty 0.2 inside the light-tailed family, 1.0 otherwise.
+    // docs/descriptor.md §5: penalty 0.2 inside the light-tailed family, 1.0 otherwise.
     // Light-tailed = buckets 0,1,2; buckets 3..6 are not.
     const auto w = spec_kappa_weights(7, {true, true, true, false, false, false, false});
     REQUIRE(w.size() == 49);
@@ -365,7 +365,7 @@ TEST_CASE("stats: quantile bin counts edges strictly below - ties go to the lowe
 }
 
 TEST_CASE("stats: per-level quantile edges make binned agreement scale free") {
-    // SPEC §5: edges are computed independently at each SPP level, so a field
+    // docs/descriptor.md §5: edges are computed independently at each SPP level, so a field
     // that is the same ordering at a different scale (variance shrinking with
     // SPP) bins identically and scores agreement 1.
     const std::vector<double> lo_spp = {3, 1, 4, 1.5, 9, 2, 6, 5, 3.5, 8};
@@ -393,7 +393,7 @@ TEST_CASE("stats: splitmix64 matches the reference output for seed 0") {
 }
 
 TEST_CASE("stats: random halves are balanced - covering - distinct and deterministic") {
-    // SPEC §5: 20 random 5+5 partitions of 10 seeds, base seed 0.
+    // docs/descriptor.md §5: 20 random 5+5 partitions of 10 seeds, base seed 0.
     const auto parts = random_halves(10, 20, 0);
     REQUIRE(parts.size() == 20);
     std::set<std::vector<int>> keys;

@@ -114,7 +114,7 @@ TEST_CASE("study: the cache key changes with every input that determines a rende
     CHECK(cache_key(a) != cache_key(b));
 }
 
-TEST_CASE("study: SPEC §4 seed layouts are disjoint across families and levels") {
+TEST_CASE("study: docs/descriptor.md §4 seed layouts are disjoint across families and levels") {
     StudyConfig cfg = preset_config("paper");
     cfg.scenes = {{"s", "s.xml", {}}};
     cfg.sweep_roughness_scene = "r.xml";
@@ -226,7 +226,7 @@ TEST_SUITE("gpu") {
             ++links;
         }
         CHECK(links > 40);
-        // `other` is 0 in every quick render (coverage table, SPEC §3).
+        // `other` is 0 in every quick render (coverage table, docs/descriptor.md §3).
         std::string coverage = slurp(out / "tables" / "coverage.csv");
         std::istringstream lines(coverage);
         std::string line;

@@ -1,4 +1,4 @@
-// Downstream sample allocation (SPEC §6, paper §7 "Downstream
+// Downstream sample allocation (docs/descriptor.md §6, paper §7 "Downstream
 // Demonstration"): strategies, the bucket floor and its placebo, the
 // median-of-means variance, Neyman allocation, and the error metrics.
 // Pure C++, no Vulkan.

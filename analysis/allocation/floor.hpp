@@ -1,6 +1,6 @@
 // Mechanism-conditioned pilot correction: the bucket floor and its placebo.
 //
-// SPEC §6 / paper §7 "Downstream Demonstration": for pixels whose pilot label
+// docs/descriptor.md §6 / paper §7 "Downstream Demonstration": for pixels whose pilot label
 // lies in the heavy-tailed family {glossy, delta_mediated, specular_direct},
 // the pilot variance sigma^2(p) is replaced by max(sigma^2(p), med_b), med_b
 // being the median pilot variance of the pixels sharing that label. On those
@@ -17,7 +17,7 @@
 
 namespace vkmech::alloc {
 
-// Bucket indices (SPEC §2) and the "no label" value (SPEC §3, kNoLabel).
+// Bucket indices (docs/descriptor.md §2) and the "no label" value (docs/descriptor.md §3, kNoLabel).
 inline constexpr uint8_t kEmitterDirect = 0;
 inline constexpr uint8_t kDirect = 1;
 inline constexpr uint8_t kDiffuseIndirect = 2;
@@ -51,7 +51,7 @@ std::vector<double> bucket_floor(const std::vector<double>& var, const std::vect
 // stream started at `seed`, indices drawn by rejection sampling
 // (stats::uniform_below); std::shuffle and std::uniform_int_distribution are
 // implementation-defined and are not used. The study draws a fresh seed per
-// pilot draw ("fresh per draw", SPEC §6).
+// pilot draw ("fresh per draw", docs/descriptor.md §6).
 std::vector<uint8_t> placebo_labels(const std::vector<uint8_t>& labels, uint64_t seed);
 
 }  // namespace vkmech::alloc

@@ -1,4 +1,4 @@
-// Error metrics of the downstream experiment (SPEC §6): MSE / PSNR against
+// Error metrics of the downstream experiment (docs/descriptor.md §6): MSE / PSNR against
 // the independent reference, the p99 absolute error (tail metric), and the
 // paired per-draw comparison over the K = 10 pilot draws.
 #pragma once

@@ -1,5 +1,5 @@
 // Median-of-means (MoM) pilot variance: the robust-variance incumbent of the
-// paper's Result-3 amendment (SPEC §6 `robust-var`).
+// paper's Result-3 amendment (docs/descriptor.md §6 `robust-var`).
 //
 // The N0 pilot frames of a pixel, in render order, are cut into
 // k = ceil(sqrt(N0)) contiguous blocks of floor(N0 / k) frames each; the

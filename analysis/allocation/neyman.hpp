@@ -1,7 +1,7 @@
 // Neyman sample allocation with a per-pixel floor and cap, exact integer
 // totals.
 //
-// SPEC §6 / paper §7: every strategy allocates the same extra budget from a
+// docs/descriptor.md §6 / paper §7: every strategy allocates the same extra budget from a
 // strategy-specific score D(p), Neyman-proportionally n(p) ∝ sqrt(D(p)).
 // Study configuration (P = 256 * 256 pixels):
 //   - total = P * (1 + 32): a per-pixel baseline of 1 sample plus an extra

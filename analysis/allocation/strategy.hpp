@@ -1,4 +1,4 @@
-// The allocation strategies of the downstream experiment (SPEC §6, paper §7)
+// The allocation strategies of the downstream experiment (docs/descriptor.md §6, paper §7)
 // and the score D(p) each one hands to the Neyman allocator (neyman.hpp).
 #pragma once
 

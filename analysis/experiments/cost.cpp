@@ -1,4 +1,4 @@
-// Time-to-quality (paper §6, SPEC §5): per-pixel c(p) from independent renders
+// Time-to-quality (paper §6, docs/descriptor.md §5): per-pixel c(p) from independent renders
 // on a doubling SPP grid against the seed-disjoint reference, right-censored
 // at the cap; per-bucket medians in SPP and in milliseconds of render time on
 // the device; Spearman of cost against each continuous component.

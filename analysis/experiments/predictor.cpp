@@ -60,7 +60,7 @@ PilotPixels pilot_pixels(const Frame& pilot, const Frame* ref) {
     PilotPixels out;
     for (size_t p = 0; p < dp.dominant.size(); ++p) {
         if (dp.dominant[p] == kNoLabel) continue;
-        if (ref && ref_labels[p] == kNoLabel) continue;  // SPEC §5 agreement: labelled in both
+        if (ref && ref_labels[p] == kNoLabel) continue;  // docs/descriptor.md §5 agreement: labelled in both
         out.margin.push_back(margin[p]);
         out.purity.push_back(dp.purity[p]);
         if (ref) out.agree.push_back(dp.dominant[p] == ref_labels[p]);

@@ -1,4 +1,4 @@
-// The label-reliability predictor (paper §8.2, SPEC §5): agreement rate of the
+// The label-reliability predictor (paper §8.2, docs/descriptor.md §5): agreement rate of the
 // pilot label with the reference per pilot purity / argmax-margin bin, pooled
 // over scenes into a 20-bin monotone (isotonic) curve. A scene's predicted
 // agreement is the mean of the curve over its labelled pilot pixels.

@@ -1,5 +1,5 @@
 // Separation measures between the delta-S and glossy object families (paper
-// §5 Finding 1, SPEC §5). The rules are documented in separation.hpp.
+// §5 Finding 1, docs/descriptor.md §5). The rules are documented in separation.hpp.
 #include "experiments/separation.hpp"
 
 #include "accel/bvh.hpp"

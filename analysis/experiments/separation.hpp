@@ -1,9 +1,9 @@
 // Object-space separation between the delta-S and the glossy object families
-// (paper §5 Finding 1, tab:sign-reversal; SPEC §5 "Separation measures"):
+// (paper §5 Finding 1, tab:sign-reversal; docs/descriptor.md §5 "Separation measures"):
 // the minimum surface-to-surface distance and the mutual visibility fraction.
 //
 // Objects and families (the paper: "family assignment by BSDF flags (delta
-// reflection/transmission vs glossy)", with SPEC §2's material-to-lobe map):
+// reflection/transmission vs glossy)", with docs/descriptor.md §2's material-to-lobe map):
 // - An object is one Mesh of Scene::meshes that is not an emitter
 //   (Mesh::emitter < 0), has a material (Mesh::material >= 0) and has a
 //   positive surface area.

@@ -1,4 +1,4 @@
-// Cross-SPP stability of the dominant label (paper §4.3, SPEC §5): agreement,
+// Cross-SPP stability of the dominant label (paper §4.3, docs/descriptor.md §5): agreement,
 // max drift, Cohen's and weighted kappa, struct%, the quantile-binned
 // variance baseline, coverage (`other` = 0), and restricted-MIS robustness
 // (paper §4.4).
@@ -38,7 +38,7 @@ std::vector<uint8_t> variance_bins(const std::vector<double>& var, const std::ve
         if (mask_a[i] != kNoLabel && mask_b[i] != kNoLabel) vals.push_back(var[i]);
     std::vector<uint8_t> out(var.size(), 255);
     if (vals.empty()) return out;
-    auto edges = stats::quantile_edges(vals, bins);  // SPEC §5: edges per SPP level
+    auto edges = stats::quantile_edges(vals, bins);  // docs/descriptor.md §5: edges per SPP level
     auto binned = stats::quantile_bin(vals, edges);
     for (size_t i = 0, j = 0; i < var.size(); ++i)
         if (mask_a[i] != kNoLabel && mask_b[i] != kNoLabel) out[i] = binned[j++];
@@ -89,15 +89,15 @@ void run_stability(StudyContext& ctx) {
     Table mis{"robust_mis", "Robustness to estimator completeness (tab:robust-mis)",
               {"scene", "MIS agree (" + top + ")", "cross-SPP (MIS)", "cross-SPP (NEE)"}, {}, ""};
     mis.note = "MIS agree: argmax agreement between the NEE-only estimator and the restricted power-heuristic MIS "
-               "(SPEC §1, `--estimator mis-restricted`) at " + top + " SPP. cross-SPP: " + pilot + " vs " + top +
+               "(docs/descriptor.md §1, `--estimator mis-restricted`) at " + top + " SPP. cross-SPP: " + pilot + " vs " + top +
                " agreement under each estimator.";
     Table cov{"coverage", "Coverage: energy in `other` and bucket-sum closure per render", {"scene", "render", "other energy share",
               "max |sum_b L_b - lum| / lum", "non-finite samples", "labelled pixels"}, {}, ""};
-    cov.note = "SPEC §3: the seven buckets partition the luminance; `other` is expected to receive 0 on every scene.";
+    cov.note = "docs/descriptor.md §3: the seven buckets partition the luminance; `other` is expected to receive 0 on every scene.";
     Table shares{"bucket_shares", "Pixel share of each dominant bucket per SPP level", {"scene", "SPP"}, {}, ""};
     for (const char* b : kBucketNames) shares.columns.push_back(b);
 
-    // Shape checks (SPEC §7: other 0 everywhere; the label out-agrees binned variance on every scene).
+    // Shape checks (docs/descriptor.md §7: other 0 everywhere; the label out-agrees binned variance on every scene).
     double worst_other = 0.0;
     std::string label_vs_var_fail;
     std::string other_where;
@@ -154,7 +154,7 @@ void run_stability(StudyContext& ctx) {
         coverage_row(mis_pilot, dmp, "mis-restricted " + pilot + " spp");
         coverage_row(mis_ref, dmr, "mis-restricted " + top + " spp");
 
-        if (scene.name == "cubes_dof") {  // SPEC §7: ~91% direct, the rest diffuse-indirect
+        if (scene.name == "cubes_dof") {  // docs/descriptor.md §7: ~91% direct, the rest diffuse-indirect
             auto sh = stats::pixel_shares(ref, K);
             double heavy = sh[gpu::BUCKET_GLOSSY] + sh[gpu::BUCKET_DELTA_MEDIATED] + sh[gpu::BUCKET_SPECULAR_DIRECT];
             ctx.out.check("cubes_dof is mostly direct with no heavy-tailed bucket", sh[gpu::BUCKET_DIRECT] > 0.8 && heavy == 0.0,

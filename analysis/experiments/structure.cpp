@@ -1,4 +1,4 @@
-// Cross-scene correlation structure (paper §5, SPEC §5): per-pixel Spearman
+// Cross-scene correlation structure (paper §5, docs/descriptor.md §5): per-pixel Spearman
 // among caustic_frac (C), glossy_frac (G), depth (D) and inv_purity (P), the
 // separation measures between the delta-S and glossy object families, and
 // the caustic/glossy correlation beside them (tab:sign-reversal).

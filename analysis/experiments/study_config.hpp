@@ -1,4 +1,4 @@
-// What a study renders and how (SPEC §4 seed layouts, §5 analyses): scene
+// What a study renders and how (docs/descriptor.md §4 seed layouts, §5 analyses): scene
 // variants, render requests, budgets and the presets (`--preset quick|
 // reduced|paper`). Pure data; no Vulkan.
 #pragma once
@@ -48,14 +48,14 @@ struct StudyConfig {
     int res = 32;                      // film width (height by the scene's aspect)
     uint32_t batch_spp = 16;
 
-    // Stability (SPEC §5 agreement): ascending; the last level is the reference,
+    // Stability (docs/descriptor.md §5 agreement): ascending; the last level is the reference,
     // rendered with a seed disjoint from every lower level. The first level is
     // the pilot of the reliability predictor.
     std::vector<uint32_t> stability_spp{4, 16, 64};
-    // Variance sweeps: `variance_seeds` seeds per level (SPEC §4; 10 in the paper).
+    // Variance sweeps: `variance_seeds` seeds per level (docs/descriptor.md §4; 10 in the paper).
     std::vector<uint32_t> variance_spp{4, 8, 16, 32};
     int variance_seeds = 10;
-    int split_half_partitions = 20;  // SPEC §5: 20 random 5+5 partitions, base seed 0
+    int split_half_partitions = 20;  // docs/descriptor.md §5: 20 random 5+5 partitions, base seed 0
     // Time-to-quality: independent renders per level; reference = the top stability render.
     std::vector<uint32_t> cost_spp{4, 8, 16, 32};
     double cost_tau = 0.10;
@@ -68,7 +68,7 @@ struct StudyConfig {
     std::string sweep_roughness_scene, sweep_lights_scene;  // resolved paths
     std::string predictor_curve;  // --curve: predict new scenes from their pilots only
 
-    // Downstream allocation (SPEC §6): pilots N0, K disjoint pilot draws, extra
+    // Downstream allocation (docs/descriptor.md §6): pilots N0, K disjoint pilot draws, extra
     // budget (on top of the baseline 1), the budget sweep, the f = 4 control,
     // and an independent reference of alloc_ref_chunks x alloc_ref_chunk_spp.
     std::vector<uint32_t> alloc_pilots{4, 16, 64};
@@ -90,11 +90,11 @@ struct StudyConfig {
 };
 
 // quick (CI: tiny images, low spp), reduced (what lavapipe affords for the
-// committed docs/results run) and paper (SPEC §4/§5 protocol, 256²).
+// committed docs/results run) and paper (docs/descriptor.md §4/§5 protocol, 256²).
 // Throws std::invalid_argument for an unknown name.
 StudyConfig preset_config(const std::string& name);
 
-// SPEC §4 seed layouts. Disjoint by construction: every family has its own
+// docs/descriptor.md §4 seed layouts. Disjoint by construction: every family has its own
 // range, and the levels within a family use distinct seeds.
 namespace seeds {
 uint32_t stability(size_t level);                // 100 + level

@@ -37,7 +37,7 @@ public:
     void image(const std::string& section, const std::string& rel_path, int w, int h, const std::vector<uint8_t>& rgb,
                const std::string& how_to_read);
     void text(const std::string& section, const std::string& markdown);
-    // A result whose shape the paper states (SPEC §7): listed first in report.md as "holds" or "differs".
+    // A result whose shape the paper states (docs/descriptor.md §7): listed first in report.md as "holds" or "differs".
     void check(const std::string& claim, bool holds, const std::string& detail);
     const std::vector<Entry>& entries() const { return entries_; }
 
@@ -64,11 +64,11 @@ std::vector<double> margin_field(const Frame& f);
 std::vector<double> bucket_field(const Frame& f, uint32_t bucket);
 
 // The light-tailed family {emitter-direct, direct, diffuse-indirect} and the
-// heavy family {glossy, delta-mediated, specular-direct} (SPEC §5 weights).
+// heavy family {glossy, delta-mediated, specular-direct} (docs/descriptor.md §5 weights).
 const std::vector<bool>& light_tailed_buckets();
 const std::vector<bool>& heavy_buckets();
 
-// One function per study (SPEC §5); each writes tables, figures and images.
+// One function per study (docs/descriptor.md §5); each writes tables, figures and images.
 void run_stability(StudyContext& ctx);
 void run_variance(StudyContext& ctx);
 void run_cost(StudyContext& ctx);

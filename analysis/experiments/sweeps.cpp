@@ -1,4 +1,4 @@
-// Controlled sweeps (paper §5.4 Finding 3, SPEC §5 firefly ratio): one rough
+// Controlled sweeps (paper §5.4 Finding 3, docs/descriptor.md §5 firefly ratio): one rough
 // conductor sphere over eight roughnesses, and 1..16 energy-conserving lights
 // at alpha 0.03. Per level: the glossy-dominant population of a reference
 // render, the firefly ratio (seed-wise max / mean of the glossy contribution)
@@ -18,7 +18,7 @@ using report::Table;
 
 namespace {
 
-constexpr size_t kMinGlossyPixels = 50;  // as SPEC §5's per-bucket rule
+constexpr size_t kMinGlossyPixels = 50;  // as docs/descriptor.md §5's per-bucket rule
 
 void run_sweep(StudyContext& ctx, const std::vector<SceneVariant>& variants, const std::vector<double>& xs,
                const std::vector<std::string>& level_names, const std::string& name, const std::string& section,

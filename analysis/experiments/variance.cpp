@@ -1,4 +1,4 @@
-// The variance baseline (paper §4.5, SPEC §5): split-half reliability of the
+// The variance baseline (paper §4.5, docs/descriptor.md §5): split-half reliability of the
 // intrinsic variance field per SPP level and per bucket, the convergence
 // exponent alpha_hat and its reliability, and the low-vs-high budget Spearman.
 #include "experiments/study_context.hpp"
@@ -16,8 +16,8 @@ using report::Table;
 
 namespace {
 
-constexpr double kBackgroundLum = 1e-4;  // SPEC §5: background dropped at mean luminance <= 1e-4
-constexpr size_t kMinBucketPixels = 50;  // SPEC §5: buckets with < 50 pixels show "---"
+constexpr double kBackgroundLum = 1e-4;  // docs/descriptor.md §5: background dropped at mean luminance <= 1e-4
+constexpr size_t kMinBucketPixels = 50;  // docs/descriptor.md §5: buckets with < 50 pixels show "---"
 
 // Per-seed mean luminance of one level: m[s][p].
 using SeedMeans = std::vector<std::vector<double>>;
@@ -78,7 +78,7 @@ void run_variance(StudyContext& ctx) {
     const StudyConfig& cfg = ctx.cfg;
     const size_t L = cfg.variance_spp.size();
     const int S = cfg.variance_seeds;
-    const auto partitions = stats::random_halves(S, cfg.split_half_partitions, 0);  // SPEC §5: base seed 0
+    const auto partitions = stats::random_halves(S, cfg.split_half_partitions, 0);  // docs/descriptor.md §5: base seed 0
     const std::string sec = "Variance baseline";
     const std::string lo = std::to_string(cfg.variance_spp.front()), hi = std::to_string(cfg.variance_spp.back());
     const std::vector<uint32_t> bucket_cols = {gpu::BUCKET_DIRECT, gpu::BUCKET_DIFFUSE_INDIRECT, gpu::BUCKET_DELTA_MEDIATED,

@@ -130,7 +130,7 @@ std::vector<double> spec_kappa_weights(int k, const std::vector<bool>& light_tai
     check_k(k);
     if (light_tailed.size() != static_cast<size_t>(k))
         throw std::invalid_argument("stats::spec_kappa_weights: light_tailed must have k entries");
-    // SPEC §5: penalty 0.2 inside the light-tailed family, 1.0 otherwise;
+    // docs/descriptor.md §5: penalty 0.2 inside the light-tailed family, 1.0 otherwise;
     // agreement weight = 1 - penalty.
     std::vector<double> w(static_cast<size_t>(k) * static_cast<size_t>(k), 0.0);
     for (int i = 0; i < k; ++i)

@@ -1,7 +1,7 @@
 // Agreement between two per-pixel label maps.
 //
 // Labels are one byte per pixel: classes 0..k-1, and kNoLabel (255) for a
-// pixel without a label (zero energy / background). SPEC §5 "Agreement":
+// pixel without a label (zero energy / background). docs/descriptor.md §5 "Agreement":
 // the share of labelled pixels whose dominant label matches between two
 // renders. "Labelled" means labelled in BOTH maps: a pixel labelled in only
 // one map has nothing to compare with, so it is left out of the confusion
@@ -17,7 +17,7 @@
 
 namespace vkmech::stats {
 
-// Same value as vkmech::kNoLabel (host/render/descriptor.hpp, SPEC §3); kept
+// Same value as vkmech::kNoLabel (host/render/descriptor.hpp, docs/descriptor.md §3); kept
 // here so the statistics library does not depend on the renderer headers.
 inline constexpr uint8_t kNoLabel = 255;
 
@@ -44,7 +44,7 @@ double agreement(const Confusion& c);
 // all NaN if the map has no labelled pixel. Throws like confusion().
 std::vector<double> pixel_shares(const std::vector<uint8_t>& labels, int k);
 
-// SPEC §5 "max drift": max over classes of |share_a - share_b|, each map's
+// docs/descriptor.md §5 "max drift": max over classes of |share_a - share_b|, each map's
 // shares over its own labelled pixels (the maps may differ in size).
 // NaN if either map has no labelled pixel.
 double max_drift(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, int k);
@@ -61,13 +61,13 @@ double cohen_kappa(const Confusion& c);
 // has the wrong size, a diagonal entry other than 1, or an entry outside [0, 1].
 double weighted_kappa(const Confusion& c, const std::vector<double>& agreement_weights);
 
-// SPEC §5 kappa weights: agreement weight = 1 - penalty, penalty 0.2 for a
+// docs/descriptor.md §5 kappa weights: agreement weight = 1 - penalty, penalty 0.2 for a
 // swap between two light-tailed classes and 1.0 otherwise, so w_ii = 1,
 // w_ij = 0.8 if both i and j are light-tailed, else 0.
 // Throws std::invalid_argument unless light_tailed.size() == k.
 std::vector<double> spec_kappa_weights(int k, const std::vector<bool>& light_tailed);
 
-// SPEC §5 "struct%": share of the disagreeing (off-diagonal) mass whose swap
+// docs/descriptor.md §5 "struct%": share of the disagreeing (off-diagonal) mass whose swap
 // touches the heavy family, i.e. the row class or the column class is heavy.
 // NaN if there is no disagreement. Throws std::invalid_argument unless
 // heavy.size() == c.k.

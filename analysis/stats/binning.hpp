@@ -1,6 +1,6 @@
 // Hit rate per equal-width bin of a covariate.
 //
-// SPEC §5 "Reliability predictor" (§8.2): agreement rate per pilot purity bin
+// docs/descriptor.md §5 "Reliability predictor" (§8.2): agreement rate per pilot purity bin
 // and per argmax-margin bin. The per-bin counts double as the weights of the
 // pooled isotonic curve (isotonic.hpp).
 #pragma once

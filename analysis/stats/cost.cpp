@@ -26,8 +26,8 @@ CostMap time_to_quality(const std::vector<uint32_t>& levels, const std::vector<s
     for (size_t p = 0; p < P; ++p) {
         const double ref = lum_ref[p];
         if (!std::isfinite(ref)) continue;            // nothing to converge to: censored
-        const double denom = std::max(ref, eps);      // SPEC §5: max(lum(I_ref), 1e-4)
-        for (size_t l = 0; l < levels.size(); ++l) {  // SPEC §5: first-crossing rule
+        const double denom = std::max(ref, eps);      // docs/descriptor.md §5: max(lum(I_ref), 1e-4)
+        for (size_t l = 0; l < levels.size(); ++l) {  // docs/descriptor.md §5: first-crossing rule
             const double v = lum_at_level[l][p];
             if (!std::isfinite(v)) continue;
             if (std::fabs(v - ref) / denom < tau) {

@@ -1,6 +1,6 @@
 // Time-to-quality per pixel and its censored median.
 //
-// SPEC §5 "Time-to-quality": c(p) = smallest SPP in the ascending level grid
+// docs/descriptor.md §5 "Time-to-quality": c(p) = smallest SPP in the ascending level grid
 // (independent renders per level) with |lum(I_N) - lum(I_ref)| /
 // max(lum(I_ref), 1e-4) < 0.10; reference = the seed-disjoint 4096 render;
 // a pixel that never crosses is right-censored at the largest level. Per

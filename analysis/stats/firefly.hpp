@@ -1,6 +1,6 @@
 // Firefly ratio of a pixel's per-seed values.
 //
-// SPEC §5 "Firefly ratio" (paper §5.4): per pixel, the seed-wise max over
+// docs/descriptor.md §5 "Firefly ratio" (paper §5.4): per pixel, the seed-wise max over
 // the seed-wise mean of the glossy contribution. A ratio near 1 means every
 // seed sees about the same energy; a large ratio means one seed caught a rare
 // high-energy path (a firefly) that dominates the mean.

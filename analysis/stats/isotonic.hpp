@@ -1,6 +1,6 @@
 // Weighted isotonic (monotone non-decreasing) regression.
 //
-// SPEC §5 "Reliability predictor": the agreement rate per bin is pooled into a
+// docs/descriptor.md §5 "Reliability predictor": the agreement rate per bin is pooled into a
 // 20-bin monotone (isotonic) curve; bins are weighted by their pixel counts,
 // and empty bins carry weight 0.
 #pragma once

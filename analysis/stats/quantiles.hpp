@@ -1,6 +1,6 @@
 // Quantile binning of a continuous per-pixel field.
 //
-// SPEC §5 "Quantile-binned variance agreement": per scene, bin edges are
+// docs/descriptor.md §5 "Quantile-binned variance agreement": per scene, bin edges are
 // quantiles computed independently at each SPP level (3 and 7 bins); the two
 // binned maps are then scored with the same agreement metric as the labels
 // (agreement.hpp). Edges per level make the score about the ordering of

@@ -1,6 +1,6 @@
 // Ranks and correlation coefficients.
 //
-// SPEC §5: split-half reliability is the Spearman rho between two sigma^2
+// docs/descriptor.md §5: split-half reliability is the Spearman rho between two sigma^2
 // fields; the correlation-structure and cost analyses are per-pixel Spearman
 // correlations. Many fields have large tied blocks (e.g. depth, zero
 // fractions), so ties must get average ranks, as in scipy.stats.spearmanr.

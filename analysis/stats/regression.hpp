@@ -1,6 +1,6 @@
 // Ordinary least squares of y on x.
 //
-// SPEC §5 "Convergence exponent": per pixel, unweighted OLS of log10 variance
+// docs/descriptor.md §5 "Convergence exponent": per pixel, unweighted OLS of log10 variance
 // on log10 SPP over the 4 levels; alpha_hat = -slope, and R^2 is stored
 // alongside. The exclusion of pixels with non-positive or non-finite variance
 // happens in the caller, before the logarithm.

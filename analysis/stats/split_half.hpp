@@ -1,6 +1,6 @@
 // Random split-half partitions of the seed set.
 //
-// SPEC §5 "Split-half reliability": Spearman rho between the sigma^2 fields
+// docs/descriptor.md §5 "Split-half reliability": Spearman rho between the sigma^2 fields
 // of two disjoint 5-seed halves, averaged over 20 random 5+5 partitions of the
 // 10 seeds, base seed 0. The partitions must be reproducible bit-for-bit on
 // every platform, so the generator is our own splitmix64 with Fisher-Yates

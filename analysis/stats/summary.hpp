@@ -1,6 +1,6 @@
 // Summary statistics of a sample: mean, variance, median, quantiles.
 //
-// SPEC §5 uses these for sigma^2_intrinsic (K * Var over seeds, ddof 1), the
+// docs/descriptor.md §5 uses these for sigma^2_intrinsic (K * Var over seeds, ddof 1), the
 // split-half mean over partitions, per-bucket medians, and the quantile bin
 // edges of the variance-agreement analysis (see quantiles.hpp).
 #pragma once
@@ -14,7 +14,7 @@ double mean(const std::vector<double>& x);
 
 // Unbiased sample variance (ddof 1), two-pass: the mean is subtracted before
 // squaring, which keeps precision for per-seed luminances that are large
-// compared to their spread (SPEC §5: Var over 10 seeds, ddof 1).
+// compared to their spread (docs/descriptor.md §5: Var over 10 seeds, ddof 1).
 // NaN for n < 2.
 double sample_variance(const std::vector<double>& x);
 

@@ -18,7 +18,7 @@ using uint = uint32_t;
 #define VKM_CONST const uint
 #endif
 
-// Bucket indices, the paper's Table 1 order (SPEC §2).
+// Bucket indices, the paper's Table 1 order (docs/descriptor.md §2).
 VKM_CONST BUCKET_EMITTER_DIRECT = 0u;
 VKM_CONST BUCKET_DIRECT = 1u;
 VKM_CONST BUCKET_DIFFUSE_INDIRECT = 2u;
@@ -28,7 +28,7 @@ VKM_CONST BUCKET_SPECULAR_DIRECT = 5u;
 VKM_CONST BUCKET_OTHER = 6u;
 VKM_CONST BUCKET_COUNT = 7u;
 
-// End-vertex lobes (SPEC §2): diffuse, glossy, delta specular; NONE for "no
+// End-vertex lobes (docs/descriptor.md §2): diffuse, glossy, delta specular; NONE for "no
 // lobe" (primary ray hits the emitter) and anything unclassifiable.
 VKM_CONST LOBE_D = 0u;
 VKM_CONST LOBE_G = 1u;
@@ -55,7 +55,7 @@ VKM_CONST TRI_FLAT_BIT = 0x40000000u;
 
 // Render modes (Params.mode.x).
 VKM_CONST MODE_DIRECT_PREVIEW = 0u;  // provisional: emission + one NEE bounce
-VKM_CONST MODE_PATH = 1u;            // the full estimator (SPEC §1)
+VKM_CONST MODE_PATH = 1u;            // the full estimator (docs/descriptor.md §1)
 
 struct GpuVertex {
     vec4 position;  // xyz, w = u texture coordinate
@@ -94,7 +94,7 @@ struct GpuEmitter {
 };
 
 // One emissive triangle in the light-selection table: selection probability
-// proportional to luminance(radiance) * area (power), SPEC §3 "light selection
+// proportional to luminance(radiance) * area (power), docs/descriptor.md §3 "light selection
 // proportional to power".
 struct GpuLightTriangle {
     uvec4 info;  // x: triangle index, y: emitter index
@@ -122,7 +122,7 @@ struct GpuParams {
 
 // One recorded contribution event (the GPU debug mode): the inputs of the
 // cascade and the bucket the shader chose, for checking against the C++
-// mirror of SPEC §2.
+// mirror of docs/descriptor.md §2.
 struct GpuDebugEvent {
     uvec4 label;   // x: n, y: end lobe, z: delta before end (0/1), w: bucket chosen by the shader
     vec4 energy;   // x: luminance energy, y: glossy before end (0/1), z: sample index, w: unused

@@ -3,7 +3,8 @@
 #   run.sh FUZZER WORKDIR SECONDS [extra libFuzzer flags...]
 # Seeds WORKDIR/corpus from tests/data (seeds.py), first replays every saved
 # reproducer in tests/fuzz/regressions, then fuzzes for SECONDS. Any crash,
-# sanitizer report, timeout (a hang: > 10 s on one input) or out-of-memory
+# sanitizer report, timeout (a hang: > 10 s on one input; FUZZ_TIMEOUT=N seconds
+# on a loaded machine, where a niced fuzzer can wait longer than that) or out-of-memory
 # (> 2 GiB) fails the run; libFuzzer leaves the input as WORKDIR/crash-*,
 # timeout-* or oom-*, which belongs in tests/fuzz/regressions once fixed.
 set -euo pipefail
@@ -16,7 +17,7 @@ mkdir -p "$work/corpus"
 "$py" "$here/seeds.py" "$work/corpus"
 export ASAN_OPTIONS="detect_leaks=0:${ASAN_OPTIONS:-}"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:${UBSAN_OPTIONS:-}"
-flags=(-timeout=10 -rss_limit_mb=2048 -max_len=65536 -artifact_prefix="$work/")
+flags=(-timeout="${FUZZ_TIMEOUT:-10}" -rss_limit_mb=2048 -max_len=65536 -artifact_prefix="$work/")
 regressions=("$here"/regressions/*)
 if [ -e "${regressions[0]}" ]; then
   echo "fuzz: replaying ${#regressions[@]} saved reproducers"

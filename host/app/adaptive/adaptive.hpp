@@ -1,4 +1,4 @@
-// Two-stage adaptive rendering (SPEC §6, paper §7): a pilot of N0 samples
+// Two-stage adaptive rendering (docs/descriptor.md §6, paper §7): a pilot of N0 samples
 // gives the pilot variance, the pilot labels and (for the robust strategies)
 // the median-of-means variance; a strategy turns them into a score D(p); the
 // extra budget is allocated Neyman-proportionally, n(p) ∝ sqrt(D(p)), with a
@@ -16,7 +16,7 @@
 
 namespace vkmech {
 
-// SPEC §4 downstream seed layout. A "frame" is one sample index of a seed, so
+// docs/descriptor.md §4 downstream seed layout. A "frame" is one sample index of a seed, so
 // the first n frames of the pool are samples [0, n) of the pool seed.
 namespace downstream_seeds {
 constexpr uint32_t kPool = 1000;
@@ -46,7 +46,7 @@ struct AdaptivePlan {
 };
 
 // D(p) for the strategy and the Neyman allocation of (1 + extra_spp) samples
-// per pixel on average (SPEC §6: baseline 1 plus the extra budget; identical
+// per pixel on average (docs/descriptor.md §6: baseline 1 plus the extra budget; identical
 // totals for every strategy), at least `floor` each, capped at the pool size.
 AdaptivePlan plan_allocation(alloc::Strategy s, const alloc::ScoreInputs& in, uint32_t extra_spp, uint32_t floor,
                              uint64_t placebo_seed);

@@ -1,4 +1,4 @@
-// `vkmech study allocation` (SPEC §6, paper §7): per scene an independent
+// `vkmech study allocation` (docs/descriptor.md §6, paper §7): per scene an independent
 // reference (chunks 900000 + c), the shared 256-frame pool (seed 1000, one
 // frame per sample index, kept per frame so any n(p) is a prefix mean), and K
 // disjoint pilot draws per N0 (seed 100000 + 1000k); every strategy's

@@ -34,7 +34,7 @@ struct CacheKeyParts {
     int width = 0, height = 0;
     uint32_t spp = 0, seed = 0, estimator = 0, batch_spp = 0;
     std::string traversal, device, code_digest;
-    uint32_t end_vertex = 0;  // EndVertex (SPEC §2 reading)
+    uint32_t end_vertex = 0;  // EndVertex (docs/descriptor.md §2 reading)
 };
 std::string cache_key(const CacheKeyParts& k);
 

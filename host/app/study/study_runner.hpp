@@ -1,4 +1,4 @@
-// `vkmech study`: plans the renders of the requested studies (SPEC §4 seed
+// `vkmech study`: plans the renders of the requested studies (docs/descriptor.md §4 seed
 // layouts), renders what the on-disk cache lacks with a progress line and
 // SIGINT-safe resumption, then runs the experiments on cached frames and
 // writes tables, figures, maps and report.md.
@@ -58,7 +58,7 @@ LoadedScene load_variant(const SceneVariant& v, int res);
 // True once SIGINT arrived during a study (the handler is installed while rendering).
 bool study_interrupted();
 
-// The seven first-party scenes of SPEC §7, in the paper's order.
+// The seven first-party scenes of docs/descriptor.md §7, in the paper's order.
 const std::vector<std::string>& first_party_scenes();
 
 }  // namespace vkmech

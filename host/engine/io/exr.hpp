@@ -1,4 +1,4 @@
-// Multi-channel scanline OpenEXR output (SPEC §3, issue "outputs").
+// Multi-channel scanline OpenEXR output (docs/descriptor.md §3, issue "outputs").
 //
 // One file holds every per-pixel output as a separate channel. Channel names
 // may contain dots to form layers ("bucket.direct", "frac.delta"), which tev

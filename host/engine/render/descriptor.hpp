@@ -1,4 +1,4 @@
-// The per-pixel transport-mechanism descriptor derived from a Frame (SPEC §3):
+// The per-pixel transport-mechanism descriptor derived from a Frame (docs/descriptor.md §3):
 // bucket energies L_b, dominant label, purity, glossy_frac, caustic_frac,
 // depth, mixed flag, and a scene summary.
 #pragma once
@@ -12,8 +12,8 @@
 namespace vkmech {
 
 constexpr uint32_t kBucketCount = gpu::BUCKET_COUNT;
-constexpr uint8_t kNoLabel = 255;  // pixels with zero total energy (SPEC §3)
-extern const std::array<const char*, kBucketCount> kBucketNames;  // SPEC §2 names, index order
+constexpr uint8_t kNoLabel = 255;  // pixels with zero total energy (docs/descriptor.md §3)
+extern const std::array<const char*, kBucketCount> kBucketNames;  // docs/descriptor.md §2 names, index order
 // Fixed display colour per bucket (sRGB 8-bit), index order.
 extern const std::array<std::array<uint8_t, 3>, kBucketCount> kBucketColors;
 

@@ -14,7 +14,7 @@ enum class Estimator : uint32_t { Nee = 0, MisRestricted = 1, Mis = 2 };
 const char* to_string(Estimator e);
 Estimator parse_estimator(const std::string& s);  // throws std::invalid_argument
 
-// SPEC §2's two readings of the end vertex: the last non-delta vertex
+// docs/descriptor.md §2's two readings of the end vertex: the last non-delta vertex
 // (default) or, literally, the last surface vertex before the emitter.
 enum class EndVertex : uint32_t { LastNonDelta = 0, Literal = 1 };
 const char* to_string(EndVertex e);

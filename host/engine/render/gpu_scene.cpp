@@ -158,7 +158,7 @@ SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
     a.bbox_hi = hi;
 
     // Light table: every emissive triangle with its selection weight
-    // (SPEC §1). Uniform: 1 / (emitters x the emitter's area) per unit area;
+    // (docs/descriptor.md §1). Uniform: 1 / (emitters x the emitter's area) per unit area;
     // power: luminance(L) x area. Each emitter records its area pdf (info.w)
     // for the MIS weight of BSDF-sampled hits.
     a.emitters.resize(scene.emitters.size());

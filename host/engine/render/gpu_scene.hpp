@@ -19,7 +19,7 @@ enum class Traversal { Auto, RayQuery, Bvh };
 const char* to_string(Traversal t);
 Traversal parse_traversal(const std::string& s);  // throws std::invalid_argument
 
-// How NEE picks an emitter (SPEC §1): uniformly over the emitters, as Mitsuba
+// How NEE picks an emitter (docs/descriptor.md §1): uniformly over the emitters, as Mitsuba
 // does (the default), or proportionally to emitted power (luminance x area).
 // Either way a point is then uniform over the chosen emitter's area.
 enum class LightSelection : uint32_t { Uniform = 0, Power = 1 };

@@ -1,4 +1,4 @@
-// Everything a render writes (SPEC §3, issue "outputs"): one multi-layer EXR,
+// Everything a render writes (docs/descriptor.md §3, issue "outputs"): one multi-layer EXR,
 // PNG previews (image, dominant-class map with legend, purity) and a JSON
 // summary, staged in an OutputSet that the caller commits (io/output_set.hpp:
 // the files appear as a set, with a manifest written last).
@@ -22,8 +22,8 @@ struct RenderInfo {
     uint32_t spp = 0;
     uint32_t seed = 0;
     bool capture = true;
-    std::string light_selection = "uniform";     // SPEC §1
-    std::string end_vertex = "last-nondelta";    // SPEC §2 reading
+    std::string light_selection = "uniform";     // docs/descriptor.md §1
+    std::string end_vertex = "last-nondelta";    // docs/descriptor.md §2 reading
     float exposure_ev = 0.0f;                    // PNG preview exposure (the EXR is never scaled)
     std::vector<std::string> warnings;           // the loader's (Scene::warnings)
     std::vector<std::string> substitutions;      // user-requested substitutions (Scene::substitutions)

@@ -142,7 +142,7 @@ Frame Renderer::render(const RenderSpec& spec) {
     p.lights = glm::vec4(arrays_.light_weight_total, 0.0f, 0.0f, 0.0f);
     p.debug = glm::uvec4(debug_pixel_, debug_capacity_, 0u, 0u);
 
-    // Adaptive: n(p) samples at each pixel, samples [0, n(p)) of the seed (SPEC §6).
+    // Adaptive: n(p) samples at each pixel, samples [0, n(p)) of the seed (docs/descriptor.md §6).
     std::vector<uint32_t> order;
     uint32_t total_spp = spec.spp;
     uint64_t total_samples = static_cast<uint64_t>(spec.spp) * pixels;

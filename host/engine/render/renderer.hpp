@@ -17,7 +17,7 @@ struct RenderSpec {
     uint32_t seed = 0;
     uint32_t batch_spp = 8;  // samples per dispatch
     uint32_t mode = gpu::MODE_PATH;
-    // Adaptive rendering (SPEC §6): when non-empty (one entry per pixel), pixel p
+    // Adaptive rendering (docs/descriptor.md §6): when non-empty (one entry per pixel), pixel p
     // takes exactly samples [0, n(p)) of `seed` and `spp` is ignored.
     std::vector<uint32_t> sample_counts;
     // Called after each batch with (samples done, samples total).

@@ -1,4 +1,4 @@
-// glTF 2.0 files, SPEC §8: reading .gltf (external or embedded buffers) and
+// glTF 2.0 files, docs/descriptor.md §8: reading .gltf (external or embedded buffers) and
 // .glb through tinygltf, the extensions a file requires, and accessors
 // validated against their buffer views and buffers.
 #include "scene/gltf_loader.hpp"
@@ -224,7 +224,7 @@ void GltfLoader::parse() {
     for (const auto& l : lines(warn_text)) warn("tinygltf: " + l);
 }
 
-// SPEC §8: extensions vkmech reads (KHR_lights_punctual only to refuse or
+// docs/descriptor.md §8: extensions vkmech reads (KHR_lights_punctual only to refuse or
 // substitute it; KHR_mesh_quantization's integer attributes are read like
 // any other accessor).
 void GltfLoader::check_extensions() {
@@ -236,7 +236,7 @@ void GltfLoader::check_extensions() {
         if (!handled.count(e)) missing += (missing.empty() ? "" : ", ") + e;
     if (!missing.empty())
         fail("the file requires the extension(s) " + missing +
-             ", which vkmech does not support (SPEC §8: KHR_materials_transmission, _ior, _clearcoat, "
+             ", which vkmech does not support (docs/descriptor.md §8: KHR_materials_transmission, _ior, _clearcoat, "
              "_emissive_strength, KHR_lights_punctual, KHR_mesh_quantization)");
     for (const auto& e : model_.extensionsUsed) {
         // Material and texture extensions are reported where a material uses them.

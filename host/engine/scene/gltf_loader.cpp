@@ -1,4 +1,4 @@
-// glTF 2.0 scenes, SPEC §8: the node hierarchy, meshes, the camera and
+// glTF 2.0 scenes, docs/descriptor.md §8: the node hierarchy, meshes, the camera and
 // KHR_lights_punctual. The file and accessors are in gltf_file.cpp,
 // materials in gltf_materials.cpp.
 #include "scene/gltf_loader.hpp"
@@ -165,7 +165,7 @@ void GltfLoader::add_primitive(int n, int mi, int pi, const glm::dmat4& world) {
     std::string label = labelled("mesh", mi, gm.name) + " primitive " + std::to_string(pi) + " (on " +
                         labelled("node", n, node.name) + ")";
     if (prim.mode != TINYGLTF_MODE_TRIANGLES) {
-        warn(label + " has mode " + std::to_string(prim.mode) + ", not TRIANGLES (4): skipped (SPEC §8: triangles only)");
+        warn(label + " has mode " + std::to_string(prim.mode) + ", not TRIANGLES (4): skipped (docs/descriptor.md §8: triangles only)");
         ++skipped_primitives_;
         return;
     }
@@ -239,7 +239,7 @@ void GltfLoader::add_primitive(int n, int mi, int pi, const glm::dmat4& world) {
     m.material = material(prim.material);
     glm::vec3 radiance = emission(prim.material);
     if (radiance.x > 0.0f || radiance.y > 0.0f || radiance.z > 0.0f) {
-        // SPEC §1: area emitters are one-sided along the geometric normal;
+        // docs/descriptor.md §1: area emitters are one-sided along the geometric normal;
         // glTF emits from the front (counter-clockwise) face, which is the
         // same side after keep_facing above.
         m.emitter = static_cast<int>(scene_.emitters.size());
@@ -258,7 +258,7 @@ void GltfLoader::set_camera(int n, const glm::dmat4& world) {
     const auto& c = model_.cameras[node.camera];
     std::string label = labelled("camera", node.camera, c.name);
     if (c.type == "orthographic")
-        fail(label + " is orthographic; only perspective cameras are supported (SPEC §8)");
+        fail(label + " is orthographic; only perspective cameras are supported (docs/descriptor.md §8)");
     if (c.type != "perspective") fail(label + " has unknown type '" + c.type + "' (expected perspective)");
     const auto& p = c.perspective;
     if (!(p.yfov > 0.0 && p.yfov < std::numbers::pi)) fail(label + ": yfov must be in (0, pi) radians");
@@ -273,7 +273,7 @@ void GltfLoader::set_camera(int n, const glm::dmat4& world) {
     cam.near_clip = static_cast<float>(p.znear);
     // zfar absent: glTF's infinite projection; vkmech's default far plane.
     cam.far_clip = p.zfar > 0.0 ? static_cast<float>(p.zfar) : std::max(10000.0f, 2.0f * cam.near_clip);
-    cam.height = 256;  // SPEC §1's default film height
+    cam.height = 256;  // docs/descriptor.md §1's default film height
     cam.width = 256;
     if (p.aspectRatio > 0.0) {
         double w = std::round(256.0 * p.aspectRatio);
@@ -315,7 +315,7 @@ void GltfLoader::scene_bounds(glm::vec3& lo, glm::vec3& hi) const {
     scene_.bounds(lo, hi);  // unchanged (empty) when there is no geometry
 }
 
-// SPEC §8: with no camera, one that frames the scene's bounds: from +Z
+// docs/descriptor.md §8: with no camera, one that frames the scene's bounds: from +Z
 // (glTF's usual viewing direction), 45 degrees vertically, far enough that
 // the bounding sphere fits the square film.
 void GltfLoader::framing_camera() {
@@ -358,14 +358,14 @@ void GltfLoader::note_light(int n, const glm::dmat4& world) {
     const auto& light = model_.lights[index];
     std::string label = "KHR_lights_punctual " + labelled("light", index, light.name) + " (" + light.type + ", on " +
                         where + ")";
-    // SPEC §1: only area emitters are in the model.
+    // docs/descriptor.md §1: only area emitters are in the model.
     if (light.type == "directional")
-        fail(label + ": directional lights are outside vkmech's model (SPEC §1) and cannot be substituted, even "
+        fail(label + ": directional lights are outside vkmech's model (docs/descriptor.md §1) and cannot be substituted, even "
              "with --substitute (a light at infinity has no place for a small emitter); use an emissive mesh");
     if (light.type != "point" && light.type != "spot")
         fail(label + ": unknown light type (expected point, spot or directional)");
     if (!options_.substitute_unsupported)
-        fail(label + ": punctual lights are outside vkmech's model (SPEC §1: area emitters only); pass "
+        fail(label + ": punctual lights are outside vkmech's model (docs/descriptor.md §1: area emitters only); pass "
              "--substitute to replace point and spot lights by small spherical emitters of the same power");
     if (!(light.intensity >= 0.0) || !std::isfinite(light.intensity))
         fail(label + ": the intensity must be a non-negative number");

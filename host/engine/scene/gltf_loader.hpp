@@ -1,4 +1,4 @@
-// Internal to the glTF 2.0 loader, SPEC §8 (gltf_file.cpp: the file,
+// Internal to the glTF 2.0 loader, docs/descriptor.md §8 (gltf_file.cpp: the file,
 // extensions, buffers and accessors; gltf_loader.cpp: the node hierarchy,
 // meshes, the camera and KHR_lights_punctual; gltf_materials.cpp:
 // materials, textures, emission).

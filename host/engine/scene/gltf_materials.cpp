@@ -1,5 +1,5 @@
-// glTF metallic-roughness materials -> SPEC §2's material models, base-colour
-// textures and emission (SPEC §8, glTF part).
+// glTF metallic-roughness materials -> docs/descriptor.md §2's material models, base-colour
+// textures and emission (docs/descriptor.md §8, glTF part).
 #include "scene/gltf_loader.hpp"
 
 #include "scene/image_texture.hpp"
@@ -140,7 +140,7 @@ Material GltfLoader::convert_material(const tinygltf::Material& g, const std::st
         float r = static_cast<float>((ior - 1.0) / (ior + 1.0));
         m.specular = r * r / 0.08f;  // Mitsuba: specular and eta are one quantity
     } else if (trans > 0.0) {
-        // KHR_materials_transmission -> dielectric family (SPEC §8), tinted by
+        // KHR_materials_transmission -> dielectric family (docs/descriptor.md §8), tinted by
         // the base colour. Without KHR_materials_volume glTF means a thin
         // wall; vkmech refracts (closed meshes are the common case).
         m.type = roughness == 0.0 ? BsdfType::Dielectric : BsdfType::RoughDielectric;
@@ -150,7 +150,7 @@ Material GltfLoader::convert_material(const tinygltf::Material& g, const std::st
             warn(label + ": transmissionFactor " + fmt(trans) + " < 1 is treated as fully transmissive (dielectric)");
         if (metallic > 0.0) warn(label + ": metallicFactor " + fmt(metallic) + " is ignored on a transmissive material");
     } else if (metallic >= 0.5) {
-        // metallic 1 -> conductor family (SPEC §8): a perfect mirror
+        // metallic 1 -> conductor family (docs/descriptor.md §8): a perfect mirror
         // (eta 0, k 1, Material's "none") tinted by the base colour.
         m.type = roughness == 0.0 ? BsdfType::Conductor : BsdfType::RoughConductor;
         m.eta = glm::vec3(0.0f);
@@ -175,7 +175,7 @@ Material GltfLoader::convert_material(const tinygltf::Material& g, const std::st
 
 // emissiveFactor * KHR_materials_emissive_strength, taken as radiance as is:
 // glTF's emission has no physical unit or exposure, so the numbers carry over
-// (SPEC §8).
+// (docs/descriptor.md §8).
 glm::vec3 GltfLoader::emission(int index) {
     if (index < 0) return glm::vec3(0.0f);
     const auto& g = model_.materials[index];
@@ -198,7 +198,7 @@ glm::vec3 GltfLoader::emission(int index) {
     e *= static_cast<float>(strength);
     if ((e.x > 0.0f || e.y > 0.0f || e.z > 0.0f) && g.doubleSided)
         warn_once("emit2:" + std::to_string(index),
-            label + " is emissive and doubleSided; vkmech's area emitters emit from the front face only (SPEC §1)");
+            label + " is emissive and doubleSided; vkmech's area emitters emit from the front face only (docs/descriptor.md §1)");
     return e;
 }
 

@@ -1,4 +1,4 @@
-// Bitmap textures for reflectances (SPEC §8: `bitmap` where used for
+// Bitmap textures for reflectances (docs/descriptor.md §8: `bitmap` where used for
 // reflectance; glTF base-colour textures), decoded with stb_image.
 #pragma once
 

@@ -1,4 +1,4 @@
-// Triangle-mesh files for the `obj` and `ply` shapes (SPEC §8). Meshes come
+// Triangle-mesh files for the `obj` and `ply` shapes (docs/descriptor.md §8). Meshes come
 // back in object space, exactly as stored: normals and uvs only when the
 // file has them for every vertex; polygons fan-triangulated; triangles with
 // a repeated index or zero area dropped. Errors are SceneError naming the

@@ -1,5 +1,5 @@
-// Mitsuba BSDFs and bitmap textures -> Material / Texture (SPEC §2's
-// material models, SPEC §8). Parameter names: Mitsuba 3 first, then the
+// Mitsuba BSDFs and bitmap textures -> Material / Texture (docs/descriptor.md §2's
+// material models, docs/descriptor.md §8). Parameter names: Mitsuba 3 first, then the
 // 0.5/0.6 camelCase spelling.
 #include "scene/image_texture.hpp"
 #include "scene/mitsuba_loader.hpp"
@@ -213,12 +213,12 @@ int MitsubaLoader::bsdf(const XNode& n) {
     auto nested = [&]() -> const XNode& { return nested_ignoring_textures(p, n); };
 
     if (type == "twosided") {
-        // SPEC §2: `twosided` is transparent to the lobe flags; the model
+        // docs/descriptor.md §2: `twosided` is transparent to the lobe flags; the model
         // keeps the inner material and marks it two-sided.
         m = scene_.materials[bsdf(nested())];
         m.twosided = true;
     } else if (type == "bumpmap" || type == "normalmap") {
-        // SPEC §8: wrappers that change no lobe load with a warning naming
+        // docs/descriptor.md §8: wrappers that change no lobe load with a warning naming
         // what is ignored.
         for (const char* tex : {"texture", "normalmap", "arg"}) p.find({tex});
         for (const char* f : {"scale", "flip_invert", "strength"}) p.find({f});
@@ -366,7 +366,7 @@ int MitsubaLoader::bsdf(const XNode& n) {
         for (const XNode& u : p.unused()) p.find({u.raw().attribute("name").as_string()});
     } else {
         unsupported(n, "bsdf",
-                    " (SPEC §2: diffuse, plastic, roughplastic, conductor, roughconductor, dielectric, "
+                    " (docs/descriptor.md §2: diffuse, plastic, roughplastic, conductor, roughconductor, dielectric, "
                     "roughdielectric, thindielectric, principled, twosided; with --substitute also mask, bumpmap, "
                     "normalmap, blendbsdf, phong)");
     }

@@ -1,6 +1,6 @@
 // Internal to the Mitsuba XML loader (mitsuba_xml.cpp: scene structure,
 // shapes, emitters, sensor, integrator; mitsuba_bsdf.cpp: BSDFs and
-// textures). SPEC §8 lists the plugins it must understand.
+// textures). docs/descriptor.md §8 lists the plugins it must understand.
 #pragma once
 
 #include "scene/scene.hpp"
@@ -51,7 +51,7 @@ private:
     void bounds(glm::vec3& lo, glm::vec3& hi) const;
     void prune_unused();
     void warn(const XNode& n, const std::string& what);
-    // One warning listing the properties of `p` that nothing read (SPEC §8).
+    // One warning listing the properties of `p` that nothing read (docs/descriptor.md §8).
     void warn_unused(const XProps& p);
     // A plugin vkmech replaces by its nearest model: allowed with
     // --substitute, else an error naming file, line, plugin and the

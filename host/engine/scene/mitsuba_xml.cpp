@@ -1,4 +1,4 @@
-// Mitsuba 3 (and 0.5/0.6) XML scenes, SPEC §8: scene structure, shapes,
+// Mitsuba 3 (and 0.5/0.6) XML scenes, docs/descriptor.md §8: scene structure, shapes,
 // emitters, the sensor and the integrator. BSDFs and textures are in
 // mitsuba_bsdf.cpp.
 #include "scene/mitsuba_loader.hpp"
@@ -68,7 +68,7 @@ Scene MitsubaLoader::load() {
     scene_element(*docs_.front(), 0, Pass::Objects);
     if (!have_sensor_)
         throw SceneError(path_, docs_.front()->line_of(docs_.front()->root()),
-                         "the scene has no <sensor> (SPEC §8: perspective or thinlens)");
+                         "the scene has no <sensor> (docs/descriptor.md §8: perspective or thinlens)");
     add_substituted_panels();
     add_substituted_point_lights();
     add_substituted_directional_lights();
@@ -119,7 +119,7 @@ void MitsubaLoader::warn_unused(const XProps& p) {
 void MitsubaLoader::require_substitute(const XNode& n, const std::string& kind, const std::string& replacement) const {
     if (!options_.substitute_unsupported)
         n.fail("unsupported " + kind + " plugin '" + n.raw().attribute("type").value() +
-               "' (outside vkmech's model, SPEC §8; the --substitute option replaces it by " + replacement + ")");
+               "' (outside vkmech's model, docs/descriptor.md §8; the --substitute option replaces it by " + replacement + ")");
 }
 
 void MitsubaLoader::record_substitution(const XNode& n, const std::string& kind, const std::string& replacement) {
@@ -388,7 +388,7 @@ void MitsubaLoader::emitter_top(const XNode& n) {
         return;
     }
     if (type == "envmap" || type == "constant") {
-        // SPEC §8 (the paper's matpreview treatment): an overhead area panel
+        // docs/descriptor.md §8 (the paper's matpreview treatment): an overhead area panel
         // whose radiance keeps the environment's mean radiance times its scale.
         require_substitute(n, "emitter", "an overhead area panel of the environment's mean radiance x scale");
         PendingPanel panel;
@@ -435,7 +435,7 @@ void MitsubaLoader::emitter_top(const XNode& n) {
         return;
     }
     unsupported(n, "emitter",
-                " (SPEC §1: area emitters; envmap, constant, point, spot and directional only with --substitute)");
+                " (docs/descriptor.md §1: area emitters; envmap, constant, point, spot and directional only with --substitute)");
 }
 
 glm::vec3 MitsubaLoader::envmap_mean_radiance(const XNode& n, const XProps& p) {
@@ -534,11 +534,11 @@ void MitsubaLoader::sensor(const XNode& n) {
             for (const XNode& f : fp.objects()) {
                 if (f.tag() == "rfilter")
                     warn(f, "reconstruction filter '" + f.required("type") +
-                                "' is not used: vkmech uses a box filter (SPEC §1)");
+                                "' is not used: vkmech uses a box filter (docs/descriptor.md §1)");
                 else
                     f.fail("unexpected <" + f.tag() + "> inside " + o.describe());
             }
-            // SPEC §1: the default film is 256 x 256 (not Mitsuba's 768 x 576).
+            // docs/descriptor.md §1: the default film is 256 x 256 (not Mitsuba's 768 x 576).
             cam.width = fp.opt_int({"width"}).value_or(256);
             cam.height = fp.opt_int({"height"}).value_or(256);
             if (cam.width <= 0 || cam.height <= 0)
@@ -551,7 +551,7 @@ void MitsubaLoader::sensor(const XNode& n) {
                        " exceeds " + std::to_string(kMaxFilmSide) + " per side");
             warn_unused(fp);
         } else if (o.tag() == "sampler") {
-            // Sampling is the renderer's (SPEC §4): say what was not used.
+            // Sampling is the renderer's (docs/descriptor.md §4): say what was not used.
             // Its count often is `$spp` with no default (set with -D in
             // Mitsuba): unbound there, it must not stop a scene that does
             // not use it.

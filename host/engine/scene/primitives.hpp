@@ -1,4 +1,4 @@
-// Mitsuba 3's analytic shapes as triangle meshes (SPEC §8): built in object
+// Mitsuba 3's analytic shapes as triangle meshes (docs/descriptor.md §8): built in object
 // space exactly as Mitsuba defines them, then moved to world space
 // (positions by to_world, normals by its inverse transpose). Every triangle
 // winds counter-clockwise seen from the side its normal points to, and no

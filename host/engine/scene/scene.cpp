@@ -38,12 +38,12 @@ const char* to_string(ShapeKind k) {
     return "unknown";
 }
 
-// SPEC §2: smooth conductor, dielectric and thindielectric are S (delta).
+// docs/descriptor.md §2: smooth conductor, dielectric and thindielectric are S (delta).
 bool Material::is_delta_only() const {
     return type == BsdfType::Conductor || type == BsdfType::Dielectric || type == BsdfType::ThinDielectric;
 }
 
-// SPEC §2: the NEE end-vertex lobe is D iff the BSDF advertises a diffuse
+// docs/descriptor.md §2: the NEE end-vertex lobe is D iff the BSDF advertises a diffuse
 // component. Principled has one while (1 - metallic)(1 - spec_trans) > 0,
 // as Mitsuba's flags say; a textured base colour does not change that.
 bool Material::has_diffuse() const {

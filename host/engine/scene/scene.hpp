@@ -35,7 +35,7 @@ private:
     std::string reason_;
 };
 
-// Material models of SPEC §2 (Mitsuba 3 plugin names).
+// Material models of docs/descriptor.md §2 (Mitsuba 3 plugin names).
 enum class BsdfType : uint32_t {
     Diffuse = 0,
     Plastic = 1,
@@ -72,7 +72,7 @@ struct Texture {
 struct Material {
     std::string id;  // the XML id, or a generated name
     BsdfType type = BsdfType::Diffuse;
-    bool twosided = false;  // `twosided` wrapper: transparent to the lobe flags (SPEC §2)
+    bool twosided = false;  // `twosided` wrapper: transparent to the lobe flags (docs/descriptor.md §2)
 
     // diffuse: reflectance; plastic family: diffuse_reflectance;
     // principled: base_color.
@@ -135,7 +135,7 @@ struct Mesh {
 };
 
 // Area emitter attached to one mesh: constant RGB radiance, one-sided (emits
-// on the side of the geometric normal) as in SPEC §1.
+// on the side of the geometric normal) as in docs/descriptor.md §1.
 struct AreaEmitter {
     glm::vec3 radiance{1.0f};
     int mesh = -1;
@@ -153,7 +153,7 @@ struct Camera {
     float far_clip = 10000.0f;
     float aperture_radius = 0.0f;  // thinlens only
     float focus_distance = 0.0f;   // thinlens only
-    int width = 256;                // SPEC §1 default film
+    int width = 256;                // docs/descriptor.md §1 default film
     int height = 256;
 
     // Resizes the film to `w` pixels wide, keeping the aspect ratio (--res).
@@ -201,10 +201,10 @@ struct LoadOptions {
 
 constexpr size_t kDefaultMaxTriangles = 50'000'000;
 
-// Mitsuba 3 (and 0.5/0.6 camelCase) XML subset of SPEC §8. Throws SceneError.
+// Mitsuba 3 (and 0.5/0.6 camelCase) XML subset of docs/descriptor.md §8. Throws SceneError.
 Scene load_mitsuba_xml(const std::string& path, const LoadOptions& options = {});
 
-// glTF 2.0 (.gltf with external or embedded buffers, .glb), SPEC §8. Throws
+// glTF 2.0 (.gltf with external or embedded buffers, .glb), docs/descriptor.md §8. Throws
 // SceneError.
 Scene load_gltf(const std::string& path, const LoadOptions& options = {});
 

@@ -27,7 +27,7 @@ public:
     void add_default(const std::string& name, const std::string& value) { values_.try_emplace(name, value); }
     // Looks `name` up and remembers that it was used.
     const std::string* find(const std::string& name) const;
-    // The -D overrides no `$name` ever used (SPEC §8: a warning, never silent).
+    // The -D overrides no `$name` ever used (docs/descriptor.md §8: a warning, never silent).
     std::vector<std::string> unused_overrides() const;
 
 private:
@@ -100,7 +100,7 @@ public:
     // The property under any of `names` (two aliases at once is an error);
     // a property found is marked used.
     const XNode* find(std::initializer_list<const char*> names) const;
-    // Named properties nobody asked for, in document order (SPEC §8: the
+    // Named properties nobody asked for, in document order (docs/descriptor.md §8: the
     // loader warns about every property it does not use).
     std::vector<XNode> unused() const;
     // The property `name`, without marking it used.
