@@ -1,6 +1,9 @@
 // The CLI's commands, each a function over parsed options.
 #pragma once
 
+#include "scene/scene.hpp"
+#include "study/study_runner.hpp"
+
 #include <CLI/CLI.hpp>
 
 #include <optional>
@@ -22,7 +25,7 @@ struct CommonOptions {
     std::optional<uint32_t> res;        // --res N: film width N, height by aspect
     std::optional<uint32_t> device;     // --device N
     std::string traversal = "auto";     // auto | rayquery | bvh
-    bool substitute = false;            // replace unsupported emitters (SPEC §8)
+    bool substitute = false;            // replace unsupported emitters (docs/descriptor.md §8)
     size_t max_triangles = 0;           // --max-triangles N (0: $VKMECH_MAX_TRIANGLES or the default)
     bool validation = false;            // Vulkan validation layers
     std::optional<std::string> pipeline_cache;  // --pipeline-cache DIR|off (vk::ContextOptions)
@@ -34,14 +37,14 @@ struct RenderOptions {
     uint32_t seed = 0;
     uint32_t batch_spp = 8;
     std::string out_dir;
-    std::string estimator;          // nee | mis-restricted | mis (SPEC §1); empty: mis, nee with --adaptive
-    std::string light_selection = "uniform";  // uniform | power (SPEC §1)
-    std::string end_vertex = "last-nondelta"; // last-nondelta | literal (SPEC §2)
+    std::string estimator;          // nee | mis-restricted | mis (docs/descriptor.md §1); empty: mis, nee with --adaptive
+    std::string light_selection = "uniform";  // uniform | power (docs/descriptor.md §1)
+    std::string end_vertex = "last-nondelta"; // last-nondelta | literal (docs/descriptor.md §2)
     float exposure = 0.0f;          // PNG preview exposure in EV (stops)
     std::string capture = "on";     // on | off: the mechanism descriptor
     bool generic = false;           // the unspecialized pipeline (for comparisons)
     bool preview = false;           // provisional direct-light preview instead of the estimator
-    // Two-stage adaptive rendering (SPEC §6): strategy, pilot N0, extra budget, floor, pilot draw.
+    // Two-stage adaptive rendering (docs/descriptor.md §6): strategy, pilot N0, extra budget, floor, pilot draw.
     std::string adaptive;
     uint32_t pilot = 16;
     uint32_t budget = 32;
@@ -59,22 +62,10 @@ struct BenchOptions {
     std::optional<std::string> pipeline_cache;
 };
 
-struct StudyCliOptions {
-    std::string study;
-    std::string preset = "quick";
-    std::vector<std::string> scenes;
-    std::optional<int> res;
-    std::vector<uint32_t> spp_levels;
-    std::optional<int> seeds;
-    std::string out_dir, cache_dir, curve;
-    std::optional<uint32_t> device;
-    std::optional<std::string> pipeline_cache;
-    std::string traversal = "auto";
-    bool no_plots = false, plan_only = false, equal_time = false;
-    std::string command_line;
-};
-void add_study_options(CLI::App* app, StudyCliOptions& o);
-int cmd_study(const StudyCliOptions& o);
+// `vkmech study`: the options are the study runner's own (study/study_runner.hpp);
+// cmd_study resolves scene names to files and the default --out.
+void add_study_options(CLI::App* app, StudyOptions& o);
+int cmd_study(StudyOptions o);
 
 void add_common_options(CLI::App* app, CommonOptions& o);
 // --pipeline-cache DIR|off (render, bench, study).
@@ -84,6 +75,12 @@ void add_pipeline_cache_option(CLI::App* app, std::optional<std::string>& dir);
 std::string resolve_scene_path(const std::string& name_or_path);
 // All scene files in the project's scenes/ directory (sorted).
 std::vector<std::string> project_scene_names();
+
+// The scene of --scene with -D, --res, --substitute and --max-triangles
+// applied; its warnings and substitutions on stderr when `report`.
+Scene load_for_cli(const CommonOptions& o, bool report = true);
+// "ring_caustic" for "ring_caustic" and for "path/to/ring_caustic.xml".
+std::string scene_stem(const std::string& name_or_path);
 
 int cmd_render(const RenderOptions& o);
 // Usage errors (exit 2) before anything renders: `dir` (the value of `option`,

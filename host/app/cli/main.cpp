@@ -34,7 +34,7 @@ int main(int argc, char** argv) {
     auto* render = app.add_subcommand("render", "Render a scene to a multi-layer EXR and PNG previews");
     add_common_options(render, render_opts.common);
     render->add_option("--spp", render_opts.spp, "Samples per pixel")->check(CLI::Range(1u, 1u << 20));
-    render->add_option("--seed", render_opts.seed, "Random seed (SPEC §4)");
+    render->add_option("--seed", render_opts.seed, "Random seed (docs/descriptor.md §4)");
     render->add_option("--batch", render_opts.batch_spp, "Samples per GPU dispatch")->check(CLI::Range(1u, 4096u));
     render->add_option("--out", render_opts.out_dir, "Output directory (default: out/<scene>)");
     render->add_option("--estimator", render_opts.estimator,
@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
     render->add_flag("--generic", render_opts.generic, "Use the unspecialized pipeline (every effect compiled in)");
     render->add_flag("--preview", render_opts.preview, "Fast direct-light preview instead of the full estimator");
     render->add_option("--adaptive", render_opts.adaptive,
-                       "Two-stage adaptive rendering (SPEC §6) with this allocation strategy: uniform, observed-var, "
+                       "Two-stage adaptive rendering (docs/descriptor.md §6) with this allocation strategy: uniform, observed-var, "
                        "bucket-floor, robust-var, robust-floor, placebo, robust-placebo");
     render->add_option("--pilot", render_opts.pilot, "Adaptive: pilot samples per pixel N0 (default 16)")
         ->check(CLI::Range(2u, 4096u));
@@ -95,9 +95,9 @@ int main(int argc, char** argv) {
     bench_render->add_option("--device", bench_opts.device, "Vulkan device index");
     add_pipeline_cache_option(bench_render, bench_opts.pipeline_cache);
 
-    StudyCliOptions study_opts;
+    StudyOptions study_opts;
     auto* study = app.add_subcommand(
-        "study", "Regenerate the paper's analyses (SPEC §5) on a scene set: tables, figures, maps and report.md");
+        "study", "Regenerate the paper's analyses (docs/descriptor.md §5) on a scene set: tables, figures, maps and report.md");
     add_study_options(study, study_opts);
 
     // A delimited list of nothing (`--scenes ,,,`): CLI11 drops the empty items and would take the next

@@ -1,0 +1,86 @@
+// `vkmech check --scene FILE`.
+#include "cli/commands.hpp"
+
+#include "render/features.hpp"
+#include "render/gpu_scene.hpp"
+#include "scene/scene.hpp"
+
+#include <cstdio>
+#include <map>
+#include <string>
+
+namespace vkmech {
+
+namespace {
+
+// docs/descriptor.md §2's lobe classes a material can sample: D diffuse, G glossy, S delta.
+std::string lobe_classes(const Material& m) {
+    switch (m.type) {
+        case BsdfType::Diffuse: return "D";
+        case BsdfType::Plastic: return "D+S";
+        case BsdfType::RoughPlastic: return "D+G";
+        case BsdfType::Conductor:
+        case BsdfType::Dielectric:
+        case BsdfType::ThinDielectric: return "S";
+        case BsdfType::RoughConductor:
+        case BsdfType::RoughDielectric: return "G";
+        case BsdfType::Principled: return m.has_diffuse() ? "D+G" : "G";
+    }
+    return "?";
+}
+
+}  // namespace
+
+// `vkmech check --scene FILE`: loads without rendering and says what the
+// renderer will see, so a user can trust (or fix) a third-party scene.
+int cmd_check(const CommonOptions& o) {
+    Scene scene = load_for_cli(o, /*report=*/false);
+    SceneArrays arrays = flatten_scene(scene);
+    Features f = Features::from_scene(scene, Estimator::Mis);
+    std::printf("scene: %s\n", resolve_scene_path(o.scene).c_str());
+    size_t tris = scene.triangle_count();
+    std::map<std::string, int> kinds;
+    for (const auto& m : scene.meshes) kinds[to_string(m.kind)]++;
+    std::printf("shapes: %zu (", scene.meshes.size());
+    bool first = true;
+    for (const auto& [k, n] : kinds) std::printf("%s%d %s", first ? "" : ", ", n, k.c_str()), first = false;
+    std::printf("), %zu triangles\n", tris);
+    std::printf("bounds: (%g, %g, %g) .. (%g, %g, %g)\n", arrays.bbox_lo.x, arrays.bbox_lo.y, arrays.bbox_lo.z,
+                arrays.bbox_hi.x, arrays.bbox_hi.y, arrays.bbox_hi.z);
+    std::printf("materials: %zu\n", scene.materials.size());
+    for (const auto& m : scene.materials) {
+        int users = 0;
+        for (const auto& mesh : scene.meshes) users += &scene.materials[mesh.material] == &m;
+        std::string tex;
+        if (m.reflectance.texture >= 0) tex += " reflectance=" + scene.textures[m.reflectance.texture].path;
+        if (m.specular_reflectance_texture >= 0)
+            tex += " specular_reflectance=" + scene.textures[m.specular_reflectance_texture].path;
+        if (m.specular_transmittance_texture >= 0)
+            tex += " specular_transmittance=" + scene.textures[m.specular_transmittance_texture].path;
+        std::printf("  %-24s %-16s lobes %-4s %d shape%s%s%s\n", m.id.c_str(), to_string(m.type), lobe_classes(m).c_str(),
+                    users, users == 1 ? "" : "s", m.twosided ? ", twosided" : "", tex.c_str());
+    }
+    std::printf("emitters: %zu\n", scene.emitters.size());
+    for (const auto& e : scene.emitters) {
+        const auto& ge = arrays.emitters[&e - scene.emitters.data()];
+        std::printf("  %-24s radiance (%g, %g, %g), area %g\n", scene.meshes[e.mesh].name.c_str(), e.radiance.x,
+                    e.radiance.y, e.radiance.z, ge.radiance.w);
+    }
+    if (scene.emitters.empty()) std::printf("  (none: the image will be black)\n");
+    const Camera& c = scene.camera;
+    glm::vec3 pos(c.to_world[3]), fwd(c.to_world[2]);
+    std::printf("camera: %s, %d x %d, fov %g deg (%s), at (%g, %g, %g) looking along (%g, %g, %g)%s\n",
+                c.type == CameraType::ThinLens ? "thinlens" : c.type == CameraType::Orthographic ? "orthographic" : "perspective",
+                c.width, c.height, c.type == CameraType::Orthographic ? 0.0f : c.fov_deg,
+                c.fov_axis.c_str(), pos.x, pos.y, pos.z, fwd.x, fwd.y, fwd.z,
+                c.type == CameraType::ThinLens ? (", aperture " + std::to_string(c.aperture_radius)).c_str() : "");
+    std::printf("integrator: max_depth %d, rr_depth %d\n", scene.integrator.max_depth, scene.integrator.rr_depth);
+    std::printf("features: %s\n", f.describe().c_str());
+    std::printf("substitutions: %zu\n", scene.substitutions.size());
+    for (const auto& s : scene.substitutions) std::printf("  %s\n", s.c_str());
+    std::printf("warnings: %zu\n", scene.warnings.size());
+    for (const auto& w : scene.warnings) std::printf("  %s\n", w.c_str());
+    return 0;
+}
+
+}  // namespace vkmech

@@ -1,0 +1,305 @@
+// `vkmech render` and `vkmech render --adaptive`.
+#include "cli/commands.hpp"
+
+#include "adaptive/adaptive.hpp"
+#include "allocation/allocation.hpp"
+#include "experiments/predictor.hpp"
+#include "io/interrupt.hpp"
+#include "io/output_set.hpp"
+#include "io/png.hpp"
+#include "render/descriptor.hpp"
+#include "render/features.hpp"
+#include "render/render_outputs.hpp"
+#include "render/renderer.hpp"
+#include "render/session.hpp"
+#include "scene/scene.hpp"
+#include "vk/context.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <optional>
+
+namespace fs = std::filesystem;
+
+namespace vkmech {
+
+namespace {
+
+// Issue 10: a black image, an empty label map or a value beyond float's
+// range is said on stderr (and in the JSON); the exit code stays 0.
+void report_render_warnings(const WrittenFiles& files) {
+    for (const auto& w : files.warnings) std::cerr << "vkmech: warning: " << w << "\n";
+}
+
+// The output set of a render (issue 10): --out must be writable before anything renders (exit 2 otherwise).
+std::unique_ptr<OutputSet> open_output_set(const std::string& out_dir, const std::string& name) {
+    require_writable_dir(out_dir, "--out");
+    return std::make_unique<OutputSet>(out_dir, name);
+}
+
+class Progress {
+public:
+    explicit Progress(std::string label) : label_(std::move(label)), tty_(isatty(STDERR_FILENO)), t0_(clock::now()) {}
+    void operator()(uint32_t done, uint32_t total) {
+        double el = std::chrono::duration<double>(clock::now() - t0_).count();
+        double left = done > 0 ? el * (total - done) / done : 0.0;
+        int pct = static_cast<int>(100.0 * done / total);
+        if (tty_) {
+            std::fprintf(stderr, "\r%s: %u/%u spp (%3d%%)  %.1fs elapsed, ~%.1fs left   ", label_.c_str(), done, total, pct,
+                         el, left);
+            if (done == total) std::fprintf(stderr, "\n");
+        } else if (pct >= next_pct_ || done == total) {
+            std::fprintf(stderr, "%s: %u/%u spp (%d%%) %.1fs elapsed, ~%.1fs left\n", label_.c_str(), done, total, pct, el,
+                         left);
+            next_pct_ = pct + 25;
+        }
+        std::fflush(stderr);
+    }
+
+private:
+    using clock = std::chrono::steady_clock;
+    std::string label_;
+    bool tty_;
+    clock::time_point t0_;
+    int next_pct_ = 0;
+};
+
+// docs/descriptor.md §1: plain `render` defaults to MIS; the paper's protocol (adaptive
+// rendering, studies) to NEE.
+Estimator render_estimator(const RenderOptions& o, Estimator fallback) {
+    return o.estimator.empty() ? fallback : parse_estimator(o.estimator);
+}
+
+RenderInfo render_info(const std::string& name, const RenderOptions& o, const vk::Context& ctx, Traversal trav,
+                       Estimator estimator, const Features& features, const Scene& scene, uint32_t spp, uint32_t seed,
+                       bool capture) {
+    RenderInfo info{name, resolve_scene_path(o.common.scene), ctx.info().name, to_string(trav), to_string(estimator),
+                    features.describe(), spp, seed, capture};
+    info.light_selection = o.light_selection;
+    info.end_vertex = o.end_vertex;
+    info.exposure_ev = o.exposure;
+    info.warnings = scene.warnings;
+    info.substitutions = scene.substitutions;
+    return info;
+}
+
+ReliabilityCurve load_curve_for_cli(const std::string& path) {
+    try {
+        return ReliabilityCurve::load(path);
+    } catch (const std::runtime_error& e) {
+        throw UsageError(e.what());
+    }
+}
+
+}  // namespace
+
+void check_curve_for_cli(const std::string& path) { (void)load_curve_for_cli(path); }
+
+int cmd_render_adaptive(const RenderOptions& o);
+
+int cmd_render(const RenderOptions& o) {
+    if (!o.adaptive.empty()) return cmd_render_adaptive(o);
+    Scene loaded = load_for_cli(o.common);
+    std::string name = scene_stem(o.common.scene);
+    std::string out_dir = o.out_dir.empty() ? "out/" + name : o.out_dir;
+    Estimator estimator = render_estimator(o, Estimator::Mis);
+    bool capture = o.capture == "on";
+    SignalGuard signals;  // SIGINT/SIGTERM: stop at the next batch, remove the staged files, exit 130/143
+    std::unique_ptr<OutputSet> set = open_output_set(out_dir, name);
+
+    vk::ContextOptions co;
+    co.device_index = o.common.device;
+    co.validation = o.common.validation;
+    co.pipeline_cache_dir = o.common.pipeline_cache;
+    vk::Context ctx(co);
+    Traversal trav = resolve_traversal(ctx, parse_traversal(o.common.traversal));
+    RenderSession session(ctx, std::move(loaded), trav, parse_light_selection(o.light_selection));
+    const Scene& scene = session.scene();
+    const SceneArrays& arrays = session.arrays();
+    Features features = o.generic ? Features::generic(estimator, capture) : session.features(estimator, capture);
+    features.end_vertex = parse_end_vertex(o.end_vertex);
+    const vk::PipelineStats before = ctx.pipeline_cache().stats();
+    Renderer renderer = session.renderer(features);
+    const vk::PipelineStats pipes = ctx.pipeline_cache().stats() - before;
+
+    std::fprintf(stderr, "vkmech: %s: %dx%d, %zu triangles, %zu emitters, %u spp on '%s' (%s traversal; %s; %s light "
+                 "selection)\n",
+                 name.c_str(), scene.camera.width, scene.camera.height, arrays.triangles.size(), scene.emitters.size(),
+                 o.spp, ctx.info().name.c_str(), to_string(trav), features.describe().c_str(), o.light_selection.c_str());
+    RenderSpec spec;
+    spec.spp = o.spp;
+    spec.seed = o.seed;
+    spec.batch_spp = o.batch_spp;
+    spec.mode = o.preview ? gpu::MODE_DIRECT_PREVIEW : gpu::MODE_PATH;
+    Progress progress("render " + name);
+    spec.progress = [&](uint32_t d, uint32_t t) {
+        throw_if_interrupted();
+        progress(d, t);
+    };
+    Frame frame = renderer.render(spec);
+
+    RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene, o.spp, o.seed, capture);
+    info.pipeline_seconds = pipes.seconds;
+    info.pipeline_cache = vk::pipeline_cache_outcome(pipes, ctx.pipeline_cache().enabled());
+    std::optional<Descriptor> desc;
+    std::optional<DescriptorSummary> summary;
+    if (capture) {
+        desc = derive_descriptor(frame);
+        summary = summarize(frame, *desc);
+    }
+    WrittenFiles files = write_render_outputs(*set, info, frame, desc ? &*desc : nullptr, summary ? &*summary : nullptr);
+    set->commit();
+    report_render_warnings(files);
+
+    double paths_per_s = frame.seconds > 0 ? frame.samples / frame.seconds : 0.0;
+    uint64_t nonfinite = 0;
+    for (const auto& p : frame.pixels) nonfinite += static_cast<uint64_t>(p.nonfinite);
+    std::printf("%s: %d x %d, %u spp, %.2f s, %.3g paths/s, non-finite samples: %llu\n", name.c_str(), frame.width,
+                frame.height, o.spp, frame.seconds, paths_per_s, static_cast<unsigned long long>(nonfinite));
+    std::printf("pipeline creation: %.2f s (%s; not in the render time)\n", info.pipeline_seconds,
+                info.pipeline_cache.c_str());
+    if (summary) {
+        std::printf("%-18s %12s %12s\n", "bucket", "pixel share", "energy share");
+        for (uint32_t b = 0; b < kBucketCount; ++b)
+            std::printf("%-18s %11.2f%% %11.2f%%\n", kBucketNames[b], 100.0 * summary->pixel_share[b],
+                        100.0 * summary->energy_share[b]);
+        std::printf("labelled pixels: %llu of %zu; other energy: %g\n",
+                    static_cast<unsigned long long>(summary->labelled_pixels), frame.pixels.size(), summary->other_energy);
+    }
+    double clipped = clipped_share(frame.rgb_mean(), o.exposure);
+    std::printf("preview: exposure %+.2f EV, %.2f%% of pixels clip%s\n", o.exposure, 100.0 * clipped,
+                clipped > 0.05 ? " (lower --exposure to see them; the EXR keeps every value)" : "");
+    for (const auto& f : {files.exr, files.png, files.dominant_png, files.purity_png, files.json,
+                          set->final_path(manifest_file_name(name))})
+        if (!f.empty()) std::printf("wrote %s\n", f.c_str());
+    return 0;
+}
+
+// `vkmech render --adaptive STRATEGY --pilot N0 --budget B`: pilot, predicted
+// label reliability, Neyman allocation, final render of n(p) pool samples.
+int cmd_render_adaptive(const RenderOptions& o) {
+    alloc::Strategy strategy;
+    try {
+        strategy = alloc::parse_strategy(o.adaptive);
+    } catch (const std::invalid_argument& e) {
+        throw UsageError(std::string("--adaptive: ") + e.what());
+    }
+    if (strategy == alloc::Strategy::Oracle || strategy == alloc::Strategy::LabelOracle)
+        throw UsageError(std::string("--adaptive ") + alloc::to_string(strategy) +
+                         " needs a converged reference; it is a control of `vkmech study allocation`, not a renderer");
+    const bool robust = alloc::needs_mom(strategy);
+    if (robust) {
+        try {
+            alloc::mom_block_size(static_cast<int>(o.pilot));
+        } catch (const std::invalid_argument& e) {
+            throw UsageError(std::string("--adaptive ") + alloc::to_string(strategy) + " at --pilot " +
+                             std::to_string(o.pilot) + ": " + e.what());
+        }
+    }
+    if (o.floor > 1 + o.budget) throw UsageError("--floor exceeds the per-pixel average (1 + --budget)");
+    // The frozen curve is read before anything renders: a bad file is bad input (exit 2).
+    std::string curve_path = o.curve.empty() ? std::string(VKMECH_SOURCE_DIR) + "/docs/results/predictor_curve.json" : o.curve;
+    if (!o.curve.empty() && !fs::exists(curve_path)) throw UsageError("predictor curve '" + o.curve + "' does not exist");
+    std::optional<ReliabilityCurve> curve;
+    if (fs::exists(curve_path)) curve = load_curve_for_cli(curve_path);
+    Scene loaded = load_for_cli(o.common);
+    std::string name = scene_stem(o.common.scene);
+    std::string out_dir = o.out_dir.empty() ? "out/" + name : o.out_dir;
+    Estimator estimator = render_estimator(o, Estimator::Nee);
+    SignalGuard signals;
+    std::unique_ptr<OutputSet> set = open_output_set(out_dir, name);
+
+    vk::ContextOptions co;
+    co.device_index = o.common.device;
+    co.validation = o.common.validation;
+    co.pipeline_cache_dir = o.common.pipeline_cache;
+    vk::Context ctx(co);
+    Traversal trav = resolve_traversal(ctx, parse_traversal(o.common.traversal));
+    RenderSession session(ctx, std::move(loaded), trav, parse_light_selection(o.light_selection));
+    const Scene& scene = session.scene();
+    Features features = session.features(estimator, true);
+    features.end_vertex = parse_end_vertex(o.end_vertex);
+    const vk::PipelineStats before = ctx.pipeline_cache().stats();
+    Renderer renderer = session.renderer(features);
+    const vk::PipelineStats pipes = ctx.pipeline_cache().stats() - before;
+    const std::string pipe_outcome = vk::pipeline_cache_outcome(pipes, ctx.pipeline_cache().enabled());
+    std::printf("pipeline creation: %.2f s (%s; not in the render times)\n", pipes.seconds, pipe_outcome.c_str());
+    const size_t pixels = static_cast<size_t>(scene.camera.width) * scene.camera.height;
+    std::fprintf(stderr, "vkmech: %s: %dx%d adaptive (%s, pilot %u spp, budget 1 + %u spp per pixel, floor %u) on '%s'\n",
+                 name.c_str(), scene.camera.width, scene.camera.height, alloc::to_string(strategy), o.pilot, o.budget,
+                 o.floor, ctx.info().name.c_str());
+
+    throw_if_interrupted();
+    Pilot pilot = render_pilot(renderer, o.pilot, downstream_seeds::pilot(o.pilot_draw), robust);
+    throw_if_interrupted();
+    std::printf("pilot: %u spp (seed %u), %.2f s\n", o.pilot, downstream_seeds::pilot(o.pilot_draw), pilot.seconds);
+
+    // The pilot's predicted label reliability (paper §8.2), before anything is allocated.
+    if (curve) {
+        PilotPrediction pred = predict_from_pilot(*curve, pilot.frame);
+        std::printf("predicted label reliability (share of the pilot's labels a converged render keeps): %.3f by "
+                    "margin, %.3f by purity (curve %s, fitted on %u-spp pilots)\n",
+                    pred.margin, pred.purity, curve_path.c_str(), curve->pilot_spp);
+        if (curve->pilot_spp != 0 && curve->pilot_spp != o.pilot)
+            std::printf("note: this pilot has %u spp; the curve was fitted on %u-spp pilots, so the prediction is "
+                        "indicative only\n",
+                        o.pilot, curve->pilot_spp);
+    } else {
+        std::printf("predicted label reliability: no frozen curve at %s (run `vkmech study predictor`)\n",
+                    curve_path.c_str());
+    }
+
+    alloc::ScoreInputs in;
+    in.pilot_var = &pilot.var;
+    in.pilot_labels = &pilot.labels;
+    if (robust) in.mom_var = &pilot.mom_var;
+    AdaptivePlan plan = plan_allocation(strategy, in, o.budget, o.floor, o.pilot_draw);
+
+    RenderSpec spec;
+    spec.seed = downstream_seeds::kPool;
+    spec.batch_spp = o.batch_spp;
+    spec.sample_counts = plan.n;
+    Progress progress("render " + name);
+    spec.progress = [&](uint32_t d, uint32_t t) {
+        throw_if_interrupted();
+        progress(d, t);
+    };
+    Frame frame = renderer.render(spec);
+
+    uint32_t max_n = 0, min_n = ~0u;
+    for (uint32_t n : plan.n) {
+        max_n = std::max(max_n, n);
+        min_n = std::min(min_n, n);
+    }
+    RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene,
+                                  static_cast<uint32_t>(plan.total / pixels), downstream_seeds::kPool, true);
+    info.features += std::string(" adaptive=") + alloc::to_string(strategy);
+    info.pipeline_seconds = pipes.seconds;
+    info.pipeline_cache = pipe_outcome;
+    Descriptor desc = derive_descriptor(frame);
+    DescriptorSummary summary = summarize(frame, desc);
+    WrittenFiles files = write_render_outputs(*set, info, frame, &desc, &summary);
+    report_render_warnings(files);
+    std::vector<float> nmap(plan.n.begin(), plan.n.end());
+    write_png_rgb8(set->staged(name + "_spp.png"), frame.width, frame.height,
+                   grey_to_rgb8(nmap, 0.0f, static_cast<float>(max_n)));
+    std::string spp_png = set->final_path(name + "_spp.png");
+    set->commit();
+
+    std::printf("allocation: %llu samples in all (%.2f per pixel), n(p) from %u to %u, %.2f ms\n",
+                static_cast<unsigned long long>(plan.total), static_cast<double>(plan.total) / pixels, min_n, max_n,
+                plan.allocation_ms);
+    std::printf("final: %.2f s; wall time pilot + allocation + final: %.2f s\n", frame.seconds,
+                pilot.seconds + plan.allocation_ms / 1000.0 + frame.seconds);
+    for (const auto& f : {files.exr, files.png, files.dominant_png, spp_png, files.json,
+                          set->final_path(manifest_file_name(name))})
+        if (!f.empty()) std::printf("wrote %s\n", f.c_str());
+    return 0;
+}
+
+}  // namespace vkmech

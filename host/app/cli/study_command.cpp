@@ -1,0 +1,93 @@
+// `vkmech study NAME` and `vkmech verify outputs|cache DIR`.
+#include "cli/commands.hpp"
+
+#include "io/output_set.hpp"
+#include "study/render_cache.hpp"
+#include "study/study_runner.hpp"
+
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+namespace fs = std::filesystem;
+
+namespace vkmech {
+
+// `vkmech verify outputs DIR`: every output set in DIR checked against its manifest.
+int cmd_verify_outputs(const std::string& dir) {
+    if (!fs::is_directory(dir)) throw UsageError("'" + dir + "' is not a directory");
+    std::vector<std::string> stale;
+    auto sets = verify_output_dir(dir, &stale);
+    int bad = 0;
+    for (const auto& s : sets) {
+        const char* kind = s.kind == SetStatus::Complete ? "complete" : s.kind == SetStatus::Pending ? "pending" : "BAD";
+        std::printf("%-8s %s%s%s: %s\n", kind, s.name.c_str(), s.run_id.empty() ? "" : " (run ", s.run_id.empty() ? "" :
+                    (s.run_id + ")").c_str(), s.detail.c_str());
+        bad += s.kind == SetStatus::Bad;
+    }
+    for (const auto& f : stale) std::printf("stale    %s: a temporary of an interrupted run (the next run here removes it)\n", f.c_str());
+    std::printf("%zu output sets: %d bad; %zu stale temporaries\n", sets.size(), bad, stale.size());
+    return bad ? 1 : 0;
+}
+
+// `vkmech verify cache DIR`: every render-cache file checked (key, checksum, size, finite data).
+int cmd_verify_cache(const std::string& dir) {
+    if (!fs::is_directory(dir)) throw UsageError("'" + dir + "' is not a directory");
+    CacheVerifyReport r = verify_cache_dir(dir);
+    for (const auto& [f, why] : r.bad) std::printf("BAD   %s\n", why.c_str());
+    for (const auto& [f, why] : r.stale) std::printf("stale %s: %s\n", f.c_str(), why.c_str());
+    std::printf("%zu good, %zu bad, %zu stale cache files in %s%s\n", r.good.size(), r.bad.size(), r.stale.size(),
+                dir.c_str(), r.bad.empty() ? "" : " (a study removes and re-renders bad files)");
+    return r.bad.empty() ? 0 : 1;
+}
+
+void add_study_options(CLI::App* app, StudyOptions& o) {
+    app->add_option("name", o.study,
+                    "stability, variance, cost, structure, sweep-roughness, sweep-lights, predictor, allocation, or all")
+        ->required()
+        ->check(CLI::IsMember({"stability", "variance", "cost", "structure", "sweep-roughness", "sweep-lights", "predictor",
+                               "allocation", "all"}));
+    app->add_option("--preset", o.preset,
+                    "quick (tiny images, low SPP: minutes, for CI), reduced (96 px, SPP 64/512/2048: what a CPU device "
+                    "affords), paper (256², SPP 64/512/4096, 10 seeds per level: the paper's protocol)")
+        ->check(CLI::IsMember({"quick", "reduced", "paper"}));
+    app->add_option("--scenes", o.scenes, "Comma-separated scene names or paths (default: the seven first-party scenes)")
+        ->delimiter(',');
+    app->add_option("--res", o.res, "Film width in pixels (overrides the preset)")->check(CLI::Range(4, 4096));
+    app->add_option("--spp-levels", o.spp_levels, "Stability SPP levels, ascending; the last is the reference")
+        ->delimiter(',')
+        ->check(CLI::Range(1u, 1u << 20));
+    app->add_option("--seeds", o.seeds, "Seeds per variance level and per sweep level (even, >= 4)")->check(CLI::Range(4, 1000));
+    app->add_option("--out", o.out_dir, "Output directory (default: out/study-<name>)");
+    app->add_option("--cache", o.cache_dir, "Render cache directory (default: <out>/cache); share it between studies");
+    app->add_option("--curve", o.curve,
+                    "predictor: a frozen predictor_curve.json; predicts each scene's label reliability from its pilot only");
+    app->add_option("--device", o.device, "Vulkan device index (see `vkmech devices`)");
+    add_pipeline_cache_option(app, o.pipeline_cache);
+    app->add_option("--traversal", o.traversal, "Ray traversal: auto, rayquery or bvh")
+        ->check(CLI::IsMember({"auto", "rayquery", "bvh"}));
+    app->add_flag("--no-plots", o.no_plots, "Write the figure specs (JSON) but do not run matplotlib");
+    app->add_flag("--plan", o.plan_only, "Print the plan and its expected cost, render nothing");
+    app->add_flag("--equal-time", o.equal_time,
+                  "allocation: also compare strategies at equal wall-clock time (error versus measured seconds)");
+}
+
+int cmd_study(StudyOptions o) {
+    // The CLI's scene names become files; the study runner sees paths only.
+    std::vector<std::string> names = o.scenes.empty() ? first_party_scenes() : o.scenes;
+    o.scenes.clear();
+    for (const auto& s : names) o.scenes.push_back(resolve_scene_path(s));
+    o.sweep_roughness_scene = resolve_scene_path("sweep_roughness");
+    o.sweep_lights_scene = resolve_scene_path("sweep_lights");
+    if (o.out_dir.empty()) o.out_dir = "out/study-" + o.study;
+    if (!o.curve.empty() && !fs::exists(o.curve)) throw UsageError("predictor curve '" + o.curve + "' does not exist");
+    if (!o.curve.empty() && o.study != "predictor") throw UsageError("--curve applies to `vkmech study predictor` only");
+    if (!o.curve.empty()) check_curve_for_cli(o.curve);
+    try {
+        return run_study(o);
+    } catch (const std::invalid_argument& e) {
+        throw UsageError(e.what());
+    }
+}
+
+}  // namespace vkmech
