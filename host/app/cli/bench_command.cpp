@@ -35,13 +35,26 @@ int cmd_devices() {
     return 0;
 }
 
-int cmd_bench_traversal(const BenchOptions& o) {
+namespace {
+
+std::vector<std::string> bench_scenes(const BenchOptions& o) {
     std::vector<std::string> names = o.scenes.empty() ? project_scene_names() : o.scenes;
     if (names.empty()) throw UsageError("no scenes to benchmark");
+    return names;
+}
+
+vk::ContextOptions bench_context_options(const BenchOptions& o) {
     vk::ContextOptions co;
     co.device_index = o.device;
     co.pipeline_cache_dir = o.pipeline_cache;
-    vk::Context ctx(co);
+    return co;
+}
+
+}  // namespace
+
+int cmd_bench_traversal(const BenchOptions& o) {
+    const std::vector<std::string> names = bench_scenes(o);
+    vk::Context ctx(bench_context_options(o));
     std::printf("device: %s (%s), %u random rays per measurement (closest hit; median of 3)\n", ctx.info().name.c_str(),
                 ctx.info().type.c_str(), o.rays);
     std::printf("%-22s %10s %16s %16s\n", "scene", "triangles", "rayquery Mray/s", "bvh Mray/s");
@@ -67,12 +80,8 @@ int cmd_bench_traversal(const BenchOptions& o) {
 }
 
 int cmd_bench_render(const BenchOptions& o) {
-    std::vector<std::string> names = o.scenes.empty() ? project_scene_names() : o.scenes;
-    if (names.empty()) throw UsageError("no scenes to benchmark");
-    vk::ContextOptions co;
-    co.device_index = o.device;
-    co.pipeline_cache_dir = o.pipeline_cache;
-    vk::Context ctx(co);
+    const std::vector<std::string> names = bench_scenes(o);
+    vk::Context ctx(bench_context_options(o));
     std::printf("device: %s (%s); %ux%u film, %u spp per measurement, median of 3; paths/s in millions\n",
                 ctx.info().name.c_str(), ctx.info().type.c_str(), o.res, o.res, o.spp);
     std::printf("%-20s %-9s %12s %12s %12s %12s\n", "scene", "traversal", "specialized", "generic", "capture off",

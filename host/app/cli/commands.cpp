@@ -93,6 +93,14 @@ LoadOptions load_options(const CommonOptions& o) {
 
 }  // namespace
 
+vk::ContextOptions context_options(const CommonOptions& o) {
+    vk::ContextOptions co;
+    co.device_index = o.device;
+    co.validation = o.validation;
+    co.pipeline_cache_dir = o.pipeline_cache;
+    return co;
+}
+
 Scene load_for_cli(const CommonOptions& o, bool report) {
     std::string path = resolve_scene_path(o.scene);
     Scene scene = load_scene(path, load_options(o));

@@ -2,6 +2,7 @@
 #pragma once
 
 #include "scene/scene.hpp"
+#include "vk/context.hpp"
 #include "study/study_runner.hpp"
 
 #include <CLI/CLI.hpp>
@@ -76,6 +77,8 @@ std::string resolve_scene_path(const std::string& name_or_path);
 // All scene files in the project's scenes/ directory (sorted).
 std::vector<std::string> project_scene_names();
 
+// The device options of --device, --validation and --pipeline-cache.
+vk::ContextOptions context_options(const CommonOptions& o);
 // The scene of --scene with -D, --res, --substitute and --max-triangles
 // applied; its warnings and substitutions on stderr when `report`.
 Scene load_for_cli(const CommonOptions& o, bool report = true);

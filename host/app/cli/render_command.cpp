@@ -112,11 +112,7 @@ int cmd_render(const RenderOptions& o) {
     SignalGuard signals;  // SIGINT/SIGTERM: stop at the next batch, remove the staged files, exit 130/143
     std::unique_ptr<OutputSet> set = open_output_set(out_dir, name);
 
-    vk::ContextOptions co;
-    co.device_index = o.common.device;
-    co.validation = o.common.validation;
-    co.pipeline_cache_dir = o.common.pipeline_cache;
-    vk::Context ctx(co);
+    vk::Context ctx(context_options(o.common));
     Traversal trav = resolve_traversal(ctx, parse_traversal(o.common.traversal));
     RenderSession session(ctx, std::move(loaded), trav, parse_light_selection(o.light_selection));
     const Scene& scene = session.scene();
@@ -214,11 +210,7 @@ int cmd_render_adaptive(const RenderOptions& o) {
     SignalGuard signals;
     std::unique_ptr<OutputSet> set = open_output_set(out_dir, name);
 
-    vk::ContextOptions co;
-    co.device_index = o.common.device;
-    co.validation = o.common.validation;
-    co.pipeline_cache_dir = o.common.pipeline_cache;
-    vk::Context ctx(co);
+    vk::Context ctx(context_options(o.common));
     Traversal trav = resolve_traversal(ctx, parse_traversal(o.common.traversal));
     RenderSession session(ctx, std::move(loaded), trav, parse_light_selection(o.light_selection));
     const Scene& scene = session.scene();

@@ -108,21 +108,6 @@ bool mom_defined(uint32_t n0) {
     }
 }
 
-std::string short_name(Strategy s) {
-    switch (s) {
-    case Strategy::Uniform: return "uniform";
-    case Strategy::ObservedVar: return "obs-var";
-    case Strategy::BucketFloor: return "b-floor";
-    case Strategy::Oracle: return "oracle";
-    case Strategy::Placebo: return "placebo";
-    case Strategy::LabelOracle: return "label-oracle";
-    case Strategy::RobustVar: return "robust-var";
-    case Strategy::RobustFloor: return "robust-floor";
-    case Strategy::RobustPlacebo: return "robust-placebo";
-    }
-    return "?";
-}
-
 }  // namespace
 
 void run_allocation_study(AllocationStudyContext& a) {

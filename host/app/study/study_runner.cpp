@@ -91,8 +91,50 @@ const std::vector<std::string>& first_party_scenes() {
     return s;
 }
 
-int run_study(const StudyOptions& o) {
-    const auto t_start = clock_type::now();
+namespace {
+
+// The stages of a study: plan -> keys -> estimate -> render missing -> analyse -> plot -> report.
+
+struct StudyPlan {
+    StudyConfig cfg;
+    std::vector<StudyKind> kinds;
+    std::string out_dir, cache_dir;
+    std::vector<RenderRequest> renders;  // every render of every requested study, deduplicated, in a stable order
+    bool has(StudyKind k) const { return std::find(kinds.begin(), kinds.end(), k) != kinds.end(); }
+};
+
+// The study's device and the digest of the code that renders on it (part of every cache key).
+struct StudyDevice {
+    explicit StudyDevice(const StudyOptions& o) : ctx(context_options(o)) {
+        trav = resolve_traversal(ctx, parse_traversal(o.traversal));
+        const auto spirv = pathtrace_spirv(trav);
+        code_digest = Digest().str(VKMECH_VERSION).bytes(spirv.data(), spirv.size_bytes()).str("frame-merge-v1").hex();
+    }
+    static vk::ContextOptions context_options(const StudyOptions& o) {
+        vk::ContextOptions co;
+        co.device_index = o.device;
+        co.pipeline_cache_dir = o.pipeline_cache;
+        return co;
+    }
+    vk::Context ctx;
+    Traversal trav = Traversal::Bvh;
+    std::string code_digest;
+};
+
+// Cache keys of the planned renders and which of them the cache lacks.
+struct CacheState {
+    std::map<RenderRequest, std::string> keys;
+    std::map<SceneVariant, std::pair<int, int>> film;
+    std::vector<RenderRequest> missing;
+    double paths_total = 0, paths_missing = 0;
+};
+
+struct RenderTally {
+    double render_seconds = 0;
+    size_t done = 0;
+};
+
+StudyPlan make_plan(const StudyOptions& o) {
     StudyConfig cfg = preset_config(o.preset);
     if (o.res) cfg.res = cfg.alloc_res = *o.res;
     cfg.equal_time = o.equal_time;
@@ -121,25 +163,19 @@ int run_study(const StudyOptions& o) {
     for (StudyKind k : kinds)
         for (auto& r : plan_renders(cfg, k))
             if (seen.insert(r).second) plan.push_back(r);
+    return StudyPlan{std::move(cfg), kinds, out_dir, cache_dir, std::move(plan)};
+}
 
-    vk::ContextOptions co;
-    co.device_index = o.device;
-    co.pipeline_cache_dir = o.pipeline_cache;
-    vk::Context ctx(co);
-    const Traversal trav = resolve_traversal(ctx, parse_traversal(o.traversal));
-    const auto spirv = pathtrace_spirv(trav);
-    const std::string code_digest =
-        Digest().str(VKMECH_VERSION).bytes(spirv.data(), spirv.size_bytes()).str("frame-merge-v1").hex();
-
-    std::fprintf(stderr, "vkmech study %s: %s\n", o.study.c_str(), cfg.describe().c_str());
-    std::fprintf(stderr, "vkmech study: device '%s', %s traversal; cache %s\n", ctx.info().name.c_str(), to_string(trav),
-                 cache_dir.c_str());
-
+CacheState key_renders(const StudyPlan& p, const StudyDevice& dev, const RenderCache& cache) {
+    const StudyConfig& cfg = p.cfg;
+    const auto& plan = p.renders;
+    const vk::Context& ctx = dev.ctx;
+    const Traversal trav = dev.trav;
+    const std::string& code_digest = dev.code_digest;
+    CacheState cs;
+    auto& keys = cs.keys;
+    auto& film = cs.film;
     // Keys: load each scene variant once to digest its content at the study's film size.
-    RenderCache cache(cache_dir);
-    if (!o.plan_only) clean_stale_temporaries(cache_dir);  // `*.tmp-<pid>` of dead processes
-    std::map<RenderRequest, std::string> keys;
-    std::map<SceneVariant, std::pair<int, int>> film;
     {
         std::map<SceneVariant, std::string> digests;
         for (const auto& r : plan) {
@@ -153,18 +189,29 @@ int run_study(const StudyOptions& o) {
                                  to_string(trav), ctx.info().name, code_digest});
         }
     }
-    std::vector<RenderRequest> missing;
-    double paths_total = 0, paths_missing = 0;
+
     for (const auto& r : plan) {
         auto [w, h] = film[r.scene];
         double paths = static_cast<double>(r.spp) * w * h;
-        paths_total += paths;
+        cs.paths_total += paths;
         if (!cache.try_load(keys[r])) {  // absent, or damaged (warned, removed): render it
-            missing.push_back(r);
-            paths_missing += paths;
+            cs.missing.push_back(r);
+            cs.paths_missing += paths;
         }
     }
+    return cs;
+}
 
+// Expected cost: prints the plan and returns the allocation study's own paths (estimated).
+double estimate(const StudyPlan& p, const StudyDevice& dev, const CacheState& cs) {
+    const StudyConfig& cfg = p.cfg;
+    const auto& plan = p.renders;
+    const auto& kinds = p.kinds;
+    const vk::Context& ctx = dev.ctx;
+    const Traversal trav = dev.trav;
+    const auto& missing = cs.missing;
+    const auto& film = cs.film;
+    const double paths_missing = cs.paths_missing;
     // Expected cost: a short probe render (4 spp) of every scene file with something to render,
     // and the allocation study's renders (reference, pool, pilots, timing renders) estimated alike.
     std::map<std::string, double> rate;  // scene file -> paths/s
@@ -182,7 +229,7 @@ int run_study(const StudyOptions& o) {
     };
     double expected_s = 0;
     for (const auto& r : missing) {
-        auto [w, h] = film[r.scene];
+        auto [w, h] = film.at(r.scene);
         expected_s += static_cast<double>(r.spp) * w * h / probe(r.scene, cfg.res);
     }
     double alloc_paths = 0;
@@ -204,14 +251,24 @@ int run_study(const StudyOptions& o) {
                  plan.size(), plan.size() - missing.size(), missing.size(), paths_missing,
                  alloc_paths > 0 ? (" + about " + report::format("%.3g", alloc_paths) + " for the allocation study").c_str() : "",
                  rate.size(), hms(expected_s).c_str());
-    if (o.plan_only) return 0;
+    return alloc_paths;
+}
 
+RenderTally render_missing(const StudyPlan& p, const StudyDevice& dev, RenderCache& cache, const CacheState& cs) {
+    const StudyConfig& cfg = p.cfg;
+    const vk::Context& ctx = dev.ctx;
+    const Traversal trav = dev.trav;
+    const auto& missing = cs.missing;
+    const auto& film = cs.film;
+    const auto& keys = cs.keys;
+    const double paths_missing = cs.paths_missing;
+    RenderTally t;
+    double& render_seconds = t.render_seconds;
+    size_t& done = t.done;
     // Render what is missing, grouped by scene variant; each finished render is cached atomically.
-    double render_seconds = 0, paths_done = 0;
-    size_t done = 0;
+    double paths_done = 0;
     const bool tty = isatty(STDERR_FILENO);
     const auto t_render = clock_type::now();
-    SignalGuard guard;  // SIGINT/SIGTERM until the end: the allocation study renders during its analysis
     {
         std::vector<SceneVariant> order;
         for (const auto& r : missing)
@@ -229,7 +286,7 @@ int run_study(const StudyOptions& o) {
                 spec.spp = r.spp;
                 spec.seed = r.seed;
                 spec.batch_spp = std::min(cfg.batch_spp, r.spp);
-                auto [w, h] = film[r.scene];
+                auto [w, h] = film.at(r.scene);
                 const double px = static_cast<double>(w) * h;
                 spec.progress = [&](uint32_t d, uint32_t) {
                     if (int sig = pending_signal()) throw StudyInterrupted(sig);
@@ -243,7 +300,7 @@ int run_study(const StudyOptions& o) {
                     }
                 };
                 Frame f = rr->render(spec);
-                cache.store(keys[r], f, describe(r) + ", " + std::to_string(w) + "x" + std::to_string(h));
+                cache.store(keys.at(r), f, describe(r) + ", " + std::to_string(w) + "x" + std::to_string(h));
                 render_seconds += f.seconds;
                 paths_done += r.spp * px;
                 ++done;
@@ -255,11 +312,14 @@ int run_study(const StudyOptions& o) {
             }
         }
     }
+    return t;
+}
 
-    // Experiments on cached frames only: a resumed study computes from exactly the same bytes.
-    fs::create_directories(out_dir);
-    StudyOutput out(out_dir);
-    CacheFrames frames(cache, keys);
+void analyse(const StudyPlan& p, const StudyDevice& dev, RenderCache& cache, StudyOutput& out, FrameSource& frames) {
+    const StudyConfig& cfg = p.cfg;
+    const vk::Context& ctx = dev.ctx;
+    const Traversal trav = dev.trav;
+    const std::string& code_digest = dev.code_digest;
     std::map<SceneVariant, SeparationMeasures> separations;
     StudyContext sc{cfg, frames, out, ctx.info().name, [&](const SceneVariant& v) {
                         auto it = separations.find(v);
@@ -268,7 +328,7 @@ int run_study(const StudyOptions& o) {
                         RenderSession session(ctx, std::move(ls.scene), std::move(ls.arrays), trav);
                         return separations[v] = measure_separation(session);
                     }};
-    for (StudyKind k : kinds) {
+    for (StudyKind k : p.kinds) {
         std::fprintf(stderr, "study: analysing %s\n", to_string(k));
         switch (k) {
         case StudyKind::Stability: run_stability(sc); break;
@@ -285,7 +345,10 @@ int run_study(const StudyOptions& o) {
         }
         }
     }
+}
 
+// Returns 0, or 1 when plotting failed (the figure specs stay).
+int plot(const StudyOptions& o, const std::string& out_dir) {
     // Figures: matplotlib draws the JSON specs (analysis/plot_figures.py).
     int rc = 0;
     std::string fig_dir = (fs::path(out_dir) / "figures").string();
@@ -300,7 +363,19 @@ int run_study(const StudyOptions& o) {
             rc = 1;
         }
     }
+    return rc;
+}
 
+std::string report_header(const StudyOptions& o, const StudyPlan& p, const StudyDevice& dev, FrameSource& frames,
+                          const RenderTally& t, double paths_total, double alloc_paths,
+                          clock_type::time_point t_start) {
+    const StudyConfig& cfg = p.cfg;
+    const auto& plan = p.renders;
+    const auto& kinds = p.kinds;
+    const vk::Context& ctx = dev.ctx;
+    const Traversal trav = dev.trav;
+    const double render_seconds = t.render_seconds;
+    const size_t done = t.done;
     // GPU time of every render the tables rest on (this run's and the cached ones), as recorded in the cache.
     double all_render_seconds = 0;
     for (const auto& r : plan) all_render_seconds += frames.get(r).seconds;
@@ -331,10 +406,40 @@ int run_study(const StudyOptions& o) {
     header << "Tables are in `tables/` (Markdown and CSV), figures in `figures/` (PNG drawn by "
               "`analysis/plot_figures.py` from the JSON beside each), maps in `maps/`. Re-running the same command "
               "reuses the render cache and regenerates every table identically.\n";
-    std::string report_path = (fs::path(out_dir) / "report.md").string();
-    write_file_atomic(report_path, build_report(out, header.str()));
-    std::printf("vkmech study %s: %zu renders (%zu new), wall time %s; report: %s\n", o.study.c_str(), plan.size(), done,
-                hms(wall).c_str(), report_path.c_str());
+    return header.str();
+}
+
+}  // namespace
+
+int run_study(const StudyOptions& o) {
+    const auto t_start = clock_type::now();
+    const StudyPlan p = make_plan(o);
+    StudyDevice dev(o);
+    std::fprintf(stderr, "vkmech study %s: %s\n", o.study.c_str(), p.cfg.describe().c_str());
+    std::fprintf(stderr, "vkmech study: device '%s', %s traversal; cache %s\n", dev.ctx.info().name.c_str(),
+                 to_string(dev.trav), p.cache_dir.c_str());
+    RenderCache cache(p.cache_dir);
+    if (!o.plan_only) clean_stale_temporaries(p.cache_dir);  // `*.tmp-<pid>` of dead processes
+    const CacheState cs = key_renders(p, dev, cache);
+    const double alloc_paths = estimate(p, dev, cs);
+    if (o.plan_only) return 0;
+
+    SignalGuard guard;  // SIGINT/SIGTERM until the end: the allocation study renders during its analysis
+    const RenderTally tally = render_missing(p, dev, cache, cs);
+
+    // Experiments on cached frames only: a resumed study computes from exactly the same bytes.
+    fs::create_directories(p.out_dir);
+    StudyOutput out(p.out_dir);
+    CacheFrames frames(cache, cs.keys);
+    analyse(p, dev, cache, out, frames);
+    const int rc = plot(o, p.out_dir);
+
+    const std::string header = report_header(o, p, dev, frames, tally, cs.paths_total, alloc_paths, t_start);
+    const double wall = std::chrono::duration<double>(clock_type::now() - t_start).count();
+    std::string report_path = (fs::path(p.out_dir) / "report.md").string();
+    write_file_atomic(report_path, build_report(out, header));
+    std::printf("vkmech study %s: %zu renders (%zu new), wall time %s; report: %s\n", o.study.c_str(), p.renders.size(),
+                tally.done, hms(wall).c_str(), report_path.c_str());
     return rc;
 }
 
