@@ -1,4 +1,5 @@
 #include "cli/commands.hpp"
+#include "cli/resources.hpp"
 
 #include "io/interrupt.hpp"
 #include "io/output_set.hpp"
@@ -52,14 +53,6 @@ void add_pipeline_cache_option(CLI::App* app, std::optional<std::string>& dir) {
                     "$XDG_CACHE_HOME/vkmech, else ~/.cache/vkmech)");
 }
 
-std::vector<std::string> scene_dirs() {
-    std::vector<std::string> dirs;
-    if (const char* env = std::getenv("VKMECH_SCENE_DIR")) dirs.push_back(env);
-    dirs.push_back("scenes");
-    dirs.push_back(std::string(VKMECH_SOURCE_DIR) + "/scenes");
-    return dirs;
-}
-
 std::string resolve_scene_path(const std::string& arg) {
     std::string ext = fs::path(arg).extension().string();
     for (auto& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
@@ -68,25 +61,25 @@ std::string resolve_scene_path(const std::string& arg) {
         if (!fs::exists(arg)) throw UsageError("scene file '" + arg + "' does not exist");
         return arg;
     }
-    for (const auto& d : scene_dirs()) {
-        fs::path p = fs::path(d) / (arg + ".xml");
+    for (const auto& d : scene_dir_candidates(ResourceRoots::from_process())) {
+        fs::path p = fs::path(d.path) / (arg + ".xml");
         if (fs::exists(p)) return p.string();
     }
+    const Resource dir = find_scene_dir();
+    if (!dir.found()) throw UsageError("no scene named '" + arg + "': " + dir.missing_message());
     std::string known;
     for (const auto& n : project_scene_names()) known += " " + n;
-    throw UsageError("no scene named '" + arg + "' (known:" + known + ")");
+    throw UsageError("no scene named '" + arg + "' (known:" + known + "; searched: " + dir.searched_list() + ")");
 }
 
 std::vector<std::string> project_scene_names() {
-    for (const auto& d : scene_dirs()) {
-        if (!fs::is_directory(d)) continue;
-        std::vector<std::string> names;
-        for (const auto& e : fs::directory_iterator(d))
-            if (e.is_regular_file() && e.path().extension() == ".xml") names.push_back(e.path().stem().string());
-        std::sort(names.begin(), names.end());
-        if (!names.empty()) return names;
-    }
-    return {};
+    const Resource dir = find_scene_dir();
+    if (!dir.found()) return {};
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir.path))
+        if (e.is_regular_file() && e.path().extension() == ".xml") names.push_back(e.path().stem().string());
+    std::sort(names.begin(), names.end());
+    return names;
 }
 
 namespace {
@@ -509,6 +502,9 @@ int cmd_study(const StudyCliOptions& c) {
     o.out_dir = c.out_dir.empty() ? "out/study-" + c.study : c.out_dir;
     o.cache_dir = c.cache_dir;
     o.curve = c.curve;
+    const Resource script = find_plot_script();
+    o.plot_script = script.path;
+    if (!script.found()) o.plot_script_missing = script.missing_message() + ", or pass --no-plots";
     if (!o.curve.empty() && !fs::exists(o.curve)) throw UsageError("predictor curve '" + o.curve + "' does not exist");
     if (!o.curve.empty() && c.study != "predictor") throw UsageError("--curve applies to `vkmech study predictor` only");
     if (!o.curve.empty()) check_curve_for_cli(o.curve);
@@ -578,10 +574,18 @@ int cmd_render_adaptive(const RenderOptions& o) {
     }
     if (o.floor > 1 + o.budget) throw UsageError("--floor exceeds the per-pixel average (1 + --budget)");
     // The frozen curve is read before anything renders: a bad file is bad input (exit 2).
-    std::string curve_path = o.curve.empty() ? std::string(VKMECH_SOURCE_DIR) + "/docs/results/predictor_curve.json" : o.curve;
+    // Without --curve: the installed (or source tree's) frozen curve; none found means no prediction.
+    std::string curve_path = o.curve;
+    if (curve_path.empty()) {
+        const Resource found = find_predictor_curve();
+        curve_path = found.path;
+        if (!found.found())
+            std::fprintf(stderr, "vkmech: note: the pilot's label reliability is not predicted: %s\n",
+                         found.missing_message().c_str());
+    }
     if (!o.curve.empty() && !fs::exists(curve_path)) throw UsageError("predictor curve '" + o.curve + "' does not exist");
     std::optional<ReliabilityCurve> curve;
-    if (fs::exists(curve_path)) curve = load_curve_for_cli(curve_path);
+    if (!curve_path.empty() && fs::exists(curve_path)) curve = load_curve_for_cli(curve_path);
     Scene scene = load_for_cli(o.common);
     std::string name = scene_stem(o.common.scene);
     std::string out_dir = o.out_dir.empty() ? "out/" + name : o.out_dir;
