@@ -1,4 +1,5 @@
 #include "cli/commands.hpp"
+#include "cli/resources.hpp"
 
 #include "io/output_set.hpp"
 #include "scene/scene.hpp"
@@ -40,14 +41,6 @@ void add_pipeline_cache_option(CLI::App* app, std::optional<std::string>& dir) {
                     "$XDG_CACHE_HOME/vkmech, else ~/.cache/vkmech)");
 }
 
-std::vector<std::string> scene_dirs() {
-    std::vector<std::string> dirs;
-    if (const char* env = std::getenv("VKMECH_SCENE_DIR")) dirs.push_back(env);
-    dirs.push_back("scenes");
-    dirs.push_back(std::string(VKMECH_SOURCE_DIR) + "/scenes");
-    return dirs;
-}
-
 std::string resolve_scene_path(const std::string& arg) {
     std::string ext = fs::path(arg).extension().string();
     for (auto& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
@@ -56,25 +49,25 @@ std::string resolve_scene_path(const std::string& arg) {
         if (!fs::exists(arg)) throw UsageError("scene file '" + arg + "' does not exist");
         return arg;
     }
-    for (const auto& d : scene_dirs()) {
-        fs::path p = fs::path(d) / (arg + ".xml");
+    for (const auto& d : scene_dir_candidates(ResourceRoots::from_process())) {
+        fs::path p = fs::path(d.path) / (arg + ".xml");
         if (fs::exists(p)) return p.string();
     }
+    const Resource dir = find_scene_dir();
+    if (!dir.found()) throw UsageError("no scene named '" + arg + "': " + dir.missing_message());
     std::string known;
     for (const auto& n : project_scene_names()) known += " " + n;
-    throw UsageError("no scene named '" + arg + "' (known:" + known + ")");
+    throw UsageError("no scene named '" + arg + "' (known:" + known + "; searched: " + dir.searched_list() + ")");
 }
 
 std::vector<std::string> project_scene_names() {
-    for (const auto& d : scene_dirs()) {
-        if (!fs::is_directory(d)) continue;
-        std::vector<std::string> names;
-        for (const auto& e : fs::directory_iterator(d))
-            if (e.is_regular_file() && e.path().extension() == ".xml") names.push_back(e.path().stem().string());
-        std::sort(names.begin(), names.end());
-        if (!names.empty()) return names;
-    }
-    return {};
+    const Resource dir = find_scene_dir();
+    if (!dir.found()) return {};
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir.path))
+        if (e.is_regular_file() && e.path().extension() == ".xml") names.push_back(e.path().stem().string());
+    std::sort(names.begin(), names.end());
+    return names;
 }
 
 namespace {

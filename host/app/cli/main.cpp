@@ -1,6 +1,7 @@
 // vkmech: the command-line entry. Exit codes (DESIGN): 0 ok, 1 runtime
 // failure, 2 bad usage or bad input.
 #include "cli/commands.hpp"
+#include "cli/resources.hpp"
 
 #include "scene/scene.hpp"
 #include "study/study_runner.hpp"
@@ -25,6 +26,7 @@ int main(int argc, char** argv) {
     app.set_version_flag("--version", std::string("vkmech ") + VKMECH_VERSION);
     app.require_subcommand(1);
     app.footer("Examples:\n  vkmech --scene ring_caustic --spp 64\n  vkmech check --scene my_scene.xml\n  vkmech devices\n"
+               "  vkmech paths\n"
                "  vkmech bench traversal\n"
                "  vkmech study all --preset quick --out out/study\n"
                "  vkmech verify outputs out/ring_caustic\n"
@@ -66,9 +68,13 @@ int main(int argc, char** argv) {
     render->add_option("--pilot-draw", render_opts.pilot_draw, "Adaptive: pilot draw k (pilot seed 100000 + 1000k)")
         ->check(CLI::Range(0u, 899u));
     render->add_option("--curve", render_opts.curve,
-                       "Adaptive: frozen label-reliability curve (default: docs/results/predictor_curve.json)");
+                       "Adaptive: frozen label-reliability curve (default: predictor_curve.json, see `vkmech paths`)");
 
     auto* devices = app.add_subcommand("devices", "List Vulkan devices with their ray-query support and limits");
+    auto* paths = app.add_subcommand(
+        "paths", "Where the scenes, the figure script and the predictor curve are found: $VKMECH_SCENE_DIR, "
+                 "$VKMECH_PLOT_SCRIPT, $VKMECH_DATA_DIR (a data root), ./scenes, <prefix>/share/vkmech next to "
+                 "<prefix>/bin/vkmech, then the source tree; exit 1 when one is missing");
 
     CommonOptions check_opts;
     auto* check = app.add_subcommand(
@@ -135,6 +141,7 @@ int main(int argc, char** argv) {
     try {
         if (*render) return cmd_render(render_opts);
         if (*devices) return cmd_devices();
+        if (*paths) return cmd_paths();
         if (*verify_outputs) return cmd_verify_outputs(verify_dir);
         if (*verify_cache) return cmd_verify_cache(verify_dir);
         if (*check) return cmd_check(check_opts);

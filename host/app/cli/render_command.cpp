@@ -1,5 +1,6 @@
 // `vkmech render` and `vkmech render --adaptive`.
 #include "cli/commands.hpp"
+#include "cli/resources.hpp"
 
 #include "adaptive/adaptive.hpp"
 #include "allocation/allocation.hpp"
@@ -199,10 +200,18 @@ int cmd_render_adaptive(const RenderOptions& o) {
     }
     if (o.floor > 1 + o.budget) throw UsageError("--floor exceeds the per-pixel average (1 + --budget)");
     // The frozen curve is read before anything renders: a bad file is bad input (exit 2).
-    std::string curve_path = o.curve.empty() ? std::string(VKMECH_SOURCE_DIR) + "/docs/results/predictor_curve.json" : o.curve;
+    // Without --curve: the installed (or source tree's) frozen curve; none found means no prediction.
+    std::string curve_path = o.curve;
+    if (curve_path.empty()) {
+        const Resource found = find_predictor_curve();
+        curve_path = found.path;
+        if (!found.found())
+            std::fprintf(stderr, "vkmech: note: the pilot's label reliability is not predicted: %s\n",
+                         found.missing_message().c_str());
+    }
     if (!o.curve.empty() && !fs::exists(curve_path)) throw UsageError("predictor curve '" + o.curve + "' does not exist");
     std::optional<ReliabilityCurve> curve;
-    if (fs::exists(curve_path)) curve = load_curve_for_cli(curve_path);
+    if (!curve_path.empty() && fs::exists(curve_path)) curve = load_curve_for_cli(curve_path);
     Scene loaded = load_for_cli(o.common);
     std::string name = scene_stem(o.common.scene);
     std::string out_dir = o.out_dir.empty() ? "out/" + name : o.out_dir;

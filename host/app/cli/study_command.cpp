@@ -1,5 +1,6 @@
 // `vkmech study NAME` and `vkmech verify outputs|cache DIR`.
 #include "cli/commands.hpp"
+#include "cli/resources.hpp"
 
 #include "io/output_set.hpp"
 #include "study/render_cache.hpp"
@@ -80,6 +81,9 @@ int cmd_study(StudyOptions o) {
     o.sweep_roughness_scene = resolve_scene_path("sweep_roughness");
     o.sweep_lights_scene = resolve_scene_path("sweep_lights");
     if (o.out_dir.empty()) o.out_dir = "out/study-" + o.study;
+    const Resource script = find_plot_script();
+    o.plot_script = script.path;
+    if (!script.found()) o.plot_script_missing = script.missing_message() + ", or pass --no-plots";
     if (!o.curve.empty() && !fs::exists(o.curve)) throw UsageError("predictor curve '" + o.curve + "' does not exist");
     if (!o.curve.empty() && o.study != "predictor") throw UsageError("--curve applies to `vkmech study predictor` only");
     if (!o.curve.empty()) check_curve_for_cli(o.curve);

@@ -352,10 +352,12 @@ int plot(const StudyOptions& o, const std::string& out_dir) {
     // Figures: matplotlib draws the JSON specs (analysis/plot_figures.py).
     int rc = 0;
     std::string fig_dir = (fs::path(out_dir) / "figures").string();
-    if (!o.no_plots && fs::exists(fig_dir)) {
-        std::string script = std::getenv("VKMECH_PLOT_SCRIPT") ? std::getenv("VKMECH_PLOT_SCRIPT")
-                                                               : std::string(VKMECH_SOURCE_DIR) + "/analysis/plot_figures.py";
-        std::string cmd = "python3 '" + script + "' '" + fig_dir + "' > /dev/null";
+    if (!o.no_plots && fs::exists(fig_dir) && o.plot_script.empty()) {
+        std::fprintf(stderr, "vkmech study: cannot draw the figures: %s; the figure specs are in %s\n",
+                     o.plot_script_missing.c_str(), fig_dir.c_str());
+        rc = 1;
+    } else if (!o.no_plots && fs::exists(fig_dir)) {
+        std::string cmd = "python3 '" + o.plot_script + "' '" + fig_dir + "' > /dev/null";
         int status = std::system(cmd.c_str());
         if (status != 0) {
             std::fprintf(stderr, "vkmech study: plotting failed (%s); the figure specs are in %s\n", cmd.c_str(),

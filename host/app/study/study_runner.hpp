@@ -33,6 +33,8 @@ struct StudyOptions {
     std::optional<std::string> pipeline_cache;  // vk::ContextOptions::pipeline_cache_dir
     std::string traversal = "auto";
     bool no_plots = false;
+    std::string plot_script;              // analysis/plot_figures.py as the CLI found it; empty: not found
+    std::string plot_script_missing;      // then: where it was searched and how to say where it is
     bool plan_only = false;               // print the plan and the expected cost, render nothing
     bool equal_time = false;              // allocation: also compare strategies at equal wall-clock time
     std::string command_line;             // for the report
