@@ -1,4 +1,4 @@
-#include "io/render_outputs.hpp"
+#include "render/render_outputs.hpp"
 
 #include "io/atomic_file.hpp"
 #include "io/exr.hpp"
