@@ -3,7 +3,7 @@
 // writes the pixel's batch moments (GpuPixelAccum). The host merges batches.
 #extension GL_GOOGLE_include_directive : require
 #include "shared/types.h"
-#include "bindings.glsl"
+#include "shared/bindings.h"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -55,15 +55,15 @@ vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
 
 
 // Specialization: estimator mode (SPEC §1): 0 nee, 1 mis-restricted, 2 mis.
-layout(constant_id = 8) const uint ESTIMATOR = 0u;
+layout(constant_id = SPEC_ESTIMATOR) const uint ESTIMATOR = 0u;
 const uint EST_NEE = 0u;
 const uint EST_MIS_RESTRICTED = 1u;
 const uint EST_MIS = 2u;
 // Specialization: the event-recording debug mode (compiled out otherwise).
-layout(constant_id = 9) const bool DEBUG_EVENTS = false;
+layout(constant_id = SPEC_DEBUG_EVENTS) const bool DEBUG_EVENTS = false;
 // Specialization: SPEC §2's end-vertex reading: false = the last non-delta
 // vertex (default), true = the literal last surface vertex.
-layout(constant_id = 10) const bool END_VERTEX_LITERAL = false;
+layout(constant_id = SPEC_END_VERTEX_LITERAL) const bool END_VERTEX_LITERAL = false;
 
 // Adaptive rendering (SPEC §6): n(p) per pixel; a pixel takes only the samples
 // of this batch whose index is below n(p), so n(p) samples of a seed are
