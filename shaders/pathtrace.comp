@@ -54,11 +54,8 @@ vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
 }
 
 
-// Specialization: estimator mode (SPEC §1): 0 nee, 1 mis-restricted, 2 mis.
+// Specialization: estimator mode (SPEC §1), EST_* (shared/types.h).
 layout(constant_id = SPEC_ESTIMATOR) const uint ESTIMATOR = 0u;
-const uint EST_NEE = 0u;
-const uint EST_MIS_RESTRICTED = 1u;
-const uint EST_MIS = 2u;
 // Specialization: the event-recording debug mode (compiled out otherwise).
 layout(constant_id = SPEC_DEBUG_EVENTS) const bool DEBUG_EVENTS = false;
 // Specialization: SPEC §2's end-vertex reading: false = the last non-delta
