@@ -10,6 +10,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 #include "scene_data.glsl"
 #include "traversal.glsl"
 #include "rng.glsl"
+#include "frame.glsl"
 #include "camera.glsl"
 #include "features.glsl"
 #include "bsdf.glsl"
@@ -77,30 +78,6 @@ layout(std430, set = 0, binding = BINDING_DEBUG) buffer DebugEvents {
 };
 bool g_debug_pixel = false;  // this invocation's pixel is the one recorded
 uint g_sample_index = 0u;
-
-struct Frame3 {
-    vec3 t, b, n;
-};
-
-// Duff et al. 2017, "Building an orthonormal basis, revisited".
-Frame3 frame_from_normal(vec3 n) {
-    float s = n.z >= 0.0 ? 1.0 : -1.0;
-    float a = -1.0 / (s + n.z);
-    float b = n.x * n.y * a;
-    Frame3 f;
-    f.t = vec3(1.0 + s * n.x * n.x * a, s * b, -s * n.x);
-    f.b = vec3(b, s + n.y * n.y * a, -n.y);
-    f.n = n;
-    return f;
-}
-vec3 to_local(Frame3 f, vec3 v) { return vec3(dot(v, f.t), dot(v, f.b), dot(v, f.n)); }
-vec3 to_world(Frame3 f, vec3 v) { return v.x * f.t + v.y * f.b + v.z * f.n; }
-
-float power_heuristic(float a, float b) {
-    float a2 = a * a;
-    float b2 = b * b;
-    return a2 + b2 > 0.0 ? a2 / (a2 + b2) : 0.0;
-}
 
 // Per-sample tallies of the descriptor (SPEC §3), discarded with the sample
 // if it turns out non-finite.
