@@ -79,7 +79,7 @@ SHARED_FN BsdfSample bsdf_make_delta(vec3 wi, vec3 weight, float eta) {
     return s;
 }
 
-SHARED_FN float bsdf_luminance(vec3 c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
+SHARED_FN float bsdf_luminance(vec3 c) { return LUM_R * c.x + LUM_G * c.y + LUM_B * c.z; }
 
 // ---- material fields (see GpuMaterial in shared/types.h) ----
 

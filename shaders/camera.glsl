@@ -4,11 +4,11 @@
 #define VKMECH_CAMERA_GLSL
 
 // Specialization: thin lens compiled in only when the scene has one (DESIGN).
-layout(constant_id = 0) const bool HAS_THIN_LENS = false;
+layout(constant_id = SPEC_THIN_LENS) const bool HAS_THIN_LENS = false;
 // Specialization: orthographic projection (Mitsuba's `orthographic` sensor):
 // parallel rays along +Z from camera x in [-1, 1] (the film's width) and
 // y in [-h/w, h/w], mapped through to_world, whose scale sizes the view.
-layout(constant_id = 11) const bool CAMERA_ORTHOGRAPHIC = false;
+layout(constant_id = SPEC_ORTHOGRAPHIC) const bool CAMERA_ORTHOGRAPHIC = false;
 
 void camera_ray(vec2 film_uv, vec2 lens_u, out vec3 origin, out vec3 dir) {
     vec3 d = vec3((1.0 - 2.0 * film_uv.x) * params.camera.x, (1.0 - 2.0 * film_uv.y) * params.camera.y, 1.0);

@@ -4,17 +4,17 @@
 #ifndef VKMECH_FEATURES_GLSL
 #define VKMECH_FEATURES_GLSL
 #include "glsl_cpp.h"
+#include "shared/bindings.h"
 #ifdef __cplusplus
 namespace vkmech::shader {
 #endif
-// constant_id 0 is HAS_THIN_LENS (camera.glsl).
-SPEC_CONST_BOOL(1, FEATURE_DIELECTRIC, true)   // dielectric, thindielectric, roughdielectric
-SPEC_CONST_BOOL(2, FEATURE_ROUGH, true)        // microfacet lobes: roughconductor, roughdielectric, roughplastic
-SPEC_CONST_BOOL(3, FEATURE_PLASTIC, true)      // plastic, roughplastic
-SPEC_CONST_BOOL(4, FEATURE_PRINCIPLED, true)   // principled
-SPEC_CONST_BOOL(5, FEATURE_CONDUCTOR, true)    // conductor, roughconductor
-SPEC_CONST_BOOL(6, FEATURE_TEXTURES, true)     // bitmap reflectance
-SPEC_CONST_BOOL(7, FEATURE_CAPTURE, true)      // mechanism capture (the descriptor)
+SPEC_CONST_BOOL(SPEC_DIELECTRIC, FEATURE_DIELECTRIC, true)   // dielectric, thindielectric, roughdielectric
+SPEC_CONST_BOOL(SPEC_ROUGH, FEATURE_ROUGH, true)             // microfacet lobes: roughconductor, roughdielectric, roughplastic
+SPEC_CONST_BOOL(SPEC_PLASTIC, FEATURE_PLASTIC, true)         // plastic, roughplastic
+SPEC_CONST_BOOL(SPEC_PRINCIPLED, FEATURE_PRINCIPLED, true)   // principled
+SPEC_CONST_BOOL(SPEC_CONDUCTOR, FEATURE_CONDUCTOR, true)     // conductor, roughconductor
+SPEC_CONST_BOOL(SPEC_TEXTURES, FEATURE_TEXTURES, true)       // bitmap reflectance
+SPEC_CONST_BOOL(SPEC_CAPTURE, FEATURE_CAPTURE, true)         // mechanism capture (the descriptor)
 #ifdef __cplusplus
 }
 #endif

@@ -43,9 +43,9 @@ SHARED_FN bool bsdf_hit_delta(bool literal, uint lobe_n, uint last_nondelta_lobe
     return true;  // Vn itself is a delta vertex other than the end vertex
 }
 
-// Heavy-tailed family (docs/descriptor.md §2): glossy, delta_mediated, specular_direct.
+// Heavy-tailed family (docs/descriptor.md §2, HEAVY_BUCKETS): glossy, delta_mediated, specular_direct.
 SHARED_FN bool bucket_is_heavy(uint b) {
-    return b == BUCKET_GLOSSY || b == BUCKET_DELTA_MEDIATED || b == BUCKET_SPECULAR_DIRECT;
+    return b < BUCKET_COUNT && ((HEAVY_BUCKETS >> b) & 1u) != 0u;
 }
 
 #ifdef __cplusplus

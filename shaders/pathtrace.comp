@@ -3,13 +3,14 @@
 // writes the pixel's batch moments (GpuPixelAccum). The host merges batches.
 #extension GL_GOOGLE_include_directive : require
 #include "shared/types.h"
-#include "bindings.glsl"
+#include "shared/bindings.h"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
 #include "scene_data.glsl"
 #include "traversal.glsl"
 #include "rng.glsl"
+#include "frame.glsl"
 #include "camera.glsl"
 #include "features.glsl"
 #include "bsdf.glsl"
@@ -54,16 +55,13 @@ vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
 }
 
 
-// Specialization: estimator mode (docs/descriptor.md §1): 0 nee, 1 mis-restricted, 2 mis.
-layout(constant_id = 8) const uint ESTIMATOR = 0u;
-const uint EST_NEE = 0u;
-const uint EST_MIS_RESTRICTED = 1u;
-const uint EST_MIS = 2u;
+// Specialization: estimator mode (docs/descriptor.md §1), EST_* (shared/types.h).
+layout(constant_id = SPEC_ESTIMATOR) const uint ESTIMATOR = 0u;
 // Specialization: the event-recording debug mode (compiled out otherwise).
-layout(constant_id = 9) const bool DEBUG_EVENTS = false;
+layout(constant_id = SPEC_DEBUG_EVENTS) const bool DEBUG_EVENTS = false;
 // Specialization: docs/descriptor.md §2's end-vertex reading: false = the last non-delta
 // vertex (default), true = the literal last surface vertex.
-layout(constant_id = 10) const bool END_VERTEX_LITERAL = false;
+layout(constant_id = SPEC_END_VERTEX_LITERAL) const bool END_VERTEX_LITERAL = false;
 
 // Adaptive rendering (docs/descriptor.md §6): n(p) per pixel; a pixel takes only the samples
 // of this batch whose index is below n(p), so n(p) samples of a seed are
@@ -80,30 +78,6 @@ layout(std430, set = 0, binding = BINDING_DEBUG) buffer DebugEvents {
 };
 bool g_debug_pixel = false;  // this invocation's pixel is the one recorded
 uint g_sample_index = 0u;
-
-struct Frame3 {
-    vec3 t, b, n;
-};
-
-// Duff et al. 2017, "Building an orthonormal basis, revisited".
-Frame3 frame_from_normal(vec3 n) {
-    float s = n.z >= 0.0 ? 1.0 : -1.0;
-    float a = -1.0 / (s + n.z);
-    float b = n.x * n.y * a;
-    Frame3 f;
-    f.t = vec3(1.0 + s * n.x * n.x * a, s * b, -s * n.x);
-    f.b = vec3(b, s + n.y * n.y * a, -n.y);
-    f.n = n;
-    return f;
-}
-vec3 to_local(Frame3 f, vec3 v) { return vec3(dot(v, f.t), dot(v, f.b), dot(v, f.n)); }
-vec3 to_world(Frame3 f, vec3 v) { return v.x * f.t + v.y * f.b + v.z * f.n; }
-
-float power_heuristic(float a, float b) {
-    float a2 = a * a;
-    float b2 = b * b;
-    return a2 + b2 > 0.0 ? a2 / (a2 + b2) : 0.0;
-}
 
 // Per-sample tallies of the descriptor (docs/descriptor.md §3), discarded with the sample
 // if it turns out non-finite.

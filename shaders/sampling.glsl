@@ -26,6 +26,14 @@ SHARED_FN float safe_sqrt(float x) { return sqrt(max(x, float(0.0))); }
 SHARED_FN float mean3(vec3 v) { return (v.x + v.y + v.z) * float(1.0 / 3.0); }
 SHARED_FN float max3(vec3 v) { return max(v.x, max(v.y, v.z)); }
 
+// Veach's power heuristic (beta = 2, one sample per strategy): the MIS weight
+// of the strategy with density a against one with density b.
+SHARED_FN float power_heuristic(float a, float b) {
+    float a2 = a * a;
+    float b2 = b * b;
+    return a2 + b2 > 0.0 ? a2 / (a2 + b2) : 0.0;
+}
+
 // Shirley-Chiu concentric map to the unit disk; density 1/pi per unit area.
 // Keeps strata compact, so cosine-weighted samples stay well distributed.
 SHARED_FN vec2 square_to_uniform_disk_concentric(vec2 u) {

@@ -122,7 +122,7 @@ vec3 offset_ray_origin(vec3 p, vec3 n, float scale) {
 // distances are representable (coordinates below ~1e19).
 const float RAY_TMAX = 3.0e38;
 
-float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
+float luminance(vec3 c) { return dot(c, vec3(LUM_R, LUM_G, LUM_B)); }
 
 // Power-proportional light selection (host/render/gpu_scene.cpp builds the cdf).
 uint select_light_triangle(float u) {

@@ -3,7 +3,7 @@
 // agreement test and `vkmech bench traversal`.
 #extension GL_GOOGLE_include_directive : require
 #include "shared/types.h"
-#include "bindings.glsl"
+#include "shared/bindings.h"
 
 layout(local_size_x = 64) in;
 

@@ -6,6 +6,7 @@
 #include "gpu_fixture.hpp"
 #include "render_fixture.hpp"
 #include "render/shader_modules.hpp"
+#include "shared/bindings.h"
 #include "vk/pipeline.hpp"
 #include "vk/pipeline_cache.hpp"
 
@@ -86,8 +87,11 @@ std::unique_ptr<vkc::Context> context_with_cache(const std::string& dir) {
 // The ray-casting shader's pipeline (small; creating it needs no scene).
 std::unique_ptr<vkc::ComputePipeline> tracerays_pipeline(const vkc::Context& ctx) {
     using DT = ::vk::DescriptorType;
-    std::vector<vkc::BindingDesc> bindings = {
-        {10, DT::eStorageBuffer}, {11, DT::eStorageBuffer}, {8, DT::eStorageBuffer}, {9, DT::eStorageBuffer}};
+    using namespace gpu;
+    std::vector<vkc::BindingDesc> bindings = {{BINDING_RAYS, DT::eStorageBuffer},
+                                              {BINDING_HITS, DT::eStorageBuffer},
+                                              {BINDING_BVH_NODES, DT::eStorageBuffer},
+                                              {BINDING_BVH_TRIS, DT::eStorageBuffer}};
     return std::make_unique<vkc::ComputePipeline>(ctx, tracerays_spirv(Traversal::Bvh), bindings, 8);
 }
 

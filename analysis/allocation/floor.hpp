@@ -12,24 +12,17 @@
 // explains any gain.
 #pragma once
 
+#include "shared/types.h"
+
 #include <cstdint>
 #include <vector>
 
 namespace vkmech::alloc {
 
-// Bucket indices (docs/descriptor.md §2) and the "no label" value (docs/descriptor.md §3, kNoLabel).
-inline constexpr uint8_t kEmitterDirect = 0;
-inline constexpr uint8_t kDirect = 1;
-inline constexpr uint8_t kDiffuseIndirect = 2;
-inline constexpr uint8_t kGlossy = 3;
-inline constexpr uint8_t kDeltaMediated = 4;
-inline constexpr uint8_t kSpecularDirect = 5;
-inline constexpr uint8_t kOther = 6;
-inline constexpr uint8_t kNoLabel = 255;
-
-// True for the heavy-tailed family {3 glossy, 4 delta_mediated, 5 specular_direct}.
+// True for the heavy-tailed family (gpu::HEAVY_BUCKETS: glossy, delta_mediated,
+// specular_direct); false for every other bucket and for gpu::NO_LABEL.
 constexpr bool is_heavy_tailed(uint8_t label) {
-    return label == kGlossy || label == kDeltaMediated || label == kSpecularDirect;
+    return label < gpu::BUCKET_COUNT && ((gpu::HEAVY_BUCKETS >> label) & 1u) != 0;
 }
 
 // D(p) = max(var(p), median of var over the pixels with label labels[p]) for

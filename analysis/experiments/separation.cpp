@@ -3,6 +3,7 @@
 #include "experiments/separation.hpp"
 
 #include "accel/bvh.hpp"
+#include "rng.glsl"
 
 #include <algorithm>
 #include <bit>
@@ -15,23 +16,12 @@ namespace vkmech {
 
 namespace {
 
-// Chris Wellons' lowbias32, as vkm_hash in shaders/rng.glsl (which is GLSL
-// only: it uses inout and vec2, so it cannot be included here).
-uint32_t lowbias32(uint32_t x) {
-    x ^= x >> 16;
-    x *= 0x7feb352du;
-    x ^= x >> 15;
-    x *= 0x846ca68bu;
-    x ^= x >> 16;
-    return x;
-}
-
-// Uniform in [0, 1) from (seed, mesh, point, dimension), keyed like
-// rng_init / rng_next of shaders/rng.glsl (pixel -> mesh, sample -> point).
+// Uniform in [0, 1) from (seed, mesh, point, dimension): rng_init / rng_next
+// of shaders/rng.glsl (pixel -> mesh, sample -> point).
 double hash_uniform(uint32_t seed, uint32_t mesh, uint32_t point, uint32_t dim) {
-    uint32_t key = lowbias32(seed ^ lowbias32(mesh ^ lowbias32(point + 0x9e3779b9u)));
-    uint32_t h = lowbias32(key ^ lowbias32(dim * 0x68e31da4u + 0x1b56c4e9u));
-    return static_cast<double>(h >> 8) * (1.0 / 16777216.0);
+    shader::Rng r = shader::rng_init(seed, mesh, point);
+    r.dim = dim;
+    return shader::rng_next(r);
 }
 
 double triangle_area(const Mesh& m, const glm::uvec3& t) {

@@ -68,12 +68,21 @@ std::vector<double> bucket_field(const Frame& f, uint32_t b) {
     return v;
 }
 
+namespace {
+// One entry per bucket: whether its bit is set in a gpu::*_BUCKETS mask.
+std::vector<bool> bucket_family(uint32_t mask) {
+    std::vector<bool> v(kBucketCount);
+    for (uint32_t b = 0; b < kBucketCount; ++b) v[b] = ((mask >> b) & 1u) != 0;
+    return v;
+}
+}  // namespace
+
 const std::vector<bool>& light_tailed_buckets() {
-    static const std::vector<bool> v = {true, true, true, false, false, false, false};
+    static const std::vector<bool> v = bucket_family(gpu::LIGHT_BUCKETS);
     return v;
 }
 const std::vector<bool>& heavy_buckets() {
-    static const std::vector<bool> v = {false, false, false, true, true, true, false};
+    static const std::vector<bool> v = bucket_family(gpu::HEAVY_BUCKETS);
     return v;
 }
 

@@ -64,7 +64,8 @@ std::vector<double> margin_field(const Frame& f);
 std::vector<double> bucket_field(const Frame& f, uint32_t bucket);
 
 // The light-tailed family {emitter-direct, direct, diffuse-indirect} and the
-// heavy family {glossy, delta-mediated, specular-direct} (docs/descriptor.md §5 weights).
+// heavy family {glossy, delta-mediated, specular-direct}: gpu::LIGHT_BUCKETS and
+// gpu::HEAVY_BUCKETS as vectors (docs/descriptor.md §5 weights).
 const std::vector<bool>& light_tailed_buckets();
 const std::vector<bool>& heavy_buckets();
 

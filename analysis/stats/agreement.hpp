@@ -11,15 +11,17 @@
 // that map's own labelled pixels.
 #pragma once
 
+#include "shared/types.h"
+
 #include <cstddef>
 #include <cstdint>
 #include <vector>
 
 namespace vkmech::stats {
 
-// Same value as vkmech::kNoLabel (host/render/descriptor.hpp, docs/descriptor.md §3); kept
-// here so the statistics library does not depend on the renderer headers.
-inline constexpr uint8_t kNoLabel = 255;
+// The "no label" value of docs/descriptor.md §3 (shared/types.h, a plain header: the
+// statistics library still does not depend on the renderer headers).
+inline constexpr uint8_t kNoLabel = gpu::NO_LABEL;
 
 // k x k contingency table over the pixels labelled in both maps.
 struct Confusion {

@@ -14,8 +14,10 @@ using uvec4 = glm::uvec4;
 using mat4 = glm::mat4;
 using uint = uint32_t;
 #define VKM_CONST static constexpr uint
+#define VKM_REAL static constexpr double
 #else
 #define VKM_CONST const uint
+#define VKM_REAL const float
 #endif
 
 // Bucket indices, the paper's Table 1 order (docs/descriptor.md §2).
@@ -27,6 +29,15 @@ VKM_CONST BUCKET_DELTA_MEDIATED = 4u;
 VKM_CONST BUCKET_SPECULAR_DIRECT = 5u;
 VKM_CONST BUCKET_OTHER = 6u;
 VKM_CONST BUCKET_COUNT = 7u;
+
+// Tail families (docs/descriptor.md §5), bit b for bucket b: light-tailed {emitter_direct,
+// direct, diffuse_indirect}, heavy-tailed {glossy, delta_mediated,
+// specular_direct}; `other` is in neither.
+VKM_CONST LIGHT_BUCKETS = (1u << BUCKET_EMITTER_DIRECT) | (1u << BUCKET_DIRECT) | (1u << BUCKET_DIFFUSE_INDIRECT);
+VKM_CONST HEAVY_BUCKETS = (1u << BUCKET_GLOSSY) | (1u << BUCKET_DELTA_MEDIATED) | (1u << BUCKET_SPECULAR_DIRECT);
+
+// The label of a pixel without one (zero total energy, docs/descriptor.md §3).
+VKM_CONST NO_LABEL = 255u;
 
 // End-vertex lobes (docs/descriptor.md §2): diffuse, glossy, delta specular; NONE for "no
 // lobe" (primary ray hits the emitter) and anything unclassifiable.
@@ -45,6 +56,17 @@ VKM_CONST MAT_DIELECTRIC = 5u;
 VKM_CONST MAT_ROUGHDIELECTRIC = 6u;
 VKM_CONST MAT_THINDIELECTRIC = 7u;
 VKM_CONST MAT_PRINCIPLED = 8u;
+
+// Estimators (host Estimator values, docs/descriptor.md §1).
+VKM_CONST EST_NEE = 0u;
+VKM_CONST EST_MIS_RESTRICTED = 1u;
+VKM_CONST EST_MIS = 2u;
+
+// Rec. 709 luminance weights: LUM_R r + LUM_G g + LUM_B b (double in C++,
+// float in GLSL).
+VKM_REAL LUM_R = 0.2126;
+VKM_REAL LUM_G = 0.7152;
+VKM_REAL LUM_B = 0.0722;
 
 // Triangle word w: bits 0..15 material, 16..29 emitter + 1 (0: none),
 // bit 30: flat shading (use the geometric normal).
@@ -150,6 +172,7 @@ struct GpuHit {
 #ifdef __cplusplus
 }  // namespace vkmech::gpu
 #undef VKM_CONST
+#undef VKM_REAL
 #endif
 
 #endif

@@ -4,6 +4,7 @@
 #include "io/atomic_file.hpp"
 #include "render/renderer.hpp"
 #include "render/session.hpp"
+#include "shared/types.h"
 #include "stats/summary.hpp"
 #include "adaptive/adaptive.hpp"
 #include "study/study_runner.hpp"
@@ -30,7 +31,7 @@ namespace {
 
 using alloc::Strategy;
 
-double lum_of(double r, double g, double b) { return 0.2126 * r + 0.7152 * g + 0.0722 * b; }
+double lum_of(double r, double g, double b) { return gpu::LUM_R * r + gpu::LUM_G * g + gpu::LUM_B * b; }
 
 // Per-scene data the evaluations share.
 struct SceneData {

@@ -12,7 +12,7 @@
 namespace vkmech {
 
 constexpr uint32_t kBucketCount = gpu::BUCKET_COUNT;
-constexpr uint8_t kNoLabel = 255;  // pixels with zero total energy (docs/descriptor.md §3)
+constexpr uint8_t kNoLabel = gpu::NO_LABEL;  // pixels with zero total energy (docs/descriptor.md §3)
 extern const std::array<const char*, kBucketCount> kBucketNames;  // docs/descriptor.md §2 names, index order
 // Fixed display colour per bucket (sRGB 8-bit), index order.
 extern const std::array<std::array<uint8_t, 3>, kBucketCount> kBucketColors;

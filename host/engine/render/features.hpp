@@ -4,13 +4,15 @@
 #pragma once
 
 #include "scene/scene.hpp"
+#include "shared/types.h"
 
 #include <string>
 #include <vector>
 
 namespace vkmech {
 
-enum class Estimator : uint32_t { Nee = 0, MisRestricted = 1, Mis = 2 };
+// Values: EST_* (shared/types.h), the ESTIMATOR specialization constant.
+enum class Estimator : uint32_t { Nee = gpu::EST_NEE, MisRestricted = gpu::EST_MIS_RESTRICTED, Mis = gpu::EST_MIS };
 const char* to_string(Estimator e);
 Estimator parse_estimator(const std::string& s);  // throws std::invalid_argument
 

@@ -39,7 +39,9 @@ Traversal resolve_traversal(const vk::Context& ctx, Traversal requested) {
 
 namespace {
 
-float luminance(const glm::vec3& c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
+float luminance(const glm::vec3& c) {
+    return static_cast<float>(gpu::LUM_R) * c.r + static_cast<float>(gpu::LUM_G) * c.g + static_cast<float>(gpu::LUM_B) * c.b;
+}
 
 glm::vec3 texture_mean(const Texture& t) {
     glm::dvec3 sum(0.0);

@@ -1,6 +1,7 @@
 #include "render/ray_caster.hpp"
 
 #include "render/shader_modules.hpp"
+#include "shared/bindings.h"
 
 #include <chrono>
 #include <cmath>
@@ -12,23 +13,24 @@ RayCaster::RayCaster(const vk::Context& ctx, const GpuScene& scene) : ctx_(ctx),
 
 std::vector<gpu::GpuHit> RayCaster::trace(const std::vector<gpu::GpuRay>& rays, bool any_hit, double* seconds) {
     using DT = ::vk::DescriptorType;
+    using namespace gpu;
     bool rq = scene_.traversal() == Traversal::RayQuery;
-    std::vector<vk::BindingDesc> bindings = {{10, DT::eStorageBuffer}, {11, DT::eStorageBuffer}};
-    if (rq) bindings.push_back({7, DT::eAccelerationStructureKHR});
+    std::vector<vk::BindingDesc> bindings = {{BINDING_RAYS, DT::eStorageBuffer}, {BINDING_HITS, DT::eStorageBuffer}};
+    if (rq) bindings.push_back({BINDING_TLAS, DT::eAccelerationStructureKHR});
     else {
-        bindings.push_back({8, DT::eStorageBuffer});
-        bindings.push_back({9, DT::eStorageBuffer});
+        bindings.push_back({BINDING_BVH_NODES, DT::eStorageBuffer});
+        bindings.push_back({BINDING_BVH_TRIS, DT::eStorageBuffer});
     }
     vk::ComputePipeline pipe(ctx_, tracerays_spirv(scene_.traversal()), bindings, 8);
     vk::Buffer in = vk::Buffer::from_vector(ctx_, rays, ::vk::BufferUsageFlagBits::eStorageBuffer);
     vk::Buffer out(ctx_, std::max<size_t>(16, rays.size() * sizeof(gpu::GpuHit)), ::vk::BufferUsageFlagBits::eStorageBuffer,
                    vk::MemoryUse::Readback);
-    pipe.bind_buffer(10, in.handle());
-    pipe.bind_buffer(11, out.handle());
-    if (rq) pipe.bind_acceleration_structure(7, scene_.accel()->tlas());
+    pipe.bind_buffer(BINDING_RAYS, in.handle());
+    pipe.bind_buffer(BINDING_HITS, out.handle());
+    if (rq) pipe.bind_acceleration_structure(BINDING_TLAS, scene_.accel()->tlas());
     else {
-        pipe.bind_buffer(8, scene_.bvh_nodes.handle());
-        pipe.bind_buffer(9, scene_.tri_positions.handle());
+        pipe.bind_buffer(BINDING_BVH_NODES, scene_.bvh_nodes.handle());
+        pipe.bind_buffer(BINDING_BVH_TRIS, scene_.tri_positions.handle());
     }
     pipe.warm_up();  // a lazy driver compiles here, outside the timed dispatch
     uint32_t push[2] = {static_cast<uint32_t>(rays.size()), any_hit ? 1u : 0u};

@@ -2,6 +2,7 @@
 
 #include "render/session.hpp"
 #include "render/shader_modules.hpp"
+#include "shared/bindings.h"
 
 #include <algorithm>
 #include <chrono>
@@ -16,11 +17,19 @@ namespace {
 
 // The pipeline specialization of one Features value.
 std::vector<vk::SpecConstant> spec_constants(const Features& f) {
-    // constant_id values: shaders/camera.glsl (0), shaders/features.glsl (1-7), pathtrace.comp (8-10).
-    return {{0, f.thin_lens}, {1, f.dielectric}, {2, f.rough},   {3, f.plastic},
-            {4, f.principled}, {5, f.conductor}, {6, f.textures}, {7, f.capture},
-            {8, static_cast<uint32_t>(f.estimator)}, {9, f.debug_events}, {10, f.end_vertex == EndVertex::Literal},
-            {11, f.orthographic}};
+    using namespace gpu;
+    return {{SPEC_THIN_LENS, f.thin_lens},
+            {SPEC_DIELECTRIC, f.dielectric},
+            {SPEC_ROUGH, f.rough},
+            {SPEC_PLASTIC, f.plastic},
+            {SPEC_PRINCIPLED, f.principled},
+            {SPEC_CONDUCTOR, f.conductor},
+            {SPEC_TEXTURES, f.textures},
+            {SPEC_CAPTURE, f.capture},
+            {SPEC_ESTIMATOR, static_cast<uint32_t>(f.estimator)},
+            {SPEC_DEBUG_EVENTS, f.debug_events},
+            {SPEC_END_VERTEX_LITERAL, f.end_vertex == EndVertex::Literal},
+            {SPEC_ORTHOGRAPHIC, f.orthographic}};
 }
 
 
@@ -68,15 +77,19 @@ Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Feature
     // The projection is the camera's, whatever pipeline was asked for.
     features_.orthographic = scene.camera.type == CameraType::Orthographic;
     using DT = ::vk::DescriptorType;
+    using namespace gpu;
     std::vector<vk::BindingDesc> bindings = {
-        {0, DT::eUniformBuffer}, {1, DT::eStorageBuffer}, {2, DT::eStorageBuffer}, {3, DT::eStorageBuffer},
-        {4, DT::eStorageBuffer}, {5, DT::eStorageBuffer}, {6, DT::eStorageBuffer}, {12, DT::eStorageBuffer},
-        {13, DT::eStorageBuffer}, {14, DT::eStorageBuffer}, {15, DT::eStorageBuffer}};
+        {BINDING_PARAMS, DT::eUniformBuffer},     {BINDING_VERTICES, DT::eStorageBuffer},
+        {BINDING_TRIANGLES, DT::eStorageBuffer},  {BINDING_MATERIALS, DT::eStorageBuffer},
+        {BINDING_LIGHT_TRIS, DT::eStorageBuffer}, {BINDING_EMITTERS, DT::eStorageBuffer},
+        {BINDING_ACCUM, DT::eStorageBuffer},      {BINDING_TEXELS, DT::eStorageBuffer},
+        {BINDING_TEXTURES, DT::eStorageBuffer},   {BINDING_DEBUG, DT::eStorageBuffer},
+        {BINDING_SAMPLE_COUNTS, DT::eStorageBuffer}};
     bool rq = gpu_.traversal() == Traversal::RayQuery;
-    if (rq) bindings.push_back({7, DT::eAccelerationStructureKHR});
+    if (rq) bindings.push_back({BINDING_TLAS, DT::eAccelerationStructureKHR});
     else {
-        bindings.push_back({8, DT::eStorageBuffer});
-        bindings.push_back({9, DT::eStorageBuffer});
+        bindings.push_back({BINDING_BVH_NODES, DT::eStorageBuffer});
+        bindings.push_back({BINDING_BVH_TRIS, DT::eStorageBuffer});
     }
     pipeline_ = std::make_unique<vk::ComputePipeline>(ctx, pathtrace_spirv(gpu_.traversal()), bindings, 0,
                                                       spec_constants(features_));
@@ -94,24 +107,24 @@ Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Feature
     } catch (const vk::OutOfMemoryError& e) {
         film_out_of_memory(scene.camera, std::string("allocating failed: ") + e.what());
     }
-    pipeline_->bind_buffer(0, params_.handle());
-    pipeline_->bind_buffer(1, gpu_.vertices.handle());
-    pipeline_->bind_buffer(2, gpu_.triangles.handle());
-    pipeline_->bind_buffer(3, gpu_.materials.handle());
-    pipeline_->bind_buffer(4, gpu_.light_triangles.handle());
-    pipeline_->bind_buffer(5, gpu_.emitters.handle());
-    pipeline_->bind_buffer(6, accum_.handle());
-    pipeline_->bind_buffer(12, gpu_.texels.handle());
-    pipeline_->bind_buffer(13, gpu_.textures.handle());
+    pipeline_->bind_buffer(BINDING_PARAMS, params_.handle());
+    pipeline_->bind_buffer(BINDING_VERTICES, gpu_.vertices.handle());
+    pipeline_->bind_buffer(BINDING_TRIANGLES, gpu_.triangles.handle());
+    pipeline_->bind_buffer(BINDING_MATERIALS, gpu_.materials.handle());
+    pipeline_->bind_buffer(BINDING_LIGHT_TRIS, gpu_.light_triangles.handle());
+    pipeline_->bind_buffer(BINDING_EMITTERS, gpu_.emitters.handle());
+    pipeline_->bind_buffer(BINDING_ACCUM, accum_.handle());
+    pipeline_->bind_buffer(BINDING_TEXELS, gpu_.texels.handle());
+    pipeline_->bind_buffer(BINDING_TEXTURES, gpu_.textures.handle());
     // The debug buffer: a counter (16 bytes) then the events; minimal when off.
     debug_ = vk::Buffer(ctx, 16 + sizeof(gpu::GpuDebugEvent) * (features_.debug_events ? 65536 : 1),
                         ::vk::BufferUsageFlagBits::eStorageBuffer, vk::MemoryUse::Readback);
-    pipeline_->bind_buffer(14, debug_.handle());
-    pipeline_->bind_buffer(15, sample_counts_.handle());
-    if (rq) pipeline_->bind_acceleration_structure(7, gpu_.accel()->tlas());
+    pipeline_->bind_buffer(BINDING_DEBUG, debug_.handle());
+    pipeline_->bind_buffer(BINDING_SAMPLE_COUNTS, sample_counts_.handle());
+    if (rq) pipeline_->bind_acceleration_structure(BINDING_TLAS, gpu_.accel()->tlas());
     else {
-        pipeline_->bind_buffer(8, gpu_.bvh_nodes.handle());
-        pipeline_->bind_buffer(9, gpu_.tri_positions.handle());
+        pipeline_->bind_buffer(BINDING_BVH_NODES, gpu_.bvh_nodes.handle());
+        pipeline_->bind_buffer(BINDING_BVH_TRIS, gpu_.tri_positions.handle());
     }
     // Compile now (lavapipe compiles at the first dispatch), so that a
     // Frame's seconds count rendering only.

@@ -4,6 +4,8 @@
 // that refraction through them is smooth (DESIGN: "spheres must render smooth").
 #pragma once
 
+#include "shared/types.h"
+
 #include <glm/glm.hpp>
 
 #include <algorithm>
@@ -35,17 +37,17 @@ private:
     std::string reason_;
 };
 
-// Material models of docs/descriptor.md §2 (Mitsuba 3 plugin names).
+// Material models of docs/descriptor.md §2 (Mitsuba 3 plugin names); values: MAT_* (shared/types.h).
 enum class BsdfType : uint32_t {
-    Diffuse = 0,
-    Plastic = 1,
-    RoughPlastic = 2,
-    Conductor = 3,
-    RoughConductor = 4,
-    Dielectric = 5,
-    RoughDielectric = 6,
-    ThinDielectric = 7,
-    Principled = 8,
+    Diffuse = gpu::MAT_DIFFUSE,
+    Plastic = gpu::MAT_PLASTIC,
+    RoughPlastic = gpu::MAT_ROUGHPLASTIC,
+    Conductor = gpu::MAT_CONDUCTOR,
+    RoughConductor = gpu::MAT_ROUGHCONDUCTOR,
+    Dielectric = gpu::MAT_DIELECTRIC,
+    RoughDielectric = gpu::MAT_ROUGHDIELECTRIC,
+    ThinDielectric = gpu::MAT_THINDIELECTRIC,
+    Principled = gpu::MAT_PRINCIPLED,
 };
 const char* to_string(BsdfType t);
 

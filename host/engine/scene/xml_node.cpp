@@ -154,7 +154,7 @@ glm::vec3 XNode::as_color() const {
             return 2.0 * h * c * c / (l * l * l * l * l) / std::expm1(h * c / (l * k * temp));
         };
         glm::dvec3 rgb(planck(650.0), planck(550.0), planck(450.0));
-        double lum = 0.2126 * rgb.x + 0.7152 * rgb.y + 0.0722 * rgb.z;
+        double lum = gpu::LUM_R * rgb.x + gpu::LUM_G * rgb.y + gpu::LUM_B * rgb.z;
         if (!(lum > 0.0) || !std::isfinite(lum)) fail("<blackbody> temperature " + required("temperature") + " K gives no visible light");
         return glm::vec3(rgb / lum * scale);
     }

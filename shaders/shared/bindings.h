@@ -1,0 +1,53 @@
+// Descriptor bindings (set 0) and specialization-constant ids of the compute
+// entries, shared by GLSL (layout qualifiers) and C++ (host/engine/render:
+// pipeline layouts, descriptor writes, spec_constants()).
+#ifndef VKMECH_SHARED_BINDINGS_H
+#define VKMECH_SHARED_BINDINGS_H
+
+#ifdef __cplusplus
+#include <cstdint>
+namespace vkmech::gpu {
+#define VKM_ID static constexpr uint32_t
+#else
+#define VKM_ID const uint
+#endif
+
+// Descriptor bindings: pathtrace.comp uses all but RAYS and HITS,
+// tracerays.comp uses RAYS, HITS and the traversal's (TLAS or BVH_*).
+VKM_ID BINDING_PARAMS = 0u;
+VKM_ID BINDING_VERTICES = 1u;
+VKM_ID BINDING_TRIANGLES = 2u;
+VKM_ID BINDING_MATERIALS = 3u;
+VKM_ID BINDING_LIGHT_TRIS = 4u;
+VKM_ID BINDING_EMITTERS = 5u;
+VKM_ID BINDING_ACCUM = 6u;
+VKM_ID BINDING_TLAS = 7u;
+VKM_ID BINDING_BVH_NODES = 8u;
+VKM_ID BINDING_BVH_TRIS = 9u;
+VKM_ID BINDING_RAYS = 10u;
+VKM_ID BINDING_HITS = 11u;
+VKM_ID BINDING_TEXELS = 12u;
+VKM_ID BINDING_TEXTURES = 13u;
+VKM_ID BINDING_DEBUG = 14u;
+VKM_ID BINDING_SAMPLE_COUNTS = 15u;
+
+// Specialization-constant ids (layout(constant_id = ...)).
+VKM_ID SPEC_THIN_LENS = 0u;             // camera.glsl
+VKM_ID SPEC_DIELECTRIC = 1u;            // features.glsl, 1..7
+VKM_ID SPEC_ROUGH = 2u;
+VKM_ID SPEC_PLASTIC = 3u;
+VKM_ID SPEC_PRINCIPLED = 4u;
+VKM_ID SPEC_CONDUCTOR = 5u;
+VKM_ID SPEC_TEXTURES = 6u;
+VKM_ID SPEC_CAPTURE = 7u;
+VKM_ID SPEC_ESTIMATOR = 8u;             // pathtrace.comp, 8..10
+VKM_ID SPEC_DEBUG_EVENTS = 9u;
+VKM_ID SPEC_END_VERTEX_LITERAL = 10u;
+VKM_ID SPEC_ORTHOGRAPHIC = 11u;         // camera.glsl
+
+#ifdef __cplusplus
+}  // namespace vkmech::gpu
+#endif
+#undef VKM_ID
+
+#endif
