@@ -8,4 +8,5 @@
 #include "allocation/metrics.hpp"
 #include "allocation/mom.hpp"
 #include "allocation/neyman.hpp"
+#include "allocation/plan.hpp"
 #include "allocation/strategy.hpp"

@@ -55,6 +55,11 @@ int mom_block_size(int n0) {
     return size;
 }
 
+bool mom_defined(int n0) {
+    if (n0 < 1) return false;
+    return n0 / mom_block_count(n0) >= 3;
+}
+
 int mom_discarded(int n0) {
     return n0 - mom_block_count(n0) * mom_block_size(n0);
 }

@@ -56,6 +56,9 @@ int mom_block_count(int n0);
 // samples; N0 = 4 gives 2 blocks of 2: not defined".
 int mom_block_size(int n0);
 
+// True where mom_block_size(N0) is defined (N0 >= 1 with blocks of at least 3 samples).
+bool mom_defined(int n0);
+
 // Frames discarded at the end of the pilot: N0 - k * mom_block_size(N0)
 // (0 for the study's N0 = 9, 16, 64; e.g. 1 for N0 = 13). Throws like
 // mom_block_size.

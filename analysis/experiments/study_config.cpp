@@ -183,7 +183,7 @@ std::vector<RenderRequest> plan_renders(const StudyConfig& cfg, StudyKind kind) 
     case StudyKind::SweepLights:
         sweep(light_variants(cfg));
         break;
-    case StudyKind::Allocation:  // renders its own pool, pilots and reference (host/study/allocation_study.cpp)
+    case StudyKind::Allocation:  // its pool, pilots and reference come from an AllocationSource (experiments/allocation.hpp)
         break;
     case StudyKind::Predictor:
         for (const auto& s : cfg.scenes) {

@@ -1,12 +1,11 @@
 #include "adaptive/adaptive.hpp"
 
-#include <chrono>
 #include <stdexcept>
+#include <utility>
 
 namespace vkmech {
 
 Pilot render_pilot(Renderer& r, uint32_t n0, uint32_t seed, bool robust) {
-    Pilot out;
     RenderSpec spec;
     spec.spp = n0;
     spec.seed = seed;
@@ -24,24 +23,8 @@ Pilot render_pilot(Renderer& r, uint32_t n0, uint32_t seed, bool robust) {
             blocks.push_back(std::move(m));
         };
     }
-    out.frame = r.render(spec);
-    out.seconds = out.frame.seconds;
-    out.var.resize(out.frame.pixels.size());
-    for (size_t p = 0; p < out.var.size(); ++p) out.var[p] = out.frame.pixels[p].lum_var();
-    out.labels = derive_descriptor(out.frame).dominant;
-    if (robust) out.mom_var = alloc::mom_variance(blocks);
-    return out;
-}
-
-AdaptivePlan plan_allocation(alloc::Strategy s, const alloc::ScoreInputs& in, uint32_t extra_spp, uint32_t floor,
-                             uint64_t placebo_seed) {
-    auto t0 = std::chrono::steady_clock::now();
-    std::vector<double> D = alloc::strategy_score(s, in, placebo_seed);
-    AdaptivePlan plan;
-    plan.total = alloc::study_total(D.size(), extra_spp);
-    plan.n = alloc::neyman_allocation(D, plan.total, floor, downstream_seeds::kPoolSize);
-    plan.allocation_ms = 1000.0 * std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    return plan;
+    Frame frame = r.render(spec);  // fills `blocks` through on_batch: render first, then the MoM
+    return make_pilot(std::move(frame), robust ? alloc::mom_variance(blocks) : std::vector<double>{});
 }
 
 }  // namespace vkmech

@@ -19,10 +19,12 @@ namespace fs = std::filesystem;
 namespace vkmech {
 
 namespace {
-constexpr char kFrameMagic[8] = {'V', 'K', 'M', 'F', 'R', 'M', '0', '2'};
 constexpr char kOldFrameMagic[8] = {'V', 'K', 'M', 'F', 'R', 'M', '0', '1'};  // format 1: no key, no checksum
 constexpr char kFileMagic[8] = {'V', 'K', 'M', 'C', 'A', 'C', 'H', 'E'};
-constexpr uint32_t kFormatVersion = 2;
+constexpr char kBlobMagic[8] = {'V', 'K', 'M', 'B', 'L', 'O', 'B', '1'};
+// 2: untyped payloads (issue 10); 3: every payload a typed, versioned blob.
+constexpr uint32_t kFormatVersion = 3;
+constexpr uint32_t kFrameBlobVersion = 1, kPilotBlobVersion = 1, kPoolBlobVersion = 1;
 static_assert(std::is_trivially_copyable_v<PixelStats>);
 static_assert(sizeof(PixelStats) == 17 * sizeof(double), "cache format assumes 17 doubles per pixel");
 
@@ -110,6 +112,8 @@ std::string open_cache_file(const std::string& b, const std::string& kind, const
     Reader r{b, sizeof kFileMagic, fail};
     uint32_t version = 0;
     r.get(version);
+    if (version < kFormatVersion && version >= 2)
+        fail("an older cache format (" + std::to_string(version) + "; this vkmech reads " + std::to_string(kFormatVersion) + ")");
     if (version != kFormatVersion) fail("cache format " + std::to_string(version) + ", this vkmech reads " +
                                         std::to_string(kFormatVersion));
     const std::string stored_kind = r.str(64);
@@ -130,79 +134,138 @@ std::string open_cache_file(const std::string& b, const std::string& kind, const
     return payload;
 }
 
-std::string serialize_frame(const Frame& f, const std::string& description) {
-    std::string out(kFrameMagic, sizeof kFrameMagic);
-    auto put = [&](const auto& v) { out.append(reinterpret_cast<const char*>(&v), sizeof v); };
-    put(static_cast<int32_t>(f.width));
-    put(static_cast<int32_t>(f.height));
-    put(f.samples);
-    put(f.seconds);
-    put(static_cast<uint64_t>(f.pixels.size()));
-    out.append(reinterpret_cast<const char*>(f.pixels.data()), f.pixels.size() * sizeof(PixelStats));
-    put(static_cast<uint64_t>(description.size()));
-    out += description;
-    return out;
+BlobWriter::BlobWriter(const std::string& type, uint32_t version) : out_(kBlobMagic, sizeof kBlobMagic) {
+    str(type);
+    pod(version);
 }
 
-Frame deserialize_frame(const std::string& b, const std::string& where, size_t* used) {
-    std::function<void(const std::string&)> fail = [&](const std::string& what) {
-        throw CacheFileError("render cache file '" + where + "': " + what);
-    };
-    if (b.size() < sizeof kFrameMagic || std::memcmp(b.data(), kFrameMagic, sizeof kFrameMagic) != 0)
-        fail("not a vkmech frame (bad magic)");
-    Reader r{b, sizeof kFrameMagic, fail};
+BlobWriter& BlobWriter::str(const std::string& s) {
+    pod(static_cast<uint64_t>(s.size()));
+    out_ += s;
+    return *this;
+}
+
+BlobReader::BlobReader(const std::string& bytes, const std::string& type, uint32_t version, std::string where)
+    : b_(bytes), where_(std::move(where)) {
+    if (b_.size() < sizeof kBlobMagic || std::memcmp(b_.data(), kBlobMagic, sizeof kBlobMagic) != 0)
+        fail("not a vkmech " + type + " (bad magic)");
+    pos_ = sizeof kBlobMagic;
+    const uint64_t n = pod<uint64_t>();
+    if (n > 64 || n > left()) fail("truncated or damaged header");
+    const std::string stored = b_.substr(pos_, n);
+    pos_ += n;
+    if (stored != type) fail("holds a '" + stored + "' record, expected a '" + type + "'");
+    const uint32_t v = pod<uint32_t>();
+    if (v != version)
+        fail("a '" + type + "' record of version " + std::to_string(v) + ", this vkmech reads version " +
+             std::to_string(version));
+}
+
+void BlobReader::take(void* dst, size_t n) {
+    if (n > left()) fail("truncated");
+    std::memcpy(dst, b_.data() + pos_, n);
+    pos_ += n;
+}
+
+std::string BlobReader::str() {
+    const uint64_t n = pod<uint64_t>();
+    if (n > left()) fail("truncated (a string of " + std::to_string(n) + " bytes, " + std::to_string(left()) + " left)");
+    std::string s = b_.substr(pos_, n);
+    pos_ += n;
+    return s;
+}
+
+void BlobReader::end() const {
+    if (pos_ != b_.size()) fail("trailing bytes after the record");
+}
+
+void BlobReader::fail(const std::string& what) const { throw CacheFileError("render cache file '" + where_ + "': " + what); }
+
+std::string serialize_frame(const Frame& f, const std::string& description) {
+    return BlobWriter("frame", kFrameBlobVersion)
+        .pod(static_cast<int32_t>(f.width))
+        .pod(static_cast<int32_t>(f.height))
+        .pod(f.samples)
+        .pod(f.seconds)
+        .array(f.pixels)
+        .str(description)
+        .bytes();
+}
+
+Frame deserialize_frame(const std::string& b, const std::string& where) {
+    BlobReader r(b, "frame", kFrameBlobVersion, where);
     Frame f;
-    int32_t w = 0, h = 0;
-    uint64_t n = 0;
-    r.get(w);
-    r.get(h);
-    r.get(f.samples);
-    r.get(f.seconds);
-    r.get(n);
-    if (w <= 0 || h <= 0 || n != static_cast<uint64_t>(w) * static_cast<uint64_t>(h)) fail("inconsistent size");
-    if (r.pos + n * sizeof(PixelStats) > b.size()) fail("truncated pixel data");
+    const int32_t w = r.pod<int32_t>(), h = r.pod<int32_t>();
+    f.samples = r.pod<uint64_t>();
+    f.seconds = r.pod<double>();
+    if (w <= 0 || h <= 0) r.fail("inconsistent size");
+    f.pixels = r.array<PixelStats>();
+    if (f.pixels.size() != static_cast<uint64_t>(w) * static_cast<uint64_t>(h)) r.fail("inconsistent size");
     f.width = w;
     f.height = h;
-    f.pixels.resize(n);
-    std::memcpy(f.pixels.data(), b.data() + r.pos, n * sizeof(PixelStats));
-    r.pos += n * sizeof(PixelStats);
-    (void)r.str(1 << 20);  // the description
-    if (!used && r.pos != b.size()) fail("trailing bytes after the frame");
-    if (used) *used = r.pos;
-    if (!std::isfinite(f.seconds) || f.seconds < 0) fail("non-finite or negative render time");
+    (void)r.str();  // the description
+    r.end();
+    if (!std::isfinite(f.seconds) || f.seconds < 0) r.fail("non-finite or negative render time");
     // Non-finite samples are counted apart (PixelStats::nonfinite), so every statistic is finite.
-    for (size_t p = 0; p < n; ++p) {
+    for (size_t p = 0; p < f.pixels.size(); ++p) {
         const double* v = reinterpret_cast<const double*>(&f.pixels[p]);
         for (int k = 0; k < 17; ++k)
             if (!std::isfinite(v[k]))
-                fail("pixel " + std::to_string(p) + " holds a non-finite statistic, though the frame counts non-finite "
-                     "samples apart");
-        if (f.pixels[p].count < 0 || f.pixels[p].nonfinite < 0) fail("pixel " + std::to_string(p) + " has a negative count");
+                r.fail("pixel " + std::to_string(p) + " holds a non-finite statistic, though the frame counts non-finite "
+                       "samples apart");
+        if (f.pixels[p].count < 0 || f.pixels[p].nonfinite < 0) r.fail("pixel " + std::to_string(p) + " has a negative count");
     }
     return f;
 }
 
 std::string serialize_pilot(const Frame& frame, const std::vector<double>& mom_var) {
-    std::string b = serialize_frame(frame, "pilot");
-    uint64_t n = mom_var.size();
-    b.append(reinterpret_cast<const char*>(&n), sizeof n);
-    b.append(reinterpret_cast<const char*>(mom_var.data()), n * sizeof(double));
-    return b;
+    return BlobWriter("pilot", kPilotBlobVersion).str(serialize_frame(frame, "pilot")).array(mom_var).bytes();
 }
 
-Frame deserialize_pilot(const std::string& payload, const std::string& where, std::vector<double>* mom_var) {
-    size_t used = 0;
-    Frame f = deserialize_frame(payload, where, &used);
-    uint64_t n = 0;
-    if (used + 8 > payload.size()) throw CacheFileError("render cache file '" + where + "': truncated");
-    std::memcpy(&n, payload.data() + used, 8);
-    if (payload.size() - used - 8 != n * sizeof(double))
-        throw CacheFileError("render cache file '" + where + "': wrong size of the pilot's variances");
-    if (mom_var) {
-        mom_var->resize(n);
-        std::memcpy(mom_var->data(), payload.data() + used + 8, n * sizeof(double));
+Pilot deserialize_pilot(const std::string& payload, const std::string& where) {
+    BlobReader r(payload, "pilot", kPilotBlobVersion, where);
+    Frame f = deserialize_frame(r.str(), where);
+    std::vector<double> mom = r.array<double>();
+    r.end();
+    if (!mom.empty() && mom.size() != f.pixels.size())
+        r.fail(std::to_string(mom.size()) + " median-of-means variances for " + std::to_string(f.pixels.size()) + " pixels");
+    for (double v : mom)
+        if (!std::isfinite(v) || v < 0) r.fail("a non-finite or negative median-of-means variance");
+    return make_pilot(std::move(f), std::move(mom));
+}
+
+std::string serialize_pool(const SamplePool& pool) {
+    return BlobWriter("pool", kPoolBlobVersion)
+        .pod(pool.frames)
+        .pod(static_cast<uint64_t>(pool.pixels))
+        .array(pool.samples)
+        .array(pool.oracle_var)
+        .bytes();
+}
+
+SamplePool deserialize_pool(const std::string& payload, const std::string& where) {
+    BlobReader r(payload, "pool", kPoolBlobVersion, where);
+    SamplePool pool;
+    pool.frames = r.pod<uint32_t>();
+    const uint64_t pixels = r.pod<uint64_t>();
+    pool.samples = r.array<float>();
+    pool.oracle_var = r.array<double>();
+    r.end();
+    if (pixels == 0 || pool.frames == 0 || pool.oracle_var.size() != pixels ||
+        pool.samples.size() / 4 / pixels != pool.frames || pool.samples.size() != 4 * pixels * pool.frames)
+        r.fail("inconsistent sizes (" + std::to_string(pool.frames) + " frames of " + std::to_string(pixels) + " pixels, " +
+               std::to_string(pool.samples.size()) + " sample values, " + std::to_string(pool.oracle_var.size()) +
+               " variances)");
+    pool.pixels = static_cast<size_t>(pixels);
+    for (size_t i = 0; i < pool.samples.size(); i += 4) {
+        const float* x = &pool.samples[i];
+        if (x[3] != 0.0f && x[3] != 1.0f) r.fail("a sample's finite flag is neither 0 nor 1");
+        if (x[3] == 1.0f && !(std::isfinite(x[0]) && std::isfinite(x[1]) && std::isfinite(x[2])))
+            r.fail("a sample flagged finite holds a non-finite value");
     }
-    return f;
+    for (double v : pool.oracle_var)
+        if (!std::isfinite(v) || v < 0) r.fail("a non-finite or negative oracle variance");
+    return pool;
 }
 
 Frame RenderCache::load(const std::string& key) const {
@@ -244,6 +307,39 @@ void RenderCache::store_payload(const std::string& key, const std::string& kind,
     write_file_atomic(path(key, kind), seal_cache_file(kind, key, payload));
 }
 
+namespace {
+template <class T, class Parse>
+std::optional<T> try_load_side(const RenderCache& cache, const std::string& key, const std::string& kind, Parse parse) {
+    const std::string p = cache.path(key, kind);
+    std::optional<std::string> payload = cache.try_load_payload(key, kind);  // warns and removes a damaged file
+    if (!payload) return std::nullopt;
+    try {
+        return parse(*payload, p);
+    } catch (const CacheFileError& e) {  // sealed but unsound (e.g. non-finite): never used
+        warn_damaged(e.what());
+        std::error_code ec;
+        fs::remove(p, ec);
+        return std::nullopt;
+    }
+}
+}  // namespace
+
+std::optional<Pilot> RenderCache::try_load_pilot(const std::string& key) const {
+    return try_load_side<Pilot>(*this, key, "pilot", deserialize_pilot);
+}
+
+void RenderCache::store_pilot(const std::string& key, const Pilot& pilot) const {
+    store_payload(key, "pilot", serialize_pilot(pilot.frame, pilot.mom_var));
+}
+
+std::optional<SamplePool> RenderCache::try_load_pool(const std::string& key) const {
+    return try_load_side<SamplePool>(*this, key, "pool", deserialize_pool);
+}
+
+void RenderCache::store_pool(const std::string& key, const SamplePool& pool) const {
+    store_payload(key, "pool", serialize_pool(pool));
+}
+
 CacheVerifyReport verify_cache_dir(const std::string& dir) {
     CacheVerifyReport rep;
     std::vector<fs::path> files;
@@ -264,7 +360,8 @@ CacheVerifyReport verify_cache_dir(const std::string& dir) {
         try {
             std::string payload = open_cache_file(read_whole(full), kind, key, full);
             if (kind == "frame") deserialize_frame(payload, full);
-            if (kind == "pilot") deserialize_pilot(payload, full, nullptr);
+            if (kind == "pilot") deserialize_pilot(payload, full);
+            if (kind == "pool") deserialize_pool(payload, full);
             rep.good.push_back(full);
         } catch (const CacheFileError& e) {
             std::string what = e.what();

@@ -10,7 +10,7 @@
 #include "render/session.hpp"
 #include "render/shader_modules.hpp"
 #include "scene/scene.hpp"
-#include "study/allocation_study.hpp"
+#include "study/allocation_source.hpp"
 #include "study/render_cache.hpp"
 #include "vk/context.hpp"
 
@@ -339,8 +339,9 @@ void analyse(const StudyPlan& p, const StudyDevice& dev, RenderCache& cache, Stu
         case StudyKind::SweepLights: run_sweep_lights(sc); break;
         case StudyKind::Predictor: run_predictor(sc); break;
         case StudyKind::Allocation: {
-            AllocationStudyContext ac{cfg, out, ctx, trav, cache, code_digest, [] { return study_interrupted(); }};
-            run_allocation_study(ac);
+            RenderedAllocationSource source(cfg, ctx, trav, cache, code_digest, [] { return study_interrupted(); });
+            AllocationContext ac{cfg, source, out, ctx.info().name};
+            run_allocation(ac);
             break;
         }
         }

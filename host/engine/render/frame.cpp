@@ -1,6 +1,8 @@
 #include "render/frame.hpp"
 
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 namespace vkmech {
 
@@ -30,6 +32,25 @@ void Frame::merge(const std::vector<gpu::GpuPixelAccum>& batch) {
         p.depth_weighted_sum += a.side.x;
         p.depth_weight += a.side.y;
     }
+}
+
+void Frame::merge(const Frame& other) {
+    if (other.width != width || other.height != height || other.pixels.size() != pixels.size())
+        throw std::invalid_argument("Frame::merge: a " + std::to_string(other.width) + "x" + std::to_string(other.height) +
+                                    " frame merged into a " + std::to_string(width) + "x" + std::to_string(height) + " one");
+    for (size_t i = 0; i < pixels.size(); ++i) {
+        PixelStats& x = pixels[i];
+        const PixelStats& y = other.pixels[i];
+        for (int k = 0; k < 3; ++k) x.rgb_sum[k] += y.rgb_sum[k];
+        x.merge_moments(y.count, y.lum_mean, y.lum_m2);
+        x.nonfinite += y.nonfinite;
+        for (uint32_t b = 0; b < gpu::BUCKET_COUNT; ++b) x.bucket_sum[b] += y.bucket_sum[b];
+        x.glossy_sum += y.glossy_sum;
+        x.depth_weighted_sum += y.depth_weighted_sum;
+        x.depth_weight += y.depth_weight;
+    }
+    samples += other.samples;
+    seconds += other.seconds;
 }
 
 std::vector<float> Frame::rgb_mean() const {

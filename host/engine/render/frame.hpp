@@ -38,6 +38,10 @@ struct Frame {
     uint64_t samples = 0;  // samples taken (spp * pixels)
 
     void merge(const std::vector<gpu::GpuPixelAccum>& batch);
+    // Another render of the same film on disjoint samples (e.g. a chunk of a
+    // reference): sums added, moments merged with Chan's update, samples and
+    // seconds added. Throws std::invalid_argument when the films differ.
+    void merge(const Frame& other);
     std::vector<float> rgb_mean() const;  // 3 per pixel
 };
 

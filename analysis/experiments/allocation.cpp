@@ -1,26 +1,17 @@
-#include "study/allocation_study.hpp"
+#include "experiments/allocation.hpp"
 
 #include "allocation/allocation.hpp"
-#include "io/atomic_file.hpp"
-#include "render/renderer.hpp"
-#include "render/session.hpp"
+#include "render/descriptor.hpp"
 #include "shared/types.h"
 #include "stats/summary.hpp"
-#include "adaptive/adaptive.hpp"
-#include "study/study_runner.hpp"
 
 #include <algorithm>
 #include <cmath>
-#include <csignal>
 #include <cstdio>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <map>
-#include <optional>
-#include <sstream>
+#include <stdexcept>
+#include <tuple>
 
-namespace fs = std::filesystem;
 
 namespace vkmech {
 
@@ -39,8 +30,7 @@ struct SceneData {
     int w = 0, h = 0;
     std::vector<double> ref_rgb, ref_lum;
     std::vector<uint8_t> ref_labels;
-    std::vector<float> pool;  // [frame][pixel] x (r, g, b, finite)
-    std::vector<double> oracle_var;
+    SamplePool pool;
     std::map<uint32_t, std::vector<Pilot>> pilots;  // N0 -> draws
 };
 
@@ -57,7 +47,7 @@ Errors evaluate(const SceneData& d, const std::vector<uint32_t>& n) {
     for (size_t p = 0; p < d.P; ++p) {
         double s[3] = {0, 0, 0}, cnt = 0;
         for (uint32_t f = 0; f < n[p]; ++f) {
-            const float* x = &d.pool[(static_cast<size_t>(f) * d.P + p) * 4];
+            const float* x = d.pool.at(f, p);
             if (x[3] == 0.0f) continue;  // a non-finite sample: counted out, as the renderer does
             s[0] += x[0];
             s[1] += x[1];
@@ -90,28 +80,9 @@ struct Key {
     bool operator<(const Key& o) const { return std::tie(n0, floor, extra, s) < std::tie(o.n0, o.floor, o.extra, o.s); }
 };
 
-Pilot pilot_from_payload(const std::string& b, const std::string& where) {
-    Pilot p;
-    p.frame = deserialize_pilot(b, where, &p.mom_var);
-    p.seconds = p.frame.seconds;
-    p.var.resize(p.frame.pixels.size());
-    for (size_t i = 0; i < p.var.size(); ++i) p.var[i] = p.frame.pixels[i].lum_var();
-    p.labels = derive_descriptor(p.frame).dominant;
-    return p;
-}
-
-bool mom_defined(uint32_t n0) {
-    try {
-        alloc::mom_block_size(static_cast<int>(n0));
-        return true;
-    } catch (const std::invalid_argument&) {
-        return false;
-    }
-}
-
 }  // namespace
 
-void run_allocation_study(AllocationStudyContext& a) {
+void run_allocation(AllocationContext& a) {
     const StudyConfig& cfg = a.cfg;
     const std::string sec = "Downstream allocation";
     const uint32_t n0_main = cfg.alloc_pilots.front();
@@ -119,14 +90,6 @@ void run_allocation_study(AllocationStudyContext& a) {
     const std::vector<Strategy> base = {Strategy::Uniform, Strategy::ObservedVar, Strategy::BucketFloor,
                                         Strategy::Oracle,  Strategy::Placebo,     Strategy::LabelOracle};
     const std::vector<Strategy> robust = {Strategy::RobustVar, Strategy::RobustFloor, Strategy::RobustPlacebo};
-
-    auto key_for = [&](const RenderSession& s, const std::string& digest, uint32_t spp, uint32_t seed, uint32_t batch) {
-        return cache_key({digest, s.scene().camera.width, s.scene().camera.height, spp, seed, 0, batch,
-                          to_string(a.traversal), a.ctx.info().name, a.code_digest});
-    };
-    auto check_interrupt = [&] {
-        if (a.interrupted && a.interrupted()) throw StudyInterrupted(pending_signal() ? pending_signal() : SIGINT);
-    };
 
     Table main_t{"downstream", "", {"scene", "uniform", "obs-var", "b-floor", "oracle", "label-oracle", "placebo",
                                     "MSE wins", "p99 wins", "seed std obs/b-floor (dB)"}, {}, ""};
@@ -139,7 +102,7 @@ void run_allocation_study(AllocationStudyContext& a) {
                  "MSE wins vs obs-var"}, {}, ""};
     Table bucket_t{"perbucket_mse", "Per-bucket MSE at N0 = " + std::to_string(n0_main) + " (buckets of the reference)",
                    {"scene", "bucket", "pixels", "obs-var", "b-floor", "b-floor / obs-var"}, {}, ""};
-    Table timing_t{"alloc_time", "Wall time of each strategy on " + a.ctx.info().name + ": pilot + allocation + final render",
+    Table timing_t{"alloc_time", "Wall time of each strategy on " + a.device + ": pilot + allocation + final render",
                  {"scene", "N0", "strategy", "pilot s", "allocation ms", "final s", "total s", "PSNR"}, {}, ""};
     Table eq_t{"equal_time", "Error versus wall-clock time (N0 = " + std::to_string(n0_main) + ", floor 1)",
                {"scene", "strategy", "extra SPP", "seconds", "PSNR"}, {}, ""};
@@ -150,48 +113,12 @@ void run_allocation_study(AllocationStudyContext& a) {
     bool cubes_tie = true, saw_cubes = false;
 
     for (const auto& scene : cfg.scenes) {
-        LoadedScene ls = load_variant(scene, cfg.alloc_res);
-        const std::string digest = ls.digest;
-        RenderSession session(a.ctx, std::move(ls.scene), std::move(ls.arrays), a.traversal);
-        Renderer r = session.renderer(session.features());
         SceneData d;
-        d.w = session.scene().camera.width;
-        d.h = session.scene().camera.height;
+        // Independent reference (docs/descriptor.md §4: chunks of seeds 900000 + c, merged).
+        const Frame ref = a.source.reference(scene);
+        d.w = ref.width;
+        d.h = ref.height;
         d.P = static_cast<size_t>(d.w) * d.h;
-        std::fprintf(stderr, "allocation: %s (%dx%d)\n", scene.name.c_str(), d.w, d.h);
-
-        // Independent reference: chunks of seeds 900000 + c, merged.
-        Frame ref;
-        for (uint32_t c = 0; c < cfg.alloc_ref_chunks; ++c) {
-            check_interrupt();
-            std::string key = key_for(session, digest, cfg.alloc_ref_chunk_spp, downstream_seeds::reference_chunk(c), 64);
-            Frame f;
-            if (auto cached = a.cache.try_load(key)) {
-                f = std::move(*cached);
-            } else {
-                RenderSpec spec;
-                spec.spp = cfg.alloc_ref_chunk_spp;
-                spec.seed = downstream_seeds::reference_chunk(c);
-                spec.batch_spp = 64;
-                f = r.render(spec);
-                a.cache.store(key, f, scene.name + " allocation reference chunk " + std::to_string(c));
-            }
-            if (c == 0) {
-                ref = f;
-            } else {
-                for (size_t p = 0; p < d.P; ++p) {
-                    PixelStats& x = ref.pixels[p];
-                    const PixelStats& y = f.pixels[p];
-                    for (int k = 0; k < 3; ++k) x.rgb_sum[k] += y.rgb_sum[k];
-                    x.merge_moments(y.count, y.lum_mean, y.lum_m2);
-                    x.nonfinite += y.nonfinite;
-                    for (uint32_t b = 0; b < kBucketCount; ++b) x.bucket_sum[b] += y.bucket_sum[b];
-                    x.glossy_sum += y.glossy_sum;
-                    x.depth_weighted_sum += y.depth_weighted_sum;
-                    x.depth_weight += y.depth_weight;
-                }
-            }
-        }
         d.ref_rgb.resize(3 * d.P);
         d.ref_lum.resize(d.P);
         for (size_t p = 0; p < d.P; ++p) {
@@ -204,72 +131,21 @@ void run_allocation_study(AllocationStudyContext& a) {
         }
         d.ref_labels = derive_descriptor(ref).dominant;
 
-        // The pool: 256 frames of seed 1000, kept per frame.
-        {
-            check_interrupt();
-            const uint32_t F = downstream_seeds::kPoolSize;
-            std::string key = key_for(session, digest, F, downstream_seeds::kPool, 1);
-            d.pool.assign(static_cast<size_t>(F) * d.P * 4, 0.0f);
-            d.oracle_var.assign(d.P, 0.0);
-            std::optional<std::string> cached = a.cache.try_load_payload(key, "pool");
-            if (cached && cached->size() != d.pool.size() * sizeof(float) + d.P * sizeof(double)) {
-                std::fprintf(stderr, "vkmech: warning: render cache file '%s': wrong size for this film; rendering it again\n",
-                             a.cache.path(key, "pool").c_str());
-                cached.reset();
-            }
-            if (cached) {
-                const std::string& b = *cached;
-                std::memcpy(d.pool.data(), b.data(), d.pool.size() * sizeof(float));
-                std::memcpy(d.oracle_var.data(), b.data() + d.pool.size() * sizeof(float), d.P * sizeof(double));
-            } else {
-                RenderSpec spec;
-                spec.spp = F;
-                spec.seed = downstream_seeds::kPool;
-                spec.batch_spp = 1;
-                uint32_t f = 0;
-                spec.on_batch = [&](const std::vector<gpu::GpuPixelAccum>& b) {
-                    for (size_t p = 0; p < d.P; ++p) {
-                        float* x = &d.pool[(static_cast<size_t>(f) * d.P + p) * 4];
-                        x[0] = b[p].rgb.x;
-                        x[1] = b[p].rgb.y;
-                        x[2] = b[p].rgb.z;
-                        x[3] = b[p].rgb.w;
-                    }
-                    ++f;
-                };
-                spec.progress = [&](uint32_t, uint32_t) { check_interrupt(); };
-                Frame pool = r.render(spec);
-                for (size_t p = 0; p < d.P; ++p) d.oracle_var[p] = pool.pixels[p].lum_var();  // the pool's converged variance
-                std::string b(reinterpret_cast<const char*>(d.pool.data()), d.pool.size() * sizeof(float));
-                b.append(reinterpret_cast<const char*>(d.oracle_var.data()), d.P * sizeof(double));
-                a.cache.store_payload(key, "pool", b);
-            }
-        }
-
-        // Pilots: K disjoint draws per N0 (median-of-means blocks where defined).
-        for (uint32_t n0 : cfg.alloc_pilots) {
-            bool rob = mom_defined(n0);
+        // The pool, then K disjoint pilot draws per N0 (median-of-means blocks where defined).
+        d.pool = a.source.pool(scene);
+        if (d.pool.pixels != d.P || d.pool.frames < downstream_seeds::kPoolSize)
+            throw std::runtime_error("allocation study: the pool of " + scene.name + " has " +
+                                     std::to_string(d.pool.frames) + " frames of " + std::to_string(d.pool.pixels) +
+                                     " pixels; the reference has " + std::to_string(d.P) + " pixels and " +
+                                     std::to_string(downstream_seeds::kPoolSize) + " frames are needed");
+        for (uint32_t n0 : cfg.alloc_pilots)
             for (uint32_t k = 0; k < K; ++k) {
-                check_interrupt();
-                uint32_t batch = rob ? static_cast<uint32_t>(alloc::mom_block_size(static_cast<int>(n0))) : 8;
-                const std::string key = key_for(session, digest, n0, downstream_seeds::pilot(k), batch);
-                std::optional<Pilot> cached;
-                if (auto b = a.cache.try_load_payload(key, "pilot")) {
-                    try {
-                        cached = pilot_from_payload(*b, a.cache.path(key, "pilot"));
-                    } catch (const CacheFileError& e) {  // sealed but unsound (e.g. non-finite): never used
-                        std::fprintf(stderr, "vkmech: warning: %s; rendering it again\n", e.what());
-                    }
-                }
-                if (cached) {
-                    d.pilots[n0].push_back(std::move(*cached));
-                } else {
-                    Pilot p = render_pilot(r, n0, downstream_seeds::pilot(k), rob);
-                    a.cache.store_payload(key, "pilot", serialize_pilot(p.frame, p.mom_var));
-                    d.pilots[n0].push_back(std::move(p));
-                }
+                Pilot p = a.source.pilot(scene, n0, k);
+                if (p.var.size() != d.P)
+                    throw std::runtime_error("allocation study: pilot " + std::to_string(k) + " of " + scene.name +
+                                             " has " + std::to_string(p.var.size()) + " pixels, not " + std::to_string(d.P));
+                d.pilots[n0].push_back(std::move(p));
             }
-        }
 
         // Every configuration, every draw.
         std::map<Key, std::vector<Errors>> res;
@@ -282,7 +158,7 @@ void run_allocation_study(AllocationStudyContext& a) {
                 alloc::ScoreInputs in;
                 in.pilot_var = &pl.var;
                 in.pilot_labels = &pl.labels;
-                in.oracle_var = &d.oracle_var;
+                in.oracle_var = &d.pool.oracle_var;
                 in.reference_labels = &d.ref_labels;
                 if (!pl.mom_var.empty()) in.mom_var = &pl.mom_var;
                 AdaptivePlan plan = plan_allocation(s, in, extra, floor, 7919u * (k + 1));  // placebo: fresh per draw
@@ -293,7 +169,7 @@ void run_allocation_study(AllocationStudyContext& a) {
         for (uint32_t n0 : cfg.alloc_pilots)
             for (uint32_t floor : cfg.alloc_floors) {
                 for (Strategy s : base) run_config(n0, floor, cfg.alloc_extra, s);
-                if (mom_defined(n0))
+                if (alloc::mom_defined(static_cast<int>(n0)))
                     for (Strategy s : robust) run_config(n0, floor, cfg.alloc_extra, s);
             }
         for (uint32_t extra : cfg.alloc_budget_sweep)
@@ -348,7 +224,7 @@ void run_allocation_study(AllocationStudyContext& a) {
         if (std::find(cfg.alloc_floors.begin(), cfg.alloc_floors.end(), 4u) != cfg.alloc_floors.end()) f4_t.add(main_row(4));
 
         for (uint32_t n0 : cfg.alloc_pilots) {
-            if (!mom_defined(n0)) continue;
+            if (!alloc::mom_defined(static_cast<int>(n0))) continue;
             auto m = [&](Strategy s) { return stats::mean(psnrs({n0, 1, cfg.alloc_extra, s})); };
             auto w = alloc::paired_wins(mses({n0, 1, cfg.alloc_extra, Strategy::RobustFloor}, false),
                                         mses({n0, 1, cfg.alloc_extra, Strategy::RobustVar}, false));
@@ -418,17 +294,10 @@ void run_allocation_study(AllocationStudyContext& a) {
         fig_budget.panels.push_back(pb);
 
         // Wall time: the pilot's GPU time, the allocation, and a real GPU render of draw 0's n(p).
-        auto final_seconds = [&](const std::vector<uint32_t>& n) {
-            check_interrupt();
-            RenderSpec spec;
-            spec.seed = downstream_seeds::kPool;
-            spec.batch_spp = 16;
-            spec.sample_counts = n;
-            return r.render(spec).seconds;
-        };
+        auto final_seconds = [&](const std::vector<uint32_t>& n) { return a.source.final_render_seconds(scene, n); };
         for (uint32_t n0 : cfg.alloc_pilots) {
             std::vector<Strategy> timed = {Strategy::Uniform, Strategy::ObservedVar, Strategy::BucketFloor};
-            if (mom_defined(n0)) timed.insert(timed.end(), {Strategy::RobustVar, Strategy::RobustFloor});
+            if (alloc::mom_defined(static_cast<int>(n0))) timed.insert(timed.end(), {Strategy::RobustVar, Strategy::RobustFloor});
             for (Strategy s : timed) {
                 const Pilot& pl = d.pilots[n0][0];
                 alloc::ScoreInputs in;

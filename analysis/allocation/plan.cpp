@@ -1,0 +1,32 @@
+#include "allocation/plan.hpp"
+
+#include "allocation/neyman.hpp"
+#include "render/descriptor.hpp"
+
+#include <chrono>
+
+namespace vkmech {
+
+Pilot make_pilot(Frame frame, std::vector<double> mom_var) {
+    Pilot out;
+    out.frame = std::move(frame);
+    out.seconds = out.frame.seconds;
+    out.var.resize(out.frame.pixels.size());
+    for (size_t p = 0; p < out.var.size(); ++p) out.var[p] = out.frame.pixels[p].lum_var();
+    out.labels = derive_descriptor(out.frame).dominant;
+    out.mom_var = std::move(mom_var);
+    return out;
+}
+
+AdaptivePlan plan_allocation(alloc::Strategy s, const alloc::ScoreInputs& in, uint32_t extra_spp, uint32_t floor,
+                             uint64_t placebo_seed) {
+    auto t0 = std::chrono::steady_clock::now();
+    std::vector<double> D = alloc::strategy_score(s, in, placebo_seed);
+    AdaptivePlan plan;
+    plan.total = alloc::study_total(D.size(), extra_spp);
+    plan.n = alloc::neyman_allocation(D, plan.total, floor, downstream_seeds::kPoolSize);
+    plan.allocation_ms = 1000.0 * std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return plan;
+}
+
+}  // namespace vkmech

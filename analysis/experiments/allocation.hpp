@@ -1,0 +1,44 @@
+// `vkmech study allocation` (docs/descriptor.md §6, paper §7) as an
+// experiment: per scene an independent reference, the shared pool of
+// downstream_seeds::kPoolSize frames (one per sample index of the pool seed,
+// so any n(p) is a prefix mean) and K disjoint pilot draws per N0; every
+// strategy's allocation is scored against the reference, and each
+// strategy's wall time (pilot + allocation + a real render of its n(p)) is
+// reported. Where the data comes from is the AllocationSource's business:
+// the app layer renders it on the GPU and keeps it in the render cache
+// (host/app/study/allocation_source.hpp); a test can hand in synthetic data.
+#pragma once
+
+#include "allocation/plan.hpp"
+#include "experiments/study_context.hpp"
+
+#include <string>
+#include <vector>
+
+namespace vkmech {
+
+class AllocationSource {
+public:
+    virtual ~AllocationSource() = default;
+    // The independent reference of a scene variant (docs/descriptor.md §4: chunks
+    // of seeds 900000 + c, merged) at the study's allocation resolution.
+    virtual Frame reference(const SceneVariant& v) = 0;
+    // The shared pool (seed 1000, cfg frames) and its converged variance.
+    virtual SamplePool pool(const SceneVariant& v) = 0;
+    // Pilot draw `draw` (seed 100000 + 1000 draw) of n0 samples; with the
+    // median-of-means variance where it is defined for n0.
+    virtual Pilot pilot(const SceneVariant& v, uint32_t n0, uint32_t draw) = 0;
+    // Seconds of a real render of n(p) samples per pixel of the pool seed.
+    virtual double final_render_seconds(const SceneVariant& v, const std::vector<uint32_t>& n) = 0;
+};
+
+struct AllocationContext {
+    const StudyConfig& cfg;
+    AllocationSource& source;
+    StudyOutput& out;
+    std::string device;  // for "Wall time of each strategy on <device>"
+};
+
+void run_allocation(AllocationContext& a);
+
+}  // namespace vkmech

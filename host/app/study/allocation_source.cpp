@@ -1,0 +1,126 @@
+#include "study/allocation_source.hpp"
+
+#include "adaptive/adaptive.hpp"
+#include "allocation/mom.hpp"
+#include "study/study_runner.hpp"
+
+#include <csignal>
+#include <cstdio>
+#include <utility>
+
+namespace vkmech {
+
+RenderedAllocationSource::RenderedAllocationSource(const StudyConfig& cfg, const vk::Context& ctx, Traversal traversal,
+                                                   const RenderCache& cache, std::string code_digest,
+                                                   std::function<bool()> interrupted)
+    : cfg_(cfg), ctx_(ctx), traversal_(traversal), cache_(cache), code_digest_(std::move(code_digest)),
+      interrupted_(std::move(interrupted)) {}
+
+RenderedAllocationSource::Loaded& RenderedAllocationSource::load(const SceneVariant& v) {
+    if (loaded_ && loaded_->variant == v) return *loaded_;
+    loaded_.reset();  // one scene on the device at a time
+    LoadedScene ls = load_variant(v, cfg_.alloc_res);
+    Loaded l;
+    l.variant = v;
+    l.digest = ls.digest;
+    l.session = std::make_unique<RenderSession>(ctx_, std::move(ls.scene), std::move(ls.arrays), traversal_);
+    l.renderer = l.session->make_renderer(l.session->features());
+    std::fprintf(stderr, "allocation: %s (%dx%d)\n", v.name.c_str(), l.session->scene().camera.width,
+                 l.session->scene().camera.height);
+    loaded_ = std::move(l);
+    return *loaded_;
+}
+
+std::string RenderedAllocationSource::key(const Loaded& l, uint32_t spp, uint32_t seed, uint32_t batch) const {
+    const Camera& c = l.session->scene().camera;
+    return cache_key({l.digest, c.width, c.height, spp, seed, 0, batch, to_string(traversal_), ctx_.info().name,
+                      code_digest_});
+}
+
+void RenderedAllocationSource::check_interrupt() const {
+    if (interrupted_ && interrupted_()) throw StudyInterrupted(pending_signal() ? pending_signal() : SIGINT);
+}
+
+Frame RenderedAllocationSource::reference(const SceneVariant& v) {
+    Loaded& l = load(v);
+    Frame ref;
+    for (uint32_t c = 0; c < cfg_.alloc_ref_chunks; ++c) {
+        check_interrupt();
+        const uint32_t seed = downstream_seeds::reference_chunk(c);
+        const std::string k = key(l, cfg_.alloc_ref_chunk_spp, seed, 64);
+        std::optional<Frame> f = cache_.try_load(k);
+        if (!f) {
+            RenderSpec spec;
+            spec.spp = cfg_.alloc_ref_chunk_spp;
+            spec.seed = seed;
+            spec.batch_spp = 64;
+            f = l.renderer->render(spec);
+            cache_.store(k, *f, v.name + " allocation reference chunk " + std::to_string(c));
+        }
+        if (c == 0) ref = std::move(*f);
+        else ref.merge(*f);
+    }
+    return ref;
+}
+
+SamplePool RenderedAllocationSource::pool(const SceneVariant& v) {
+    Loaded& l = load(v);
+    check_interrupt();
+    const uint32_t F = downstream_seeds::kPoolSize;
+    const std::string k = key(l, F, downstream_seeds::kPool, 1);
+    const size_t P = static_cast<size_t>(l.session->scene().camera.width) * l.session->scene().camera.height;
+    if (std::optional<SamplePool> cached = cache_.try_load_pool(k)) {
+        if (cached->pixels == P && cached->frames == F) return std::move(*cached);
+        std::fprintf(stderr, "vkmech: warning: render cache file '%s': %u frames of %zu pixels, not %u of %zu; rendering it "
+                     "again\n", cache_.path(k, "pool").c_str(), cached->frames, cached->pixels, F, P);
+    }
+    SamplePool pool;
+    pool.frames = F;
+    pool.pixels = P;
+    pool.samples.assign(static_cast<size_t>(F) * P * 4, 0.0f);
+    RenderSpec spec;
+    spec.spp = F;
+    spec.seed = downstream_seeds::kPool;
+    spec.batch_spp = 1;
+    uint32_t f = 0;
+    spec.on_batch = [&](const std::vector<gpu::GpuPixelAccum>& b) {  // one batch per sample index: one pool frame
+        for (size_t p = 0; p < P; ++p) {
+            float* x = &pool.samples[(static_cast<size_t>(f) * P + p) * 4];
+            x[0] = b[p].rgb.x;
+            x[1] = b[p].rgb.y;
+            x[2] = b[p].rgb.z;
+            x[3] = b[p].rgb.w;
+        }
+        ++f;
+    };
+    spec.progress = [&](uint32_t, uint32_t) { check_interrupt(); };
+    const Frame whole = l.renderer->render(spec);
+    pool.oracle_var.resize(P);
+    for (size_t p = 0; p < P; ++p) pool.oracle_var[p] = whole.pixels[p].lum_var();  // the pool's converged variance
+    cache_.store_pool(k, pool);
+    return pool;
+}
+
+Pilot RenderedAllocationSource::pilot(const SceneVariant& v, uint32_t n0, uint32_t draw) {
+    Loaded& l = load(v);
+    check_interrupt();
+    const bool robust = alloc::mom_defined(static_cast<int>(n0));
+    const uint32_t batch = robust ? static_cast<uint32_t>(alloc::mom_block_size(static_cast<int>(n0))) : 8;
+    const std::string k = key(l, n0, downstream_seeds::pilot(draw), batch);
+    if (std::optional<Pilot> cached = cache_.try_load_pilot(k)) return std::move(*cached);
+    Pilot p = render_pilot(*l.renderer, n0, downstream_seeds::pilot(draw), robust);
+    cache_.store_pilot(k, p);
+    return p;
+}
+
+double RenderedAllocationSource::final_render_seconds(const SceneVariant& v, const std::vector<uint32_t>& n) {
+    Loaded& l = load(v);
+    check_interrupt();
+    RenderSpec spec;
+    spec.seed = downstream_seeds::kPool;
+    spec.batch_spp = 16;
+    spec.sample_counts = n;
+    return l.renderer->render(spec).seconds;
+}
+
+}  // namespace vkmech

@@ -1,0 +1,309 @@
+// The allocation study as an analysis experiment (analysis/experiments/allocation.hpp)
+// run over a synthetic AllocationSource: no device, no render cache. The
+// expected values are computed here from the synthetic samples, not by the
+// experiment's code. Also the render cache's typed records (pilot, pool).
+#include "allocation/mom.hpp"
+#include "experiments/allocation.hpp"
+#include "study/render_cache.hpp"
+#include "temp_dir.hpp"
+
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <sstream>
+
+using namespace vkmech;
+using vkmech::testing::TempDir;
+
+namespace {
+
+struct Sample {
+    double r, g, b;
+    uint32_t bucket;
+};
+using SampleFn = std::function<Sample(size_t pixel, uint32_t index)>;
+
+double lum709(double r, double g, double b) { return 0.2126 * r + 0.7152 * g + 0.0722 * b; }
+
+uint64_t mix(uint64_t x) {  // splitmix64 finaliser
+    x += 0x9e3779b97f4a7c15ull;
+    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+    x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+    return x ^ (x >> 31);
+}
+double unit(uint64_t a, uint64_t b, uint64_t c) { return (mix(mix(mix(a) ^ b) ^ c) >> 11) * 0x1.0p-53; }
+
+// Samples [first, first + n) of every pixel accumulated as a renderer would:
+// sums, Welford moments of luminance, luminance energy per bucket.
+Frame frame_of(int w, int h, const SampleFn& sample, uint32_t first, uint32_t n) {
+    Frame f;
+    f.width = w;
+    f.height = h;
+    f.pixels.resize(static_cast<size_t>(w) * h);
+    for (size_t p = 0; p < f.pixels.size(); ++p) {
+        PixelStats& s = f.pixels[p];
+        for (uint32_t i = first; i < first + n; ++i) {
+            Sample x = sample(p, i);
+            double l = lum709(x.r, x.g, x.b);
+            s.count += 1;
+            double delta = l - s.lum_mean;
+            s.lum_mean += delta / s.count;
+            s.lum_m2 += delta * (l - s.lum_mean);
+            s.rgb_sum[0] += x.r;
+            s.rgb_sum[1] += x.g;
+            s.rgb_sum[2] += x.b;
+            s.bucket_sum[x.bucket] += l;
+        }
+    }
+    f.samples = static_cast<uint64_t>(n) * f.pixels.size();
+    f.seconds = 0.01;
+    return f;
+}
+
+// A 4x4 scene whose every sample is direct light (bucket 1): no heavy-tailed bucket anywhere.
+struct SyntheticSource final : AllocationSource {
+    int w = 4, h = 4;
+    std::vector<std::string> calls;
+    std::vector<uint64_t> final_totals;
+    size_t pool_pixels_offset = 0;  // >0: a pool of the wrong size
+
+    static SampleFn stream(uint64_t s) {
+        return [s](size_t p, uint32_t i) {
+            double base = 0.1 + 0.08 * static_cast<double>(p % 7);
+            double u = unit(s, p, i), v = unit(s + 17, p, i);
+            double spread = p % 3 == 0 ? 1.6 : 0.4;  // some pixels noisier than others
+            return Sample{base * (1 + spread * (u - 0.5)), base * (1 + spread * (v - 0.5)), base, 1u};
+        };
+    }
+    Frame reference(const SceneVariant& v) override {
+        calls.push_back("reference " + v.name);
+        return frame_of(w, h, stream(9), 0, 4096);
+    }
+    SamplePool pool(const SceneVariant& v) override {
+        calls.push_back("pool " + v.name);
+        SamplePool pool;
+        pool.frames = downstream_seeds::kPoolSize;
+        pool.pixels = static_cast<size_t>(w) * h - pool_pixels_offset;
+        SampleFn s = stream(1);
+        for (uint32_t f = 0; f < pool.frames; ++f)
+            for (size_t p = 0; p < pool.pixels; ++p) {
+                Sample x = s(p, f);
+                pool.samples.insert(pool.samples.end(), {float(x.r), float(x.g), float(x.b), 1.0f});
+            }
+        Frame whole = frame_of(w, h, s, 0, pool.frames);
+        for (size_t p = 0; p < pool.pixels; ++p) pool.oracle_var.push_back(whole.pixels[p].lum_var());
+        return pool;
+    }
+    Pilot pilot(const SceneVariant& v, uint32_t n0, uint32_t draw) override {
+        calls.push_back("pilot " + v.name + " " + std::to_string(n0) + " " + std::to_string(draw));
+        Frame f = frame_of(w, h, stream(100 + draw), 0, n0);
+        std::vector<double> mom;
+        if (n0 >= 9)  // where median-of-means is defined the robust strategies need one; any finite value will do
+            for (const PixelStats& p : f.pixels) mom.push_back(p.lum_var());
+        return make_pilot(std::move(f), std::move(mom));
+    }
+    double final_render_seconds(const SceneVariant& v, const std::vector<uint32_t>& n) override {
+        calls.push_back("final " + v.name);
+        uint64_t t = 0;
+        for (uint32_t x : n) t += x;
+        final_totals.push_back(t);
+        return 0.5;
+    }
+};
+
+StudyConfig small_config() {
+    StudyConfig cfg;
+    SceneVariant v;
+    v.name = "synthetic";
+    v.path = "synthetic.xml";
+    cfg.scenes = {v};
+    cfg.alloc_pilots = {4, 16};
+    cfg.alloc_draws = 3;
+    cfg.alloc_extra = 32;
+    cfg.alloc_budget_sweep = {32};
+    cfg.alloc_floors = {1};
+    cfg.equal_time = false;
+    return cfg;
+}
+
+std::vector<std::vector<std::string>> read_csv(const std::string& path) {
+    std::ifstream in(path);
+    std::vector<std::vector<std::string>> rows;
+    std::string line;
+    while (std::getline(in, line)) {
+        std::vector<std::string> row;
+        std::stringstream ss(line);
+        std::string cell;
+        while (std::getline(ss, cell, ',')) row.push_back(cell);
+        rows.push_back(row);
+    }
+    return rows;
+}
+
+}  // namespace
+
+TEST_CASE("allocation experiment: runs over a synthetic source without a device - asks for what it scores - and its uniform PSNR is the pool's") {
+    TempDir tmp("alloc_exp");
+    StudyConfig cfg = small_config();
+    SyntheticSource src;
+    StudyOutput out(tmp.path.string());
+    AllocationContext ctx{cfg, src, out, "no device"};
+    run_allocation(ctx);
+
+    // One reference, one pool, K pilot draws per N0, in that order, then the timing renders.
+    std::vector<std::string> expect = {"reference synthetic", "pool synthetic"};
+    for (uint32_t n0 : {4u, 16u})
+        for (uint32_t k = 0; k < 3; ++k) expect.push_back("pilot synthetic " + std::to_string(n0) + " " + std::to_string(k));
+    REQUIRE(src.calls.size() >= expect.size());
+    CHECK(std::vector<std::string>(src.calls.begin(), src.calls.begin() + expect.size()) == expect);
+    // Timing renders: uniform, observed-var, bucket-floor at N0 = 4; the two robust ones too at N0 = 16.
+    CHECK(src.final_totals.size() == 3 + 5);
+    for (uint64_t t : src.final_totals) CHECK(t == 33u * 16u);  // every strategy spends (1 + extra) x pixels
+
+    auto rows = read_csv(tmp.file("tables/downstream.csv"));
+    REQUIRE(rows.size() == 2);
+    REQUIRE(rows[0].size() >= 8);
+    CHECK(rows[0][1] == "uniform");
+    CHECK(rows[1][0] == "synthetic");
+    // Uniform: 33 samples per pixel, the first 33 pool frames, whatever the pilot; RGB clamped to [0, 1]
+    // against the clamped reference mean, PSNR with peak 1.
+    SampleFn pool = SyntheticSource::stream(1), ref = SyntheticSource::stream(9);
+    double se = 0;
+    for (size_t p = 0; p < 16; ++p) {
+        double m[3] = {0, 0, 0}, r[3] = {0, 0, 0};
+        for (uint32_t i = 0; i < 33; ++i) {
+            Sample x = pool(p, i);
+            m[0] += float(x.r);
+            m[1] += float(x.g);
+            m[2] += float(x.b);
+        }
+        for (uint32_t i = 0; i < 4096; ++i) {
+            Sample x = ref(p, i);
+            r[0] += x.r;
+            r[1] += x.g;
+            r[2] += x.b;
+        }
+        for (int c = 0; c < 3; ++c) {
+            double d = std::clamp(m[c] / 33, 0.0, 1.0) - std::clamp(r[c] / 4096, 0.0, 1.0);
+            se += d * d / 3;
+        }
+    }
+    const double psnr_uniform = 10 * std::log10(1.0 / (se / 16));
+    CHECK(std::stod(rows[1][1]) == doctest::Approx(psnr_uniform).epsilon(1e-6));
+    // No heavy-tailed bucket: the bucket floor changes nothing, so bucket-floor ties observed-var exactly.
+    CHECK(rows[1][2] == rows[1][3]);
+    CHECK(rows[1][7] == "tie");
+    // Every configuration is listed: 2 pilots x (6 base strategies) + 3 robust at N0 = 16 (the budget sweep's
+    // extra 32 is the main budget).
+    auto all = read_csv(tmp.file("tables/downstream_all.csv"));
+    CHECK(all.size() == 1 + 2 * 6 + 3);
+}
+
+TEST_CASE("allocation experiment: a pool that does not match the reference's film is refused naming the scene") {
+    TempDir tmp("alloc_exp_bad");
+    StudyConfig cfg = small_config();
+    SyntheticSource src;
+    src.pool_pixels_offset = 1;
+    StudyOutput out(tmp.path.string());
+    AllocationContext ctx{cfg, src, out, "no device"};
+    CHECK_THROWS_WITH_AS(run_allocation(ctx), doctest::Contains("pool of synthetic"), std::runtime_error);
+}
+
+TEST_CASE("cache records: pilot and pool round-trip - another type - another version - truncation - bad values are refused") {
+    SampleFn s = SyntheticSource::stream(5);
+    Frame f = frame_of(3, 2, s, 0, 16);
+    const std::vector<double> mom = {1, 2, 3, 4, 5, 6};
+    const std::string pilot_bytes = serialize_pilot(f, mom);
+    Pilot p = deserialize_pilot(pilot_bytes, "p.pilot");
+    CHECK(std::memcmp(p.frame.pixels.data(), f.pixels.data(), f.pixels.size() * sizeof(PixelStats)) == 0);
+    CHECK(p.mom_var == mom);
+    REQUIRE(p.var.size() == 6);
+    CHECK(p.var[2] == f.pixels[2].lum_var());
+    CHECK(p.labels[0] == 1);  // all energy in bucket 1
+
+    SamplePool pool;
+    pool.frames = 2;
+    pool.pixels = 3;
+    pool.samples = {0.1f, 0.2f, 0.3f, 1, 0, 0, 0, 0, 0.5f, 0.5f, 0.5f, 1,
+                    0.2f, 0.2f, 0.2f, 1, 0.4f, 0.1f, 0.0f, 1, 9.0f, 8.0f, 7.0f, 1};
+    pool.oracle_var = {0.01, 0.0, 0.5};
+    const std::string pool_bytes = serialize_pool(pool);
+    SamplePool q = deserialize_pool(pool_bytes, "q.pool");
+    CHECK(q.frames == 2);
+    CHECK(q.pixels == 3);
+    CHECK(q.samples == pool.samples);
+    CHECK(q.oracle_var == pool.oracle_var);
+    CHECK(*q.at(1, 2) == 9.0f);
+
+    // A record of one type is not read as another.
+    CHECK_THROWS_WITH_AS(deserialize_pool(pilot_bytes, "x"), doctest::Contains("holds a 'pilot' record"), CacheFileError);
+    CHECK_THROWS_WITH_AS(deserialize_frame(pool_bytes, "x"), doctest::Contains("expected a 'frame'"), CacheFileError);
+    // Another version: the version field follows magic (8), the type's length (8) and the type ("pool", 4).
+    std::string v2 = pool_bytes;
+    v2[8 + 8 + 4] = 2;
+    CHECK_THROWS_WITH_AS(deserialize_pool(v2, "v.pool"), doctest::Contains("version 2"), CacheFileError);
+    // Every truncation is refused, naming the file.
+    for (size_t len = 0; len < pool_bytes.size(); ++len)
+        CHECK_THROWS_WITH_AS(deserialize_pool(pool_bytes.substr(0, len), "t.pool"), doctest::Contains("t.pool"), CacheFileError);
+    for (size_t len = 0; len < pilot_bytes.size(); len += 7)
+        CHECK_THROWS_AS(deserialize_pilot(pilot_bytes.substr(0, len), "t.pilot"), CacheFileError);
+    // Trailing bytes, a NaN flagged finite, a flag that is neither 0 nor 1, a negative variance, wrong sizes.
+    CHECK_THROWS_WITH_AS(deserialize_pool(pool_bytes + "x", "y"), doctest::Contains("trailing"), CacheFileError);
+    SamplePool bad = pool;
+    bad.samples[0] = std::nanf("");
+    CHECK_THROWS_WITH_AS(deserialize_pool(serialize_pool(bad), "y"), doctest::Contains("non-finite"), CacheFileError);
+    bad.samples[3] = 0;  // the same NaN counted out: a sound pool
+    CHECK_NOTHROW(deserialize_pool(serialize_pool(bad), "y"));
+    bad = pool;
+    bad.samples[7] = 0.5f;
+    CHECK_THROWS_WITH_AS(deserialize_pool(serialize_pool(bad), "y"), doctest::Contains("finite flag"), CacheFileError);
+    bad = pool;
+    bad.oracle_var[1] = -1;
+    CHECK_THROWS_WITH_AS(deserialize_pool(serialize_pool(bad), "y"), doctest::Contains("oracle variance"), CacheFileError);
+    bad = pool;
+    bad.samples.resize(20);
+    CHECK_THROWS_WITH_AS(deserialize_pool(serialize_pool(bad), "y"), doctest::Contains("inconsistent sizes"), CacheFileError);
+    CHECK_THROWS_WITH_AS(deserialize_pilot(serialize_pilot(f, {1, 2}), "y"), doctest::Contains("median-of-means"),
+                         CacheFileError);
+
+    // Through the cache: stored, found, and a damaged one warned about, removed and not returned.
+    TempDir tmp("cache_records");
+    RenderCache cache(tmp.path.string());
+    const std::string key = "0123456789abcdef0123456789abcdef";
+    cache.store_pool(key, pool);
+    REQUIRE(cache.try_load_pool(key).has_value());
+    CHECK(cache.try_load_pool(key)->samples == pool.samples);
+    cache.store_pilot(key, p);
+    REQUIRE(cache.try_load_pilot(key).has_value());
+    CHECK(cache.try_load_pilot(key)->mom_var == mom);
+    CHECK_FALSE(cache.try_load_pilot("ffffffffffffffffffffffffffffffff").has_value());
+    // A pool with a bad flag sealed with a valid checksum: the record check catches it.
+    bad = pool;
+    bad.samples[3] = 2;
+    cache.store_payload(key, "pool", serialize_pool(bad));
+    CHECK_FALSE(cache.try_load_pool(key).has_value());
+    CHECK_FALSE(std::filesystem::exists(cache.path(key, "pool")));
+    CacheVerifyReport rep = verify_cache_dir(tmp.path.string());
+    CHECK(rep.good.size() == 1);  // the pilot
+    CHECK(rep.bad.empty());
+}
+
+TEST_CASE("allocation experiment: mom_defined is true exactly where mom_block_size does not throw") {
+    for (int n0 = -2; n0 <= 300; ++n0) {
+        bool defined = true;
+        try {
+            alloc::mom_block_size(n0);
+        } catch (const std::invalid_argument&) {
+            defined = false;
+        }
+        INFO("N0 = " << n0);
+        CHECK(alloc::mom_defined(n0) == defined);
+    }
+    CHECK_FALSE(alloc::mom_defined(4));
+    CHECK(alloc::mom_defined(9));
+    CHECK(alloc::mom_defined(16));
+}
