@@ -73,7 +73,7 @@ struct SyntheticSource final : AllocationSource {
 
     static SampleFn stream(uint64_t s) {
         return [s](size_t p, uint32_t i) {
-            double base = 0.1 + 0.08 * static_cast<double>(p % 7);
+            double base = p == 5 ? 2.5 : 0.1 + 0.08 * static_cast<double>(p % 7);  // pixel 5 beyond the display range
             double u = unit(s, p, i), v = unit(s + 17, p, i);
             double spread = p % 3 == 0 ? 1.6 : 0.4;  // some pixels noisier than others
             return Sample{base * (1 + spread * (u - 0.5)), base * (1 + spread * (v - 0.5)), base, 1u};
@@ -169,10 +169,10 @@ TEST_CASE("allocation experiment: runs over a synthetic source without a device 
     REQUIRE(rows[0].size() >= 8);
     CHECK(rows[0][1] == "uniform");
     CHECK(rows[1][0] == "synthetic");
-    // Uniform: 33 samples per pixel, the first 33 pool frames, whatever the pilot; RGB clamped to [0, 1]
-    // against the clamped reference mean, PSNR with peak 1.
+    // Uniform: 33 samples per pixel, the first 33 pool frames, whatever the pilot. Primary figure: unclamped linear
+    // RGB, PSNR with the reference's largest value as the peak; beside it the [0, 1]-clamped PSNR with peak 1.
     SampleFn pool = SyntheticSource::stream(1), ref = SyntheticSource::stream(9);
-    double se = 0;
+    double se = 0, se_clamped = 0, peak = 0, rel = 0;
     for (size_t p = 0; p < 16; ++p) {
         double m[3] = {0, 0, 0}, r[3] = {0, 0, 0};
         for (uint32_t i = 0; i < 33; ++i) {
@@ -188,12 +188,25 @@ TEST_CASE("allocation experiment: runs over a synthetic source without a device 
             r[2] += x.b;
         }
         for (int c = 0; c < 3; ++c) {
-            double d = std::clamp(m[c] / 33, 0.0, 1.0) - std::clamp(r[c] / 4096, 0.0, 1.0);
+            double d = m[c] / 33 - r[c] / 4096;
             se += d * d / 3;
+            rel += d * d / ((r[c] / 4096) * (r[c] / 4096) + 0.01) / 3;
+            double dc = std::clamp(m[c] / 33, 0.0, 1.0) - std::clamp(r[c] / 4096, 0.0, 1.0);
+            se_clamped += dc * dc / 3;
+            peak = std::max(peak, r[c] / 4096);
         }
     }
-    const double psnr_uniform = 10 * std::log10(1.0 / (se / 16));
+    const double psnr_uniform = 10 * std::log10(peak * peak / (se / 16));
     CHECK(std::stod(rows[1][1]) == doctest::Approx(psnr_uniform).epsilon(1e-6));
+    auto clamped = read_csv(tmp.file("tables/downstream_clamped.csv"));
+    REQUIRE(clamped.size() == 2);
+    CHECK(std::stod(clamped[1][1]) == doctest::Approx(10 * std::log10(1.0 / (se_clamped / 16))).epsilon(1e-6));
+    auto relm = read_csv(tmp.file("tables/downstream_relmse.csv"));
+    REQUIRE(relm.size() == 2);
+    CHECK(std::stod(relm[1][1]) == doctest::Approx(rel / 16).epsilon(1e-3));
+    auto peaks = read_csv(tmp.file("tables/downstream_peak.csv"));
+    REQUIRE(peaks.size() == 2);
+    CHECK(std::stod(peaks[1][1]) == doctest::Approx(peak).epsilon(1e-3));
     // No heavy-tailed bucket: the bucket floor changes nothing, so bucket-floor ties observed-var exactly.
     CHECK(rows[1][2] == rows[1][3]);
     CHECK(rows[1][7] == "tie");

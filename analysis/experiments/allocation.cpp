@@ -28,21 +28,27 @@ double lum_of(double r, double g, double b) { return gpu::LUM_R * r + gpu::LUM_G
 struct SceneData {
     size_t P = 0;
     int w = 0, h = 0;
-    std::vector<double> ref_rgb, ref_lum;
+    std::vector<double> ref_rgb, ref_lum;  // unclamped linear RGB (docs/descriptor.md §6)
+    std::vector<double> ref_rgb_clamped;   // clamped to [0, 1]: the display-range figures beside them
+    double peak = 1.0;                     // the reference's largest RGB value: the PSNR peak
     std::vector<uint8_t> ref_labels;
     SamplePool pool;
     std::map<uint32_t, std::vector<Pilot>> pilots;  // N0 -> draws
 };
 
+// Errors of one final image against the reference. Primary: unclamped linear
+// RGB (MSE; relative MSE (x - r)^2 / (r^2 + 0.01); p99 of the absolute
+// luminance error; per-bucket MSE). Beside them, never instead: the MSE on
+// RGB clamped to [0, 1], which caps the heavy-tailed errors.
 struct Errors {
-    double mse = 0, p99 = 0;
+    double mse = 0, rel_mse = 0, p99 = 0, mse_clamped = 0;
     std::array<double, kBucketCount> bucket_mse{};
 };
 
 // The final image of an allocation: per pixel the mean of the first n(p) pool frames.
 Errors evaluate(const SceneData& d, const std::vector<uint32_t>& n) {
     std::vector<double> lum(d.P);
-    double se = 0;
+    double se = 0, rel = 0, se_clamped = 0;
     std::array<double, kBucketCount> bse{}, bn{};
     for (size_t p = 0; p < d.P; ++p) {
         double s[3] = {0, 0, 0}, cnt = 0;
@@ -56,9 +62,13 @@ Errors evaluate(const SceneData& d, const std::vector<uint32_t>& n) {
         }
         double e = 0, v[3];
         for (int c = 0; c < 3; ++c) {
-            v[c] = std::clamp(cnt > 0 ? s[c] / cnt : 0.0, 0.0, 1.0);  // the displayable range, as the reference
-            double diff = v[c] - d.ref_rgb[3 * p + c];
+            v[c] = cnt > 0 ? s[c] / cnt : 0.0;
+            const double r = d.ref_rgb[3 * p + c];
+            const double diff = v[c] - r;
             e += diff * diff / 3.0;
+            rel += diff * diff / (r * r + 1e-2) / 3.0;
+            const double dc = std::clamp(v[c], 0.0, 1.0) - d.ref_rgb_clamped[3 * p + c];
+            se_clamped += dc * dc / 3.0;
         }
         lum[p] = lum_of(v[0], v[1], v[2]);
         se += e;
@@ -69,6 +79,8 @@ Errors evaluate(const SceneData& d, const std::vector<uint32_t>& n) {
     }
     Errors out;
     out.mse = se / d.P;
+    out.rel_mse = rel / d.P;
+    out.mse_clamped = se_clamped / d.P;
     out.p99 = alloc::p99_abs_error(lum, d.ref_lum);
     for (uint32_t b = 0; b < kBucketCount; ++b) out.bucket_mse[b] = bn[b] > 0 ? bse[b] / bn[b] : NAN;
     return out;
@@ -97,10 +109,19 @@ void run_allocation(AllocationContext& a) {
     Table robust_t{"robust_alloc", "Robust-variance incumbent at the pilots where median-of-means is defined (tab:robust-alloc)",
                    {"scene", "N0", "obs-var", "robust-var", "robust-floor", "robust-placebo", "b-floor",
                     "MSE wins r-floor vs r-var", "placebo dB vs obs-var", "b-floor dB vs obs-var"}, {}, ""};
-    Table all_t{"downstream_all", "Every configuration: PSNR (dB) mean and seed std, MSE and p99 error, paired wins against observed-var",
-                {"scene", "N0", "floor", "extra SPP", "strategy", "PSNR", "PSNR std", "MSE", "p99 |lum err|",
-                 "MSE wins vs obs-var"}, {}, ""};
-    Table bucket_t{"perbucket_mse", "Per-bucket MSE at N0 = " + std::to_string(n0_main) + " (buckets of the reference)",
+    Table rel_t{"downstream_relmse", "Relative MSE at pilot N0 = " + std::to_string(n0_main) + ", floor 1 (unclamped linear RGB)",
+                {"scene", "uniform", "obs-var", "b-floor", "oracle", "label-oracle", "placebo", "relMSE wins"}, {}, ""};
+    Table clamped_t{"downstream_clamped", "Clamped display-range PSNR at pilot N0 = " + std::to_string(n0_main) +
+                    ", floor 1 (RGB clamped to [0, 1]; beside tab:downstream, not instead)",
+                    {"scene", "uniform", "obs-var", "b-floor", "oracle", "label-oracle", "placebo", "clamped MSE wins"}, {}, ""};
+    Table peak_t{"downstream_peak", "The PSNR peak of each scene: the reference's largest linear RGB value",
+                 {"scene", "peak"}, {}, ""};
+    std::string oracle_fail;
+    Table all_t{"downstream_all", "Every configuration: PSNR (dB, unclamped, reference peak) mean and seed std, MSE, relative "
+                "MSE and p99 error on unclamped linear RGB, the clamped PSNR beside them, paired wins against observed-var",
+                {"scene", "N0", "floor", "extra SPP", "strategy", "PSNR", "PSNR std", "MSE", "rel MSE", "p99 |lum err|",
+                 "PSNR clamped", "MSE wins vs obs-var"}, {}, ""};
+    Table bucket_t{"perbucket_mse", "Per-bucket MSE (unclamped linear RGB) at N0 = " + std::to_string(n0_main) + " (buckets of the reference)",
                    {"scene", "bucket", "pixels", "obs-var", "b-floor", "b-floor / obs-var"}, {}, ""};
     Table timing_t{"alloc_time", "Wall time of each strategy on " + a.device + ": pilot + allocation + final render",
                  {"scene", "N0", "strategy", "pilot s", "allocation ms", "final s", "total s", "PSNR"}, {}, ""};
@@ -120,15 +141,21 @@ void run_allocation(AllocationContext& a) {
         d.h = ref.height;
         d.P = static_cast<size_t>(d.w) * d.h;
         d.ref_rgb.resize(3 * d.P);
+        d.ref_rgb_clamped.resize(3 * d.P);
         d.ref_lum.resize(d.P);
+        d.peak = 0.0;
         for (size_t p = 0; p < d.P; ++p) {
+            // The mean over all samples taken (a non-finite one counts out, as in the final images).
             double n = ref.pixels[p].count;
-            // Errors are measured on the displayable range [0, 1] (exposure 1): light sources and the brightest
-            // caustic cores saturate there, so a handful of pixels far above 1 cannot dominate the MSE.
-            for (int c = 0; c < 3; ++c)
-                d.ref_rgb[3 * p + c] = std::clamp(n > 0 ? ref.pixels[p].rgb_sum[c] / n : 0.0, 0.0, 1.0);
+            for (int c = 0; c < 3; ++c) {
+                const double r = n > 0 ? ref.pixels[p].rgb_sum[c] / n : 0.0;
+                d.ref_rgb[3 * p + c] = r;
+                d.ref_rgb_clamped[3 * p + c] = std::clamp(r, 0.0, 1.0);
+                d.peak = std::max(d.peak, r);
+            }
             d.ref_lum[p] = lum_of(d.ref_rgb[3 * p], d.ref_rgb[3 * p + 1], d.ref_rgb[3 * p + 2]);
         }
+        if (!(d.peak > 0.0)) d.peak = 1.0;  // a black reference: PSNR against peak 1
         d.ref_labels = derive_descriptor(ref).dominant;
 
         // The pool, then K disjoint pilot draws per N0 (median-of-means blocks where defined).
@@ -176,16 +203,22 @@ void run_allocation(AllocationContext& a) {
             for (Strategy s : {Strategy::Uniform, Strategy::ObservedVar, Strategy::BucketFloor, Strategy::Oracle})
                 run_config(n0_main, 1, extra, s);
 
-        auto psnrs = [&](const Key& k) {
+        auto per_draw = [&](const Key& k, double Errors::*field) {
             std::vector<double> v;
-            for (const auto& e : res.at(k)) v.push_back(alloc::psnr(e.mse));
+            for (const auto& e : res.at(k)) v.push_back(e.*field);
             return v;
         };
-        auto mses = [&](const Key& k, bool p99) {
+        auto psnrs = [&](const Key& k) {  // unclamped linear RGB, peak = the reference's largest value
             std::vector<double> v;
-            for (const auto& e : res.at(k)) v.push_back(p99 ? e.p99 : e.mse);
+            for (const auto& e : res.at(k)) v.push_back(alloc::psnr(e.mse, d.peak));
             return v;
         };
+        auto psnrs_clamped = [&](const Key& k) {  // RGB clamped to [0, 1], peak 1
+            std::vector<double> v;
+            for (const auto& e : res.at(k)) v.push_back(alloc::psnr(e.mse_clamped));
+            return v;
+        };
+        auto mses = [&](const Key& k, bool p99) { return per_draw(k, p99 ? &Errors::p99 : &Errors::mse); };
         auto psnr_cell = [&](const Key& k) { return Cell::num(stats::mean(psnrs(k)), "%.2f"); };
         bool heavy = false;
         for (uint8_t l : d.ref_labels) heavy |= alloc::is_heavy_tailed(l);
@@ -221,6 +254,31 @@ void run_allocation(AllocationContext& a) {
             return row;
         };
         main_t.add(main_row(1));
+        {
+            // Beside the primary table: relative MSE (lower is better) and the clamped display-range PSNR.
+            std::vector<Cell> rrow{Cell::str(scene.name)}, crow{Cell::str(scene.name)};
+            for (Strategy s : {Strategy::Uniform, Strategy::ObservedVar, Strategy::BucketFloor, Strategy::Oracle,
+                               Strategy::LabelOracle, Strategy::Placebo}) {
+                Key k{n0_main, 1, cfg.alloc_extra, s};
+                rrow.push_back(Cell::num(stats::mean(per_draw(k, &Errors::rel_mse)), "%.4g"));
+                crow.push_back(Cell::num(stats::mean(psnrs_clamped(k)), "%.2f"));
+            }
+            Key bf{n0_main, 1, cfg.alloc_extra, Strategy::BucketFloor}, ov{n0_main, 1, cfg.alloc_extra, Strategy::ObservedVar};
+            auto wr = alloc::paired_wins(per_draw(bf, &Errors::rel_mse), per_draw(ov, &Errors::rel_mse));
+            auto wc = alloc::paired_wins(per_draw(bf, &Errors::mse_clamped), per_draw(ov, &Errors::mse_clamped));
+            const bool tie = per_draw(bf, &Errors::mse) == per_draw(ov, &Errors::mse);
+            rrow.push_back(Cell::str(tie ? "tie" : std::to_string(wr.wins) + "/" + std::to_string(wr.draws)));
+            crow.push_back(Cell::str(tie ? "tie" : std::to_string(wc.wins) + "/" + std::to_string(wc.draws)));
+            rel_t.add(rrow);
+            clamped_t.add(crow);
+            rrow.clear();
+            const double pu = stats::mean(psnrs({n0_main, 1, cfg.alloc_extra, Strategy::Uniform}));
+            const double po = stats::mean(psnrs({n0_main, 1, cfg.alloc_extra, Strategy::Oracle}));
+            if (!(po > pu))
+                oracle_fail += (oracle_fail.empty() ? "" : ", ") + scene.name + " (" + report::format("%.2f", po) +
+                               " vs " + report::format("%.2f", pu) + " dB)";
+            peak_t.add({Cell::str(scene.name), Cell::num(d.peak, "%.4g")});
+        }
         if (std::find(cfg.alloc_floors.begin(), cfg.alloc_floors.end(), 4u) != cfg.alloc_floors.end()) f4_t.add(main_row(4));
 
         for (uint32_t n0 : cfg.alloc_pilots) {
@@ -242,7 +300,8 @@ void run_allocation(AllocationContext& a) {
             all_t.add({Cell::str(scene.name), Cell::integer(k.n0), Cell::integer(k.floor), Cell::integer(k.extra),
                        Cell::str(alloc::to_string(k.s)), Cell::num(stats::mean(p), "%.3f"),
                        Cell::num(std::sqrt(stats::sample_variance(p)), "%.3f"), Cell::num(stats::mean(mses(k, false)), "%.4g"),
-                       Cell::num(stats::mean(mses(k, true)), "%.4g"),
+                       Cell::num(stats::mean(per_draw(k, &Errors::rel_mse)), "%.4g"),
+                       Cell::num(stats::mean(mses(k, true)), "%.4g"), Cell::num(stats::mean(psnrs_clamped(k)), "%.3f"),
                        Cell::str(has_ov ? std::to_string(w.wins) + "/" + std::to_string(w.draws) : "")});
         }
         for (uint32_t b = 0; b < kBucketCount - 1; ++b) {
@@ -344,11 +403,18 @@ void run_allocation(AllocationContext& a) {
 
     const std::string n0s = std::to_string(n0_main), ex = std::to_string(cfg.alloc_extra);
     main_t.title = "Equal-budget allocation at pilot N0 = " + n0s + ", floor 1 (tab:downstream)";
-    main_t.note = "PSNR (dB) of RGB clamped to [0, 1] (the displayable range at exposure 1; peak 1) against an independent " +
+    main_t.note = "PSNR (dB) on unclamped linear RGB, 10 log10(peak^2 / MSE) with the reference's largest RGB value as "
+                  "the peak (tables/downstream_peak.md), against an independent " +
                   std::to_string(cfg.alloc_ref_chunks * cfg.alloc_ref_chunk_spp) + "-SPP reference, mean over " +
                   std::to_string(K) + " disjoint pilot draws; every strategy spends exactly (1 + " + ex +
                   ") x pixels samples of the shared 256-frame pool. MSE / p99 wins: draws in which bucket-floor has a "
-                  "lower MSE / 99th-percentile luminance error than observed-var; \"tie\": identical in every draw.";
+                  "lower MSE / 99th-percentile luminance error than observed-var; \"tie\": identical in every draw. The "
+                  "clamped display-range PSNR is in tab:downstream-clamped, beside this one.";
+    rel_t.note = "Mean over the draws of the relative MSE (x - r)^2 / (r^2 + 0.01) per pixel and channel, unclamped; "
+                 "relMSE wins: draws in which bucket-floor's relative MSE is below observed-var's.";
+    clamped_t.note = "RGB clamped to [0, 1] (exposure 1) on both sides, peak 1. Clamping caps exactly the heavy-tailed "
+                     "errors the strategies exist to repair (a caustic or firefly pixel far above 1 counts as 1), so "
+                     "these figures are reported beside the unclamped ones, never instead.";
     f4_t.name = "downstream_f4";
     f4_t.title = "The f = 4 sample-floor control at N0 = " + n0s + " (tab:downstream-f4)";
     f4_t.note = "As tab:downstream with every pixel guaranteed 4 samples, deducted from the Neyman share (totals unchanged).";
@@ -366,6 +432,11 @@ void run_allocation(AllocationContext& a) {
     if (!robust_t.rows.empty())
         a.out.table(sec, robust_t, "whether a robust variance estimator already does what the label does; the placebo "
                                    "column is the gain any partition would give.");
+    a.out.table(sec, rel_t, "lower is better: the error relative to the reference's own brightness, so dark pixels count "
+                            "as much as bright ones.");
+    a.out.table(sec, clamped_t, "the display-range view of the same images: where it disagrees with tab:downstream, the "
+                                "difference sits in pixels brighter than 1.");
+    a.out.table(sec, peak_t, "the peak each scene's PSNR is taken against.");
     a.out.table(sec, bucket_t, "where bucket-floor's gain or loss lands, by the reference's dominant bucket.");
     a.out.table(sec, all_t, "every pilot, floor, budget and strategy, for further analysis.");
     a.out.table(sec, timing_t, "what each strategy costs in seconds: the label costs nothing extra at render time.");
@@ -378,6 +449,8 @@ void run_allocation(AllocationContext& a) {
     a.out.check("bucket-floor beats observed-var on paired MSE in at least 7 of " + std::to_string(K) +
                     " draws at N0 = " + n0s + " on every scene with heavy-tailed buckets",
                 fail_heavy.empty(), fail_heavy.empty() ? "on every such scene (tab:downstream)" : "not on: " + fail_heavy);
+    a.out.check("the oracle (the pool's converged variance) beats uniform on PSNR at N0 = " + n0s + " on every scene",
+                oracle_fail.empty(), oracle_fail.empty() ? "on every scene (tab:downstream)" : "not on: " + oracle_fail);
     if (saw_cubes)
         a.out.check("bucket-floor equals observed-var exactly where no heavy-tailed bucket exists", cubes_tie,
                     "scenes without heavy-tailed pixels in the reference: " + tie_note);
