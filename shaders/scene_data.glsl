@@ -157,6 +157,15 @@ LightSample sample_light(vec3 u) {
     LightSample s;
     s.p = b0 * a + b1 * b + (1.0 - b0 - b1) * c;
     s.n = triangle_normal(b - a, c - a);
+    if ((tri.w & TRI_FLAT_BIT) == 0u) {
+        // The emitting side follows the authored normals where the mesh has
+        // them, exactly as at an emitter hit (surface_hit): a third-party mesh
+        // whose winding disagrees with its normals emits on the same side
+        // whether the light is sampled or hit.
+        vec3 n = b0 * vertices[tri.x].normal.xyz + b1 * vertices[tri.y].normal.xyz +
+                 (1.0 - b0 - b1) * vertices[tri.z].normal.xyz;
+        if (dot(n, s.n) < 0.0) s.n = -s.n;
+    }
     s.scale = max_abs3(a, b, c);
     s.radiance = emitters[lt.info.y].radiance.rgb;
     s.pdf_area = lt.cdf.z;

@@ -137,7 +137,8 @@ struct Mesh {
 };
 
 // Area emitter attached to one mesh: constant RGB radiance, one-sided (emits
-// on the side of the geometric normal) as in docs/descriptor.md §1.
+// on the side of the geometric normal, turned to agree with the authored
+// shading normals where the mesh has them) as in docs/descriptor.md §1.
 struct AreaEmitter {
     glm::vec3 radiance{1.0f};
     int mesh = -1;
