@@ -132,7 +132,9 @@ TEST_CASE("study: docs/descriptor.md §4 seed layouts are disjoint across famili
     for (const auto* s : {&stability, &variance, &cost}) all.insert(s->begin(), s->end());
     all.insert(seeds::sweep_reference());
     for (int s = 0; s < cfg.sweep_seeds; ++s) all.insert(seeds::sweep(s));
-    CHECK(all.size() == stability.size() + variance.size() + cost.size() + 1 + cfg.sweep_seeds);
+    all.insert(seeds::mis_disjoint_reference());
+    all.insert(seeds::nee_disjoint_reference());
+    CHECK(all.size() == stability.size() + variance.size() + cost.size() + 1 + cfg.sweep_seeds + 2);
     // The reference is the top stability level and its seed is used by no lower level.
     auto plan = plan_renders(cfg, StudyKind::Stability);
     uint32_t ref_seed = seeds::stability(cfg.stability_spp.size() - 1);

@@ -118,6 +118,8 @@ StudyConfig preset_config(const std::string& name) {
 
 namespace seeds {
 uint32_t stability(size_t level) { return 100 + static_cast<uint32_t>(level); }
+uint32_t mis_disjoint_reference() { return 150; }
+uint32_t nee_disjoint_reference() { return 151; }
 uint32_t variance(size_t level, int s) { return 2000 + 100 * static_cast<uint32_t>(level) + static_cast<uint32_t>(s); }
 uint32_t cost(size_t level) { return 3000 + static_cast<uint32_t>(level); }
 uint32_t sweep(int s) { return 4000 + static_cast<uint32_t>(s); }
@@ -157,6 +159,9 @@ std::vector<RenderRequest> plan_renders(const StudyConfig& cfg, StudyKind kind) 
             // docs/descriptor.md §5 / paper tab:robust-mis: the restricted-MIS estimator at the pilot and the reference.
             pilot(s, Estimator::MisRestricted);
             stability_ref(s, Estimator::MisRestricted);
+            // The same comparison on seeds disjoint from the NEE reference, and its NEE noise floor.
+            out.push_back({s, cfg.stability_reference_spp(), seeds::mis_disjoint_reference(), Estimator::MisRestricted});
+            out.push_back({s, cfg.stability_reference_spp(), seeds::nee_disjoint_reference(), Estimator::Nee});
         }
         break;
     case StudyKind::Variance:

@@ -98,6 +98,11 @@ StudyConfig preset_config(const std::string& name);
 // range, and the levels within a family use distinct seeds.
 namespace seeds {
 uint32_t stability(size_t level);                // 100 + level
+// The robustness comparison's second top-level renders (paper §4.4,
+// tab:robust-mis), seed-disjoint from the NEE reference: the restricted-MIS
+// render (150) and an NEE render (151) that gives the noise floor.
+uint32_t mis_disjoint_reference();               // 150
+uint32_t nee_disjoint_reference();               // 151
 uint32_t variance(size_t level, int seed_index); // 2000 + 100 * level + s
 uint32_t cost(size_t level);                     // 3000 + level
 uint32_t sweep(int seed_index);                  // 4000 + s
