@@ -91,9 +91,10 @@ StudyConfig preset_config(const std::string& name) {
         c.variance_spp = {8, 32, 128, 512};
         c.cost_spp = {16, 32, 64, 128, 256, 512, 1024};
         c.sweep_spp = 32;
+        c.sweep_seeds = 30;  // a firefly ratio (max / mean over seeds) can reach 30, not only 10
         c.sweep_ref_spp = 512;
         c.batch_spp = 64;
-        c.alloc_res = 64;
+        c.alloc_res = 96;
         c.alloc_ref_chunks = 4;
         c.alloc_ref_chunk_spp = 512;
         return c;
@@ -162,6 +163,11 @@ std::vector<RenderRequest> plan_renders(const StudyConfig& cfg, StudyKind kind) 
             // The same comparison on seeds disjoint from the NEE reference, and its NEE noise floor.
             out.push_back({s, cfg.stability_reference_spp(), seeds::mis_disjoint_reference(), Estimator::MisRestricted});
             out.push_back({s, cfg.stability_reference_spp(), seeds::nee_disjoint_reference(), Estimator::Nee});
+            // docs/descriptor.md §2: the literal end-vertex reading at the pilot and the reference, for the comparison
+            // of the two readings (same seeds as the default reading's renders).
+            out.push_back({s, cfg.pilot_spp(), seeds::stability(0), Estimator::Nee, EndVertex::Literal});
+            out.push_back({s, cfg.stability_reference_spp(), seeds::stability(cfg.stability_spp.size() - 1), Estimator::Nee,
+                           EndVertex::Literal});
         }
         break;
     case StudyKind::Variance:

@@ -29,11 +29,12 @@ struct RenderRequest {
     uint32_t spp = 0;
     uint32_t seed = 0;
     Estimator estimator = Estimator::Nee;
+    EndVertex end_vertex = EndVertex::LastNonDelta;  // docs/descriptor.md §2 reading
     bool operator<(const RenderRequest& o) const {
-        return std::tie(scene, spp, seed, estimator) < std::tie(o.scene, o.spp, o.seed, o.estimator);
+        return std::tie(scene, spp, seed, estimator, end_vertex) < std::tie(o.scene, o.spp, o.seed, o.estimator, o.end_vertex);
     }
     bool operator==(const RenderRequest& o) const {
-        return scene == o.scene && spp == o.spp && seed == o.seed && estimator == o.estimator;
+        return scene == o.scene && spp == o.spp && seed == o.seed && estimator == o.estimator && end_vertex == o.end_vertex;
     }
 };
 

@@ -46,7 +46,8 @@ std::string hms(double s) {
 }
 
 std::string describe(const RenderRequest& r) {
-    return r.scene.name + ", " + std::to_string(r.spp) + " spp, seed " + std::to_string(r.seed) + ", " + to_string(r.estimator);
+    return r.scene.name + ", " + std::to_string(r.spp) + " spp, seed " + std::to_string(r.seed) + ", " + to_string(r.estimator) +
+           (r.end_vertex == EndVertex::LastNonDelta ? "" : std::string(", end vertex ") + to_string(r.end_vertex));
 }
 
 class CacheFrames : public FrameSource {
@@ -186,7 +187,7 @@ CacheState key_renders(const StudyPlan& p, const StudyDevice& dev, const RenderC
             }
             auto [w, h] = film[r.scene];
             keys[r] = cache_key({digests[r.scene], w, h, r.spp, r.seed, static_cast<uint32_t>(r.estimator), cfg.batch_spp,
-                                 to_string(trav), ctx.info().name, code_digest});
+                                 to_string(trav), ctx.info().name, code_digest, static_cast<uint32_t>(r.end_vertex)});
         }
     }
 
@@ -276,12 +277,16 @@ RenderTally render_missing(const StudyPlan& p, const StudyDevice& dev, RenderCac
         for (const auto& variant : order) {
             LoadedScene ls = load_variant(variant, cfg.res);
             RenderSession session(ctx, std::move(ls.scene), std::move(ls.arrays), trav);
-            std::map<Estimator, std::unique_ptr<Renderer>> renderers;
+            std::map<std::pair<Estimator, EndVertex>, std::unique_ptr<Renderer>> renderers;
             for (const auto& r : missing) {
                 if (!(r.scene == variant)) continue;
                 if (int sig = pending_signal()) throw StudyInterrupted(sig);
-                auto& rr = renderers[r.estimator];
-                if (!rr) rr = session.make_renderer(session.features(r.estimator));
+                auto& rr = renderers[{r.estimator, r.end_vertex}];
+                if (!rr) {
+                    Features f = session.features(r.estimator);
+                    f.end_vertex = r.end_vertex;
+                    rr = session.make_renderer(f);
+                }
                 RenderSpec spec;
                 spec.spp = r.spp;
                 spec.seed = r.seed;
