@@ -1,0 +1,52 @@
+#include "stats/bootstrap.hpp"
+
+#include "stats/summary.hpp"
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+
+namespace vkmech::stats {
+
+Interval tile_bootstrap(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, int k, int width, int tile,
+                        const std::function<double(const Confusion&)>& statistic, int resamples, uint64_t seed,
+                        double level) {
+    if (a.size() != b.size()) throw std::invalid_argument("tile_bootstrap: label maps of different sizes");
+    if (width < 1 || tile < 1) throw std::invalid_argument("tile_bootstrap: width and tile must be at least 1");
+    if (a.size() % static_cast<size_t>(width) != 0)
+        throw std::invalid_argument("tile_bootstrap: the map size is not a multiple of the width");
+    if (resamples < 10) throw std::invalid_argument("tile_bootstrap: at least 10 resamples");
+    if (!(level > 0.0 && level < 1.0)) throw std::invalid_argument("tile_bootstrap: level must be in (0, 1)");
+    const Confusion whole = confusion(a, b, k);  // validates the labels
+    const size_t h = a.size() / static_cast<size_t>(width);
+    const size_t tx = (static_cast<size_t>(width) + tile - 1) / tile, ty = (h + tile - 1) / tile;
+    const size_t kk = static_cast<size_t>(k) * k;
+    std::vector<double> tiles(tx * ty * kk, 0.0);  // each tile's confusion counts
+    for (size_t y = 0; y < h; ++y)
+        for (size_t x = 0; x < static_cast<size_t>(width); ++x) {
+            const size_t i = y * width + x;
+            if (a[i] == kNoLabel || b[i] == kNoLabel) continue;
+            tiles[((y / tile) * tx + x / tile) * kk + static_cast<size_t>(a[i]) * k + b[i]] += 1.0;
+        }
+    const size_t n = tx * ty;
+    std::mt19937_64 rng(seed);
+    std::vector<double> scores;
+    scores.reserve(static_cast<size_t>(resamples));
+    Confusion c = whole;
+    for (int r = 0; r < resamples; ++r) {
+        std::fill(c.counts.begin(), c.counts.end(), 0.0);
+        for (size_t j = 0; j < n; ++j) {
+            const size_t t = static_cast<size_t>(((rng() >> 32) * n) >> 32);  // uniform in [0, n)
+            const double* src = &tiles[t * kk];
+            for (size_t q = 0; q < kk; ++q) c.counts[q] += src[q];
+        }
+        const double s = statistic(c);
+        if (std::isfinite(s)) scores.push_back(s);
+    }
+    if (scores.empty()) return {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+    const double alpha = (1.0 - level) / 2.0;
+    return {quantile(scores, alpha), quantile(scores, 1.0 - alpha)};
+}
+
+}  // namespace vkmech::stats
