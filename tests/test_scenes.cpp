@@ -105,27 +105,131 @@ TEST_CASE("scenes: snooker has six balls of the docs/descriptor.md §7 materials
     CHECK(types.count(BsdfType::Dielectric) == 1);      // glass
 }
 
+namespace {
+
+// The tabletop families (docs/descriptor.md §7): delta-S = smooth conductor
+// or dielectric, glossy = rough conductor or dielectric. Both family rules
+// (by BSDF type, by BSDF flags) agree on these; plastics would not.
+bool tabletop_delta(BsdfType t) { return t == BsdfType::Conductor || t == BsdfType::Dielectric; }
+bool tabletop_glossy(BsdfType t) { return t == BsdfType::RoughConductor || t == BsdfType::RoughDielectric; }
+
+bool same_material(const Material& a, const Material& b) {
+    return a.type == b.type && a.twosided == b.twosided && a.reflectance.value == b.reflectance.value &&
+           a.reflectance.texture == b.reflectance.texture && a.specular_reflectance == b.specular_reflectance &&
+           a.specular_transmittance == b.specular_transmittance && a.eta == b.eta && a.k == b.k &&
+           a.int_ior == b.int_ior && a.ext_ior == b.ext_ior && a.alpha_u == b.alpha_u && a.alpha_v == b.alpha_v &&
+           a.distribution == b.distribution;
+}
+
+// Plan view (x, y): twice the signed area of triangle uvw (> 0: counter-clockwise).
+float orient(glm::vec2 u, glm::vec2 v, glm::vec2 w) { return (v.x - u.x) * (w.y - u.y) - (v.y - u.y) * (w.x - u.x); }
+
+// Plan view: does point p lie strictly inside triangle abc?
+bool inside_triangle(glm::vec2 p, glm::vec2 a, glm::vec2 b, glm::vec2 c) {
+    float d1 = orient(a, b, p), d2 = orient(b, c, p), d3 = orient(c, a, p);
+    return (d1 > 0 && d2 > 0 && d3 > 0) || (d1 < 0 && d2 < 0 && d3 < 0);
+}
+
+// Plan view: do segments ab and cd cross at an interior point?
+bool segments_cross(glm::vec2 a, glm::vec2 b, glm::vec2 c, glm::vec2 d) {
+    return orient(a, b, c) * orient(a, b, d) < 0 && orient(c, d, a) * orient(c, d, b) < 0;
+}
+
+// Plan view: the convex hulls of two point sets intersect (so no vertical
+// plane separates them) -- a point of one inside a triangle of the other, or
+// an edge of one crossing an edge of the other.
+bool hulls_overlap(const std::vector<glm::vec2>& p, const std::vector<glm::vec2>& q) {
+    for (int pass = 0; pass < 2; ++pass) {
+        const auto& a = pass ? q : p;
+        const auto& b = pass ? p : q;
+        for (size_t i = 0; i < b.size(); ++i)
+            for (size_t j = i + 1; j < b.size(); ++j)
+                for (size_t k = j + 1; k < b.size(); ++k)
+                    for (const auto& x : a)
+                        if (inside_triangle(x, b[i], b[j], b[k])) return true;
+    }
+    for (size_t i = 0; i < p.size(); ++i)
+        for (size_t j = i + 1; j < p.size(); ++j)
+            for (size_t k = 0; k < q.size(); ++k)
+                for (size_t l = k + 1; l < q.size(); ++l)
+                    if (segments_cross(p[i], p[j], q[k], q[l])) return true;
+    return false;
+}
+
+}  // namespace
+
 TEST_CASE("scenes: tabletop_separated is tabletop_mixed plus one opaque partition") {
     Scene mixed = load_scene(scene_path("tabletop_mixed"));
     Scene sep = load_scene(scene_path("tabletop_separated"));
     REQUIRE(sep.meshes.size() == mixed.meshes.size() + 1);
-    // Every mesh of the mixed scene is in the separated one, unchanged.
+    // Every mesh of the mixed scene is in the separated one, unchanged, with
+    // the same material and emitter.
     for (const auto& m : mixed.meshes) {
         CAPTURE(m.name);
         auto it = std::find_if(sep.meshes.begin(), sep.meshes.end(), [&](const Mesh& o) { return o.name == m.name; });
         REQUIRE(it != sep.meshes.end());
         CHECK(it->positions == m.positions);
-        CHECK(material_of(sep, *it).type == material_of(mixed, m).type);
+        CHECK(it->indices == m.indices);
+        CHECK(it->center == m.center);
+        CHECK(it->radius == m.radius);
+        CHECK(same_material(material_of(sep, *it), material_of(mixed, m)));
+        CHECK((it->emitter >= 0) == (m.emitter >= 0));
+        if (m.emitter >= 0 && it->emitter >= 0)
+            CHECK(sep.emitters.at(it->emitter).radiance == mixed.emitters.at(m.emitter).radiance);
     }
-    // Both hold delta-S objects and glossy objects.
-    for (const Scene* s : {&mixed, &sep}) {
-        CHECK((has_type(*s, BsdfType::Conductor) || has_type(*s, BsdfType::Dielectric)));
-        CHECK(has_type(*s, BsdfType::RoughConductor));
-    }
-    // The extra mesh is opaque (diffuse).
+    // Same camera, lights and integrator.
+    CHECK(sep.camera.to_world == mixed.camera.to_world);
+    CHECK(sep.camera.fov_deg == mixed.camera.fov_deg);
+    CHECK(sep.emitters.size() == mixed.emitters.size());
+    CHECK(sep.integrator.max_depth == mixed.integrator.max_depth);
+    CHECK(sep.integrator.rr_depth == mixed.integrator.rr_depth);
+    // The extra mesh is the partition: opaque (diffuse), not an emitter.
+    int extra = 0;
     for (const auto& m : sep.meshes) {
         bool in_mixed = std::any_of(mixed.meshes.begin(), mixed.meshes.end(), [&](const Mesh& o) { return o.name == m.name; });
-        if (!in_mixed) CHECK(material_of(sep, m).type == BsdfType::Diffuse);
+        if (in_mixed) continue;
+        ++extra;
+        CHECK(m.name == "partition");
+        CHECK(material_of(sep, m).type == BsdfType::Diffuse);
+        CHECK(m.emitter < 0);
+    }
+    CHECK(extra == 1);
+}
+
+TEST_CASE("scenes: tabletop_mixed interleaves the delta-S and glossy balls") {
+    Scene s = load_scene(scene_path("tabletop_mixed"));
+    std::vector<glm::vec2> delta, glossy;
+    for (const auto& m : s.meshes) {
+        BsdfType t = material_of(s, m).type;
+        // Unambiguous families: no plastic, whose family depends on the rule.
+        CHECK(t != BsdfType::Plastic);
+        CHECK(t != BsdfType::RoughPlastic);
+        if (!tabletop_delta(t) && !tabletop_glossy(t)) continue;
+        CAPTURE(m.name);
+        REQUIRE(m.kind == ShapeKind::Sphere);
+        CHECK(m.center.z == doctest::Approx(m.radius));  // resting on the table
+        (tabletop_delta(t) ? delta : glossy).push_back({m.center.x, m.center.y});
+    }
+    CHECK(delta.size() == 3);
+    CHECK(glossy.size() == 3);
+    // Not two groups on two sides: no vertical plane separates the families.
+    CHECK(hulls_overlap(delta, glossy));
+    // (The check can fail: two groups on two sides of x = 0, as the old design had.)
+    CHECK_FALSE(hulls_overlap({{-0.2f, 0.0f}, {-0.3f, -0.25f}, {-0.1f, 0.3f}},
+                              {{0.2f, 0.1f}, {0.35f, -0.2f}, {0.1f, -0.3f}}));
+    CHECK(hulls_overlap({{-0.3f, 0.0f}, {0.04f, -0.35f}, {0.04f, 0.35f}}, {{-0.04f, 0.0f}}));
+    // Each ball has a ball of the other family within 0.06 m (surface to
+    // surface): close proximity.
+    auto balls = meshes_of_kind(s, ShapeKind::Sphere);
+    for (const Mesh* a : balls) {
+        CAPTURE(a->name);
+        bool da = tabletop_delta(material_of(s, *a).type);
+        double nearest = 1e9;
+        for (const Mesh* b : balls)
+            if (tabletop_delta(material_of(s, *b).type) != da)
+                nearest = std::min(nearest, double(glm::length(a->center - b->center) - a->radius - b->radius));
+        CHECK(nearest > 0.0);
+        CHECK(nearest <= 0.06);
     }
 }
 

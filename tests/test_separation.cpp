@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <string>
 #include <vector>
@@ -98,6 +99,12 @@ glm::dvec3 facet_normal(const Mesh& m, const glm::vec3& p3) {
     return best_n;
 }
 
+std::string fixed4(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.4f", v);
+    return buf;
+}
+
 SeparationMeasures measure(vkmech::vk::Context& ctx, const Scene& scene) {
     return measure_separation(RenderSession(ctx, scene, Traversal::Bvh));
 }
@@ -124,22 +131,46 @@ TEST_CASE("separation: family rule - smooth delta vs rough conductor and dielect
         CHECK(separation_family(scene, 1) == SeparationFamily::None);
     }
 
-    // tabletop: chrome + glass are delta-S, gold + aluminium are glossy; the
-    // rough plastic ball, the table, the wall and the light are in neither.
-    Scene tt = load_scene(scene_path("tabletop_mixed"));
-    int nd = 0, ng = 0;
-    for (size_t i = 0; i < tt.meshes.size(); ++i) {
-        SeparationFamily f = separation_family(tt, i);
-        CAPTURE(tt.meshes[i].name);
-        if (tt.meshes[i].name == "chrome_sphere" || tt.meshes[i].name == "glass_sphere") CHECK(f == SeparationFamily::Delta);
-        else if (tt.meshes[i].name == "gold_sphere" || tt.meshes[i].name == "aluminium_sphere")
-            CHECK(f == SeparationFamily::Glossy);
-        else CHECK(f == SeparationFamily::None);
-        nd += f == SeparationFamily::Delta;
-        ng += f == SeparationFamily::Glossy;
+    // tabletop: glass, chrome and the silver mirror are delta-S; gold,
+    // aluminium and frosted glass are glossy; the table, the wall, the light
+    // (and tabletop_separated's partition) are in neither.
+    for (std::string name : {"tabletop_mixed", "tabletop_separated"}) {
+        CAPTURE(name);
+        Scene tt = load_scene(scene_path(name));
+        int nd = 0, ng = 0;
+        for (size_t i = 0; i < tt.meshes.size(); ++i) {
+            SeparationFamily f = separation_family(tt, i);
+            const std::string& n = tt.meshes[i].name;
+            CAPTURE(n);
+            if (n == "glass_sphere" || n == "chrome_sphere" || n == "mirror_sphere")
+                CHECK(f == SeparationFamily::Delta);
+            else if (n == "gold_sphere" || n == "aluminium_sphere" || n == "frosted_sphere")
+                CHECK(f == SeparationFamily::Glossy);
+            else CHECK(f == SeparationFamily::None);
+            nd += f == SeparationFamily::Delta;
+            ng += f == SeparationFamily::Glossy;
+        }
+        CHECK(nd == 3);
+        CHECK(ng == 3);
     }
-    CHECK(nd == 2);
-    CHECK(ng == 2);
+}
+
+TEST_CASE("separation: the tabletop partition clears every ball by 0.015 m") {
+    // scenes/tabletop/generate.py builds the partition round its own copy of
+    // the ball table; this catches the two drifting apart.
+    Scene tt = load_scene(scene_path("tabletop_separated"));
+    auto part = std::find_if(tt.meshes.begin(), tt.meshes.end(), [](const Mesh& m) { return m.name == "partition"; });
+    REQUIRE(part != tt.meshes.end());
+    int balls = 0;
+    for (const auto& m : tt.meshes) {
+        if (m.kind != ShapeKind::Sphere) continue;
+        CAPTURE(m.name);
+        ++balls;
+        double d = mesh_distance(*part, m);
+        CHECK(d >= 0.0145);
+        CHECK(d <= 0.0160);
+    }
+    CHECK(balls == 6);
 }
 
 TEST_CASE("separation: vertex-triangle distance between tessellated spheres matches the analytic gap") {
@@ -285,8 +316,8 @@ TEST_SUITE("gpu") {
             if (n == "tabletop_separated") CHECK(m.mutual_visibility == 0.0);
             if (n == "tabletop_mixed") CHECK(m.mutual_visibility > 0.0);
             if (n.rfind("tabletop", 0) == 0) {
-                // Every family member is a sphere: the analytic gap (chrome -
-                // gold, the scene's declared ~0.15 m) within 1%.
+                // Every family member is a sphere: the analytic gap (the
+                // scene's declared 0.05 m) within 1%.
                 double gap = std::numeric_limits<double>::infinity();
                 for (size_t i = 0; i < scene.meshes.size(); ++i)
                     for (size_t j = 0; j < scene.meshes.size(); ++j)
@@ -299,6 +330,38 @@ TEST_SUITE("gpu") {
                         }
                 CAPTURE(gap);
                 CHECK(std::abs(m.min_distance - gap) <= 0.01 * gap);
+                CHECK(std::abs(gap - 0.05) <= 1e-6);
+            }
+        }
+        CHECK(ctx->validation_messages() == 0);
+    }
+
+    // The measurement behind docs/scenes.md "tabletop pair: design record":
+    // both scenes at the default sampling (64 points per object, seed 0) and
+    // at a larger one (256 points per object, seeds 0 and 1).
+    TEST_CASE("separation: tabletop pair design record - mixed has sight lines and the partition blocks all") {
+        VKMECH_REQUIRE_GPU(ctx);
+        struct Sampling {
+            uint32_t points, seed;
+        };
+        for (std::string name : {"tabletop_mixed", "tabletop_separated"}) {
+            CAPTURE(name);
+            Scene scene = load_scene(scene_path(name));
+            RenderSession session(*ctx, scene, Traversal::Bvh);
+            for (Sampling s : {Sampling{64, 0}, Sampling{256, 0}, Sampling{256, 1}}) {
+                CAPTURE(s.points);
+                CAPTURE(s.seed);
+                SeparationMeasures m = measure_separation(session, s.points, s.seed);
+                MESSAGE(name << ", " << s.points << " points per object, seed " << s.seed << ": delta-S objects "
+                             << m.delta_objects << ", glossy objects " << m.glossy_objects << ", min distance "
+                             << fixed4(m.min_distance) << " m, mutual visibility " << fixed4(m.mutual_visibility)
+                             << " (" << m.visible << " of " << m.segments << " segments)");
+                REQUIRE(m.defined());
+                CHECK(m.delta_objects == 3);
+                CHECK(m.glossy_objects == 3);
+                CHECK(m.segments == uint64_t(s.points) * s.points * 9u);
+                if (name == "tabletop_mixed") CHECK(m.mutual_visibility > 0.0);
+                else CHECK(m.visible == 0u);
             }
         }
         CHECK(ctx->validation_messages() == 0);
