@@ -106,6 +106,19 @@ struct SyntheticSource final : AllocationSource {
             for (const PixelStats& p : f.pixels) mom.push_back(p.lum_var());
         return make_pilot(std::move(f), std::move(mom));
     }
+    PilotSamples pilot_samples(const SceneVariant& v, uint32_t n0, uint32_t draw) override {
+        calls.push_back("pilot samples " + v.name + " " + std::to_string(n0) + " " + std::to_string(draw));
+        PilotSamples s;
+        s.samples = n0;
+        s.pixels = static_cast<size_t>(w) * h;
+        SampleFn f = stream(100 + draw);
+        for (uint32_t i = 0; i < n0; ++i)
+            for (size_t p = 0; p < s.pixels; ++p) {
+                Sample x = f(p, i);
+                s.lum.push_back(static_cast<float>(lum709(x.r, x.g, x.b)));
+            }
+        return s;
+    }
     double final_render_seconds(const SceneVariant& v, const std::vector<uint32_t>& n) override {
         calls.push_back("final " + v.name);
         uint64_t t = 0;
@@ -212,6 +225,11 @@ TEST_CASE("allocation experiment: runs over a synthetic source without a device 
     CHECK(rows[1][7] == "tie");
     // Every configuration is listed: 2 pilots x (6 base strategies) + 3 robust at N0 = 16 (the budget sweep's
     // extra 32 is the main budget).
+    // The block-count sweep asks for each N0 = 16 draw's samples once, and has one row per valid k.
+    CHECK(std::count(src.calls.begin(), src.calls.end(), "pilot samples synthetic 16 0") == 1);
+    CHECK(std::count(src.calls.begin(), src.calls.end(), "pilot samples synthetic 4 0") == 0);  // MoM undefined at 4
+    auto mom = read_csv(tmp.file("tables/mom_sweep.csv"));
+    CHECK(mom.size() == 1 + 5);  // k = 2, 3, 4, 6, 8 all give blocks of >= 2 samples at N0 = 16
     auto all = read_csv(tmp.file("tables/downstream_all.csv"));
     CHECK(all.size() == 1 + 2 * 6 + 3);
 }
@@ -319,4 +337,57 @@ TEST_CASE("allocation experiment: mom_defined is true exactly where mom_block_si
     CHECK_FALSE(alloc::mom_defined(4));
     CHECK(alloc::mom_defined(9));
     CHECK(alloc::mom_defined(16));
+}
+
+TEST_CASE("allocation experiment: the median-of-means of a pilot's samples - by hand - NaN samples left out") {
+    // 2 pixels, 8 samples; k = 2 blocks of 4, k = 3 blocks of 2 (2 samples discarded).
+    PilotSamples s;
+    s.samples = 8;
+    s.pixels = 2;
+    const float px0[8] = {1, 2, 3, 4, 10, 10, 10, 14};
+    const float px1[8] = {0, 0, NAN, 1, 5, 5, 5, 5};
+    for (int i = 0; i < 8; ++i) {
+        s.lum.push_back(px0[i]);
+        s.lum.push_back(px1[i]);
+    }
+    auto var = [](std::vector<double> x) {
+        double m = 0, q = 0;
+        for (double v : x) m += v / x.size();
+        for (double v : x) q += (v - m) * (v - m);
+        return q / (x.size() - 1);
+    };
+    std::vector<double> k2 = s.mom_variance(2);
+    // Median of two block variances = their mean.
+    CHECK(k2[0] == doctest::Approx((var({1, 2, 3, 4}) + var({10, 10, 10, 14})) / 2));
+    CHECK(k2[1] == doctest::Approx((var({0, 0, 1}) + var({5, 5, 5, 5})) / 2));  // the NaN sample counted out
+    std::vector<double> k3 = s.mom_variance(3);  // blocks {1,2} {3,4} {10,10}
+    CHECK(k3[0] == doctest::Approx(0.5));
+    CHECK(k3[1] == doctest::Approx(0.0));  // blocks {0,0} and {5,5} (the NaN block has one sample, left out): 0 and 0
+    CHECK_THROWS_AS(s.mom_variance(5), std::invalid_argument);  // blocks of 1 sample
+    CHECK_THROWS_AS(s.mom_variance(0), std::invalid_argument);
+}
+
+TEST_CASE("cache records: per-sample pilots round-trip - NaN kept - inconsistent sizes and infinities refused") {
+    PilotSamples s;
+    s.samples = 3;
+    s.pixels = 2;
+    s.lum = {0.5f, 1.0f, NAN, 2.0f, 0.25f, 0.0f};
+    PilotSamples t = deserialize_pilot_samples(serialize_pilot_samples(s), "s.pilot-samples");
+    CHECK(t.samples == 3);
+    CHECK(t.pixels == 2);
+    CHECK(std::isnan(t.lum[2]));
+    CHECK(t.lum[3] == 2.0f);
+    PilotSamples bad = s;
+    bad.lum.pop_back();
+    CHECK_THROWS_WITH_AS(deserialize_pilot_samples(serialize_pilot_samples(bad), "b"), doctest::Contains("inconsistent"),
+                         CacheFileError);
+    bad = s;
+    bad.lum[0] = INFINITY;
+    CHECK_THROWS_WITH_AS(deserialize_pilot_samples(serialize_pilot_samples(bad), "b"), doctest::Contains("infinite"),
+                         CacheFileError);
+    TempDir tmp("cache_samples");
+    RenderCache cache(tmp.path.string());
+    cache.store_pilot_samples("00112233445566778899aabbccddeeff", s);
+    REQUIRE(cache.try_load_pilot_samples("00112233445566778899aabbccddeeff").has_value());
+    CHECK(verify_cache_dir(tmp.path.string()).good.size() == 1);
 }

@@ -1,9 +1,12 @@
 #include "allocation/plan.hpp"
 
+#include "allocation/mom.hpp"
 #include "allocation/neyman.hpp"
+#include "stats/summary.hpp"
 #include "render/descriptor.hpp"
 
 #include <chrono>
+#include <cmath>
 
 namespace vkmech {
 
@@ -15,6 +18,24 @@ Pilot make_pilot(Frame frame, std::vector<double> mom_var) {
     for (size_t p = 0; p < out.var.size(); ++p) out.var[p] = out.frame.pixels[p].lum_var();
     out.labels = derive_descriptor(out.frame).dominant;
     out.mom_var = std::move(mom_var);
+    return out;
+}
+
+std::vector<double> PilotSamples::mom_variance(int k) const {
+    const int size = alloc::mom_block_size(static_cast<int>(samples), k);  // throws for k < 1 or blocks below 2
+    std::vector<double> out(pixels, 0.0), block_var;
+    for (size_t p = 0; p < pixels; ++p) {
+        block_var.clear();
+        for (int b = 0; b < k; ++b) {
+            alloc::BlockMoments m;
+            for (int i = b * size; i < (b + 1) * size; ++i) {
+                const float x = lum[static_cast<size_t>(i) * pixels + p];
+                if (!std::isnan(x)) alloc::accumulate(m, x);
+            }
+            if (m.n >= 2) block_var.push_back(m.m2 / (m.n - 1));
+        }
+        if (!block_var.empty()) out[p] = stats::median(block_var);
+    }
     return out;
 }
 

@@ -49,6 +49,21 @@ struct SamplePool {
     const float* at(uint32_t frame, size_t pixel) const { return &samples[(static_cast<size_t>(frame) * pixels + pixel) * 4]; }
 };
 
+// A pilot's samples one by one: luminance of sample i of pixel p at
+// lum[i * pixels + p], NaN for a sample the renderer counted out (non-finite).
+// For the median-of-means block-count sweep, which needs the blocks of any k.
+struct PilotSamples {
+    uint32_t samples = 0;
+    size_t pixels = 0;
+    std::vector<float> lum;
+    // Median over k contiguous blocks of floor(samples / k) samples (the
+    // remainder discarded) of each block's unbiased luminance variance; blocks
+    // with fewer than 2 finite samples of a pixel are left out of its median
+    // (0 when none is left). Throws std::invalid_argument unless
+    // 1 <= k and the block size is at least 2.
+    std::vector<double> mom_variance(int k) const;
+};
+
 struct AdaptivePlan {
     std::vector<uint32_t> n;  // samples per pixel
     double allocation_ms = 0.0;

@@ -28,6 +28,9 @@ public:
     // Pilot draw `draw` (seed 100000 + 1000 draw) of n0 samples; with the
     // median-of-means variance where it is defined for n0.
     virtual Pilot pilot(const SceneVariant& v, uint32_t n0, uint32_t draw) = 0;
+    // The same pilot draw's samples one by one, for the median-of-means
+    // block-count sweep (asked only where median-of-means is defined).
+    virtual PilotSamples pilot_samples(const SceneVariant& v, uint32_t n0, uint32_t draw) = 0;
     // Seconds of a real render of n(p) samples per pixel of the pool seed.
     virtual double final_render_seconds(const SceneVariant& v, const std::vector<uint32_t>& n) = 0;
 };

@@ -77,6 +77,9 @@ struct StudyConfig {
     uint32_t alloc_extra = 32;
     std::vector<uint32_t> alloc_budget_sweep{32, 64, 128};
     std::vector<uint32_t> alloc_floors{1, 4};
+    // The median-of-means block-count sweep (paper §7 Result 3): block counts k tried at
+    // every pilot where median-of-means is defined (blocks of at least 2 samples).
+    std::vector<int> alloc_mom_k{2, 3, 4, 6, 8};
     uint32_t alloc_ref_chunks = 2, alloc_ref_chunk_spp = 128;
     int alloc_res = 32;
     bool equal_time = false;

@@ -4,6 +4,7 @@
 #include "allocation/mom.hpp"
 #include "study/study_runner.hpp"
 
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <utility>
@@ -111,6 +112,31 @@ Pilot RenderedAllocationSource::pilot(const SceneVariant& v, uint32_t n0, uint32
     Pilot p = render_pilot(*l.renderer, n0, downstream_seeds::pilot(draw), robust);
     cache_.store_pilot(k, p);
     return p;
+}
+
+PilotSamples RenderedAllocationSource::pilot_samples(const SceneVariant& v, uint32_t n0, uint32_t draw) {
+    Loaded& l = load(v);
+    check_interrupt();
+    const std::string k = key(l, n0, downstream_seeds::pilot(draw), 1);  // batch 1: one sample per batch
+    if (std::optional<PilotSamples> cached = cache_.try_load_pilot_samples(k)) return std::move(*cached);
+    const Camera& c = l.session->scene().camera;
+    PilotSamples s;
+    s.samples = n0;
+    s.pixels = static_cast<size_t>(c.width) * c.height;
+    s.lum.assign(static_cast<size_t>(n0) * s.pixels, 0.0f);
+    RenderSpec spec;
+    spec.spp = n0;
+    spec.seed = downstream_seeds::pilot(draw);
+    spec.batch_spp = 1;
+    uint32_t i = 0;
+    spec.on_batch = [&](const std::vector<gpu::GpuPixelAccum>& b) {  // a batch of one sample: its mean is the sample
+        for (size_t p = 0; p < s.pixels; ++p)
+            s.lum[static_cast<size_t>(i) * s.pixels + p] = b[p].rgb.w > 0.0f ? b[p].lum.x : std::nanf("");
+        ++i;
+    };
+    l.renderer->render(spec);
+    cache_.store_pilot_samples(k, s);
+    return s;
 }
 
 double RenderedAllocationSource::final_render_seconds(const SceneVariant& v, const std::vector<uint32_t>& n) {

@@ -26,6 +26,7 @@ public:
     Frame reference(const SceneVariant& v) override;
     SamplePool pool(const SceneVariant& v) override;
     Pilot pilot(const SceneVariant& v, uint32_t n0, uint32_t draw) override;
+    PilotSamples pilot_samples(const SceneVariant& v, uint32_t n0, uint32_t draw) override;
     double final_render_seconds(const SceneVariant& v, const std::vector<uint32_t>& n) override;
 
 private:

@@ -24,7 +24,7 @@ constexpr char kFileMagic[8] = {'V', 'K', 'M', 'C', 'A', 'C', 'H', 'E'};
 constexpr char kBlobMagic[8] = {'V', 'K', 'M', 'B', 'L', 'O', 'B', '1'};
 // 2: untyped payloads (issue 10); 3: every payload a typed, versioned blob.
 constexpr uint32_t kFormatVersion = 3;
-constexpr uint32_t kFrameBlobVersion = 1, kPilotBlobVersion = 1, kPoolBlobVersion = 1;
+constexpr uint32_t kFrameBlobVersion = 1, kPilotBlobVersion = 1, kPoolBlobVersion = 1, kPilotSamplesBlobVersion = 1;
 static_assert(std::is_trivially_copyable_v<PixelStats>);
 static_assert(sizeof(PixelStats) == 17 * sizeof(double), "cache format assumes 17 doubles per pixel");
 
@@ -234,6 +234,30 @@ Pilot deserialize_pilot(const std::string& payload, const std::string& where) {
     return make_pilot(std::move(f), std::move(mom));
 }
 
+std::string serialize_pilot_samples(const PilotSamples& s) {
+    return BlobWriter("pilot-samples", kPilotSamplesBlobVersion)
+        .pod(s.samples)
+        .pod(static_cast<uint64_t>(s.pixels))
+        .array(s.lum)
+        .bytes();
+}
+
+PilotSamples deserialize_pilot_samples(const std::string& payload, const std::string& where) {
+    BlobReader r(payload, "pilot-samples", kPilotSamplesBlobVersion, where);
+    PilotSamples s;
+    s.samples = r.pod<uint32_t>();
+    const uint64_t pixels = r.pod<uint64_t>();
+    s.lum = r.array<float>();
+    r.end();
+    if (pixels == 0 || s.samples == 0 || s.lum.size() / pixels != s.samples || s.lum.size() != pixels * s.samples)
+        r.fail("inconsistent sizes (" + std::to_string(s.samples) + " samples of " + std::to_string(pixels) + " pixels, " +
+               std::to_string(s.lum.size()) + " values)");
+    s.pixels = static_cast<size_t>(pixels);
+    for (float x : s.lum)
+        if (std::isinf(x)) r.fail("an infinite luminance (a counted-out sample is stored as NaN)");
+    return s;
+}
+
 std::string serialize_pool(const SamplePool& pool) {
     return BlobWriter("pool", kPoolBlobVersion)
         .pod(pool.frames)
@@ -340,6 +364,14 @@ void RenderCache::store_pool(const std::string& key, const SamplePool& pool) con
     store_payload(key, "pool", serialize_pool(pool));
 }
 
+std::optional<PilotSamples> RenderCache::try_load_pilot_samples(const std::string& key) const {
+    return try_load_side<PilotSamples>(*this, key, "pilot-samples", deserialize_pilot_samples);
+}
+
+void RenderCache::store_pilot_samples(const std::string& key, const PilotSamples& s) const {
+    store_payload(key, "pilot-samples", serialize_pilot_samples(s));
+}
+
 CacheVerifyReport verify_cache_dir(const std::string& dir) {
     CacheVerifyReport rep;
     std::vector<fs::path> files;
@@ -355,13 +387,18 @@ CacheVerifyReport verify_cache_dir(const std::string& dir) {
         }
         auto dot = name.find('.');
         const std::string key = name.substr(0, dot), ext = dot == std::string::npos ? "" : name.substr(dot);
-        std::string kind = ext == ".frame" ? "frame" : ext == ".frame.pool" ? "pool" : ext == ".frame.pilot" ? "pilot" : "";
+        std::string kind = ext == ".frame"                 ? "frame"
+                           : ext == ".frame.pool"          ? "pool"
+                           : ext == ".frame.pilot"         ? "pilot"
+                           : ext == ".frame.pilot-samples" ? "pilot-samples"
+                                                           : "";
         if (kind.empty()) continue;  // not a cache file
         try {
             std::string payload = open_cache_file(read_whole(full), kind, key, full);
             if (kind == "frame") deserialize_frame(payload, full);
             if (kind == "pilot") deserialize_pilot(payload, full);
             if (kind == "pool") deserialize_pool(payload, full);
+            if (kind == "pilot-samples") deserialize_pilot_samples(payload, full);
             rep.good.push_back(full);
         } catch (const CacheFileError& e) {
             std::string what = e.what();

@@ -9,7 +9,7 @@
 // Integrity (issue 10; cache format 3 since the payloads became typed,
 // versioned blobs): every cache file — a frame
 // `<key>.frame`, and the allocation study's side files `<key>.frame.pool` and
-// `<key>.frame.pilot` — is a sealed container: magic, format version, kind,
+// `<key>.frame.pilot` and `<key>.frame.pilot-samples` — is a sealed container: magic, format version, kind,
 // the key it was stored under, the payload's size and its 128-bit digest, then
 // the payload. A file whose key is not its name's, whose digest or size does
 // not match, that is truncated, or whose frame holds a non-finite statistic is
@@ -70,6 +70,8 @@ public:
     std::optional<Pilot> try_load_pilot(const std::string& key) const;
     void store_pilot(const std::string& key, const Pilot& pilot) const;
     std::optional<SamplePool> try_load_pool(const std::string& key) const;
+    std::optional<PilotSamples> try_load_pilot_samples(const std::string& key) const;
+    void store_pilot_samples(const std::string& key, const PilotSamples& s) const;
     void store_pool(const std::string& key, const SamplePool& pool) const;
 
 private:
@@ -144,6 +146,12 @@ Frame deserialize_frame(const std::string& bytes, const std::string& where);
 // frame blob and its median-of-means variances (none, or one per pixel).
 std::string serialize_pilot(const Frame& frame, const std::vector<double>& mom_var);
 Pilot deserialize_pilot(const std::string& payload, const std::string& where);
+
+// The allocation study's per-sample pilot side file: a "pilot-samples" blob
+// (sample and pixel counts, the luminance of every sample, NaN for one
+// counted out), checked for consistent sizes and no infinite value.
+std::string serialize_pilot_samples(const PilotSamples& s);
+PilotSamples deserialize_pilot_samples(const std::string& payload, const std::string& where);
 
 // The allocation study's pool side file: a "pool" blob (frame and pixel counts,
 // the samples, the oracle variances), checked for consistent sizes, finite
