@@ -29,6 +29,7 @@
 #include "sampling.glsl"
 #include "fresnel.glsl"
 #include "microfacet.glsl"
+#include "lobes.glsl"
 
 #ifdef __cplusplus
 namespace vkmech::shader {
@@ -650,21 +651,20 @@ SHARED_FN BsdfSample principled_sample(GpuMaterial m, vec3 albedo, vec3 wo, floa
 
 // ---- dispatch ----
 
-SHARED_FN bool bsdf_is_delta_only(GpuMaterial m) {
-    uint t = m.header.x;
-    return t == MAT_CONDUCTOR || t == MAT_DIELECTRIC || t == MAT_THINDIELECTRIC;
+// The lobe classes the material can sample (lobes.glsl, docs/descriptor.md §2).
+SHARED_FN uint bsdf_lobe_flags(GpuMaterial m) {
+    return material_lobe_flags(m.header.x, m.principled0.x, m.principled2.y);
 }
+
+// Delta-only: every lobe is S (conductor, dielectric, thindielectric).
+SHARED_FN bool bsdf_is_delta_only(GpuMaterial m) { return bsdf_lobe_flags(m) == LOBE_BIT_S; }
 
 // docs/descriptor.md §2: the NEE end-vertex lobe. D if the BSDF advertises any diffuse
 // component, G if it is non-delta without one, LOBE_NONE if delta-only (no NEE).
 SHARED_FN uint bsdf_nee_lobe(GpuMaterial m) {
-    uint t = m.header.x;
-    if (t == MAT_DIFFUSE || t == MAT_PLASTIC || t == MAT_ROUGHPLASTIC) return LOBE_D;
-    if (t == MAT_ROUGHCONDUCTOR || t == MAT_ROUGHDIELECTRIC) return LOBE_G;
-    if (t == MAT_PRINCIPLED) {
-        float w_brdf = (1.0 - saturate(m.principled0.x)) * (1.0 - saturate(m.principled2.y));
-        return w_brdf > 0.0 ? LOBE_D : LOBE_G;
-    }
+    uint f = bsdf_lobe_flags(m);
+    if ((f & LOBE_BIT_D) != 0u) return LOBE_D;
+    if ((f & LOBE_BIT_G) != 0u) return LOBE_G;
     return LOBE_NONE;
 }
 

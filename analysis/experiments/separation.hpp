@@ -3,27 +3,42 @@
 // the minimum surface-to-surface distance and the mutual visibility fraction.
 //
 // Objects and families (the paper: "family assignment by BSDF flags (delta
-// reflection/transmission vs glossy)", with docs/descriptor.md §2's material-to-lobe map):
+// reflection/transmission vs glossy)"):
 // - An object is one Mesh of Scene::meshes that is not an emitter
 //   (Mesh::emitter < 0), has a material (Mesh::material >= 0) and has a
 //   positive surface area.
-// - delta-S family: the material is delta-only (Material::is_delta_only():
-//   conductor, dielectric, thindielectric; lobe S).
-// - glossy family: roughconductor or roughdielectric (lobe G).
-// - Everything else (diffuse, plastic, roughplastic, principled) belongs to
-//   neither family: those BSDFs advertise a diffuse component (lobe D under
-//   NEE). A `twosided` wrapper is transparent: the wrapped type decides.
+// - Its family is a function of its material's lobe flags
+//   (Material::lobe_flags(): the set of lobe classes D / G / S the BSDF can
+//   sample, from shaders/lobes.glsl, the same table that gives the renderer
+//   its NEE lobe and delta-only test; docs/descriptor.md §2):
+//   * glossy family: the BSDF can sample a glossy lobe (G), whatever else it
+//     has: roughconductor, roughdielectric, roughplastic (microfacet coat),
+//     principled (its GGX specular lobe is always there, alpha >= 0.001, and
+//     never a delta; with or without its diffuse lobe);
+//   * delta-S family: the BSDF has a delta reflection or transmission lobe
+//     (S) and no glossy lobe: conductor, dielectric, thindielectric, and
+//     smooth plastic (its coat is a mirror reflection, sampled as a delta lobe
+//     beside the diffuse base);
+//   * neither: no G and no S lobe (diffuse).
+//   A `twosided` wrapper is transparent: the wrapped type decides.
+//   separation_family_of(flags) is the rule; separation_family(scene, mesh)
+//   applies it to one mesh.
 //
-// Minimum distance: for every (delta, glossy) object pair, the exact
-// point-to-triangle distance (double precision) from every vertex of one
-// object to every triangle of the other, in both directions; the minimum
-// over all pairs. The edge-edge closest points of two meshes are thereby
-// approximated by the vertex-triangle minimum, which overestimates the true
-// distance by at most about the edge length -- negligible for the finely
-// tessellated analytic shapes of the project's scenes (a default sphere has
-// 16k triangles). Pairs whose bounding boxes are farther apart than the
-// current minimum are skipped, and each object's triangles are searched
-// through a per-object BVH, so the result is exact but cheap.
+// Minimum distance: the exact minimum distance between the surfaces of any
+// delta-S object and any glossy object, in double precision. Between two
+// triangles it is 0 when they intersect (closed triangles, decided with exact
+// orientation predicates: a double evaluation with a rounding bound and an
+// exact floating-point-expansion fallback), otherwise the minimum of the 6
+// vertex-triangle and the 9 edge-edge (segment-segment) distances. Degenerate
+// (zero-area) triangles are their edges; parallel edges are handled through
+// the endpoint cases. Coplanar contact is decided exactly too; only two
+// degenerate triangles touching each other are left to the distance
+// formulas, which then return a distance of the order of rounding. Between
+// two objects the minimum is found by a simultaneous descent of the two
+// objects' BVHs, nearer node pairs first, skipping node and triangle pairs
+// whose bounding boxes are at least the current minimum apart; object pairs
+// are visited in order of bounding-box distance and skipped on the same rule.
+// The result is exact (up to rounding) and cheap.
 //
 // Mutual visibility: `points_per_object` points are sampled uniformly by
 // area on each object, deterministically (a counter-based hash of (seed,
@@ -43,6 +58,7 @@
 #include "scene/scene.hpp"
 #include "shared/types.h"
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -68,7 +84,10 @@ struct SeparationMeasures {
 
 enum class SeparationFamily { None, Delta, Glossy };
 
-// The family of one mesh under the rule above.
+// The family rule above, from a set of lobe flags (gpu::LOBE_BIT_D/G/S).
+SeparationFamily separation_family_of(uint32_t lobe_flags);
+// The family of one mesh (None for emitters, meshes without a material and
+// meshes without area).
 SeparationFamily separation_family(const Scene& scene, size_t mesh_index);
 
 // For each ray (origin, tmin in .w = 0; direction, tmax in .w): 1 when nothing
@@ -82,8 +101,17 @@ SeparationMeasures measure_separation(const Scene& scene, const SegmentVisibilit
 // `count` points uniformly distributed by area on the mesh, a pure function
 // of (seed, mesh_index, point index); empty when the mesh has no area.
 std::vector<glm::vec3> sample_surface_points(const Mesh& mesh, uint32_t mesh_index, uint32_t count, uint32_t seed);
-// Minimum vertex-to-triangle distance between two meshes, both directions;
-// +inf when either has no triangle.
+
+using Triangle3 = std::array<glm::dvec3, 3>;
+// Whether two closed triangles share a point (exact predicates). Two
+// degenerate triangles are never reported as intersecting (their distance
+// decides).
+bool triangles_intersect(const Triangle3& a, const Triangle3& b);
+// The exact distance between two closed triangles (0 when they intersect);
+// symmetric, also for degenerate triangles.
+double triangle_distance(const Triangle3& a, const Triangle3& b);
+// The exact minimum surface-to-surface distance between two meshes; +inf
+// when either has no triangle.
 double mesh_distance(const Mesh& a, const Mesh& b);
 
 }  // namespace vkmech

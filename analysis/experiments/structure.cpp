@@ -27,9 +27,11 @@ void run_structure(StudyContext& ctx) {
                 "labelled pixels. deg.: one component is identically zero in that scene.";
     Table sep{"sign_reversal", "Caustic/glossy correlation and object-space separation (tab:sign-reversal)",
               {"scene", "delta-S objects", "glossy objects", "min dist. (scene units)", "mut. vis.", "rho C-G"}, {}, ""};
-    sep.note = "min dist.: minimum surface distance between any delta-S object (smooth conductor or dielectric) and any "
-               "glossy object (rough conductor or dielectric); mut. vis.: share of unoccluded segments between 64 surface "
-               "points per object pair (ray-tested, offset 1e-3, seed 0). n/a: a family is empty.";
+    sep.note = "families by BSDF lobe flags: glossy = can sample a glossy lobe (rough conductor, rough dielectric, rough "
+               "plastic, principled), delta-S = a delta lobe and no glossy one (smooth conductor, dielectric, thin "
+               "dielectric, smooth plastic); min dist.: exact minimum surface-to-surface distance between any delta-S and "
+               "any glossy object; mut. vis.: share of unoccluded segments between 64 surface points per object pair "
+               "(ray-tested, offset 1e-3, seed 0). n/a: a family is empty.";
     for (const auto& s : cfg.scenes) corr.columns.push_back(s.name);
     std::vector<std::vector<Cell>> corr_rows;
     for (auto [a, b] : pairs) corr_rows.push_back({Cell::str(std::string(abbrev[a]) + " <-> " + abbrev[b])});

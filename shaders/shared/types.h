@@ -45,6 +45,10 @@ VKM_CONST LOBE_D = 0u;
 VKM_CONST LOBE_G = 1u;
 VKM_CONST LOBE_S = 2u;
 VKM_CONST LOBE_NONE = 3u;
+// A set of lobe classes (shaders/lobes.glsl): bit LOBE_x.
+VKM_CONST LOBE_BIT_D = 1u << LOBE_D;
+VKM_CONST LOBE_BIT_G = 1u << LOBE_G;
+VKM_CONST LOBE_BIT_S = 1u << LOBE_S;
 
 // Material types (host BsdfType values).
 VKM_CONST MAT_DIFFUSE = 0u;

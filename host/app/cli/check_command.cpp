@@ -8,25 +8,20 @@
 #include <cstdio>
 #include <map>
 #include <string>
+#include <utility>
 
 namespace vkmech {
 
 namespace {
 
-// docs/descriptor.md §2's lobe classes a material can sample: D diffuse, G glossy, S delta.
+// docs/descriptor.md §2's lobe classes a material can sample (Material::lobe_flags,
+// the renderer's table): D diffuse, G glossy, S delta.
 std::string lobe_classes(const Material& m) {
-    switch (m.type) {
-        case BsdfType::Diffuse: return "D";
-        case BsdfType::Plastic: return "D+S";
-        case BsdfType::RoughPlastic: return "D+G";
-        case BsdfType::Conductor:
-        case BsdfType::Dielectric:
-        case BsdfType::ThinDielectric: return "S";
-        case BsdfType::RoughConductor:
-        case BsdfType::RoughDielectric: return "G";
-        case BsdfType::Principled: return m.has_diffuse() ? "D+G" : "G";
-    }
-    return "?";
+    uint32_t f = m.lobe_flags();
+    std::string s;
+    for (auto [bit, name] : {std::pair{gpu::LOBE_BIT_D, "D"}, std::pair{gpu::LOBE_BIT_G, "G"}, std::pair{gpu::LOBE_BIT_S, "S"}})
+        if (f & bit) s += s.empty() ? name : std::string("+") + name;
+    return s.empty() ? "?" : s;
 }
 
 }  // namespace

@@ -4,6 +4,8 @@
 #include "scene/text_parse.hpp"
 #include "scene/triangle_budget.hpp"
 
+#include "lobes.glsl"
+
 #include <filesystem>
 #include <limits>
 #include <new>
@@ -38,23 +40,18 @@ const char* to_string(ShapeKind k) {
     return "unknown";
 }
 
-// docs/descriptor.md §2: smooth conductor, dielectric and thindielectric are S (delta).
-bool Material::is_delta_only() const {
-    return type == BsdfType::Conductor || type == BsdfType::Dielectric || type == BsdfType::ThinDielectric;
+// docs/descriptor.md §2: one table for host and device (shaders/lobes.glsl).
+uint32_t Material::lobe_flags() const {
+    return shader::material_lobe_flags(static_cast<uint32_t>(type), metallic, spec_trans);
 }
 
-// docs/descriptor.md §2: the NEE end-vertex lobe is D iff the BSDF advertises a diffuse
-// component. Principled has one while (1 - metallic)(1 - spec_trans) > 0,
-// as Mitsuba's flags say; a textured base colour does not change that.
-bool Material::has_diffuse() const {
-    switch (type) {
-        case BsdfType::Diffuse:
-        case BsdfType::Plastic:
-        case BsdfType::RoughPlastic: return true;
-        case BsdfType::Principled: return (1.0f - metallic) * (1.0f - spec_trans) > 0.0f;
-        default: return false;
-    }
-}
+// Smooth conductor, dielectric and thindielectric: S (delta) and nothing else.
+bool Material::is_delta_only() const { return lobe_flags() == gpu::LOBE_BIT_S; }
+
+// The NEE end-vertex lobe is D iff the BSDF advertises a diffuse component.
+// Principled has one while (1 - metallic)(1 - spec_trans) > 0, as Mitsuba's
+// flags say; a textured base colour does not change that.
+bool Material::has_diffuse() const { return (lobe_flags() & gpu::LOBE_BIT_D) != 0u; }
 
 size_t Scene::triangle_count() const {
     size_t n = 0;

@@ -113,8 +113,12 @@ struct Material {
     float spec_trans = 0.0f;
     float eta_principled = 1.5f;
 
-    bool is_delta_only() const;  // conductor, dielectric, thindielectric
-    bool has_diffuse() const;    // diffuse, plastic family, principled with diffuse
+    // The lobe classes the BSDF can sample, bits gpu::LOBE_BIT_D/G/S: the
+    // table of shaders/lobes.glsl, which the renderer reads too
+    // (docs/descriptor.md §2).
+    uint32_t lobe_flags() const;
+    bool is_delta_only() const;  // S only: conductor, dielectric, thindielectric
+    bool has_diffuse() const;    // a D lobe: diffuse, plastic family, principled with diffuse
 };
 
 enum class ShapeKind : uint32_t { Mesh = 0, Rectangle, Cube, Sphere, Disk, Cylinder };
