@@ -73,3 +73,52 @@ TEST_CASE("bootstrap: kappa intervals - unlabelled pixels left out - NaN scores 
     CHECK_THROWS_AS(tile_bootstrap(a, b, 3, 3, 0, agree), std::invalid_argument);
     CHECK_THROWS_AS(tile_bootstrap(a, b, 3, 3, 1, agree, 5), std::invalid_argument);
 }
+
+TEST_CASE("bootstrap: Spearman intervals - exact for a monotone pair - 1/sqrt(n) for independent pixels - blocks widen it") {
+    const int w = 128, n = w * w;
+    std::mt19937 rng(5);
+    std::normal_distribution<double> g(0.0, 1.0);
+    std::vector<double> x(n), y(n);
+    for (int i = 0; i < n; ++i) x[i] = g(rng);
+    // A monotone relation: every resample has rho exactly 1.
+    for (int i = 0; i < n; ++i) y[i] = 2.0 * x[i] + 1.0;
+    Interval mono = tile_bootstrap_spearman(x, y, w, 8, 200, 0);
+    CHECK(mono.lo == 1.0);
+    CHECK(mono.hi == 1.0);
+    // Independent pixels: the sampling sd of Spearman's rho under independence is 1/sqrt(n - 1).
+    for (int i = 0; i < n; ++i) y[i] = g(rng);
+    Interval ind = tile_bootstrap_spearman(x, y, w, 1, 1000, 1);
+    CHECK(ind.lo < 0.0);
+    CHECK(ind.hi > 0.0);
+    CHECK((ind.hi - ind.lo) == doctest::Approx(2 * 1.959964 / std::sqrt(n - 1.0)).epsilon(0.15));
+    // Values constant over 8 x 8 blocks: 256 independent units, so the tile interval is about sqrt(64) = 8x wider.
+    std::vector<double> bx(256), by(256);
+    for (int b = 0; b < 256; ++b) {
+        bx[b] = g(rng);
+        by[b] = g(rng);
+    }
+    for (int py = 0; py < w; ++py)
+        for (int px = 0; px < w; ++px) {
+            x[py * w + px] = bx[(py / 8) * 16 + px / 8];
+            y[py * w + px] = by[(py / 8) * 16 + px / 8];
+        }
+    Interval pixel = tile_bootstrap_spearman(x, y, w, 1, 500, 2);
+    Interval tiled = tile_bootstrap_spearman(x, y, w, 8, 500, 2);
+    CHECK((tiled.hi - tiled.lo) == doctest::Approx(2 * 1.959964 / std::sqrt(255.0)).epsilon(0.25));
+    CHECK((tiled.hi - tiled.lo) > 5 * (pixel.hi - pixel.lo));
+}
+
+TEST_CASE("bootstrap: Spearman intervals leave NaN pixels out and refuse bad input") {
+    // Unlabelled pixels (NaN) carry arbitrary partners; left out, the rest is a monotone pair.
+    std::vector<double> x = {1, 2, 3, NAN, 5, 6, 7, 8, 9}, y = {1, 2, 3, -100, 5, 6, NAN, 8, 9};
+    Interval ci = tile_bootstrap_spearman(x, y, 3, 1, 100, 0);
+    CHECK(ci.lo == 1.0);
+    CHECK(ci.hi == 1.0);
+    // A constant field: rho is NaN in every resample.
+    std::vector<double> c(9, 1.0);
+    CHECK(std::isnan(tile_bootstrap_spearman(c, y, 3, 1, 50, 0).lo));
+    CHECK_THROWS_AS(tile_bootstrap_spearman(x, std::vector<double>(8, 0.0), 3, 1), std::invalid_argument);
+    CHECK_THROWS_AS(tile_bootstrap_spearman(x, y, 4, 1), std::invalid_argument);
+    CHECK_THROWS_AS(tile_bootstrap_spearman(x, y, 3, 0), std::invalid_argument);
+    CHECK_THROWS_AS(tile_bootstrap_spearman(x, y, 3, 1, 5), std::invalid_argument);
+}

@@ -24,16 +24,15 @@ std::vector<double> mom_variance(const std::vector<std::vector<BlockMoments>>& b
                                         std::to_string(pixels));
     }
     std::vector<double> out(pixels);
-    std::vector<double> v(blocks.size());
+    std::vector<double> v;
+    v.reserve(blocks.size());
     for (size_t p = 0; p < pixels; ++p) {
+        v.clear();
         for (size_t b = 0; b < blocks.size(); ++b) {
             const BlockMoments& m = blocks[b][p];
-            if (!(m.n >= 2.0))
-                throw std::invalid_argument("alloc::mom_variance: block " + std::to_string(b) + " pixel " +
-                                            std::to_string(p) + " has n < 2 samples (ddof-1 variance undefined)");
-            v[b] = m.m2 / (m.n - 1.0);
+            if (m.n >= 2.0) v.push_back(m.m2 / (m.n - 1.0));  // a block left with < 2 finite samples is dropped
         }
-        out[p] = stats::median(v);
+        out[p] = v.empty() ? 0.0 : stats::median(v);
     }
     return out;
 }

@@ -41,10 +41,12 @@ struct BlockMoments {
 void accumulate(BlockMoments& m, double x);
 
 // Per pixel: the median over blocks of m2 / (n - 1). `blocks` is indexed
-// [block][pixel]. Throws std::invalid_argument if there are no blocks, the
-// blocks cover different pixel counts, or any block has n < 2 (ddof-1
-// variance undefined). A NaN block variance makes that pixel's result NaN
-// (stats::median).
+// [block][pixel]. A block with n < 2 (non-finite samples are not counted, so
+// a block can be left with fewer than it was given) has no ddof-1 variance
+// and is dropped from that pixel's median; a pixel with no block left gets 0,
+// the same rule as PilotSamples::mom_variance. Throws std::invalid_argument if
+// there are no blocks or the blocks cover different pixel counts. A NaN block
+// variance makes that pixel's result NaN (stats::median).
 std::vector<double> mom_variance(const std::vector<std::vector<BlockMoments>>& blocks);
 
 // k = ceil(sqrt(N0)), computed in integers. Throws std::invalid_argument for

@@ -29,4 +29,13 @@ Interval tile_bootstrap(const std::vector<uint8_t>& a, const std::vector<uint8_t
                         const std::function<double(const Confusion&)>& statistic, int resamples = 2000,
                         uint64_t seed = 0, double level = 0.95);
 
+// The same tile bootstrap for a per-pixel rank correlation: x and y are two
+// per-pixel fields of `width` x (size / width) pixels; a pixel where either is
+// NaN is left out (unlabelled). Each resample draws whole tiles with
+// replacement and recomputes Spearman's rho on the pixels they hold; NaN
+// values (a constant field in the resample) are left out. Throws
+// std::invalid_argument as tile_bootstrap does.
+Interval tile_bootstrap_spearman(const std::vector<double>& x, const std::vector<double>& y, int width, int tile,
+                                 int resamples = 1000, uint64_t seed = 0, double level = 0.95);
+
 }  // namespace vkmech::stats
