@@ -177,12 +177,14 @@ void run_stability(StudyContext& ctx) {
                  Cell::pct(stats::agreement(stats::confusion(dmp.dominant, dmr.dominant, K))), Cell::pct(raw)});
 
         // The two end-vertex readings side by side (same seeds).
+        std::vector<uint8_t> literal_ref;  // the literal reading's reference labels, for the maps below
         {
             const Frame lit_ref = ctx.frames.get({scene, cfg.stability_reference_spp(), seeds::stability(nl - 1), Estimator::Nee,
                                                   EndVertex::Literal});
             const Frame lit_pil = ctx.frames.get({scene, cfg.pilot_spp(), seeds::stability(0), Estimator::Nee, EndVertex::Literal});
             const Descriptor dlr = derive_descriptor(lit_ref), dlp = derive_descriptor(lit_pil);
             const DescriptorSummary sdef = summarize(frames.back(), desc.back()), slit = summarize(lit_ref, dlr);
+            literal_ref = dlr.dominant;
             auto rows = [&](const std::string& reading, const std::vector<uint8_t>& r, const std::vector<uint8_t>& p,
                             const DescriptorSummary& sm, double changed, double moved) {
                 std::vector<Cell> pr{Cell::str(scene.name), Cell::str(reading)}, er{Cell::str(scene.name), Cell::str(reading)};
@@ -283,6 +285,32 @@ void run_stability(StudyContext& ctx) {
                           scene.name + ", " + pilot + " vs " + top +
                               " SPP: grey agrees, blue swaps inside {emitter-direct, direct, diffuse-indirect}, red swaps "
                               "to or from a structural bucket (as the paper's fig:cross-spp).");
+        }
+
+        {
+            // The readings compared at the reference: which pixels change, and which of them are caustics on
+            // diffuse surfaces (specular_direct under literal, delta_mediated under the default).
+            std::vector<uint8_t> cls(ref.size(), kNoLabel);
+            for (size_t q = 0; q < ref.size(); ++q) {
+                if (ref[q] == kNoLabel || literal_ref[q] == kNoLabel) continue;
+                cls[q] = ref[q] == literal_ref[q] ? 0
+                         : (literal_ref[q] == gpu::BUCKET_SPECULAR_DIRECT && ref[q] == gpu::BUCKET_DELTA_MEDIATED) ? 1
+                                                                                                                 : 2;
+            }
+            int w = 0, h = 0;
+            auto img = categorical_map_with_legend(fw * s, fh * s, enlarge(cls, fw, fh, s),
+                                                   {kAgreeGrey, kBucketColors[gpu::BUCKET_DELTA_MEDIATED], kStructRed},
+                                                   {"same label", "was specular_direct", "other change"},
+                                                   "unlabelled", &w, &h);
+            ctx.out.image("End-vertex readings", "maps/" + stem + "_end_vertex.png", w, h, img,
+                          scene.name + " at " + top + " SPP, literal reading against the default (last non-delta): "
+                          "magenta pixels (was specular_direct) are specular_direct under the literal reading and delta_mediated under the "
+                          "default (caustics seen on diffuse surfaces), red pixels change otherwise.");
+            img = categorical_map_with_legend(fw * s, fh * s, enlarge(literal_ref, fw, fh, s), bucket_colors, bucket_names,
+                                              "none (no energy)", &w, &h);
+            ctx.out.image("End-vertex readings", "maps/" + stem + "_dominant_" + top + "_literal.png", w, h, img,
+                          scene.name + " at " + top + " SPP under `--end-vertex literal`: the dominant-class map to put "
+                          "beside the default one above.");
         }
 
         // Per-bucket stability: of the reference's bucket-b pixels, the share the pilot (and MIS) also calls b.

@@ -7,18 +7,29 @@
 #include <limits>
 #include <random>
 #include <stdexcept>
+#include <string>
 
 namespace vkmech::stats {
+
+namespace {
+
+// The argument checks both bootstraps share (sizes, width, tile, resamples, level).
+void check_arguments(const std::string& what, size_t size_a, size_t size_b, int width, int tile, int resamples,
+                     double level) {
+    if (size_a != size_b) throw std::invalid_argument(what + ": the two maps have different sizes");
+    if (width < 1 || tile < 1) throw std::invalid_argument(what + ": width and tile must be at least 1");
+    if (size_a % static_cast<size_t>(width) != 0)
+        throw std::invalid_argument(what + ": the map size is not a multiple of the width");
+    if (resamples < 10) throw std::invalid_argument(what + ": at least 10 resamples");
+    if (!(level > 0.0 && level < 1.0)) throw std::invalid_argument(what + ": level must be in (0, 1)");
+}
+
+}  // namespace
 
 Interval tile_bootstrap(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, int k, int width, int tile,
                         const std::function<double(const Confusion&)>& statistic, int resamples, uint64_t seed,
                         double level) {
-    if (a.size() != b.size()) throw std::invalid_argument("tile_bootstrap: label maps of different sizes");
-    if (width < 1 || tile < 1) throw std::invalid_argument("tile_bootstrap: width and tile must be at least 1");
-    if (a.size() % static_cast<size_t>(width) != 0)
-        throw std::invalid_argument("tile_bootstrap: the map size is not a multiple of the width");
-    if (resamples < 10) throw std::invalid_argument("tile_bootstrap: at least 10 resamples");
-    if (!(level > 0.0 && level < 1.0)) throw std::invalid_argument("tile_bootstrap: level must be in (0, 1)");
+    check_arguments("tile_bootstrap", a.size(), b.size(), width, tile, resamples, level);
     const Confusion whole = confusion(a, b, k);  // validates the labels
     const size_t h = a.size() / static_cast<size_t>(width);
     const size_t tx = (static_cast<size_t>(width) + tile - 1) / tile, ty = (h + tile - 1) / tile;
@@ -52,12 +63,7 @@ Interval tile_bootstrap(const std::vector<uint8_t>& a, const std::vector<uint8_t
 
 Interval tile_bootstrap_spearman(const std::vector<double>& x, const std::vector<double>& y, int width, int tile,
                                  int resamples, uint64_t seed, double level) {
-    if (x.size() != y.size()) throw std::invalid_argument("tile_bootstrap_spearman: fields of different sizes");
-    if (width < 1 || tile < 1) throw std::invalid_argument("tile_bootstrap_spearman: width and tile must be at least 1");
-    if (x.size() % static_cast<size_t>(width) != 0)
-        throw std::invalid_argument("tile_bootstrap_spearman: the field size is not a multiple of the width");
-    if (resamples < 10) throw std::invalid_argument("tile_bootstrap_spearman: at least 10 resamples");
-    if (!(level > 0.0 && level < 1.0)) throw std::invalid_argument("tile_bootstrap_spearman: level must be in (0, 1)");
+    check_arguments("tile_bootstrap_spearman", x.size(), y.size(), width, tile, resamples, level);
     const size_t h = x.size() / static_cast<size_t>(width);
     const size_t tx = (static_cast<size_t>(width) + tile - 1) / tile, ty = (h + tile - 1) / tile;
     std::vector<std::vector<size_t>> tiles(tx * ty);  // the kept pixels of each tile
