@@ -6,7 +6,7 @@
 #include "allocation/allocation.hpp"
 #include "cli_run.hpp"
 #include "gpu_fixture.hpp"
-#include "render/session.hpp"
+#include "render_fixture.hpp"
 #include "temp_dir.hpp"
 
 #include <doctest/doctest.h>
@@ -267,10 +267,7 @@ TEST_CASE("guard: the lit-region window is clipped at the image border and sizes
 TEST_SUITE("gpu") {
     TEST_CASE("guard: on cubes_dof bucket-floor abstains and the guard is silent at N0 = 64 and flags only lit pixels at N0 = 4") {
         VKMECH_REQUIRE_GPU(ctx);
-        Scene scene = load_scene(std::string(VKMECH_SOURCE_DIR) + "/scenes/cubes_dof.xml");
-        scene.camera.set_film_width(32);
-        RenderSession session(*ctx, scene, Traversal::Bvh);
-        Renderer r = session.renderer(session.features());
+        Renderer r = testing::project_scene_renderer(*ctx, "cubes_dof", 32);
 
         // At the pilot the frozen curve was fitted on (64 spp) the pilot sees
         // every pixel with a usable variance: nothing is untrusted, and
