@@ -24,4 +24,11 @@ Frame render_scene(vk::Context& ctx, Scene scene, const RenderSetup& setup) {
     return r.render(spec);
 }
 
+Renderer project_scene_renderer(vk::Context& ctx, const std::string& name, int width) {
+    Scene scene = load_scene(std::string(VKMECH_SOURCE_DIR) + "/scenes/" + name + ".xml");
+    scene.camera.set_film_width(width);
+    RenderSession session(ctx, std::move(scene), Traversal::Bvh);
+    return session.renderer(session.features());  // the renderer shares the session's scene
+}
+
 }  // namespace vkmech::testing

@@ -29,4 +29,9 @@ Frame render_scene(vk::Context& ctx, const std::string& path, const RenderSetup&
 // The same for a scene already loaded (and perhaps changed by the test).
 Frame render_scene(vk::Context& ctx, Scene scene, const RenderSetup& setup);
 
+// A renderer (the scene's own features, BVH traversal) for the project scene
+// scenes/<name>.xml at film width `width`, for tests that render several times
+// (pilots, references) on one scene.
+Renderer project_scene_renderer(vk::Context& ctx, const std::string& name, int width);
+
 }  // namespace vkmech::testing

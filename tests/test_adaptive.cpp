@@ -103,10 +103,7 @@ TEST_SUITE("gpu") {
 
     TEST_CASE("adaptive: on cubes_dof (no heavy-tailed bucket) bucket-floor allocates exactly as observed-var") {
         VKMECH_REQUIRE_GPU(ctx);
-        Scene scene = load_scene(std::string(VKMECH_SOURCE_DIR) + "/scenes/cubes_dof.xml");
-        scene.camera.set_film_width(32);
-        RenderSession session(*ctx, scene, Traversal::Bvh);
-        Renderer r = session.renderer(session.features());
+        Renderer r = project_scene_renderer(*ctx, "cubes_dof", 32);
         for (uint32_t draw = 0; draw < 3; ++draw) {
             Pilot pilot = render_pilot(r, 4, downstream_seeds::pilot(draw), false);
             for (uint8_t l : pilot.labels) CHECK_FALSE(alloc::is_heavy_tailed(l));
@@ -119,10 +116,7 @@ TEST_SUITE("gpu") {
             CHECK(obs.total == floor.total);
         }
         // And on a scene with heavy-tailed pixels the floor changes the allocation, with the same total.
-        Scene glass = load_scene(std::string(VKMECH_SOURCE_DIR) + "/scenes/glass_caustic.xml");
-        glass.camera.set_film_width(32);
-        RenderSession glass_session(*ctx, glass, Traversal::Bvh);
-        Renderer gr = glass_session.renderer(glass_session.features());
+        Renderer gr = project_scene_renderer(*ctx, "glass_caustic", 32);
         Pilot pilot = render_pilot(gr, 4, downstream_seeds::pilot(0), false);
         alloc::ScoreInputs in;
         in.pilot_var = &pilot.var;

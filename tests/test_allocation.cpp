@@ -80,6 +80,7 @@ TEST_CASE("allocation: strategy names round-trip and unknown names are refused")
     CHECK(std::string(to_string(Strategy::RobustVar)) == "robust-var");
     CHECK(std::string(to_string(Strategy::RobustFloor)) == "robust-floor");
     CHECK(std::string(to_string(Strategy::RobustPlacebo)) == "robust-placebo");
+    CHECK(std::string(to_string(Strategy::Guarded)) == "guarded");
     for (Strategy s : kAllStrategies) CHECK(parse_strategy(to_string(s)) == s);
     CHECK_THROWS_WITH_AS(parse_strategy("bucket_floor"), doctest::Contains("observed-var, oracle, bucket-floor"),
                          std::invalid_argument);
@@ -222,12 +223,15 @@ TEST_CASE("allocation: study budget and identical totals across strategies") {
     const auto mom = random_field(state, P, true);
     const auto labels = random_labels(state, P);
     const auto ref_labels = random_labels(state, P);
+    std::vector<uint8_t> untrusted(P);
+    for (auto& u : untrusted) u = vkmech::stats::uniform_below(state, 10) == 0 ? 1 : 0;
     ScoreInputs in;
     in.pilot_var = &pilot;
     in.pilot_labels = &labels;
     in.oracle_var = &oracle;
     in.reference_labels = &ref_labels;
     in.mom_var = &mom;
+    in.untrusted = &untrusted;
     for (uint32_t floor : {kStudyBaselineSpp, kStudyControlFloor}) {
         for (Strategy s : kAllStrategies) {
             const auto d = strategy_score(s, in, 12345);

@@ -1,6 +1,7 @@
 #include "allocation/strategy.hpp"
 
 #include "allocation/floor.hpp"
+#include "allocation/guard.hpp"
 
 #include <stdexcept>
 
@@ -17,6 +18,7 @@ const char* to_string(Strategy s) {
         case Strategy::RobustVar: return "robust-var";
         case Strategy::RobustFloor: return "robust-floor";
         case Strategy::RobustPlacebo: return "robust-placebo";
+        case Strategy::Guarded: return "guarded";
     }
     return "unknown";
 }
@@ -78,6 +80,11 @@ std::vector<double> strategy_score(Strategy s, const ScoreInputs& in, uint64_t p
         case Strategy::RobustPlacebo: {
             const auto& var = need(in.mom_var, s, "mom_var");
             return bucket_floor(var, placebo_labels(need(in.pilot_labels, s, "pilot_labels"), placebo_seed));
+        }
+        case Strategy::Guarded: {
+            const auto& var = need(in.pilot_var, s, "pilot_var");
+            const auto& labels = need(in.pilot_labels, s, "pilot_labels");
+            return guard_score(bucket_floor(var, labels), need(in.untrusted, s, "untrusted"));
         }
     }
     throw std::invalid_argument("alloc::strategy_score: unknown strategy");

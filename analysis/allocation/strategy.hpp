@@ -18,6 +18,7 @@ enum class Strategy {
     RobustVar,     // "robust-var": D = median-of-means pilot variance (mom.hpp)
     RobustFloor,   // "robust-floor": bucket_floor(MoM variance, pilot labels)
     RobustPlacebo, // "robust-placebo": bucket_floor(MoM variance, shuffled pilot labels)
+    Guarded,       // "guarded": bucket-floor, at least the uniform share on untrusted pixels (guard.hpp)
 };
 
 // Every strategy, in declaration order.
@@ -25,6 +26,7 @@ inline constexpr Strategy kAllStrategies[] = {
     Strategy::Uniform,     Strategy::ObservedVar, Strategy::Oracle,
     Strategy::BucketFloor, Strategy::Placebo,     Strategy::LabelOracle,
     Strategy::RobustVar,   Strategy::RobustFloor, Strategy::RobustPlacebo,
+    Strategy::Guarded,
 };
 
 // The command-line / report name ("uniform", "observed-var", ...).
@@ -45,6 +47,7 @@ struct ScoreInputs {
     const std::vector<double>* oracle_var = nullptr;         // converged variance of the pool
     const std::vector<uint8_t>* reference_labels = nullptr;  // dominant bucket of the reference
     const std::vector<double>* mom_var = nullptr;            // median-of-means pilot variance
+    const std::vector<uint8_t>* untrusted = nullptr;         // PilotDiagnosis::untrusted_map (guard.hpp)
 };
 
 // The score D(p) of strategy s:
@@ -57,6 +60,7 @@ struct ScoreInputs {
 //   RobustVar     -> *mom_var
 //   RobustFloor   -> bucket_floor(*mom_var, *pilot_labels)
 //   RobustPlacebo -> bucket_floor(*mom_var, placebo_labels(*pilot_labels, placebo_seed))
+//   Guarded       -> guard_score(bucket_floor(*pilot_var, *pilot_labels), *untrusted)
 // placebo_seed is used by the two placebo strategies only.
 // Throws std::invalid_argument naming the missing input (e.g. "oracle_var")
 // when a needed pointer is null, when Uniform is given no input at all, or

@@ -57,7 +57,8 @@ int main(int argc, char** argv) {
     render->add_flag("--preview", render_opts.preview, "Fast direct-light preview instead of the full estimator");
     render->add_option("--adaptive", render_opts.adaptive,
                        "Two-stage adaptive rendering (docs/descriptor.md §6) with this allocation strategy: uniform, observed-var, "
-                       "bucket-floor, robust-var, robust-floor, placebo, robust-placebo");
+                       "bucket-floor, robust-var, robust-floor, placebo, robust-placebo, guarded (bucket-floor with at least "
+                       "the uniform share where the pilot cannot be trusted)");
     render->add_option("--pilot", render_opts.pilot, "Adaptive: pilot samples per pixel N0 (default 16)")
         ->check(CLI::Range(2u, 4096u));
     render->add_option("--budget", render_opts.budget,

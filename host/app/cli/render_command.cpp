@@ -20,10 +20,13 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <optional>
+#include <sstream>
+#include <string>
 
 namespace fs = std::filesystem;
 
@@ -95,6 +98,89 @@ ReliabilityCurve load_curve_for_cli(const std::string& path) {
     } catch (const std::runtime_error& e) {
         throw UsageError(e.what());
     }
+}
+
+// docs/descriptor.md §6.5: the pilot diagnosis as printed by `render --adaptive`, after the
+// pilot and before the allocation. Abstention is said for the strategies that floor; untrusted
+// pixels are warned of for every strategy that reads the pilot.
+void print_diagnosis(alloc::Strategy s, const alloc::PilotDiagnosis& d) {
+    using alloc::Strategy;
+    auto abstention = [&](const char* floor, const char* base, size_t changed) {
+        if (changed != 0) return;
+        if (d.heavy == 0)
+            std::printf("%s: no heavy-tailed pilot pixels, identical to %s\n", floor, base);
+        else
+            std::printf("%s: the floor changes none of the %zu heavy-tailed pilot pixels (each at or above its "
+                        "bucket's median), identical to %s\n",
+                        floor, d.heavy, base);
+    };
+    if (s == Strategy::BucketFloor || s == Strategy::Guarded) abstention("bucket-floor", "observed-var", d.floor_changed);
+    if (s == Strategy::RobustFloor && d.robust_checked) abstention("robust-floor", "robust-var", d.robust_floor_changed);
+    if (s == Strategy::Guarded && d.untrusted == 0)
+        std::printf("guarded: no untrusted pilot pixels, identical to bucket-floor\n");
+    if (d.untrusted == 0 || s == Strategy::Uniform) return;
+    char what[256];
+    std::snprintf(what, sizeof what,
+                  "%zu of %zu pixels (%.1f%%) have no trustworthy pilot variance: %zu seen without a usable variance, "
+                  "%zu dark beside seen pixels",
+                  d.untrusted, d.pixels, 100.0 * d.untrusted_share(), d.lit_no_variance, d.dark_in_lit_region);
+    if (s == Strategy::Guarded)
+        std::printf("guarded: %s; each gets at least the uniform share\n", what);
+    else {
+        std::fflush(stdout);  // the warning after the lines above, also when both streams go to one file
+        std::fprintf(stderr,
+                     "vkmech: warning: pilot: %s; %s can starve them (the ajar-door failure); `--adaptive guarded` "
+                     "keeps at least the uniform share there\n",
+                     what, alloc::to_string(s));
+    }
+}
+
+struct UntrustedAllocation {
+    uint32_t min_n = ~0u, max_n = 0;
+    size_t below_uniform = 0;
+};
+
+UntrustedAllocation untrusted_allocation(const alloc::PilotDiagnosis& d, const std::vector<uint32_t>& n,
+                                         double uniform_share) {
+    UntrustedAllocation u;
+    for (size_t p = 0; p < n.size(); ++p) {
+        if (d.untrusted_map[p] == alloc::kTrusted) continue;
+        u.min_n = std::min(u.min_n, n[p]);
+        u.max_n = std::max(u.max_n, n[p]);
+        u.below_uniform += static_cast<double>(n[p]) < uniform_share ? 1 : 0;
+    }
+    return u;
+}
+
+// The "adaptive" member of the render's JSON summary: the settings, the pilot diagnosis and the
+// prediction (null without a curve or without a labelled pixel).
+std::string adaptive_json(alloc::Strategy s, const RenderOptions& o, const alloc::PilotDiagnosis& d,
+                          const std::optional<PilotPrediction>& pred, const AdaptivePlan& plan,
+                          const UntrustedAllocation& u) {
+    std::ostringstream j;
+    j.precision(9);
+    auto number = [&](double x) -> std::ostringstream& {
+        if (std::isfinite(x)) j << x;
+        else j << "null";
+        return j;
+    };
+    j << "{\"strategy\": \"" << alloc::to_string(s) << "\", \"pilot_spp\": " << o.pilot
+      << ", \"pilot_seed\": " << downstream_seeds::pilot(o.pilot_draw) << ", \"budget\": " << o.budget
+      << ", \"floor\": " << o.floor << ", \"total_samples\": " << plan.total << ", \"pilot_pixels\": " << d.pixels
+      << ", \"pilot_labelled_pixels\": " << d.labelled << ", \"pilot_seen_pixels\": " << d.seen
+      << ", \"heavy_tailed_pilot_pixels\": " << d.heavy << ", \"bucket_floor_changed_pixels\": " << d.floor_changed
+      << ", \"bucket_floor_abstains\": " << (d.floor_abstains ? "true" : "false");
+    if (d.robust_checked)
+        j << ", \"robust_floor_changed_pixels\": " << d.robust_floor_changed
+          << ", \"robust_floor_abstains\": " << (d.robust_floor_abstains ? "true" : "false");
+    j << ", \"untrusted_pixels\": " << d.untrusted << ", \"untrusted_share\": ";
+    number(d.untrusted_share()) << ", \"untrusted_seen_without_variance\": " << d.lit_no_variance
+                                << ", \"untrusted_dark_in_lit_region\": " << d.dark_in_lit_region
+                                << ", \"untrusted_below_uniform_share\": " << u.below_uniform
+                                << ", \"predicted_reliability_margin\": ";
+    number(pred ? pred->margin : NAN) << ", \"predicted_reliability_purity\": ";
+    number(pred ? pred->purity : NAN) << ", \"predicted_reliability_covers\": \"pilot_labelled_pixels\"}";
+    return j.str();
 }
 
 }  // namespace
@@ -240,12 +326,19 @@ int cmd_render_adaptive(const RenderOptions& o) {
     throw_if_interrupted();
     std::printf("pilot: %u spp (seed %u), %.2f s\n", o.pilot, downstream_seeds::pilot(o.pilot_draw), pilot.seconds);
 
-    // The pilot's predicted label reliability (paper §8.2), before anything is allocated.
+    // What the pilot alone says about the strategies' assumptions (docs/descriptor.md §6.5).
+    const alloc::PilotDiagnosis diag = alloc::diagnose_pilot(pilot);
+
+    // The pilot's predicted label reliability (paper §8.2), before anything is allocated. It is
+    // a statement about the pixels the pilot labelled, and only about them.
+    std::optional<PilotPrediction> pred;
     if (curve) {
-        PilotPrediction pred = predict_from_pilot(*curve, pilot.frame);
-        std::printf("predicted label reliability (share of the pilot's labels a converged render keeps): %.3f by "
-                    "margin, %.3f by purity (curve %s, fitted on %u-spp pilots)\n",
-                    pred.margin, pred.purity, curve_path.c_str(), curve->pilot_spp);
+        pred = predict_from_pilot(*curve, pilot.frame);
+        std::printf("predicted label reliability of the %zu of %zu pixels the pilot labelled, not of the %zu it left "
+                    "unlabelled: %.3f by margin, %.3f by purity (share of those labels a converged render keeps; curve "
+                    "%s, fitted on %u-spp pilots)\n",
+                    diag.labelled, diag.pixels, diag.pixels - diag.labelled, pred->margin, pred->purity,
+                    curve_path.c_str(), curve->pilot_spp);
         if (curve->pilot_spp != 0 && curve->pilot_spp != o.pilot)
             std::printf("note: this pilot has %u spp; the curve was fitted on %u-spp pilots, so the prediction is "
                         "indicative only\n",
@@ -255,11 +348,16 @@ int cmd_render_adaptive(const RenderOptions& o) {
                     curve_path.c_str());
     }
 
+    print_diagnosis(strategy, diag);
+
     alloc::ScoreInputs in;
     in.pilot_var = &pilot.var;
     in.pilot_labels = &pilot.labels;
     if (robust) in.mom_var = &pilot.mom_var;
+    in.untrusted = &diag.untrusted_map;
     AdaptivePlan plan = plan_allocation(strategy, in, o.budget, o.floor, o.pilot_draw);
+    const double uniform_share = static_cast<double>(plan.total) / static_cast<double>(pixels);
+    const UntrustedAllocation untrusted_n = untrusted_allocation(diag, plan.n, uniform_share);
 
     RenderSpec spec;
     spec.seed = downstream_seeds::kPool;
@@ -282,6 +380,7 @@ int cmd_render_adaptive(const RenderOptions& o) {
     info.features += std::string(" adaptive=") + alloc::to_string(strategy);
     info.pipeline_seconds = pipes.seconds;
     info.pipeline_cache = pipe_outcome;
+    info.extra_json.emplace_back("adaptive", adaptive_json(strategy, o, diag, pred, plan, untrusted_n));
     Descriptor desc = derive_descriptor(frame);
     DescriptorSummary summary = summarize(frame, desc);
     WrittenFiles files = write_render_outputs(*set, info, frame, &desc, &summary);
@@ -295,6 +394,9 @@ int cmd_render_adaptive(const RenderOptions& o) {
     std::printf("allocation: %llu samples in all (%.2f per pixel), n(p) from %u to %u, %.2f ms\n",
                 static_cast<unsigned long long>(plan.total), static_cast<double>(plan.total) / pixels, min_n, max_n,
                 plan.allocation_ms);
+    if (diag.untrusted > 0)
+        std::printf("untrusted pixels: n(p) from %u to %u; %zu of %zu below the uniform share of %.2f\n",
+                    untrusted_n.min_n, untrusted_n.max_n, untrusted_n.below_uniform, diag.untrusted, uniform_share);
     std::printf("final: %.2f s; wall time pilot + allocation + final: %.2f s\n", frame.seconds,
                 pilot.seconds + plan.allocation_ms / 1000.0 + frame.seconds);
     for (const auto& f : {files.exr, files.png, files.dominant_png, spp_png, files.json,

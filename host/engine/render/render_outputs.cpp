@@ -164,6 +164,7 @@ std::string summary_json(const RenderInfo& info, const Frame& frame, const Descr
     list("warnings", info.warnings);
     o << ",\n";
     list("substitutions", info.substitutions);
+    for (const auto& [key, value] : info.extra_json) o << ",\n  \"" << json_escape(key) << "\": " << value;
     if (s) {
         o << ",\n  \"labelled_pixels\": " << s->labelled_pixels << ",\n";
         o << "  \"other_energy\": " << s->other_energy << ",\n";

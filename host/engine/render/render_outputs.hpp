@@ -9,6 +9,8 @@
 #include "io/output_set.hpp"
 
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace vkmech {
 
@@ -30,6 +32,9 @@ struct RenderInfo {
     // Creating (and compiling) the pipeline, outside the render time; < 0: not measured.
     double pipeline_seconds = -1.0;
     std::string pipeline_cache;  // vk::pipeline_cache_outcome
+    // Further top-level members of the JSON summary, each a key and its value
+    // as JSON text, written after "substitutions" (render --adaptive: "adaptive").
+    std::vector<std::pair<std::string, std::string>> extra_json;
 };
 
 struct WrittenFiles {
