@@ -367,15 +367,18 @@ TEST_SUITE("gpu") {
         }
     }
 
-    TEST_CASE("render: the GPU labels recorded events exactly as the C++ cascade does (debug event mode)") {
+    TEST_CASE("render: the GPU labels recorded events exactly as the C++ cascade does (debug event mode) under both end-vertex readings") {
         VKMECH_REQUIRE_GPU(ctx);
+        for (const EndVertex reading : {EndVertex::LastNonDelta, EndVertex::Literal})
         for (const char* name : {"snooker", "glass_caustic", "kitchen_counter", "ring_caustic"}) {
             CAPTURE(name);
+            CAPTURE(static_cast<int>(reading));
             Scene scene = load_scene(project_scene(name));
             scene.camera.width = scene.camera.height = 32;
             RenderSession session(*ctx, scene, Traversal::Bvh);
             Features f = session.features();
             f.debug_events = true;
+            f.end_vertex = reading;
             Renderer r = session.renderer(f);
             RenderSpec spec;
             spec.spp = 64;
