@@ -232,6 +232,7 @@ TEST_CASE("allocation: study budget and identical totals across strategies") {
     in.reference_labels = &ref_labels;
     in.mom_var = &mom;
     in.untrusted = &untrusted;
+    in.pilot_spp = 16;
     for (uint32_t floor : {kStudyBaselineSpp, kStudyControlFloor}) {
         for (Strategy s : kAllStrategies) {
             const auto d = strategy_score(s, in, 12345);

@@ -2,8 +2,10 @@
 
 #include "allocation/floor.hpp"
 #include "allocation/guard.hpp"
+#include "allocation/shrink.hpp"
 
 #include <stdexcept>
+#include <string>
 
 namespace vkmech::alloc {
 
@@ -19,6 +21,7 @@ const char* to_string(Strategy s) {
         case Strategy::RobustFloor: return "robust-floor";
         case Strategy::RobustPlacebo: return "robust-placebo";
         case Strategy::Guarded: return "guarded";
+        case Strategy::Shrink: return "shrink";
     }
     return "unknown";
 }
@@ -85,6 +88,13 @@ std::vector<double> strategy_score(Strategy s, const ScoreInputs& in, uint64_t p
             const auto& var = need(in.pilot_var, s, "pilot_var");
             const auto& labels = need(in.pilot_labels, s, "pilot_labels");
             return guard_score(bucket_floor(var, labels), need(in.untrusted, s, "untrusted"));
+        }
+        case Strategy::Shrink: {
+            if (in.pilot_spp < 2)
+                throw std::invalid_argument("alloc::strategy_score: strategy 'shrink' needs pilot_spp >= 2, got " +
+                                            std::to_string(in.pilot_spp));
+            return shrink_score(need(in.pilot_var, s, "pilot_var"), need(in.pilot_labels, s, "pilot_labels"),
+                                in.pilot_spp);
         }
     }
     throw std::invalid_argument("alloc::strategy_score: unknown strategy");

@@ -19,6 +19,7 @@ enum class Strategy {
     RobustFloor,   // "robust-floor": bucket_floor(MoM variance, pilot labels)
     RobustPlacebo, // "robust-placebo": bucket_floor(MoM variance, shuffled pilot labels)
     Guarded,       // "guarded": bucket-floor, at least the uniform share on untrusted pixels (guard.hpp)
+    Shrink,        // "shrink": the pilot variance shrunk towards its label's prior (shrink.hpp)
 };
 
 // Every strategy, in declaration order.
@@ -26,7 +27,7 @@ inline constexpr Strategy kAllStrategies[] = {
     Strategy::Uniform,     Strategy::ObservedVar, Strategy::Oracle,
     Strategy::BucketFloor, Strategy::Placebo,     Strategy::LabelOracle,
     Strategy::RobustVar,   Strategy::RobustFloor, Strategy::RobustPlacebo,
-    Strategy::Guarded,
+    Strategy::Guarded,     Strategy::Shrink,
 };
 
 // The command-line / report name ("uniform", "observed-var", ...).
@@ -48,6 +49,7 @@ struct ScoreInputs {
     const std::vector<uint8_t>* reference_labels = nullptr;  // dominant bucket of the reference
     const std::vector<double>* mom_var = nullptr;            // median-of-means pilot variance
     const std::vector<uint8_t>* untrusted = nullptr;         // PilotDiagnosis::untrusted_map (guard.hpp)
+    uint32_t pilot_spp = 0;                                  // N0, for shrink's noise model (0: not given)
 };
 
 // The score D(p) of strategy s:
@@ -61,6 +63,7 @@ struct ScoreInputs {
 //   RobustFloor   -> bucket_floor(*mom_var, *pilot_labels)
 //   RobustPlacebo -> bucket_floor(*mom_var, placebo_labels(*pilot_labels, placebo_seed))
 //   Guarded       -> guard_score(bucket_floor(*pilot_var, *pilot_labels), *untrusted)
+//   Shrink        -> shrink_score(*pilot_var, *pilot_labels, pilot_spp)
 // placebo_seed is used by the two placebo strategies only.
 // Throws std::invalid_argument naming the missing input (e.g. "oracle_var")
 // when a needed pointer is null, when Uniform is given no input at all, or

@@ -58,7 +58,8 @@ int main(int argc, char** argv) {
     render->add_option("--adaptive", render_opts.adaptive,
                        "Two-stage adaptive rendering (docs/descriptor.md §6) with this allocation strategy: uniform, observed-var, "
                        "bucket-floor, robust-var, robust-floor, placebo, robust-placebo, guarded (bucket-floor with at least "
-                       "the uniform share where the pilot cannot be trusted)");
+                       "the uniform share where the pilot cannot be trusted), shrink (the pilot variance shrunk towards its label's "
+                       "empirical-Bayes prior)");
     render->add_option("--pilot", render_opts.pilot, "Adaptive: pilot samples per pixel N0 (default 16)")
         ->check(CLI::Range(2u, 4096u));
     render->add_option("--budget", render_opts.budget,

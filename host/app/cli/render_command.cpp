@@ -355,6 +355,7 @@ int cmd_render_adaptive(const RenderOptions& o) {
     in.pilot_labels = &pilot.labels;
     if (robust) in.mom_var = &pilot.mom_var;
     in.untrusted = &diag.untrusted_map;
+    in.pilot_spp = o.pilot;
     AdaptivePlan plan = plan_allocation(strategy, in, o.budget, o.floor, o.pilot_draw);
     const double uniform_share = static_cast<double>(plan.total) / static_cast<double>(pixels);
     const UntrustedAllocation untrusted_n = untrusted_allocation(diag, plan.n, uniform_share);
