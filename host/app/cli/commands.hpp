@@ -54,6 +54,16 @@ struct RenderOptions {
     std::string curve;              // frozen predictor curve (default: docs/results/predictor_curve.json)
 };
 
+// `vkmech sentinel register` (docs/descriptor.md §9).
+struct SentinelOptions {
+    CommonOptions common;
+    uint32_t pilot = 64;       // N0: the frozen curve's pilot
+    uint32_t pilot_draw = 0;   // pilot seed downstream_seeds::pilot(k)
+    std::string out;           // the record (default sentinel_<scene>.json)
+    std::string curve;         // frozen predictor curve (default: found as `vkmech paths` says)
+    bool force = false;        // overwrite an existing record
+};
+
 struct BenchOptions {
     std::vector<std::string> scenes;
     uint32_t rays = 1u << 18;
@@ -92,6 +102,12 @@ int cmd_render(const RenderOptions& o);
 void require_writable_dir(const std::string& dir, const std::string& option);
 void check_curve_for_cli(const std::string& path);
 int cmd_devices();
+// Renders only the pilot and writes the sealed pre-registration record.
+int cmd_sentinel_register(const SentinelOptions& o);
+// Exit 0 with a one-line summary when the record is intact, 1 when it was
+// edited after registration, 2 when it is unreadable, malformed, lacks a
+// member or has an unknown format version.
+int cmd_sentinel_verify(const std::string& file);
 // Exit 0 when everything checked is sound, 1 when a bad set or file exists.
 int cmd_verify_outputs(const std::string& dir);
 int cmd_verify_cache(const std::string& dir);

@@ -30,6 +30,7 @@ int main(int argc, char** argv) {
                "  vkmech bench traversal\n"
                "  vkmech study all --preset quick --out out/study\n"
                "  vkmech verify outputs out/ring_caustic\n"
+               "  vkmech sentinel register --scene cubes_dof --out cubes_dof.sentinel.json\n"
                "Exit codes: 0 ok, 1 runtime failure, 2 bad usage or bad input.");
 
     RenderOptions render_opts;
@@ -133,6 +134,26 @@ int main(int argc, char** argv) {
                  "one is bad");
     verify_cache->add_option("dir", verify_dir, "Cache directory (a study's --cache, default <out>/cache)")->required();
 
+    SentinelOptions sentinel_opts;
+    std::string sentinel_file;
+    auto* sentinel = app.add_subcommand(
+        "sentinel", "Pre-registered predictions on a scene (docs/descriptor.md §9): register from a pilot alone, verify a record");
+    sentinel->require_subcommand(1);
+    auto* sentinel_register = sentinel->add_subcommand(
+        "register", "Render only the pilot and write a SHA-256-sealed record of every prediction it supports");
+    add_common_options(sentinel_register, sentinel_opts.common);
+    sentinel_register->add_option("--pilot", sentinel_opts.pilot, "Pilot samples per pixel N0 (default 64, the curve's)")
+        ->check(CLI::Range(2u, 4096u));
+    sentinel_register->add_option("--pilot-draw", sentinel_opts.pilot_draw, "Pilot draw k (pilot seed 100000 + 1000k)")
+        ->check(CLI::Range(0u, 899u));
+    sentinel_register->add_option("--out", sentinel_opts.out, "The record (default sentinel_<scene>.json)");
+    sentinel_register->add_option("--curve", sentinel_opts.curve,
+                                  "Frozen label-reliability curve (default: predictor_curve.json, see `vkmech paths`)");
+    sentinel_register->add_flag("--force", sentinel_opts.force, "Overwrite an existing record");
+    auto* sentinel_verify = sentinel->add_subcommand(
+        "verify", "Check a record's seal: exit 0 when intact, 1 when edited after registration, 2 when malformed");
+    sentinel_verify->add_option("record", sentinel_file, "The record (JSON)")->required();
+
     try {
         std::vector<std::string> rev(args.rbegin(), args.rend());
         app.parse(rev);
@@ -146,6 +167,8 @@ int main(int argc, char** argv) {
         if (*paths) return cmd_paths();
         if (*verify_outputs) return cmd_verify_outputs(verify_dir);
         if (*verify_cache) return cmd_verify_cache(verify_dir);
+        if (*sentinel_register) return cmd_sentinel_register(sentinel_opts);
+        if (*sentinel_verify) return cmd_sentinel_verify(sentinel_file);
         if (*check) return cmd_check(check_opts);
         if (*bench_trav) return cmd_bench_traversal(bench_opts);
         if (*bench_render) return cmd_bench_render(bench_opts);

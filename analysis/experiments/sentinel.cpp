@@ -1,0 +1,222 @@
+#include "experiments/sentinel.hpp"
+
+#include "allocation/mom.hpp"
+#include "io/json.hpp"
+#include "io/json_value.hpp"
+#include "io/sha256.hpp"
+#include "render/descriptor.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+#include <stdexcept>
+
+namespace vkmech::sentinel {
+
+namespace {
+
+std::string num(double x) {
+    if (!std::isfinite(x)) return "null";
+    char b[64];
+    std::snprintf(b, sizeof b, "%.9g", x);
+    return b;
+}
+
+std::string str(const std::string& s) { return "\"" + json_escape(s) + "\""; }
+
+Prediction outcome(std::string name, std::string what, std::string covers, std::string rule) {
+    return {std::move(name), std::move(what), 0.0, std::move(covers), std::move(rule)};
+}
+
+}  // namespace
+
+std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis& d, const ReliabilityCurve* curve,
+                                const SeparationMeasures* sep) {
+    std::vector<Prediction> out;
+    const std::string all_px = "all " + std::to_string(d.pixels) + " pixels";
+
+    // (a) Label reliability from the frozen curve: a statement about the labelled pilot pixels only.
+    if (curve) {
+        const PilotPrediction p = predict_from_pilot(*curve, pilot);
+        const std::string covers = std::to_string(p.labelled) + " pilot-labelled pixels of " + std::to_string(d.pixels);
+        out.push_back({"reliability.margin", "", p.margin, covers,
+                       "mean of the frozen margin curve over the pilot-labelled pixels' argmax margins (§5.6)"});
+        out.push_back({"reliability.purity", "", p.purity, covers,
+                       "mean of the frozen purity curve over the pilot-labelled pixels' purities (§5.6)"});
+    }
+
+    // (b) Per-bucket coverage of the pilot (§3.2 summary): predicted to hold at the reference.
+    const Descriptor desc = derive_descriptor(pilot);
+    const DescriptorSummary s = summarize(pilot, desc);
+    for (uint32_t b = 0; b < kBucketCount; ++b) {
+        const std::string bucket = kBucketNames[b];
+        out.push_back({"coverage." + bucket + ".pixel_share", "", s.pixel_share[b],
+                       std::to_string(s.labelled_pixels) + " pilot-labelled pixels",
+                       "the pilot's share of labelled pixels whose dominant bucket is " + bucket});
+        out.push_back({"coverage." + bucket + ".energy_share", "", s.energy_share[b], all_px,
+                       "the pilot's share of the image energy in bucket " + bucket});
+    }
+
+    // (c) Allocation strategies (§6), from the pilot diagnosis (§6.5).
+    char share[160];
+    std::snprintf(share, sizeof share, "%zu of %zu pixels untrusted (%.4f; threshold %.2f)", d.untrusted, d.pixels,
+                  d.untrusted_share(), kUntrustedFailShare);
+    const bool starved = d.pixels > 0 && d.untrusted_share() >= kUntrustedFailShare;
+    const std::string var_rule =
+        std::string("fails if the untrusted share is at least ") + num(kUntrustedFailShare) +
+        " (the ajar-door mode: the pilot leaves pixels it cannot vouch for with the floor only), helps otherwise; " + share;
+    out.push_back(outcome("allocation.observed-var_vs_uniform", starved ? "fails" : "helps", all_px, var_rule));
+    out.push_back(outcome("allocation.bucket-floor_vs_uniform", starved ? "fails" : "helps", all_px, var_rule));
+    out.push_back(outcome(
+        "allocation.bucket-floor_vs_observed-var", d.floor_abstains ? "no-op" : "helps", all_px,
+        "no-op if the floor changes no pilot pixel's score (identical allocation, bit for bit), helps otherwise (" +
+            std::to_string(d.heavy) + " heavy-tailed pilot pixels, " + std::to_string(d.floor_changed) + " changed)"));
+    if (d.robust_checked) {
+        out.push_back(outcome("allocation.robust-var_vs_uniform", starved ? "fails" : "helps", all_px, var_rule));
+        out.push_back(outcome("allocation.robust-floor_vs_robust-var", d.robust_floor_abstains ? "no-op" : "helps",
+                              all_px,
+                              "no-op if the floor changes no pilot pixel's median-of-means score, helps otherwise (" +
+                                  std::to_string(d.robust_floor_changed) + " changed)"));
+    }
+    out.push_back(outcome("allocation.guarded_vs_bucket-floor", d.untrusted == 0 ? "no-op" : "helps", all_px,
+                          std::string("no-op if no pilot pixel is untrusted (identical allocation), helps otherwise; ") +
+                              share));
+    out.push_back(outcome("allocation.guarded_vs_uniform", "helps", all_px,
+                          "helps always: guarded keeps at least the uniform share where the pilot cannot be trusted "
+                          "and allocates by the pilot elsewhere"));
+
+    // (d) Finding 1: the sign of rho(C, G) from the families' mutual visibility.
+    if (sep && sep->defined() && std::isfinite(sep->mutual_visibility)) {
+        const bool sees = sep->mutual_visibility >= kVisibilitySignThreshold;
+        out.push_back(outcome("structure.rho_CG_sign", sees ? "positive" : "negative",
+                              "the reference's labelled pixels (Spearman rho of caustic_frac and glossy_frac, §5.4)",
+                              "positive if the delta-S and glossy families' mutual visibility is at least " +
+                                  num(kVisibilitySignThreshold) + ", negative otherwise; measured " +
+                                  num(sep->mutual_visibility) + " over " + std::to_string(sep->segments) +
+                                  " segments (Finding 1)"));
+    }
+    return out;
+}
+
+std::string record_json(const Record& r) {
+    const alloc::PilotDiagnosis& d = r.diagnosis;
+    std::ostringstream j;
+    j << "{\n  \"format\": " << str(kFormat) << ",\n  \"format_version\": " << kFormatVersion;
+    j << ",\n  \"scene\": {\"name\": " << str(r.scene_name) << ", \"path\": " << str(r.scene_path)
+      << ", \"sha256\": " << str(r.scene_sha256) << ", \"files\": [";
+    for (size_t i = 0; i < r.scene_files.size(); ++i)
+        j << (i ? ", " : "") << "{\"path\": " << str(r.scene_files[i].path) << ", \"sha256\": " << str(r.scene_files[i].sha256)
+          << "}";
+    j << "]}";
+    j << ",\n  \"settings\": {\"width\": " << r.width << ", \"height\": " << r.height << ", \"pilot_spp\": " << r.pilot_spp
+      << ", \"pilot_draw\": " << r.pilot_draw << ", \"pilot_seed\": " << r.pilot_seed
+      << ", \"estimator\": " << str(r.estimator) << ", \"end_vertex\": " << str(r.end_vertex)
+      << ", \"light_selection\": " << str(r.light_selection) << ", \"max_depth\": " << r.max_depth
+      << ", \"rr_depth\": " << r.rr_depth << ", \"traversal\": " << str(r.traversal) << "}";
+    j << ",\n  \"renders\": [";
+    for (size_t i = 0; i < r.renders.size(); ++i)
+        j << (i ? ", " : "") << "{\"purpose\": \"pilot\", \"seed\": " << r.renders[i].seed << ", \"spp\": " << r.renders[i].spp
+          << "}";
+    j << "]";
+    j << ",\n  \"code\": {\"version\": " << str(r.version) << ", \"code_digest\": " << str(r.code_digest)
+      << ", \"spirv_sha256\": " << str(r.spirv_sha256) << "}";
+    j << ",\n  \"registered_utc\": " << str(r.registered_utc);
+    j << ",\n  \"device\": " << str(r.device);
+    j << ",\n  \"curve\": ";
+    if (r.curve_path.empty()) j << "null";
+    else
+        j << "{\"path\": " << str(r.curve_path) << ", \"sha256\": " << str(r.curve_sha256)
+          << ", \"pilot_spp\": " << r.curve_pilot_spp << "}";
+    j << ",\n  \"diagnosis\": {\"pixels\": " << d.pixels << ", \"labelled\": " << d.labelled << ", \"seen\": " << d.seen
+      << ", \"heavy\": " << d.heavy << ", \"floor_changed\": " << d.floor_changed
+      << ", \"floor_abstains\": " << (d.floor_abstains ? "true" : "false");
+    if (d.robust_checked)
+        j << ", \"robust_floor_changed\": " << d.robust_floor_changed
+          << ", \"robust_floor_abstains\": " << (d.robust_floor_abstains ? "true" : "false");
+    j << ", \"untrusted\": " << d.untrusted << ", \"lit_no_variance\": " << d.lit_no_variance
+      << ", \"dark_in_lit_region\": " << d.dark_in_lit_region << "}";
+    j << ",\n  \"separation\": ";
+    if (!r.separation) j << "null";
+    else
+        j << "{\"delta_objects\": " << r.separation->delta_objects << ", \"glossy_objects\": " << r.separation->glossy_objects
+          << ", \"min_distance\": " << num(r.separation->min_distance)
+          << ", \"mutual_visibility\": " << num(r.separation->mutual_visibility)
+          << ", \"segments\": " << r.separation->segments << ", \"visible\": " << r.separation->visible << "}";
+    j << ",\n  \"predictions\": [";
+    for (size_t i = 0; i < r.predictions.size(); ++i) {
+        const Prediction& p = r.predictions[i];
+        j << (i ? "," : "") << "\n    {\"name\": " << str(p.name) << ", \"predicted\": "
+          << (p.outcome.empty() ? num(p.value) : str(p.outcome)) << ", \"covers\": " << str(p.covers)
+          << ", \"rule\": " << str(p.rule) << "}";
+    }
+    j << "\n  ]\n}\n";
+    return j.str();
+}
+
+namespace {
+const std::string kTail = "\n}\n";
+const std::string kSealKey = ",\n  \"sha256\": \"";
+constexpr size_t kHexLen = 64;
+}  // namespace
+
+std::string seal(const std::string& body) {
+    if (body.size() < kTail.size() || body.compare(body.size() - kTail.size(), kTail.size(), kTail) != 0)
+        throw std::invalid_argument("sentinel::seal: the body must end with \"\\n}\\n\"");
+    return body.substr(0, body.size() - kTail.size()) + kSealKey + sha256_hex(body) + "\"" + kTail;
+}
+
+Verification verify_record(const std::string& text, const std::string& file) {
+    const std::string f = "'" + file + "'";
+    auto bad = [&](const std::string& why) { return Verification{Verification::Malformed, f + " is not a sentinel record: " + why}; };
+    std::string why;
+    const std::optional<JsonValue> doc = parse_json(text, &why);
+    if (!doc) return bad("malformed JSON: " + why);
+    if (doc->kind != JsonValue::Object) return bad("the top level is not a JSON object");
+    const JsonValue* format = doc->find("format");
+    if (!format || format->kind != JsonValue::String || format->string != kFormat)
+        return bad(std::string("it lacks \"format\": \"") + kFormat + "\"");
+    const JsonValue* version = doc->find("format_version");
+    if (!version || version->kind != JsonValue::Number) return bad("it lacks a numeric \"format_version\"");
+    if (version->number != kFormatVersion)
+        return {Verification::Malformed, f + ": unknown sentinel record format version " + num(version->number) +
+                                             " (this vkmech reads version " + std::to_string(kFormatVersion) + ")"};
+    struct Required {
+        const char* key;
+        JsonValue::Kind kind;
+    };
+    for (const Required& r : {Required{"scene", JsonValue::Object}, {"settings", JsonValue::Object},
+                              {"renders", JsonValue::Array}, {"code", JsonValue::Object},
+                              {"registered_utc", JsonValue::String}, {"device", JsonValue::String},
+                              {"diagnosis", JsonValue::Object}, {"predictions", JsonValue::Array},
+                              {"sha256", JsonValue::String}}) {
+        const JsonValue* v = doc->find(r.key);
+        if (!v) return bad(std::string("the member \"") + r.key + "\" is missing");
+        if (v->kind != r.kind) return bad(std::string("the member \"") + r.key + "\" has the wrong type");
+    }
+    for (const JsonValue& p : doc->find("predictions")->array)
+        if (p.kind != JsonValue::Object || !p.find("name") || !p.find("predicted") || !p.find("rule"))
+            return bad("a prediction lacks its \"name\", \"predicted\" or \"rule\"");
+    const std::string& recorded = doc->find("sha256")->string;
+    if (recorded.size() != kHexLen || recorded.find_first_not_of("0123456789abcdef") != std::string::npos)
+        return bad("\"sha256\" is not 64 lowercase hex digits");
+
+    const std::string edited = f + " was edited after registration: ";
+    // The seal is the last member, written exactly as seal() writes it (canonical form, sentinel.hpp).
+    const std::string suffix = kSealKey + recorded + "\"" + kTail;
+    if (text.size() < suffix.size() || text.compare(text.size() - suffix.size(), suffix.size(), suffix) != 0)
+        return {Verification::Edited, edited + "its \"sha256\" member is no longer the last line as registered"};
+    const std::string body = text.substr(0, text.size() - suffix.size()) + kTail;
+    const std::string actual = sha256_hex(body);
+    if (actual != recorded)
+        return {Verification::Edited,
+                edited + "its content hashes to " + actual + ", the registered SHA-256 is " + recorded};
+
+    const JsonValue* scene = doc->find("scene")->find("name");
+    return {Verification::Intact,
+            f + ": intact sentinel record of " + (scene && scene->kind == JsonValue::String ? scene->string : "?") +
+                ", registered " + doc->find("registered_utc")->string + ", " +
+                std::to_string(doc->find("predictions")->array.size()) + " predictions, sha256 " + recorded.substr(0, 16) +
+                "..."};
+}
+
+}  // namespace vkmech::sentinel

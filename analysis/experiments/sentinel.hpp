@@ -1,0 +1,96 @@
+// Sentinel pre-registration records (issue 13, paper §8; docs/descriptor.md §9):
+// what a pilot alone predicts about a scene, written down and sealed with a
+// SHA-256 before any reference is rendered.
+//
+// predict() is a pure function of the pilot (its frame), the pilot's
+// diagnosis (allocation/guard.hpp), the frozen reliability curve and the
+// scene's separation measures: nothing here renders, and nothing it reads
+// comes from a reference. The app layer (adaptive/sentinel.hpp) renders the
+// pilot and the separation segments and fills a Record; seal() writes it;
+// verify_record() checks a written one.
+//
+// Canonical form: a record file is the record's JSON object written without
+// its "sha256" member (body B: "{\n" ... "\n}\n", members in the order of
+// record_json), with the line `,\n  "sha256": "<H>"` inserted before the final
+// "\n}\n", where H = SHA-256(B) in lowercase hex. So the hashed bytes are
+// exactly the file minus that one member; any byte changed elsewhere, a
+// reformatting included, breaks the seal.
+#pragma once
+
+#include "allocation/guard.hpp"
+#include "experiments/predictor.hpp"
+#include "experiments/separation.hpp"
+#include "render/frame.hpp"
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace vkmech::sentinel {
+
+inline constexpr const char* kFormat = "vkmech sentinel record";
+inline constexpr int kFormatVersion = 1;
+
+// The written-down thresholds of the prediction rules (docs/descriptor.md §9.3).
+// A pilot-variance strategy is predicted to fail against uniform when at
+// least this share of the pixels is untrusted (§6.5): the ajar-door mode.
+inline constexpr double kUntrustedFailShare = 0.05;
+// rho(C, G) is predicted positive when the delta-S and glossy families' mutual
+// visibility is at least this, negative below it (Finding 1; anchors:
+// tabletop_mixed 0.122 -> +0.278, tabletop_separated 0.000 -> -0.681).
+inline constexpr double kVisibilitySignThreshold = 0.05;
+
+struct Prediction {
+    std::string name;     // e.g. "allocation.observed-var_vs_uniform"
+    std::string outcome;  // a categorical prediction ("helps", "no-op", "fails", "positive", ...); empty for a number
+    double value = 0.0;   // a numeric prediction (when outcome is empty)
+    std::string covers;   // what the prediction speaks of (e.g. "412 pilot-labelled pixels of 1024")
+    std::string rule;     // the rule that produced it
+};
+
+// Every prediction the pilot supports (docs/descriptor.md §9.3): label
+// reliability (when a curve is given), per-bucket pilot coverage, the
+// allocation strategies' outcomes (the robust ones when diag.robust_checked),
+// and the sign of rho(C, G) when both families exist (sep defined).
+std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis& diag, const ReliabilityCurve* curve,
+                                const SeparationMeasures* sep);
+
+struct FileDigest {
+    std::string path, sha256;
+};
+
+struct Record {
+    std::string scene_name, scene_path, scene_sha256;
+    std::vector<FileDigest> scene_files;  // further files the loader read (textures)
+    int width = 0, height = 0;
+    uint32_t pilot_spp = 0, pilot_draw = 0, pilot_seed = 0;
+    std::string estimator, end_vertex, light_selection, traversal;
+    int max_depth = 0, rr_depth = 0;
+    struct RenderCall {
+        uint32_t seed = 0, spp = 0;
+    };
+    std::vector<RenderCall> renders;  // every render made before registration: the pilot only
+    std::string version, code_digest, spirv_sha256;
+    std::string registered_utc;  // ISO 8601, "2025-01-01T12:00:00Z"
+    std::string device;
+    std::string curve_path, curve_sha256;
+    uint32_t curve_pilot_spp = 0;
+    alloc::PilotDiagnosis diagnosis;
+    std::optional<SeparationMeasures> separation;
+    std::vector<Prediction> predictions;
+};
+
+// The record's JSON without the "sha256" member (the canonical body B above).
+std::string record_json(const Record& r);
+// The sealed file content: B with the "sha256" member.
+std::string seal(const std::string& body);
+
+struct Verification {
+    enum Kind { Intact, Edited, Malformed } kind = Malformed;
+    std::string message;  // one line: the summary, or what is wrong (naming the file)
+};
+// Checks the text of a record file named `file` (for the messages): well-formed
+// JSON, the format and a known version, every required member, the seal.
+Verification verify_record(const std::string& text, const std::string& file);
+
+}  // namespace vkmech::sentinel

@@ -1,0 +1,269 @@
+// Sentinel pre-registration (issue 13 item 1, docs/descriptor.md §9): SHA-256,
+// the record's seal, the prediction rules and that registering renders only
+// the pilot.
+#include "adaptive/adaptive.hpp"
+#include "cli_run.hpp"
+#include "experiments/sentinel.hpp"
+#include "gpu_fixture.hpp"
+#include "io/json_value.hpp"
+#include "io/sha256.hpp"
+#include "render/session.hpp"
+#include "study/sentinel_register.hpp"
+#include "temp_dir.hpp"
+
+#include <doctest/doctest.h>
+
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+using namespace vkmech;
+
+namespace {
+
+std::string read_text(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+void write_text(const std::string& path, const std::string& s) {
+    std::ofstream out(path, std::ios::binary);
+    out << s;
+}
+
+// A pilot of w x h pixels, each seen with 8 finite samples of a variance, all in bucket `bucket`.
+Frame synthetic_pilot(int w, int h, uint32_t bucket) {
+    Frame f;
+    f.width = w;
+    f.height = h;
+    f.pixels.resize(static_cast<size_t>(w) * h);
+    for (size_t p = 0; p < f.pixels.size(); ++p) {
+        PixelStats& s = f.pixels[p];
+        s.count = 8;
+        s.lum_mean = 0.5 + 0.01 * static_cast<double>(p % 7);
+        s.lum_m2 = 0.1 + 0.02 * static_cast<double>(p % 5);
+        s.rgb_sum = {s.lum_mean * 8, s.lum_mean * 8, s.lum_mean * 8};
+        s.bucket_sum[bucket] = s.lum_mean * 8;
+    }
+    f.samples = 8 * f.pixels.size();
+    return f;
+}
+
+const sentinel::Prediction* find(const std::vector<sentinel::Prediction>& ps, const std::string& name) {
+    for (const auto& p : ps)
+        if (p.name == name) return &p;
+    return nullptr;
+}
+
+sentinel::Record small_record() {
+    const Frame f = synthetic_pilot(4, 4, 0);
+    const Pilot pilot = make_pilot(f, {});
+    sentinel::Record r;
+    r.scene_name = "synthetic";
+    r.scene_path = "/nowhere/synthetic.xml";
+    r.scene_sha256 = sha256_hex("scene");
+    r.width = r.height = 4;
+    r.pilot_spp = 8;
+    r.pilot_seed = 100000;
+    r.renders.push_back({100000, 8});
+    r.estimator = "nee";
+    r.registered_utc = "2025-01-01T00:00:00Z";
+    r.device = "test";
+    r.diagnosis = alloc::diagnose_pilot(pilot);
+    r.predictions = sentinel::predict(pilot.frame, r.diagnosis, nullptr, nullptr);
+    return r;
+}
+
+}  // namespace
+
+TEST_CASE("sentinel: sha256 matches the FIPS 180 test vectors") {
+    CHECK(sha256_hex("") == "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+    CHECK(sha256_hex("abc") == "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+    CHECK(sha256_hex("abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq") ==
+          "248d6a61d20638b8e5c026930c3e6039a33ce45964ff2167f6ecedd419db06c1");
+    CHECK(sha256_hex(std::string(1000000, 'a')) == "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0");
+    // Fed in uneven pieces, the same digest.
+    const std::string m = "abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq";
+    Sha256 h;
+    for (size_t i = 0; i < m.size(); i += 5) h.update(m.substr(i, 5));
+    CHECK(h.hex() == "248d6a61d20638b8e5c026930c3e6039a33ce45964ff2167f6ecedd419db06c1");
+}
+
+TEST_CASE("sentinel: an untouched record is accepted and one edited after registration is refused") {
+    const std::string sealed = sentinel::seal(sentinel::record_json(small_record()));
+    REQUIRE(parse_json(sealed));
+    const auto ok = sentinel::verify_record(sealed, "r.json");
+    INFO(ok.message);
+    CHECK(ok.kind == sentinel::Verification::Intact);
+    CHECK(ok.message.find("intact") != std::string::npos);
+
+    // One predicted outcome changed.
+    std::string edited = sealed;
+    const auto at = edited.find("\"predicted\": \"helps\"");
+    REQUIRE(at != std::string::npos);
+    edited.replace(at, 20, "\"predicted\": \"fails\"");
+    auto v = sentinel::verify_record(edited, "r.json");
+    CHECK(v.kind == sentinel::Verification::Edited);
+    CHECK(v.message.find("'r.json' was edited after registration") != std::string::npos);
+
+    // One character of a number changed (the first digit of the width).
+    edited = sealed;
+    const auto w = edited.find("\"width\": 4");
+    REQUIRE(w != std::string::npos);
+    edited[w + 9] = '5';
+    CHECK(sentinel::verify_record(edited, "r.json").kind == sentinel::Verification::Edited);
+
+    // Reformatted (one more space): the exact bytes are hashed.
+    edited = sealed;
+    edited.insert(1, " ");
+    CHECK(sentinel::verify_record(edited, "r.json").kind == sentinel::Verification::Edited);
+
+    // The seal itself changed.
+    edited = sealed;
+    const auto s = edited.find("\"sha256\": \"", edited.rfind("\"predictions\""));
+    REQUIRE(s != std::string::npos);
+    edited[s + 11] = edited[s + 11] == '0' ? '1' : '0';
+    CHECK(sentinel::verify_record(edited, "r.json").kind == sentinel::Verification::Edited);
+}
+
+TEST_CASE("sentinel: verify refuses malformed JSON and missing members and an unknown format version") {
+    const std::string sealed = sentinel::seal(sentinel::record_json(small_record()));
+    auto kind_of = [](const std::string& t) { return sentinel::verify_record(t, "r.json"); };
+
+    auto v = kind_of(sealed.substr(0, sealed.size() / 2));
+    CHECK(v.kind == sentinel::Verification::Malformed);
+    CHECK(v.message.find("malformed JSON") != std::string::npos);
+
+    std::string unsealed = sentinel::record_json(small_record());  // no sha256 member
+    v = kind_of(unsealed);
+    CHECK(v.kind == sentinel::Verification::Malformed);
+    CHECK(v.message.find("\"sha256\" is missing") != std::string::npos);
+
+    std::string other = sealed;
+    other.replace(other.find("\"format_version\": 1"), 19, "\"format_version\": 7");
+    v = kind_of(other);
+    CHECK(v.kind == sentinel::Verification::Malformed);
+    CHECK(v.message.find("unknown sentinel record format version 7") != std::string::npos);
+
+    std::string no_device = sealed;
+    no_device.replace(no_device.find("\"device\""), 8, "\"devicx\"");
+    v = kind_of(no_device);
+    CHECK(v.kind == sentinel::Verification::Malformed);
+    CHECK(v.message.find("\"device\" is missing") != std::string::npos);
+
+    CHECK(kind_of("[1, 2]").kind == sentinel::Verification::Malformed);
+    CHECK_FALSE(parse_json("{\"a\": 1, \"a\": 2}"));
+    CHECK_FALSE(parse_json("{\"a\": 01}"));
+    CHECK(parse_json("{\"a\": [true, null, -1.5e3, \"\\u00e9\"]}"));
+}
+
+TEST_CASE("sentinel: the prediction rules over a pilot diagnosis") {
+    const Frame f = synthetic_pilot(10, 10, 0);
+    const Pilot pilot = make_pilot(f, {});
+    alloc::PilotDiagnosis d = alloc::diagnose_pilot(pilot);
+    REQUIRE(d.untrusted == 0);
+    REQUIRE(d.floor_abstains);
+    auto ps = sentinel::predict(pilot.frame, d, nullptr, nullptr);
+    REQUIRE(find(ps, "allocation.observed-var_vs_uniform"));
+    CHECK(find(ps, "allocation.observed-var_vs_uniform")->outcome == "helps");
+    CHECK(find(ps, "allocation.bucket-floor_vs_observed-var")->outcome == "no-op");
+    CHECK(find(ps, "allocation.guarded_vs_bucket-floor")->outcome == "no-op");
+    CHECK_FALSE(find(ps, "allocation.robust-var_vs_uniform"));  // no median-of-means given
+    CHECK_FALSE(find(ps, "reliability.margin"));                 // no curve given
+    CHECK_FALSE(find(ps, "structure.rho_CG_sign"));              // no separation given
+    REQUIRE(find(ps, "coverage.emitter_direct.pixel_share"));
+    CHECK(find(ps, "coverage.emitter_direct.pixel_share")->value == doctest::Approx(1.0));
+
+    // Starved: 5 of 100 pixels untrusted (the threshold), a changed floor.
+    d.untrusted = 5;
+    d.floor_abstains = false;
+    d.floor_changed = 3;
+    ps = sentinel::predict(pilot.frame, d, nullptr, nullptr);
+    CHECK(find(ps, "allocation.observed-var_vs_uniform")->outcome == "fails");
+    CHECK(find(ps, "allocation.bucket-floor_vs_uniform")->outcome == "fails");
+    CHECK(find(ps, "allocation.bucket-floor_vs_observed-var")->outcome == "helps");
+    CHECK(find(ps, "allocation.guarded_vs_bucket-floor")->outcome == "helps");
+    d.untrusted = 4;
+    CHECK(find(sentinel::predict(pilot.frame, d, nullptr, nullptr), "allocation.observed-var_vs_uniform")->outcome ==
+          "helps");
+
+    // Finding 1: the sign from the mutual visibility.
+    SeparationMeasures sep;
+    sep.delta_objects = sep.glossy_objects = 1;
+    sep.segments = 100;
+    sep.mutual_visibility = 0.122;
+    CHECK(find(sentinel::predict(pilot.frame, d, nullptr, &sep), "structure.rho_CG_sign")->outcome == "positive");
+    sep.mutual_visibility = 0.0;
+    CHECK(find(sentinel::predict(pilot.frame, d, nullptr, &sep), "structure.rho_CG_sign")->outcome == "negative");
+    sep.glossy_objects = 0;
+    CHECK_FALSE(find(sentinel::predict(pilot.frame, d, nullptr, &sep), "structure.rho_CG_sign"));
+}
+
+TEST_SUITE("gpu") {
+    TEST_CASE("sentinel: register renders only the pilot seed and never a reference or pool seed") {
+        VKMECH_REQUIRE_GPU(ctx);
+        Scene scene = load_scene(std::string(VKMECH_SOURCE_DIR) + "/scenes/cubes_dof.xml");
+        scene.camera.set_film_width(32);
+        RenderSession session(*ctx, std::move(scene), Traversal::Bvh);
+        Renderer renderer = session.renderer(session.features(Estimator::Nee, true));
+        std::vector<uint32_t> seeds;
+        const PilotRenderFn recording = [&](uint32_t n0, uint32_t seed, bool robust) {
+            seeds.push_back(seed);
+            return render_pilot(renderer, n0, seed, robust);
+        };
+        const sentinel::Record r = register_sentinel(session, recording, 16, 2, nullptr);
+        REQUIRE(seeds.size() == 1);
+        CHECK(seeds[0] == downstream_seeds::pilot(2));
+        for (uint32_t s : seeds) {
+            CHECK(s != downstream_seeds::kPool);
+            CHECK(s < downstream_seeds::reference_chunk(0));
+        }
+        REQUIRE(r.renders.size() == 1);
+        CHECK(r.renders[0].seed == downstream_seeds::pilot(2));
+        CHECK(r.renders[0].spp == 16);
+        CHECK(r.diagnosis.pixels == 1024);
+        CHECK(r.diagnosis.robust_checked);  // N0 = 16 allows the median of means
+        CHECK(find(r.predictions, "allocation.robust-floor_vs_robust-var"));
+    }
+
+    TEST_CASE("sentinel: register on cubes_dof writes a record that verify accepts and an edited copy is refused") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("sentinel_cli");
+        const std::string rec = dir.file("cubes_dof.sentinel.json");
+        auto r = testing::run_cli("sentinel register --scene cubes_dof --res 32 --pilot 16 --out " + rec);
+        INFO(r.output);
+        REQUIRE(r.code == 0);
+        CHECK(r.output.find("the reference is not rendered") != std::string::npos);
+        const std::string text = read_text(rec);
+        const auto doc = parse_json(text);
+        REQUIRE(doc);
+        const JsonValue* renders = doc->find("renders");
+        REQUIRE(renders);
+        REQUIRE(renders->array.size() == 1);
+        CHECK(renders->array[0].find("seed")->number == downstream_seeds::pilot(0));
+        CHECK(doc->find("scene")->find("sha256")->string ==
+              sha256_file(std::string(VKMECH_SOURCE_DIR) + "/scenes/cubes_dof.xml"));
+        CHECK(text.find("\"reliability.margin\"") != std::string::npos);
+
+        auto v = testing::run_cli("sentinel verify " + rec);
+        INFO(v.output);
+        CHECK(v.code == 0);
+        CHECK(v.output.find("intact sentinel record of cubes_dof") != std::string::npos);
+
+        // A second registration into the same file is refused (exit 2): a record is never overwritten.
+        CHECK(testing::run_cli("sentinel register --scene cubes_dof --res 32 --pilot 16 --out " + rec).code == 2);
+
+        std::string edited = text;
+        const auto at = edited.find("\"pilot_spp\": 16");
+        REQUIRE(at != std::string::npos);
+        edited.replace(at, 15, "\"pilot_spp\": 64");
+        write_text(rec, edited);
+        v = testing::run_cli("sentinel verify " + rec);
+        CHECK(v.code == 1);
+        CHECK(v.output.find("was edited after registration") != std::string::npos);
+        CHECK(v.output.find(rec) != std::string::npos);
+    }
+}
