@@ -50,8 +50,13 @@ void run_structure(StudyContext& ctx) {
     std::map<std::string, double> rho_dp;                      // scene -> rho(depth, inv_purity) (Finding 2)
     std::map<std::string, stats::Interval> ci_cg, ci_dp;       // their tile-bootstrap intervals
     auto ci_str = [](const stats::Interval& i) {
-        return std::isfinite(i.lo) ? "[" + report::format("%+.3f", i.lo) + ", " + report::format("%+.3f", i.hi) + "]"
-                                   : std::string("n/a");
+        if (!std::isfinite(i.lo)) return std::string("n/a");
+        std::string s = "[";  // appended piecewise: GCC 12 warns falsely (-Wrestrict) on "[" + std::string
+        s += report::format("%+.3f", i.lo);
+        s += ", ";
+        s += report::format("%+.3f", i.hi);
+        s += "]";
+        return s;
     };
     report::Figure fig{"caustic_vs_glossy", "caustic_frac versus glossy_frac per pixel", "", 0, {}};
 
