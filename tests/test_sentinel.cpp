@@ -34,21 +34,21 @@ void write_text(const std::string& path, const std::string& s) {
     out << s;
 }
 
-// A pilot of w x h pixels, each seen with 8 finite samples of a variance, all in bucket `bucket`.
-Frame synthetic_pilot(int w, int h, uint32_t bucket) {
+// A pilot of w x h pixels, each seen with `spp` finite samples (default 16) of a variance, all in bucket `bucket`.
+Frame synthetic_pilot(int w, int h, uint32_t bucket, int spp = 16) {
     Frame f;
     f.width = w;
     f.height = h;
     f.pixels.resize(static_cast<size_t>(w) * h);
     for (size_t p = 0; p < f.pixels.size(); ++p) {
         PixelStats& s = f.pixels[p];
-        s.count = 8;
+        s.count = spp;
         s.lum_mean = 0.5 + 0.01 * static_cast<double>(p % 7);
         s.lum_m2 = 0.1 + 0.02 * static_cast<double>(p % 5);
-        s.rgb_sum = {s.lum_mean * 8, s.lum_mean * 8, s.lum_mean * 8};
-        s.bucket_sum[bucket] = s.lum_mean * 8;
+        s.rgb_sum = {s.lum_mean * spp, s.lum_mean * spp, s.lum_mean * spp};
+        s.bucket_sum[bucket] = s.lum_mean * spp;
     }
-    f.samples = 8 * f.pixels.size();
+    f.samples = static_cast<uint64_t>(spp) * f.pixels.size();
     return f;
 }
 
@@ -189,6 +189,12 @@ TEST_CASE("sentinel: the prediction rules over a pilot diagnosis") {
     d.untrusted = 4;
     CHECK(find(sentinel::predict(pilot.frame, d, nullptr, nullptr), "allocation.observed-var_vs_uniform")->outcome ==
           "helps");
+    CHECK(find(sentinel::predict(pilot.frame, d, nullptr, nullptr), "allocation.guarded_vs_uniform")->outcome == "helps");
+    // A pilot shorter than 16 samples per pixel: the pilot-variance strategies, guarded included, fail against uniform.
+    const Frame short_pilot = synthetic_pilot(10, 10, 0, 8);
+    ps = sentinel::predict(short_pilot, d, nullptr, nullptr);
+    CHECK(find(ps, "allocation.observed-var_vs_uniform")->outcome == "fails");
+    CHECK(find(ps, "allocation.guarded_vs_uniform")->outcome == "fails");
 
     // Finding 1: the sign from the mutual visibility.
     SeparationMeasures sep;

@@ -22,7 +22,12 @@ std::string num(double x) {
     return b;
 }
 
-std::string str(const std::string& s) { return "\"" + json_escape(s) + "\""; }
+std::string str(const std::string& s) {
+    std::string r = "\"";  // appended piecewise: GCC 12 warns falsely (-Wrestrict) on "\"" + std::string
+    r += json_escape(s);
+    r += '"';
+    return r;
+}
 
 Prediction outcome(std::string name, std::string what, std::string covers, std::string rule) {
     return {std::move(name), std::move(what), 0.0, std::move(covers), std::move(rule)};
@@ -61,9 +66,15 @@ std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis&
     char share[160];
     std::snprintf(share, sizeof share, "%zu of %zu pixels untrusted (%.4f; threshold %.2f)", d.untrusted, d.pixels,
                   d.untrusted_share(), kUntrustedFailShare);
-    const bool starved = d.pixels > 0 && d.untrusted_share() >= kUntrustedFailShare;
+    const uint64_t n0 = d.pixels > 0 ? pilot.samples / d.pixels : 0;  // the pilot's samples per pixel
+    const bool short_pilot = n0 < kPilotFailBelowSpp;
+    const bool starved = (d.pixels > 0 && d.untrusted_share() >= kUntrustedFailShare) || short_pilot;
+    const std::string n0_rule = "fails if the pilot has fewer than " + std::to_string(kPilotFailBelowSpp) +
+                                " samples per pixel (this one: " + std::to_string(n0) +
+                                "; first-party evidence: observed-var below uniform on 5 of 7 scenes at N0 = 4, above "
+                                "on 6 of 7 at N0 = 16)";
     const std::string var_rule =
-        std::string("fails if the untrusted share is at least ") + num(kUntrustedFailShare) +
+        n0_rule + " or the untrusted share is at least " + num(kUntrustedFailShare) +
         " (the ajar-door mode: the pilot leaves pixels it cannot vouch for with the floor only), helps otherwise; " + share;
     out.push_back(outcome("allocation.observed-var_vs_uniform", starved ? "fails" : "helps", all_px, var_rule));
     out.push_back(outcome("allocation.bucket-floor_vs_uniform", starved ? "fails" : "helps", all_px, var_rule));
@@ -81,9 +92,9 @@ std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis&
     out.push_back(outcome("allocation.guarded_vs_bucket-floor", d.untrusted == 0 ? "no-op" : "helps", all_px,
                           std::string("no-op if no pilot pixel is untrusted (identical allocation), helps otherwise; ") +
                               share));
-    out.push_back(outcome("allocation.guarded_vs_uniform", "helps", all_px,
-                          "helps always: guarded keeps at least the uniform share where the pilot cannot be trusted "
-                          "and allocates by the pilot elsewhere"));
+    out.push_back(outcome("allocation.guarded_vs_uniform", short_pilot ? "fails" : "helps", all_px,
+                          n0_rule + ", helps otherwise: guarded keeps at least the uniform share where the pilot "
+                          "cannot be trusted, so only the pilot's length is held against it"));
 
     // (d) Finding 1: the sign of rho(C, G) from the families' mutual visibility.
     if (sep && sep->defined() && std::isfinite(sep->mutual_visibility)) {

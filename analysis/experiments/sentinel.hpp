@@ -35,6 +35,11 @@ inline constexpr int kFormatVersion = 1;
 // A pilot-variance strategy is predicted to fail against uniform when at
 // least this share of the pixels is untrusted (§6.5): the ajar-door mode.
 inline constexpr double kUntrustedFailShare = 0.05;
+// A pilot-variance strategy is also predicted to fail against uniform when the
+// pilot has fewer samples per pixel than this: in the committed first-party
+// study (docs/results/allocation) observed-var is below uniform on 5 of 7
+// scenes at N0 = 4 and above it on 6 of 7 at N0 = 16.
+inline constexpr uint32_t kPilotFailBelowSpp = 16;
 // rho(C, G) is predicted positive when the delta-S and glossy families' mutual
 // visibility is at least this, negative below it (Finding 1; anchors:
 // tabletop_mixed 0.122 -> +0.278, tabletop_separated 0.000 -> -0.681).
