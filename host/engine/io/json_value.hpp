@@ -19,6 +19,16 @@ struct JsonValue {
     std::vector<JsonValue> array;
     std::vector<std::pair<std::string, JsonValue>> object;
 
+    // Defined in json_value.cpp, where JsonValue is complete: a member vector of
+    // pair<string, JsonValue> cannot be destroyed or copied in-class (clang
+    // with libstdc++ refuses the incomplete pair).
+    JsonValue();
+    JsonValue(const JsonValue&);
+    JsonValue(JsonValue&&) noexcept;
+    JsonValue& operator=(const JsonValue&);
+    JsonValue& operator=(JsonValue&&) noexcept;
+    ~JsonValue();
+
     // The member `key` of an object (the first one), or nullptr.
     const JsonValue* find(const std::string& key) const;
 };
