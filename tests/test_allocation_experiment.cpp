@@ -223,15 +223,25 @@ TEST_CASE("allocation experiment: runs over a synthetic source without a device 
     // No heavy-tailed bucket: the bucket floor changes nothing, so bucket-floor ties observed-var exactly.
     CHECK(rows[1][2] == rows[1][3]);
     CHECK(rows[1][7] == "tie");
-    // Every configuration is listed: 2 pilots x (6 base strategies) + 3 robust at N0 = 16 (the budget sweep's
-    // extra 32 is the main budget).
+    // Every configuration is listed: 2 pilots x (6 base strategies + guarded and shrink) + 3 robust at N0 = 16
+    // (the budget sweep's extra 32 is the main budget).
     // The block-count sweep asks for each N0 = 16 draw's samples once, and has one row per valid k.
     CHECK(std::count(src.calls.begin(), src.calls.end(), "pilot samples synthetic 16 0") == 1);
     CHECK(std::count(src.calls.begin(), src.calls.end(), "pilot samples synthetic 4 0") == 0);  // MoM undefined at 4
     auto mom = read_csv(tmp.file("tables/mom_sweep.csv"));
     CHECK(mom.size() == 1 + 5);  // k = 2, 3, 4, 6, 8 all give blocks of >= 2 samples at N0 = 16
     auto all = read_csv(tmp.file("tables/downstream_all.csv"));
-    CHECK(all.size() == 1 + 2 * 6 + 3);
+    CHECK(all.size() == 1 + 2 * 8 + 3);
+    // The strategies beyond the paper, one row per pilot; with no untrusted pilot pixel guarded is bucket-floor.
+    auto beyond = read_csv(tmp.file("tables/beyond_floor.csv"));
+    REQUIRE(beyond.size() == 1 + 2);
+    for (size_t r = 1; r < beyond.size(); ++r) {
+        CAPTURE(r);
+        if (std::stod(beyond[r][2]) == 0.0) {
+            CHECK(beyond[r][6] == beyond[r][5]);
+            CHECK(beyond[r][9] == "tie");
+        }
+    }
 }
 
 TEST_CASE("allocation experiment: a pool that does not match the reference's film is refused naming the scene") {

@@ -103,6 +103,10 @@ void run_allocation(AllocationContext& a) {
     const std::vector<Strategy> base = {Strategy::Uniform, Strategy::ObservedVar, Strategy::BucketFloor,
                                         Strategy::Oracle,  Strategy::Placebo,     Strategy::LabelOracle};
     const std::vector<Strategy> robust = {Strategy::RobustVar, Strategy::RobustFloor, Strategy::RobustPlacebo};
+    const std::vector<Strategy> beyond = {Strategy::Guarded, Strategy::Shrink};  // not in the paper (§6.5, §6.6)
+    Table beyond_t{"beyond_floor", "Strategies beyond the paper: guarded (§6.5) and shrink (§6.6), floor 1",
+                   {"scene", "N0", "untrusted px", "uniform", "obs-var", "b-floor", "guarded", "shrink", "placebo",
+                    "MSE wins guarded vs b-floor", "MSE wins shrink vs obs-var"}, {}, ""};
 
     Table main_t{"downstream", "", {"scene", "uniform", "obs-var", "b-floor", "oracle", "label-oracle", "placebo",
                                     "MSE wins", "p99 wins", "seed std obs/b-floor (dB)"}, {}, ""};
@@ -196,6 +200,12 @@ void run_allocation(AllocationContext& a) {
                 in.oracle_var = &d.pool.oracle_var;
                 in.reference_labels = &d.ref_labels;
                 if (!pl.mom_var.empty()) in.mom_var = &pl.mom_var;
+                in.pilot_spp = n0;
+                alloc::PilotDiagnosis diag;
+                if (s == Strategy::Guarded) {
+                    diag = alloc::diagnose_pilot(pl);
+                    in.untrusted = &diag.untrusted_map;
+                }
                 AdaptivePlan plan = plan_allocation(s, in, extra, floor, 7919u * (k + 1));  // placebo: fresh per draw
                 res[key].push_back(evaluate(d, plan.n));
                 if (k == 0) allocs[key].push_back(plan.n);
@@ -204,6 +214,8 @@ void run_allocation(AllocationContext& a) {
         for (uint32_t n0 : cfg.alloc_pilots)
             for (uint32_t floor : cfg.alloc_floors) {
                 for (Strategy s : base) run_config(n0, floor, cfg.alloc_extra, s);
+                if (floor == 1)
+                    for (Strategy s : beyond) run_config(n0, floor, cfg.alloc_extra, s);
                 if (alloc::mom_defined(static_cast<int>(n0)))
                     for (Strategy s : robust) run_config(n0, floor, cfg.alloc_extra, s);
             }
@@ -300,6 +312,22 @@ void run_allocation(AllocationContext& a) {
                           Cell::str(std::to_string(w.wins) + "/" + std::to_string(w.draws)),
                           Cell::num(m(Strategy::Placebo) - m(Strategy::ObservedVar), "%+.2f"),
                           Cell::num(m(Strategy::BucketFloor) - m(Strategy::ObservedVar), "%+.2f")});
+        }
+        for (uint32_t n0 : cfg.alloc_pilots) {
+            auto m = [&](Strategy s) { return Cell::num(stats::mean(psnrs({n0, 1, cfg.alloc_extra, s})), "%.2f"); };
+            auto wins = [&](Strategy a, Strategy b) {
+                const auto ma = mses({n0, 1, cfg.alloc_extra, a}, false), mb = mses({n0, 1, cfg.alloc_extra, b}, false);
+                if (ma == mb) return Cell::str("tie");
+                const auto w = alloc::paired_wins(ma, mb);
+                return Cell::str(std::to_string(w.wins) + "/" + std::to_string(w.draws));
+            };
+            double untrusted = 0.0;  // mean over the draws of the pilot's untrusted pixels
+            for (const Pilot& pl : d.pilots[n0]) untrusted += static_cast<double>(alloc::diagnose_pilot(pl).untrusted);
+            untrusted /= static_cast<double>(d.pilots[n0].size());
+            beyond_t.add({Cell::str(scene.name), Cell::integer(n0), Cell::num(untrusted, "%.1f"), m(Strategy::Uniform),
+                          m(Strategy::ObservedVar), m(Strategy::BucketFloor), m(Strategy::Guarded), m(Strategy::Shrink),
+                          m(Strategy::Placebo), wins(Strategy::Guarded, Strategy::BucketFloor),
+                          wins(Strategy::Shrink, Strategy::ObservedVar)});
         }
         for (const auto& [k, errs] : res) {
             auto p = psnrs(k);
@@ -455,6 +483,12 @@ void run_allocation(AllocationContext& a) {
                 in.pilot_var = &pl.var;
                 in.pilot_labels = &pl.labels;
                 if (!pl.mom_var.empty()) in.mom_var = &pl.mom_var;
+                in.pilot_spp = n0;
+                alloc::PilotDiagnosis diag;
+                if (s == Strategy::Guarded) {
+                    diag = alloc::diagnose_pilot(pl);
+                    in.untrusted = &diag.untrusted_map;
+                }
                 AdaptivePlan plan = plan_allocation(s, in, cfg.alloc_extra, 1, 7919u);
                 double fs_ = final_seconds(plan.n);
                 timing_t.add({Cell::str(scene.name), Cell::integer(n0), Cell::str(alloc::to_string(s)),
@@ -533,6 +567,12 @@ void run_allocation(AllocationContext& a) {
                                 "difference sits in pixels brighter than 1.");
     a.out.table(sec, peak_t, "the peak each scene's PSNR is taken against.");
     a.out.table(sec, bucket_t, "where bucket-floor's gain or loss lands, by the reference's dominant bucket.");
+    beyond_t.note = "PSNR (dB, unclamped, reference peak), mean over the draws, at every pilot N0, floor 1, extra budget " +
+                    ex + ". untrusted px: the pilot's untrusted pixels (§6.5), mean over the draws. guarded: bucket-floor "
+                    "with at least the uniform share on them; shrink: the pilot variance shrunk on the log scale towards "
+                    "its label's empirical-Bayes prior. Wins: draws with the lower MSE; \"tie\": identical in every draw.";
+    a.out.table(sec, beyond_t, "whether the two strategies that go past the paper help: guarded should matter only where "
+                               "the pilot leaves untrusted pixels, shrink most at the shortest pilot.");
     a.out.table(sec, all_t, "every pilot, floor, budget and strategy, for further analysis.");
     if (!mom_t.rows.empty()) {
         mom_t.note = "Per pilot N0 where median-of-means is defined and per block count k (blocks of floor(N0 / k) "
