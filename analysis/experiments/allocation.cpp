@@ -35,7 +35,22 @@ struct SceneData {
     std::vector<uint8_t> ref_labels;
     SamplePool pool;
     std::map<uint32_t, std::vector<Pilot>> pilots;  // N0 -> draws
+    std::map<uint32_t, std::vector<alloc::PilotDiagnosis>> diagnoses;  // N0 -> the draws' diagnoses (§6.5)
 };
+
+// The strategy inputs of pilot draw k at N0 (the oracle and the reference labels, for the controls).
+alloc::ScoreInputs pilot_inputs(const SceneData& d, uint32_t n0, uint32_t k) {
+    const Pilot& pl = d.pilots.at(n0)[k];
+    alloc::ScoreInputs in;
+    in.pilot_var = &pl.var;
+    in.pilot_labels = &pl.labels;
+    in.oracle_var = &d.pool.oracle_var;
+    in.reference_labels = &d.ref_labels;
+    if (!pl.mom_var.empty()) in.mom_var = &pl.mom_var;
+    in.untrusted = &d.diagnoses.at(n0)[k].untrusted_map;
+    in.pilot_spp = n0;
+    return in;
+}
 
 // Errors of one final image against the reference. Primary: unclamped linear
 // RGB (MSE; relative MSE (x - r)^2 / (r^2 + 0.01); p99 of the absolute
@@ -183,6 +198,7 @@ void run_allocation(AllocationContext& a) {
                 if (p.var.size() != d.P)
                     throw std::runtime_error("allocation study: pilot " + std::to_string(k) + " of " + scene.name +
                                              " has " + std::to_string(p.var.size()) + " pixels, not " + std::to_string(d.P));
+                d.diagnoses[n0].push_back(alloc::diagnose_pilot(p));
                 d.pilots[n0].push_back(std::move(p));
             }
 
@@ -193,20 +209,7 @@ void run_allocation(AllocationContext& a) {
             Key key{n0, floor, extra, s};
             if (res.count(key)) return;
             for (uint32_t k = 0; k < K; ++k) {
-                const Pilot& pl = d.pilots[n0][k];
-                alloc::ScoreInputs in;
-                in.pilot_var = &pl.var;
-                in.pilot_labels = &pl.labels;
-                in.oracle_var = &d.pool.oracle_var;
-                in.reference_labels = &d.ref_labels;
-                if (!pl.mom_var.empty()) in.mom_var = &pl.mom_var;
-                in.pilot_spp = n0;
-                alloc::PilotDiagnosis diag;
-                if (s == Strategy::Guarded) {
-                    diag = alloc::diagnose_pilot(pl);
-                    in.untrusted = &diag.untrusted_map;
-                }
-                AdaptivePlan plan = plan_allocation(s, in, extra, floor, 7919u * (k + 1));  // placebo: fresh per draw
+                AdaptivePlan plan = plan_allocation(s, pilot_inputs(d, n0, k), extra, floor, 7919u * (k + 1));  // placebo: fresh per draw
                 res[key].push_back(evaluate(d, plan.n));
                 if (k == 0) allocs[key].push_back(plan.n);
             }
@@ -322,8 +325,8 @@ void run_allocation(AllocationContext& a) {
                 return Cell::str(std::to_string(w.wins) + "/" + std::to_string(w.draws));
             };
             double untrusted = 0.0;  // mean over the draws of the pilot's untrusted pixels
-            for (const Pilot& pl : d.pilots[n0]) untrusted += static_cast<double>(alloc::diagnose_pilot(pl).untrusted);
-            untrusted /= static_cast<double>(d.pilots[n0].size());
+            for (const alloc::PilotDiagnosis& dg : d.diagnoses[n0]) untrusted += static_cast<double>(dg.untrusted);
+            untrusted /= static_cast<double>(d.diagnoses[n0].size());
             beyond_t.add({Cell::str(scene.name), Cell::integer(n0), Cell::num(untrusted, "%.1f"), m(Strategy::Uniform),
                           m(Strategy::ObservedVar), m(Strategy::BucketFloor), m(Strategy::Guarded), m(Strategy::Shrink),
                           m(Strategy::Placebo), wins(Strategy::Guarded, Strategy::BucketFloor),
@@ -427,9 +430,7 @@ void run_allocation(AllocationContext& a) {
                 for (int kk : ks) {
                     const std::vector<double> mv = ps.mom_variance(kk);
                     fidelity(kk, mv);
-                    alloc::ScoreInputs in;
-                    in.pilot_var = &pl.var;
-                    in.pilot_labels = &pl.labels;
+                    alloc::ScoreInputs in = pilot_inputs(d, n0, k);
                     in.mom_var = &mv;
                     ev[kk].push_back(evaluate(d, plan_allocation(Strategy::RobustVar, in, cfg.alloc_extra, 1, 0).n));
                     ef[kk].push_back(evaluate(d, plan_allocation(Strategy::RobustFloor, in, cfg.alloc_extra, 1, 0).n));
@@ -479,17 +480,7 @@ void run_allocation(AllocationContext& a) {
             if (alloc::mom_defined(static_cast<int>(n0))) timed.insert(timed.end(), {Strategy::RobustVar, Strategy::RobustFloor});
             for (Strategy s : timed) {
                 const Pilot& pl = d.pilots[n0][0];
-                alloc::ScoreInputs in;
-                in.pilot_var = &pl.var;
-                in.pilot_labels = &pl.labels;
-                if (!pl.mom_var.empty()) in.mom_var = &pl.mom_var;
-                in.pilot_spp = n0;
-                alloc::PilotDiagnosis diag;
-                if (s == Strategy::Guarded) {
-                    diag = alloc::diagnose_pilot(pl);
-                    in.untrusted = &diag.untrusted_map;
-                }
-                AdaptivePlan plan = plan_allocation(s, in, cfg.alloc_extra, 1, 7919u);
+                AdaptivePlan plan = plan_allocation(s, pilot_inputs(d, n0, 0), cfg.alloc_extra, 1, 7919u);
                 double fs_ = final_seconds(plan.n);
                 timing_t.add({Cell::str(scene.name), Cell::integer(n0), Cell::str(alloc::to_string(s)),
                             Cell::num(pl.seconds, "%.3f"), Cell::num(plan.allocation_ms, "%.2f"), Cell::num(fs_, "%.3f"),
@@ -509,11 +500,7 @@ void run_allocation(AllocationContext& a) {
                 for (const auto& pl : d.pilots[n0_main]) pilot_s += pl.seconds / K;
                 for (uint32_t extra : cfg.equal_time_budgets) {
                     run_config(n0_main, 1, extra, s);
-                    const Pilot& pl = d.pilots[n0_main][0];
-                    alloc::ScoreInputs in;
-                    in.pilot_var = &pl.var;
-                    in.pilot_labels = &pl.labels;
-                    AdaptivePlan plan = plan_allocation(s, in, extra, 1, 7919u);
+                    AdaptivePlan plan = plan_allocation(s, pilot_inputs(d, n0_main, 0), extra, 1, 7919u);
                     double t = pilot_s + plan.allocation_ms / 1000.0 + final_seconds(plan.n);
                     double ps = stats::mean(psnrs({n0_main, 1, extra, s}));
                     eq_t.add({Cell::str(scene.name), Cell::str(alloc::to_string(s)), Cell::integer(extra), Cell::num(t, "%.3f"),
