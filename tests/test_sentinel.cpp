@@ -4,6 +4,7 @@
 #include "adaptive/adaptive.hpp"
 #include "cli_run.hpp"
 #include "experiments/sentinel.hpp"
+#include "experiments/sentinel_eval.hpp"
 #include "gpu_fixture.hpp"
 #include "io/json_value.hpp"
 #include "io/sha256.hpp"
@@ -13,6 +14,8 @@
 
 #include <doctest/doctest.h>
 
+#include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -78,6 +81,175 @@ sentinel::Record small_record() {
 }
 
 }  // namespace
+
+TEST_CASE("sentinel: a record read back from its JSON keeps what evaluate needs") {
+    sentinel::Record r = small_record();
+    r.params = {{"alpha", "0.03"}, {"lights", "4"}};
+    r.scene_files.push_back({"/nowhere/tex.png", sha256_hex("tex")});
+    r.protocol = {512, 7, 16, 4};
+    r.curve_path = "/nowhere/curve.json";
+    r.curve_sha256 = sha256_hex("curve");
+    r.curve_pilot_spp = 64;
+    r.curve_reference_spp = 2048;
+    const auto doc = parse_json(sentinel::seal(sentinel::record_json(r)));
+    REQUIRE(doc);
+    const sentinel::Record b = sentinel::parse_record(*doc);
+    CHECK(b.scene_path == r.scene_path);
+    CHECK(b.scene_sha256 == r.scene_sha256);
+    CHECK(b.params == r.params);
+    REQUIRE(b.scene_files.size() == 1);
+    CHECK(b.scene_files[0].sha256 == r.scene_files[0].sha256);
+    CHECK(b.protocol.reference_spp == 512);
+    CHECK(b.protocol.draws == 7);
+    CHECK(b.protocol.extra_spp == 16);
+    CHECK(b.protocol.floor == 4);
+    CHECK(b.curve_reference_spp == 2048);
+    CHECK(b.pilot_spp == r.pilot_spp);
+    CHECK(b.pilot_seed == r.pilot_seed);
+    CHECK(b.diagnosis.labelled == r.diagnosis.labelled);
+    CHECK(b.diagnosis.untrusted == r.diagnosis.untrusted);
+    REQUIRE(b.predictions.size() == r.predictions.size());
+    for (size_t i = 0; i < b.predictions.size(); ++i) {
+        CHECK(b.predictions[i].name == r.predictions[i].name);
+        CHECK(b.predictions[i].outcome == r.predictions[i].outcome);
+        CHECK(b.predictions[i].pass_if == r.predictions[i].pass_if);
+        CHECK(!b.predictions[i].pass_if.empty());
+        if (r.predictions[i].outcome.empty()) {
+            CHECK(b.predictions[i].value == doctest::Approx(r.predictions[i].value).epsilon(1e-8));
+            CHECK(b.predictions[i].tolerance == doctest::Approx(r.predictions[i].tolerance));
+        }
+    }
+}
+
+namespace {
+
+// A 4x4 film, all diffuse_indirect: pixels 0..7 ("A") constant 1, pixels 8..15
+// ("B") alternate 1 + a, 1 - a sample by sample in the pool. The reference is
+// exactly 1. The pilot is misleading: it sees variance in A and none in B, so
+// observed-var gives B its floor of one sample (error a^2) where uniform gives
+// it 33 (error (a/33)^2): observed-var fails against uniform on every draw.
+struct MisleadingScene {
+    static constexpr int W = 4, H = 4;
+    static constexpr size_t P = 16;
+    static constexpr double a = 0.5;
+    Frame reference;
+    SamplePool pool;
+    std::vector<Pilot> pilots;
+    MisleadingScene(int draws) {
+        reference.width = W;
+        reference.height = H;
+        reference.pixels.resize(P);
+        for (auto& px : reference.pixels) {
+            px.count = 1000;
+            px.rgb_sum = {1000, 1000, 1000};
+            px.lum_mean = 1;
+            px.bucket_sum[2] = 1000;
+        }
+        reference.samples = 1000 * P;
+        pool.frames = downstream_seeds::kPoolSize;
+        pool.pixels = P;
+        pool.samples.assign(pool.frames * P * 4, 0.0f);
+        for (uint32_t f = 0; f < pool.frames; ++f)
+            for (size_t p = 0; p < P; ++p) {
+                const float v = p < 8 ? 1.0f : (f % 2 == 0 ? 1.0f + float(a) : 1.0f - float(a));
+                float* x = &pool.samples[(f * P + p) * 4];
+                x[0] = x[1] = x[2] = v;
+                x[3] = 1.0f;
+            }
+        pool.oracle_var.assign(P, 0.0);
+        for (size_t p = 8; p < P; ++p) pool.oracle_var[p] = a * a;
+        for (int k = 0; k < draws; ++k) {
+            Frame f = reference;
+            for (size_t p = 0; p < P; ++p) {
+                f.pixels[p].count = 16;
+                f.pixels[p].rgb_sum = {16, 16, 16};
+                f.pixels[p].bucket_sum[2] = 16;
+                f.pixels[p].lum_m2 = p < 8 ? 15.0 * (1.0 + k) : 0.0;
+            }
+            f.samples = 16 * P;
+            pilots.push_back(make_pilot(f, {}));
+        }
+    }
+};
+
+sentinel::Prediction numeric(const std::string& name, double value, double tol) {
+    sentinel::Prediction p;
+    p.name = name;
+    p.value = value;
+    p.tolerance = tol;
+    return p;
+}
+sentinel::Prediction categorical(const std::string& name, const std::string& outcome) {
+    sentinel::Prediction p;
+    p.name = name;
+    p.outcome = outcome;
+    return p;
+}
+std::string verdict(const sentinel::Evaluation& e, const std::string& name) {
+    for (const auto& o : e.outcomes)
+        if (o.name == name) return o.verdict;
+    return "missing";
+}
+
+}  // namespace
+
+TEST_CASE("sentinel: evaluate decides every prediction by its registered rule") {
+    MisleadingScene s(3);
+    sentinel::Record r;
+    r.scene_name = "misleading";
+    r.width = MisleadingScene::W;
+    r.height = MisleadingScene::H;
+    r.pilot_spp = 16;
+    r.protocol = {1000, 3, 32, 1};
+    r.diagnosis = alloc::diagnose_pilot(s.pilots[0]);
+    r.predictions = {numeric("coverage.diffuse_indirect.pixel_share", 0.97, 0.05),
+                     numeric("coverage.direct.pixel_share", 0.10, 0.05),
+                     numeric("coverage.diffuse_indirect.energy_share", 1.0, 0.0),
+                     numeric("reliability.margin", 0.95, 0.09),
+                     numeric("reliability.purity", 0.80, 0.09),
+                     categorical("allocation.observed-var_vs_uniform", "fails"),
+                     categorical("allocation.bucket-floor_vs_uniform", "helps"),
+                     categorical("allocation.bucket-floor_vs_observed-var", "no-op"),
+                     categorical("allocation.guarded_vs_bucket-floor", "no-op"),
+                     categorical("allocation.nonsense_vs_uniform", "helps"),
+                     categorical("structure.rho_CG_sign", "positive"),
+                     categorical("something.new", "positive")};
+    sentinel::EvalInputs in;
+    in.reference = &s.reference;
+    in.pool = &s.pool;
+    in.pilots = s.pilots;
+    const sentinel::Evaluation e = sentinel::evaluate(r, in);
+    CHECK(e.pilot_reproduced);
+    CHECK(verdict(e, "coverage.diffuse_indirect.pixel_share") == "PASS");  // measured 1.0, |0.03| <= 0.05
+    CHECK(verdict(e, "coverage.direct.pixel_share") == "FAIL");            // measured 0.0, |0.10| > 0.05
+    CHECK(verdict(e, "coverage.diffuse_indirect.energy_share") == "PASS"); // exactly 1.0 within a band of 0
+    CHECK(verdict(e, "reliability.margin") == "PASS");                     // agreement 1.0
+    CHECK(verdict(e, "reliability.purity") == "FAIL");
+    CHECK(verdict(e, "allocation.observed-var_vs_uniform") == "PASS");     // the floor of 1 in B: a^2 against (a/33)^2
+    CHECK(verdict(e, "allocation.bucket-floor_vs_uniform") == "FAIL");
+    CHECK(verdict(e, "allocation.bucket-floor_vs_observed-var") == "PASS");  // no heavy label: identical plans
+    // B is lit with no pilot variance: untrusted, so guarded moves samples there and is not a no-op.
+    CHECK(r.diagnosis.untrusted == 8);
+    CHECK(verdict(e, "allocation.guarded_vs_bucket-floor") == "FAIL");
+    CHECK(verdict(e, "allocation.nonsense_vs_uniform") == "INDETERMINATE");
+    CHECK(verdict(e, "structure.rho_CG_sign") == "INDETERMINATE");  // no caustic or glossy energy: degenerate
+    CHECK(verdict(e, "something.new") == "INDETERMINATE");
+    CHECK(e.pass == 5);
+    CHECK(e.fail == 4);
+    CHECK(e.indeterminate == 3);
+    // The uniform image: A exact, B the mean of 33 alternating samples (one extra 1 + a): error (a/33)^2 on half the pixels.
+    const double uniform_mse = 0.5 * (0.5 / 33) * (0.5 / 33);
+    REQUIRE(e.strategies.front().name == "uniform");
+    CHECK(e.strategies.front().mse[0] == doctest::Approx(uniform_mse).epsilon(1e-6));
+    CHECK(e.peak == doctest::Approx(1.0));
+
+    // A registered diagnosis that the pilot does not reproduce is reported, not hidden.
+    r.diagnosis.labelled = 3;
+    CHECK_FALSE(sentinel::evaluate(r, in).pilot_reproduced);
+    // The inputs must match the protocol.
+    r.protocol.draws = 2;
+    CHECK_THROWS_AS(sentinel::evaluate(r, in), std::invalid_argument);
+}
 
 TEST_CASE("sentinel: sha256 matches the FIPS 180 test vectors") {
     CHECK(sha256_hex("") == "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
@@ -262,6 +434,36 @@ TEST_SUITE("gpu") {
         // A second registration into the same file is refused (exit 2): a record is never overwritten.
         CHECK(testing::run_cli("sentinel register --scene cubes_dof --res 32 --pilot 16 --out " + rec).code == 2);
 
+        // Evaluate the intact record with a small protocol (registered below): PASS/FAIL per prediction.
+        const std::string rec2 = dir.file("small.sentinel.json");
+        REQUIRE(testing::run_cli("sentinel register --scene cubes_dof --res 16 --pilot 8 --reference-spp 64 --draws 2 "
+                                 "--out " + rec2).code == 0);
+        const std::string ev = dir.file("ev");
+        auto e = testing::run_cli("sentinel evaluate " + rec2 + " --out " + ev);
+        INFO(e.output);
+        REQUIRE(e.code == 0);
+        const auto evdoc = parse_json(read_text(ev + "/evaluation.json"));
+        REQUIRE(evdoc);
+        const auto recdoc = parse_json(read_text(rec2));
+        REQUIRE(recdoc);
+        CHECK(evdoc->find("outcomes")->array.size() == recdoc->find("predictions")->array.size());
+        CHECK(evdoc->find("record")->find("sha256")->string == recdoc->find("sha256")->string);
+        CHECK(evdoc->find("summary")->find("pilot_reproduced")->boolean);
+        CHECK(read_text(ev + "/report.md").find("| allocation.observed-var_vs_uniform | fails |") != std::string::npos);
+        // An existing evaluation is not overwritten without --force.
+        CHECK(testing::run_cli("sentinel evaluate " + rec2 + " --out " + ev).code == 2);
+
+        // A record of a scene that changed after registration is refused (exit 1).
+        const std::string scene_copy = dir.file("copy.xml");
+        std::filesystem::copy_file(std::string(VKMECH_SOURCE_DIR) + "/scenes/cubes_dof.xml", scene_copy);
+        const std::string rec3 = dir.file("copy.sentinel.json");
+        REQUIRE(testing::run_cli("sentinel register --scene " + scene_copy + " --res 16 --pilot 8 --reference-spp 64 "
+                                 "--draws 1 --out " + rec3).code == 0);
+        write_text(scene_copy, read_text(scene_copy) + "<!-- edited -->\n");
+        e = testing::run_cli("sentinel evaluate " + rec3 + " --out " + dir.file("ev3"));
+        CHECK(e.code == 1);
+        CHECK(e.output.find("changed since registration") != std::string::npos);
+
         std::string edited = text;
         const auto at = edited.find("\"pilot_spp\": 16");
         REQUIRE(at != std::string::npos);
@@ -271,5 +473,10 @@ TEST_SUITE("gpu") {
         CHECK(v.code == 1);
         CHECK(v.output.find("was edited after registration") != std::string::npos);
         CHECK(v.output.find(rec) != std::string::npos);
+        // evaluate refuses it too, before rendering anything.
+        e = testing::run_cli("sentinel evaluate " + rec + " --out " + dir.file("ev2"));
+        CHECK(e.code == 1);
+        CHECK(e.output.find("refusing to evaluate") != std::string::npos);
+        CHECK_FALSE(std::filesystem::exists(dir.file("ev2") + "/cache"));
     }
 }

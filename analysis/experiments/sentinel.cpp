@@ -29,8 +29,32 @@ std::string str(const std::string& s) {
     return r;
 }
 
+// How evaluate decides a categorical prediction (docs/descriptor.md §9.4).
+std::string pass_rule(const std::string& name, const std::string& what) {
+    if (name.rfind("allocation.", 0) == 0) {
+        const std::string pair = name.substr(11);
+        const size_t vs = pair.find("_vs_");
+        const std::string a = pair.substr(0, vs), b = vs == std::string::npos ? "?" : pair.substr(vs + 4);
+        const std::string over = " over the protocol's pilot draws (equal samples: the protocol's extra budget and floor, "
+                                 "final images from the shared pool, PSNR on unclamped RGB against the reference)";
+        const std::string share = num(kWinShare);
+        if (what == "helps")
+            return "PASS if " + a + "'s mean PSNR is above " + b + "'s and its MSE is lower on at least " + share +
+                   " of the draws, FAIL if its mean PSNR is not above, INDETERMINATE otherwise" + over;
+        if (what == "fails")
+            return "PASS if " + a + "'s mean PSNR is below " + b + "'s and its MSE is higher on at least " + share +
+                   " of the draws, FAIL if its mean PSNR is not below, INDETERMINATE otherwise" + over;
+        if (what == "no-op") return "PASS if " + a + "'s allocation equals " + b + "'s bit for bit on the registered draw";
+    }
+    if (name == "structure.rho_CG_sign")
+        return "PASS if the 95% tile-bootstrap interval of rho (8x8-pixel tiles, 1000 resamples, seed 0) lies on the "
+               "predicted side of 0, FAIL if it lies on the other side, INDETERMINATE if it contains 0 or rho is undefined";
+    return "";
+}
+
 Prediction outcome(std::string name, std::string what, std::string covers, std::string rule) {
-    return {std::move(name), std::move(what), 0.0, std::move(covers), std::move(rule)};
+    std::string pass = pass_rule(name, what);
+    return {std::move(name), std::move(what), 0.0, std::move(covers), std::move(rule), std::move(pass)};
 }
 
 }  // namespace
@@ -44,10 +68,16 @@ std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis&
     if (curve) {
         const PilotPrediction p = predict_from_pilot(*curve, pilot);
         const std::string covers = std::to_string(p.labelled) + " pilot-labelled pixels of " + std::to_string(d.pixels);
+        const std::string pass = "PASS if |measured - predicted| <= " + num(kReliabilityTolerance) +
+                                 " (the curve's largest first-party leave-one-scene-out error, rounded up); measured: "
+                                 "the share of the pixels labelled in both the registered pilot and the reference whose "
+                                 "dominant labels agree (§5 agreement)";
         out.push_back({"reliability.margin", "", p.margin, covers,
-                       "mean of the frozen margin curve over the pilot-labelled pixels' argmax margins (§5.6)"});
+                       "mean of the frozen margin curve over the pilot-labelled pixels' argmax margins (§5.6)", pass,
+                       kReliabilityTolerance});
         out.push_back({"reliability.purity", "", p.purity, covers,
-                       "mean of the frozen purity curve over the pilot-labelled pixels' purities (§5.6)"});
+                       "mean of the frozen purity curve over the pilot-labelled pixels' purities (§5.6)", pass,
+                       kReliabilityTolerance});
     }
 
     // (b) Per-bucket coverage of the pilot (§3.2 summary): predicted to hold at the reference.
@@ -55,11 +85,14 @@ std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis&
     const DescriptorSummary s = summarize(pilot, desc);
     for (uint32_t b = 0; b < kBucketCount; ++b) {
         const std::string bucket = kBucketNames[b];
+        const std::string band = "PASS if |measured - predicted| <= " + num(kShareTolerance) + "; measured: ";
         out.push_back({"coverage." + bucket + ".pixel_share", "", s.pixel_share[b],
                        std::to_string(s.labelled_pixels) + " pilot-labelled pixels",
-                       "the pilot's share of labelled pixels whose dominant bucket is " + bucket});
+                       "the pilot's share of labelled pixels whose dominant bucket is " + bucket,
+                       band + "the same share in the reference", kShareTolerance});
         out.push_back({"coverage." + bucket + ".energy_share", "", s.energy_share[b], all_px,
-                       "the pilot's share of the image energy in bucket " + bucket});
+                       "the pilot's share of the image energy in bucket " + bucket,
+                       band + "the same share in the reference", kShareTolerance});
     }
 
     // (c) Allocation strategies (§6), from the pilot diagnosis (§6.5).
@@ -118,12 +151,17 @@ std::string record_json(const Record& r) {
     for (size_t i = 0; i < r.scene_files.size(); ++i)
         j << (i ? ", " : "") << "{\"path\": " << str(r.scene_files[i].path) << ", \"sha256\": " << str(r.scene_files[i].sha256)
           << "}";
-    j << "]}";
+    j << "], \"params\": {";
+    size_t pi = 0;
+    for (const auto& [k, v] : r.params) j << (pi++ ? ", " : "") << str(k) << ": " << str(v);
+    j << "}}";
     j << ",\n  \"settings\": {\"width\": " << r.width << ", \"height\": " << r.height << ", \"pilot_spp\": " << r.pilot_spp
       << ", \"pilot_draw\": " << r.pilot_draw << ", \"pilot_seed\": " << r.pilot_seed
       << ", \"estimator\": " << str(r.estimator) << ", \"end_vertex\": " << str(r.end_vertex)
       << ", \"light_selection\": " << str(r.light_selection) << ", \"max_depth\": " << r.max_depth
       << ", \"rr_depth\": " << r.rr_depth << ", \"traversal\": " << str(r.traversal) << "}";
+    j << ",\n  \"protocol\": {\"reference_spp\": " << r.protocol.reference_spp << ", \"draws\": " << r.protocol.draws
+      << ", \"extra_spp\": " << r.protocol.extra_spp << ", \"floor\": " << r.protocol.floor << "}";
     j << ",\n  \"renders\": [";
     for (size_t i = 0; i < r.renders.size(); ++i)
         j << (i ? ", " : "") << "{\"purpose\": \"pilot\", \"seed\": " << r.renders[i].seed << ", \"spp\": " << r.renders[i].spp
@@ -137,7 +175,7 @@ std::string record_json(const Record& r) {
     if (r.curve_path.empty()) j << "null";
     else
         j << "{\"path\": " << str(r.curve_path) << ", \"sha256\": " << str(r.curve_sha256)
-          << ", \"pilot_spp\": " << r.curve_pilot_spp << "}";
+          << ", \"pilot_spp\": " << r.curve_pilot_spp << ", \"reference_spp\": " << r.curve_reference_spp << "}";
     j << ",\n  \"diagnosis\": {\"pixels\": " << d.pixels << ", \"labelled\": " << d.labelled << ", \"seen\": " << d.seen
       << ", \"heavy\": " << d.heavy << ", \"floor_changed\": " << d.floor_changed
       << ", \"floor_abstains\": " << (d.floor_abstains ? "true" : "false");
@@ -158,7 +196,8 @@ std::string record_json(const Record& r) {
         const Prediction& p = r.predictions[i];
         j << (i ? "," : "") << "\n    {\"name\": " << str(p.name) << ", \"predicted\": "
           << (p.outcome.empty() ? num(p.value) : str(p.outcome)) << ", \"covers\": " << str(p.covers)
-          << ", \"rule\": " << str(p.rule) << "}";
+          << ", \"tolerance\": " << num(p.tolerance) << ", \"rule\": " << str(p.rule)
+          << ", \"pass_if\": " << str(p.pass_if) << "}";
     }
     j << "\n  ]\n}\n";
     return j.str();
@@ -196,7 +235,8 @@ Verification verify_record(const std::string& text, const std::string& file) {
         JsonValue::Kind kind;
     };
     for (const Required& r : {Required{"scene", JsonValue::Object}, {"settings", JsonValue::Object},
-                              {"renders", JsonValue::Array}, {"code", JsonValue::Object},
+                              {"protocol", JsonValue::Object}, {"renders", JsonValue::Array},
+                              {"code", JsonValue::Object},
                               {"registered_utc", JsonValue::String}, {"device", JsonValue::String},
                               {"diagnosis", JsonValue::Object}, {"predictions", JsonValue::Array},
                               {"sha256", JsonValue::String}}) {
@@ -228,6 +268,118 @@ Verification verify_record(const std::string& text, const std::string& file) {
                 ", registered " + doc->find("registered_utc")->string + ", " +
                 std::to_string(doc->find("predictions")->array.size()) + " predictions, sha256 " + recorded.substr(0, 16) +
                 "..."};
+}
+
+namespace {
+
+const JsonValue& member(const JsonValue& o, const std::string& key, JsonValue::Kind kind, const std::string& where) {
+    const JsonValue* v = o.kind == JsonValue::Object ? o.find(key) : nullptr;
+    if (!v) throw std::runtime_error("sentinel record: " + where + " lacks \"" + key + "\"");
+    if (v->kind != kind) throw std::runtime_error("sentinel record: " + where + "." + key + " has the wrong type");
+    return *v;
+}
+std::string text(const JsonValue& o, const std::string& key, const std::string& where) {
+    return member(o, key, JsonValue::String, where).string;
+}
+double number(const JsonValue& o, const std::string& key, const std::string& where) {
+    return member(o, key, JsonValue::Number, where).number;
+}
+uint32_t count(const JsonValue& o, const std::string& key, const std::string& where) {
+    const double x = number(o, key, where);
+    if (!(x >= 0.0 && x <= 4294967295.0) || x != std::floor(x))
+        throw std::runtime_error("sentinel record: " + where + "." + key + " is not a count");
+    return static_cast<uint32_t>(x);
+}
+bool flag(const JsonValue& o, const std::string& key, const std::string& where) {
+    return member(o, key, JsonValue::Bool, where).boolean;
+}
+
+}  // namespace
+
+Record parse_record(const JsonValue& doc) {
+    Record r;
+    const JsonValue& scene = member(doc, "scene", JsonValue::Object, "the record");
+    r.scene_name = text(scene, "name", "scene");
+    r.scene_path = text(scene, "path", "scene");
+    r.scene_sha256 = text(scene, "sha256", "scene");
+    for (const JsonValue& f : member(scene, "files", JsonValue::Array, "scene").array)
+        r.scene_files.push_back({text(f, "path", "scene.files"), text(f, "sha256", "scene.files")});
+    for (const auto& [k, v] : member(scene, "params", JsonValue::Object, "scene").object) {
+        if (v.kind != JsonValue::String) throw std::runtime_error("sentinel record: scene.params." + k + " is not a string");
+        r.params[k] = v.string;
+    }
+    const JsonValue& st = member(doc, "settings", JsonValue::Object, "the record");
+    r.width = static_cast<int>(count(st, "width", "settings"));
+    r.height = static_cast<int>(count(st, "height", "settings"));
+    r.pilot_spp = count(st, "pilot_spp", "settings");
+    r.pilot_draw = count(st, "pilot_draw", "settings");
+    r.pilot_seed = count(st, "pilot_seed", "settings");
+    r.estimator = text(st, "estimator", "settings");
+    r.end_vertex = text(st, "end_vertex", "settings");
+    r.light_selection = text(st, "light_selection", "settings");
+    r.max_depth = static_cast<int>(count(st, "max_depth", "settings"));
+    r.rr_depth = static_cast<int>(count(st, "rr_depth", "settings"));
+    r.traversal = text(st, "traversal", "settings");
+    const JsonValue& pr = member(doc, "protocol", JsonValue::Object, "the record");
+    r.protocol.reference_spp = count(pr, "reference_spp", "protocol");
+    r.protocol.draws = count(pr, "draws", "protocol");
+    r.protocol.extra_spp = count(pr, "extra_spp", "protocol");
+    r.protocol.floor = count(pr, "floor", "protocol");
+    for (const JsonValue& c : member(doc, "renders", JsonValue::Array, "the record").array)
+        r.renders.push_back({count(c, "seed", "renders"), count(c, "spp", "renders")});
+    const JsonValue& code = member(doc, "code", JsonValue::Object, "the record");
+    r.version = text(code, "version", "code");
+    r.code_digest = text(code, "code_digest", "code");
+    r.spirv_sha256 = text(code, "spirv_sha256", "code");
+    r.registered_utc = text(doc, "registered_utc", "the record");
+    r.device = text(doc, "device", "the record");
+    if (const JsonValue* c = doc.find("curve"); c && c->kind == JsonValue::Object) {
+        r.curve_path = text(*c, "path", "curve");
+        r.curve_sha256 = text(*c, "sha256", "curve");
+        r.curve_pilot_spp = count(*c, "pilot_spp", "curve");
+        r.curve_reference_spp = count(*c, "reference_spp", "curve");
+    }
+    const JsonValue& d = member(doc, "diagnosis", JsonValue::Object, "the record");
+    r.diagnosis.pixels = count(d, "pixels", "diagnosis");
+    r.diagnosis.labelled = count(d, "labelled", "diagnosis");
+    r.diagnosis.seen = count(d, "seen", "diagnosis");
+    r.diagnosis.heavy = count(d, "heavy", "diagnosis");
+    r.diagnosis.floor_changed = count(d, "floor_changed", "diagnosis");
+    r.diagnosis.floor_abstains = flag(d, "floor_abstains", "diagnosis");
+    if (d.find("robust_floor_changed")) {
+        r.diagnosis.robust_checked = true;
+        r.diagnosis.robust_floor_changed = count(d, "robust_floor_changed", "diagnosis");
+        r.diagnosis.robust_floor_abstains = flag(d, "robust_floor_abstains", "diagnosis");
+    }
+    r.diagnosis.untrusted = count(d, "untrusted", "diagnosis");
+    r.diagnosis.lit_no_variance = count(d, "lit_no_variance", "diagnosis");
+    r.diagnosis.dark_in_lit_region = count(d, "dark_in_lit_region", "diagnosis");
+    if (const JsonValue* s = doc.find("separation"); s && s->kind == JsonValue::Object) {
+        SeparationMeasures m;
+        m.delta_objects = static_cast<int>(count(*s, "delta_objects", "separation"));
+        m.glossy_objects = static_cast<int>(count(*s, "glossy_objects", "separation"));
+        const JsonValue* md = s->find("min_distance");
+        m.min_distance = md && md->kind == JsonValue::Number ? md->number : NAN;
+        const JsonValue* mv = s->find("mutual_visibility");
+        m.mutual_visibility = mv && mv->kind == JsonValue::Number ? mv->number : NAN;
+        m.segments = count(*s, "segments", "separation");
+        m.visible = count(*s, "visible", "separation");
+        r.separation = m;
+    }
+    for (const JsonValue& p : member(doc, "predictions", JsonValue::Array, "the record").array) {
+        Prediction x;
+        x.name = text(p, "name", "a prediction");
+        const JsonValue& v = p.find("predicted") ? *p.find("predicted") : JsonValue();
+        if (v.kind == JsonValue::String) x.outcome = v.string;
+        else if (v.kind == JsonValue::Number) x.value = v.number;
+        else x.value = NAN;  // written as null: not finite
+        x.covers = text(p, "covers", "a prediction");
+        x.rule = text(p, "rule", "a prediction");
+        x.pass_if = text(p, "pass_if", "a prediction");
+        if (const JsonValue* t = p.find("tolerance"); t && t->kind == JsonValue::Number) x.tolerance = t->number;
+        r.predictions.push_back(std::move(x));
+    }
+    return r;
 }
 
 }  // namespace vkmech::sentinel

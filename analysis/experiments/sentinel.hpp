@@ -20,8 +20,11 @@
 #include "allocation/guard.hpp"
 #include "experiments/predictor.hpp"
 #include "experiments/separation.hpp"
+#include "io/json_value.hpp"
 #include "render/frame.hpp"
 
+#include <limits>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -44,6 +47,20 @@ inline constexpr uint32_t kPilotFailBelowSpp = 16;
 // visibility is at least this, negative below it (Finding 1; anchors:
 // tabletop_mixed 0.122 -> +0.278, tabletop_separated 0.000 -> -0.681).
 inline constexpr double kVisibilitySignThreshold = 0.05;
+// Pass bands of the numeric predictions, fixed before any sentinel render.
+// Label reliability: the frozen curve's largest leave-one-scene-out error on
+// the first-party scenes (docs/results/tables/predictor.md: 0.089 margin,
+// 0.066 purity), rounded up to one band for both.
+inline constexpr double kReliabilityTolerance = 0.09;
+// Per-bucket coverage (pixel and energy shares): an absolute band.
+inline constexpr double kShareTolerance = 0.05;
+// An allocation comparison is decided as the paper decides its own (≥ 8/10
+// paired wins and a mean gain): "helps" passes when the mean PSNR gain is
+// positive and the treatment has the lower MSE on at least this share of the
+// pilot draws; "fails" mirrors it (a negative mean gain, the higher MSE on at
+// least this share). The right sign on fewer draws is INDETERMINATE; the
+// wrong sign of the mean gain is FAIL.
+inline constexpr double kWinShare = 0.8;
 
 struct Prediction {
     std::string name;     // e.g. "allocation.observed-var_vs_uniform"
@@ -51,6 +68,8 @@ struct Prediction {
     double value = 0.0;   // a numeric prediction (when outcome is empty)
     std::string covers;   // what the prediction speaks of (e.g. "412 pilot-labelled pixels of 1024")
     std::string rule;     // the rule that produced it
+    std::string pass_if;  // how `sentinel evaluate` decides PASS / FAIL, written before any reference exists
+    double tolerance = std::numeric_limits<double>::quiet_NaN();  // the pass band of a numeric prediction
 };
 
 // Every prediction the pilot supports (docs/descriptor.md §9.3): label
@@ -66,6 +85,7 @@ struct FileDigest {
 
 struct Record {
     std::string scene_name, scene_path, scene_sha256;
+    std::map<std::string, std::string> params;  // -D name=value the scene was loaded with
     std::vector<FileDigest> scene_files;  // further files the loader read (textures)
     int width = 0, height = 0;
     uint32_t pilot_spp = 0, pilot_draw = 0, pilot_seed = 0;
@@ -79,7 +99,13 @@ struct Record {
     std::string registered_utc;  // ISO 8601, "2025-01-01T12:00:00Z"
     std::string device;
     std::string curve_path, curve_sha256;
-    uint32_t curve_pilot_spp = 0;
+    uint32_t curve_pilot_spp = 0, curve_reference_spp = 0;
+    // The evaluation protocol, fixed at registration (docs/descriptor.md §9.4):
+    // the reference's samples per pixel, the pilot draws compared (the
+    // registered one first), and the allocation's extra budget and floor.
+    struct Protocol {
+        uint32_t reference_spp = 2048, draws = 10, extra_spp = 32, floor = 1;
+    } protocol;
     alloc::PilotDiagnosis diagnosis;
     std::optional<SeparationMeasures> separation;
     std::vector<Prediction> predictions;
@@ -87,6 +113,11 @@ struct Record {
 
 // The record's JSON without the "sha256" member (the canonical body B above).
 std::string record_json(const Record& r);
+// The record read back from a verified file (the inverse of record_json for
+// every member `sentinel evaluate` needs). Throws std::runtime_error naming
+// the member that is missing or of the wrong type.
+Record parse_record(const JsonValue& doc);
+
 // The sealed file content: B with the "sha256" member.
 std::string seal(const std::string& body);
 

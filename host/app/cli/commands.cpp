@@ -70,17 +70,23 @@ std::vector<std::string> project_scene_names() {
     return names;
 }
 
+std::map<std::string, std::string> parse_defines(const std::vector<std::string>& defines) {
+    std::map<std::string, std::string> params;
+    for (const auto& d : defines) {
+        auto eq = d.find('=');
+        if (eq == std::string::npos || eq == 0) throw UsageError("-D expects name=value, got '" + d + "'");
+        params[d.substr(0, eq)] = d.substr(eq + 1);
+    }
+    return params;
+}
+
 namespace {
 
 LoadOptions load_options(const CommonOptions& o) {
     LoadOptions lo;
     lo.substitute_unsupported = o.substitute;
     lo.max_triangles = o.max_triangles;
-    for (const auto& d : o.defines) {
-        auto eq = d.find('=');
-        if (eq == std::string::npos || eq == 0) throw UsageError("-D expects name=value, got '" + d + "'");
-        lo.params[d.substr(0, eq)] = d.substr(eq + 1);
-    }
+    lo.params = parse_defines(o.defines);
     return lo;
 }
 

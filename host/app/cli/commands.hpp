@@ -7,6 +7,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <map>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -62,6 +63,19 @@ struct SentinelOptions {
     std::string out;           // the record (default sentinel_<scene>.json)
     std::string curve;         // frozen predictor curve (default: found as `vkmech paths` says)
     bool force = false;        // overwrite an existing record
+    // The evaluation protocol, fixed in the record (docs/descriptor.md §9.4).
+    uint32_t reference_spp = 2048, draws = 10, extra = 32, floor = 1;
+};
+
+// `vkmech sentinel evaluate`.
+struct SentinelEvaluateOptions {
+    std::string record;
+    std::string out;    // default: <record without .json>_evaluation/
+    std::string cache;  // default: <out>/cache
+    std::optional<uint32_t> device;
+    std::optional<std::string> pipeline_cache;
+    bool allow_code_change = false;  // evaluate with code other than the registered code
+    bool force = false;              // overwrite an existing evaluation
 };
 
 struct BenchOptions {
@@ -89,6 +103,8 @@ std::vector<std::string> project_scene_names();
 
 // The device options of --device, --validation and --pipeline-cache.
 vk::ContextOptions context_options(const CommonOptions& o);
+// -D name=value pairs; throws UsageError on one without a name or '='.
+std::map<std::string, std::string> parse_defines(const std::vector<std::string>& defines);
 // The scene of --scene with -D, --res, --substitute and --max-triangles
 // applied; its warnings and substitutions on stderr when `report`.
 Scene load_for_cli(const CommonOptions& o, bool report = true);
@@ -108,6 +124,10 @@ int cmd_sentinel_register(const SentinelOptions& o);
 // edited after registration, 2 when it is unreadable, malformed, lacks a
 // member or has an unknown format version.
 int cmd_sentinel_verify(const std::string& file);
+// Refuses an edited record (exit 1), a changed scene (exit 1) or other code
+// (exit 2, unless allowed); renders the reference, pool and pilot draws and
+// writes PASS/FAIL per prediction (exit 0 whatever the verdicts).
+int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o);
 // Exit 0 when everything checked is sound, 1 when a bad set or file exists.
 int cmd_verify_outputs(const std::string& dir);
 int cmd_verify_cache(const std::string& dir);

@@ -31,6 +31,7 @@ int main(int argc, char** argv) {
                "  vkmech study all --preset quick --out out/study\n"
                "  vkmech verify outputs out/ring_caustic\n"
                "  vkmech sentinel register --scene cubes_dof --out cubes_dof.sentinel.json\n"
+               "  vkmech sentinel evaluate cubes_dof.sentinel.json\n"
                "Exit codes: 0 ok, 1 runtime failure, 2 bad usage or bad input.");
 
     RenderOptions render_opts;
@@ -137,7 +138,8 @@ int main(int argc, char** argv) {
     SentinelOptions sentinel_opts;
     std::string sentinel_file;
     auto* sentinel = app.add_subcommand(
-        "sentinel", "Pre-registered predictions on a scene (docs/descriptor.md §9): register from a pilot alone, verify a record");
+        "sentinel", "Pre-registered predictions on a scene (docs/descriptor.md §9): register from a pilot alone, verify a record, "
+        "evaluate it against a reference");
     sentinel->require_subcommand(1);
     auto* sentinel_register = sentinel->add_subcommand(
         "register", "Render only the pilot and write a SHA-256-sealed record of every prediction it supports");
@@ -150,6 +152,28 @@ int main(int argc, char** argv) {
     sentinel_register->add_option("--curve", sentinel_opts.curve,
                                   "Frozen label-reliability curve (default: predictor_curve.json, see `vkmech paths`)");
     sentinel_register->add_flag("--force", sentinel_opts.force, "Overwrite an existing record");
+    sentinel_register->add_option("--reference-spp", sentinel_opts.reference_spp,
+                                  "Protocol: the reference's samples per pixel (default 2048, the curve's; a multiple of 64)")
+        ->check(CLI::Range(64u, 1u << 20));
+    sentinel_register->add_option("--draws", sentinel_opts.draws, "Protocol: pilot draws compared (default 10)")
+        ->check(CLI::Range(1u, 100u));
+    sentinel_register->add_option("--extra", sentinel_opts.extra,
+                                  "Protocol: extra samples per pixel of the allocation on top of 1 (default 32)")
+        ->check(CLI::Range(1u, 254u));
+    sentinel_register->add_option("--floor", sentinel_opts.floor, "Protocol: the allocation's per-pixel floor (default 1)")
+        ->check(CLI::Range(1u, 32u));
+    SentinelEvaluateOptions evaluate_opts;
+    auto* sentinel_evaluate = sentinel->add_subcommand(
+        "evaluate", "Refuse an edited record, render the reference and the allocation comparison, and write PASS/FAIL per "
+                    "prediction with the measured values (evaluation.json, report.md)");
+    sentinel_evaluate->add_option("record", evaluate_opts.record, "The record (JSON)")->required();
+    sentinel_evaluate->add_option("--out", evaluate_opts.out, "Output directory (default: <record>_evaluation)");
+    sentinel_evaluate->add_option("--cache", evaluate_opts.cache, "Render cache (default: <out>/cache)");
+    sentinel_evaluate->add_option("--device", evaluate_opts.device, "Vulkan device index (see `vkmech devices`)");
+    add_pipeline_cache_option(sentinel_evaluate, evaluate_opts.pipeline_cache);
+    sentinel_evaluate->add_flag("--allow-code-change", evaluate_opts.allow_code_change,
+                                "Evaluate with code other than the registered code (stated in the report)");
+    sentinel_evaluate->add_flag("--force", evaluate_opts.force, "Overwrite an existing evaluation");
     auto* sentinel_verify = sentinel->add_subcommand(
         "verify", "Check a record's seal: exit 0 when intact, 1 when edited after registration, 2 when malformed");
     sentinel_verify->add_option("record", sentinel_file, "The record (JSON)")->required();
@@ -169,6 +193,7 @@ int main(int argc, char** argv) {
         if (*verify_cache) return cmd_verify_cache(verify_dir);
         if (*sentinel_register) return cmd_sentinel_register(sentinel_opts);
         if (*sentinel_verify) return cmd_sentinel_verify(sentinel_file);
+        if (*sentinel_evaluate) return cmd_sentinel_evaluate(evaluate_opts);
         if (*check) return cmd_check(check_opts);
         if (*bench_trav) return cmd_bench_traversal(bench_opts);
         if (*bench_render) return cmd_bench_render(bench_opts);

@@ -4,6 +4,9 @@
 
 #include "adaptive/adaptive.hpp"
 #include "experiments/sentinel.hpp"
+#include "experiments/sentinel_eval.hpp"
+#include "study/allocation_source.hpp"
+#include "study/render_cache.hpp"
 #include "io/atomic_file.hpp"
 #include "io/digest.hpp"
 #include "io/interrupt.hpp"
@@ -12,6 +15,7 @@
 #include "render/session.hpp"
 #include "render/shader_modules.hpp"
 #include "study/sentinel_register.hpp"
+#include "study/study_runner.hpp"
 
 #include <chrono>
 #include <cstdio>
@@ -58,6 +62,8 @@ int cmd_sentinel_register(const SentinelOptions& o) {
     } catch (const std::runtime_error& e) {
         throw UsageError(e.what());
     }
+    if (o.common.substitute)
+        throw UsageError("sentinel register does not take --substitute: the evaluation must load the scene as registered");
     const std::string scene_path = resolve_scene_path(o.common.scene);
     const std::string name = scene_stem(o.common.scene);
     const std::string out = o.out.empty() ? "sentinel_" + name + ".json" : o.out;
@@ -69,6 +75,12 @@ int cmd_sentinel_register(const SentinelOptions& o) {
     sentinel::Record rec;
     rec.scene_name = name;
     rec.scene_path = absolute(scene_path);
+    rec.params = parse_defines(o.common.defines);
+    if (o.reference_spp % 64 != 0)
+        throw UsageError("--reference-spp " + std::to_string(o.reference_spp) + " is not a multiple of 64");
+    if (o.extra + 1 > downstream_seeds::kPoolSize)
+        throw UsageError("--extra " + std::to_string(o.extra) + " exceeds the shared pool");
+    rec.protocol = {o.reference_spp, o.draws, o.extra, o.floor};
     try {
         rec.scene_sha256 = sha256_file(scene_path);
         std::set<std::string> files;
@@ -108,14 +120,17 @@ int cmd_sentinel_register(const SentinelOptions& o) {
     r.traversal = to_string(trav);
     const auto spirv = pathtrace_spirv(trav);
     r.version = VKMECH_VERSION;
-    // The studies' code digest (study_runner.cpp StudyDevice) and a SHA-256 of the same SPIR-V.
-    r.code_digest = Digest().str(VKMECH_VERSION).bytes(spirv.data(), spirv.size_bytes()).str("frame-merge-v1").hex();
+    // The studies' code digest (study_runner.hpp) and a SHA-256 of the same SPIR-V.
+    r.code_digest = render_code_digest(trav);
     r.spirv_sha256 = Sha256().update(spirv.data(), spirv.size_bytes()).hex();
     r.registered_utc = utc_now();
     r.device = ctx.info().name;
     r.curve_path = absolute(curve_path);
     r.curve_sha256 = rec.curve_sha256;
     r.curve_pilot_spp = curve.pilot_spp;
+    r.curve_reference_spp = curve.reference_spp;
+    r.params = rec.params;
+    r.protocol = rec.protocol;
 
     const std::string sealed = sentinel::seal(sentinel::record_json(r));
     write_file_atomic(out, sealed);
@@ -141,6 +156,128 @@ int cmd_sentinel_verify(const std::string& file) {
     }
     std::cerr << "vkmech: error: " << v.message << "\n";
     return v.kind == sentinel::Verification::Edited ? 1 : 2;
+}
+
+int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o) {
+    std::ifstream in(o.record, std::ios::binary);
+    if (!in) throw UsageError("cannot read sentinel record '" + o.record + "'");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    const std::string text = ss.str();
+    const sentinel::Verification v = sentinel::verify_record(text, o.record);
+    if (v.kind != sentinel::Verification::Intact) {
+        std::cerr << "vkmech: error: " << v.message << "; refusing to evaluate it\n";
+        return v.kind == sentinel::Verification::Edited ? 1 : 2;
+    }
+    sentinel::Record r;
+    std::string seal;
+    try {
+        const std::optional<JsonValue> doc = parse_json(text);
+        r = sentinel::parse_record(*doc);
+        seal = doc->find("sha256")->string;
+    } catch (const std::runtime_error& e) {
+        throw UsageError(std::string(e.what()) + " ('" + o.record + "')");
+    }
+    // The scene must be the registered one, byte for byte.
+    if (!fs::is_regular_file(r.scene_path))
+        throw UsageError("the registered scene '" + r.scene_path + "' does not exist (moved? the record names it absolutely)");
+    std::vector<std::pair<std::string, std::string>> files = {{r.scene_path, r.scene_sha256}};
+    for (const auto& f : r.scene_files) files.emplace_back(f.path, f.sha256);
+    for (const auto& [path, digest] : files) {
+        std::string now;
+        try {
+            now = sha256_file(path);
+        } catch (const std::runtime_error& e) {
+            throw UsageError(e.what());
+        }
+        if (now != digest) {
+            std::cerr << "vkmech: error: '" << path << "' changed since registration (SHA-256 " << now.substr(0, 16)
+                      << "..., registered " << digest.substr(0, 16) << "...); refusing to evaluate a record of another scene\n";
+            return 1;
+        }
+    }
+    const fs::path rec_path(o.record);
+    const std::string out = o.out.empty() ? (rec_path.parent_path() / (rec_path.stem().string() + "_evaluation")).string() : o.out;
+    if (fs::exists(fs::path(out) / "evaluation.json") && !o.force)
+        throw UsageError("'" + out + "' already holds an evaluation (remove it, or --force)");
+    std::error_code ec;
+    fs::create_directories(out, ec);
+    require_writable_dir(out, "--out");
+    const std::string cache_dir = o.cache.empty() ? (fs::path(out) / "cache").string() : o.cache;
+    fs::create_directories(cache_dir, ec);
+    require_writable_dir(cache_dir, "--cache");
+
+    SignalGuard signals;
+    vk::ContextOptions co;
+    co.device_index = o.device;
+    co.pipeline_cache_dir = o.pipeline_cache;
+    vk::Context ctx(co);
+    Traversal trav;
+    try {
+        trav = resolve_traversal(ctx, parse_traversal(r.traversal));
+    } catch (const std::exception& e) {
+        throw UsageError("the record's traversal '" + r.traversal + "' is not available here: " + e.what());
+    }
+    const std::string digest = render_code_digest(trav);
+    std::vector<std::string> notes;
+    if (digest != r.code_digest) {
+        if (!o.allow_code_change)
+            throw UsageError("the code differs from the registered code (digest " + digest.substr(0, 16) + "..., registered " +
+                             r.code_digest.substr(0, 16) + "..., version " + r.version +
+                             "); evaluate with the registered build, or pass --allow-code-change (the report says so)");
+        notes.push_back("evaluated with code other than the registered code (digest " + digest.substr(0, 16) +
+                        "..., registered " + r.code_digest.substr(0, 16) + "...), --allow-code-change");
+    }
+    if (ctx.info().name != r.device) notes.push_back("evaluated on '" + ctx.info().name + "', registered on '" + r.device + "'");
+
+    StudyConfig cfg = preset_config("quick");
+    cfg.scenes = {SceneVariant{r.scene_name, r.scene_path, r.params}};
+    cfg.alloc_res = r.width;
+    cfg.alloc_draws = static_cast<int>(r.protocol.draws);
+    cfg.alloc_ref_chunk_spp = r.protocol.reference_spp % 256 == 0 ? 256 : r.protocol.reference_spp;
+    cfg.alloc_ref_chunks = r.protocol.reference_spp / cfg.alloc_ref_chunk_spp;
+    const RenderCache cache(cache_dir);
+    RenderedAllocationSource source(cfg, ctx, trav, cache, digest, [] { return pending_signal() != 0; });
+    const SceneVariant& sv = cfg.scenes.front();
+    std::fprintf(stderr, "vkmech: sentinel evaluate %s: reference %u spp, pool %u, %u pilot draws of %u spp on '%s' (cache %s)\n",
+                 r.scene_name.c_str(), r.protocol.reference_spp, downstream_seeds::kPoolSize, r.protocol.draws, r.pilot_spp,
+                 ctx.info().name.c_str(), cache_dir.c_str());
+    sentinel::EvalInputs ein;
+    std::vector<std::string> renders;
+    // The pilots first (the registered draw first): nothing new is learned from them.
+    for (uint32_t k = 0; k < r.protocol.draws; ++k) {
+        const uint32_t draw = r.pilot_draw + k;
+        ein.pilots.push_back(source.pilot(sv, r.pilot_spp, draw));
+        renders.push_back("pilot draw " + std::to_string(draw) + ": " + std::to_string(r.pilot_spp) + " spp, seed " +
+                          std::to_string(downstream_seeds::pilot(draw)) + (k == 0 ? " (the registered pilot)" : ""));
+    }
+    if (ein.pilots.front().frame.width != r.width || ein.pilots.front().frame.height != r.height)
+        throw UsageError("the scene loads at " + std::to_string(ein.pilots.front().frame.width) + "x" +
+                         std::to_string(ein.pilots.front().frame.height) + ", the record's film is " + std::to_string(r.width) +
+                         "x" + std::to_string(r.height));
+    const SamplePool pool = source.pool(sv);
+    renders.push_back("the shared pool: " + std::to_string(downstream_seeds::kPoolSize) + " spp of seed " +
+                      std::to_string(downstream_seeds::kPool) + ", one frame per sample");
+    const Frame ref = source.reference(sv);
+    for (uint32_t c = 0; c < cfg.alloc_ref_chunks; ++c)
+        renders.push_back("reference chunk " + std::to_string(c) + ": " + std::to_string(cfg.alloc_ref_chunk_spp) +
+                          " spp, seed " + std::to_string(downstream_seeds::reference_chunk(c)));
+    ein.reference = &ref;
+    ein.pool = &pool;
+    throw_if_interrupted();
+
+    sentinel::Evaluation e = sentinel::evaluate(r, ein);
+    for (const auto& n : notes) e.checks.push_back(n);
+    write_file_atomic((fs::path(out) / "evaluation.json").string(), sentinel::evaluation_json(r, seal, e));
+    write_file_atomic((fs::path(out) / "report.md").string(),
+                      sentinel::evaluation_markdown(r, rec_path.filename().string(), seal, e, renders));
+    std::printf("%s: %d PASS, %d FAIL, %d INDETERMINATE of %zu predictions%s\n", r.scene_name.c_str(), e.pass, e.fail,
+                e.indeterminate, e.outcomes.size(), e.pilot_reproduced ? "" : " (the registered pilot was NOT reproduced)");
+    for (const auto& x : e.outcomes)
+        if (x.verdict != "PASS") std::printf("  %s %s: predicted %s, measured %s\n", x.verdict.c_str(), x.name.c_str(),
+                                             x.predicted.c_str(), x.measured.c_str());
+    std::printf("wrote %s/evaluation.json and %s/report.md\n", out.c_str(), out.c_str());
+    return 0;
 }
 
 }  // namespace vkmech

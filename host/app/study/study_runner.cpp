@@ -84,6 +84,11 @@ LoadedScene load_variant(const SceneVariant& v, int res) {
     return ls;
 }
 
+std::string render_code_digest(Traversal t) {
+    const auto spirv = pathtrace_spirv(t);
+    return Digest().str(VKMECH_VERSION).bytes(spirv.data(), spirv.size_bytes()).str("frame-merge-v1").hex();
+}
+
 bool study_interrupted() { return pending_signal() != 0; }
 
 const std::vector<std::string>& first_party_scenes() {
@@ -108,8 +113,7 @@ struct StudyPlan {
 struct StudyDevice {
     explicit StudyDevice(const StudyOptions& o) : ctx(context_options(o)) {
         trav = resolve_traversal(ctx, parse_traversal(o.traversal));
-        const auto spirv = pathtrace_spirv(trav);
-        code_digest = Digest().str(VKMECH_VERSION).bytes(spirv.data(), spirv.size_bytes()).str("frame-merge-v1").hex();
+        code_digest = render_code_digest(trav);
     }
     static vk::ContextOptions context_options(const StudyOptions& o) {
         vk::ContextOptions co;

@@ -57,6 +57,10 @@ struct LoadedScene {
 };
 LoadedScene load_variant(const SceneVariant& v, int res);
 
+// The digest of the code that renders with traversal t (version and
+// path-tracing SPIR-V): part of every render-cache key and of a sentinel record.
+std::string render_code_digest(Traversal t);
+
 // True once SIGINT arrived during a study (the handler is installed while rendering).
 bool study_interrupted();
 
