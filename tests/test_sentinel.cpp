@@ -9,6 +9,7 @@
 #include "io/json_value.hpp"
 #include "io/sha256.hpp"
 #include "render/session.hpp"
+#include "scene/scene.hpp"
 #include "study/sentinel_register.hpp"
 #include "temp_dir.hpp"
 
@@ -249,6 +250,25 @@ TEST_CASE("sentinel: evaluate decides every prediction by its registered rule") 
     // The inputs must match the protocol.
     r.protocol.draws = 2;
     CHECK_THROWS_AS(sentinel::evaluate(r, in), std::invalid_argument);
+}
+
+TEST_CASE("sentinel: the loader lists the mesh and include files a record must digest") {
+    testing::TempDir dir("sentinel_files");
+    write_text(dir.file("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    write_text(dir.file("part.xml"), "<scene version=\"3.0.0\"><shape type=\"obj\"><string name=\"filename\" "
+                                     "value=\"tri.obj\"/></shape></scene>\n");
+    write_text(dir.file("main.xml"),
+               "<scene version=\"3.0.0\"><sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/>"
+               "<transform name=\"to_world\"><lookat origin=\"0, 0, 5\" target=\"0, 0, 0\" up=\"0, 1, 0\"/></transform>"
+               "</sensor><include filename=\"part.xml\"/></scene>\n");
+    const Scene scene = load_scene(dir.file("main.xml"));
+    auto has = [&](const std::string& name) {
+        for (const auto& f : scene.files)
+            if (std::filesystem::path(f).filename() == name) return true;
+        return false;
+    };
+    CHECK(has("part.xml"));
+    CHECK(has("tri.obj"));
 }
 
 TEST_CASE("sentinel: sha256 matches the FIPS 180 test vectors") {

@@ -86,6 +86,8 @@ int cmd_sentinel_register(const SentinelOptions& o) {
         std::set<std::string> files;
         for (const Texture& t : loaded.textures)
             if (fs::is_regular_file(t.path)) files.insert(absolute(t.path));
+        for (const std::string& f : loaded.files)
+            if (fs::is_regular_file(f)) files.insert(absolute(f));
         for (const auto& f : files) rec.scene_files.push_back({f, sha256_file(f)});
         rec.curve_sha256 = sha256_file(curve_path);
     } catch (const std::runtime_error& e) {

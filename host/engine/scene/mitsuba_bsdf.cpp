@@ -444,6 +444,7 @@ int MitsubaLoader::texture(const XNode& n) {
         }
         fs::path abs = fs::absolute(path, ec);
         t.path = (ec ? fs::path(path) : abs).lexically_normal().string();
+        scene_.files.push_back(t.path);
         if (auto filter = p.opt_string({"filter_type", "filterType"})) {
             std::string f = text::lower(*filter);
             if (f == "nearest") t.nearest = true;

@@ -209,6 +209,7 @@ void MitsubaLoader::include(const XNode& n, int depth, Pass pass) {
             n.fail("more than " + std::to_string(kMaxIncludes) + " includes in one scene (files that include "
                    "others many times over?)");
         docs_.push_back(std::make_unique<XmlDocument>(path, n.file(), n.line()));
+        scene_.files.push_back(path);
         doc = docs_.back().get();
         included_[key] = doc;
     } else {
@@ -238,6 +239,7 @@ void MitsubaLoader::shape(const XNode& n) {
         if (!filename) n.fail(n.describe() + " is missing the required property 'filename'");
         std::string path = resolve(n, *filename);
         if (!is_file(path)) n.fail("cannot open mesh file '" + *filename + "' (looked for " + path + ")");
+        scene_.files.push_back(path);
         try {
             if (type == "serialized")
                 mesh = load_serialized(path, p.opt_int({"shape_index", "shapeIndex"}).value_or(0), budget_.left());
@@ -443,6 +445,7 @@ glm::vec3 MitsubaLoader::envmap_mean_radiance(const XNode& n, const XProps& p) {
     if (!filename) n.fail(n.describe() + " is missing the required property 'filename'");
     std::string path = resolve(n, *filename);
     if (!is_file(path)) n.fail("cannot open environment map '" + *filename + "' (looked for " + path + ")");
+    scene_.files.push_back(path);
     Texture t;
     try {
         t = load_image_texture(path, /*raw=*/true);

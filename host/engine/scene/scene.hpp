@@ -184,6 +184,10 @@ struct Scene {
     std::vector<Texture> textures;
     Camera camera;
     IntegratorSettings integrator;
+    // Every further file a Mitsuba scene read (includes, meshes, textures,
+    // environment maps), as the loader resolved them, in reading order, possibly
+    // repeated (a sentinel record digests each, docs/descriptor.md §9.1).
+    std::vector<std::string> files;
     std::vector<std::string> substitutions;  // user-requested plugin substitutions, reported
     // Everything the loader read but did not use, or approximated without
     // being asked ("file:line: what"); printed and recorded in every output.
