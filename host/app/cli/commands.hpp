@@ -62,6 +62,7 @@ struct SentinelOptions {
     uint32_t pilot_draw = 0;   // pilot seed downstream_seeds::pilot(k)
     std::string out;           // the record (default sentinel_<scene>.json)
     std::string curve;         // frozen predictor curve (default: found as `vkmech paths` says)
+    std::string name;          // the scene's name in the record (default: the file stem)
     bool force = false;        // overwrite an existing record
     // The evaluation protocol, fixed in the record (docs/descriptor.md §9.4).
     uint32_t reference_spp = 2048, draws = 10, extra = 32, floor = 1;

@@ -152,6 +152,8 @@ int main(int argc, char** argv) {
     sentinel_register->add_option("--curve", sentinel_opts.curve,
                                   "Frozen label-reliability curve (default: predictor_curve.json, see `vkmech paths`)");
     sentinel_register->add_flag("--force", sentinel_opts.force, "Overwrite an existing record");
+    sentinel_register->add_option("--name", sentinel_opts.name,
+                                  "The scene's name in the record and reports (default: the file stem)");
     sentinel_register->add_option("--reference-spp", sentinel_opts.reference_spp,
                                   "Protocol: the reference's samples per pixel (default 2048, the curve's; a multiple of 64)")
         ->check(CLI::Range(64u, 1u << 20));

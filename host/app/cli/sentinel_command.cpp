@@ -65,7 +65,7 @@ int cmd_sentinel_register(const SentinelOptions& o) {
     if (o.common.substitute)
         throw UsageError("sentinel register does not take --substitute: the evaluation must load the scene as registered");
     const std::string scene_path = resolve_scene_path(o.common.scene);
-    const std::string name = scene_stem(o.common.scene);
+    const std::string name = o.name.empty() ? scene_stem(o.common.scene) : o.name;
     const std::string out = o.out.empty() ? "sentinel_" + name + ".json" : o.out;
     if (fs::exists(out) && !o.force)
         throw UsageError("'" + out + "' exists: a registration is never overwritten (remove it, or --force)");
