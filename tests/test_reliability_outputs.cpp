@@ -12,6 +12,8 @@
 #include "study/render_cache.hpp"
 #include "temp_dir.hpp"
 
+#include "io/atomic_file.hpp"
+
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -340,6 +342,22 @@ TEST_CASE("cache: a NaN sealed with a valid checksum - an old-format file - and 
     REQUIRE(rep.bad.size() == 1);
     CHECK(rep.bad[0].first == cache.path(bad_key));
     CHECK(rep.stale.size() == 2);
+}
+
+TEST_CASE("temporaries: names carry the host and only this host's dead writers' temporaries are cleaned") {
+    TempDir tmp("rel_tmp_host");
+    const std::string t = atomic_temp_path((tmp.path / "k.frame").string());
+    CHECK(t.find(".host-" + temp_host_name() + ".tmp-" + std::to_string(::getpid())) != std::string::npos);
+    // A dead pid on this host: cleaned. The same pid on another machine sharing the directory: kept.
+    put(tmp.path / ("a.frame.host-" + temp_host_name() + ".tmp-999999"), "partial");
+    put(tmp.path / "b.frame.host-some_other_node.tmp-999999", "partial");
+    put(tmp.path / "c.frame.tmp-999999", "partial");  // the older form: this host's
+    put(tmp.path / ("d.frame.host-" + temp_host_name() + ".tmp-" + std::to_string(::getpid())), "live");
+    CHECK(clean_stale_temporaries(tmp.path.string()) == 2);
+    CHECK_FALSE(fs::exists(tmp.path / ("a.frame.host-" + temp_host_name() + ".tmp-999999")));
+    CHECK(fs::exists(tmp.path / "b.frame.host-some_other_node.tmp-999999"));
+    CHECK_FALSE(fs::exists(tmp.path / "c.frame.tmp-999999"));
+    CHECK(fs::exists(tmp.path / ("d.frame.host-" + temp_host_name() + ".tmp-" + std::to_string(::getpid()))));
 }
 
 TEST_SUITE("gpu") {

@@ -71,6 +71,15 @@ void add_study_options(CLI::App* app, StudyOptions& o) {
     app->add_flag("--plan", o.plan_only, "Print the plan and its expected cost, render nothing");
     app->add_flag("--equal-time", o.equal_time,
                   "allocation: also compare strategies at equal wall-clock time (error versus measured seconds)");
+    app->add_option("--shard", o.shard_text,
+                    "i/N: render only work units i, i + N, ... into the cache and write no table (many machines or "
+                    "processes sharing one cache; then --analyse-only)");
+    app->add_option("--jobs", o.jobs_file,
+                    "Write one self-contained command per work unit missing from the cache to this file (for Slurm "
+                    "job arrays, GNU parallel or xargs) and render nothing");
+    app->add_flag("--analyse-only", o.analyse_only,
+                  "Build the tables from the cache alone; exit 1 listing what is missing instead of rendering it (the "
+                  "allocation study's timing renders still run: they are measurements)");
 }
 
 int cmd_study(StudyOptions o) {
@@ -87,6 +96,15 @@ int cmd_study(StudyOptions o) {
     if (!o.curve.empty() && !fs::exists(o.curve)) throw UsageError("predictor curve '" + o.curve + "' does not exist");
     if (!o.curve.empty() && o.study != "predictor") throw UsageError("--curve applies to `vkmech study predictor` only");
     if (!o.curve.empty()) check_curve_for_cli(o.curve);
+    if (!o.shard_text.empty()) {
+        unsigned i = 0, n = 0;
+        char tail = 0;
+        if (std::sscanf(o.shard_text.c_str(), "%u/%u%c", &i, &n, &tail) != 2 || n == 0 || i >= n)
+            throw UsageError("--shard expects i/N with 0 <= i < N (e.g. 0/4), got '" + o.shard_text + "'");
+        o.shard = std::make_pair(static_cast<uint32_t>(i), static_cast<uint32_t>(n));
+    }
+    if ((o.shard ? 1 : 0) + (o.jobs_file.empty() ? 0 : 1) + (o.analyse_only ? 1 : 0) + (o.plan_only ? 1 : 0) > 1)
+        throw UsageError("--shard, --jobs, --analyse-only and --plan exclude each other");
     try {
         return run_study(o);
     } catch (const std::invalid_argument& e) {

@@ -5,9 +5,12 @@
 #include "study/study_runner.hpp"
 
 #include <cmath>
+#include <filesystem>
 #include <csignal>
 #include <cstdio>
 #include <utility>
+
+namespace fs = std::filesystem;
 
 namespace vkmech {
 
@@ -51,6 +54,7 @@ Frame RenderedAllocationSource::reference(const SceneVariant& v) {
         const std::string k = key(l, cfg_.alloc_ref_chunk_spp, seed, 64);
         std::optional<Frame> f = cache_.try_load(k);
         if (!f) {
+            need(v.name + " allocation reference chunk " + std::to_string(c));
             RenderSpec spec;
             spec.spp = cfg_.alloc_ref_chunk_spp;
             spec.seed = seed;
@@ -75,6 +79,7 @@ SamplePool RenderedAllocationSource::pool(const SceneVariant& v) {
         std::fprintf(stderr, "vkmech: warning: render cache file '%s': %u frames of %zu pixels, not %u of %zu; rendering it "
                      "again\n", cache_.path(k, "pool").c_str(), cached->frames, cached->pixels, F, P);
     }
+    need(v.name + " allocation pool");
     SamplePool pool;
     pool.frames = F;
     pool.pixels = P;
@@ -109,6 +114,7 @@ Pilot RenderedAllocationSource::pilot(const SceneVariant& v, uint32_t n0, uint32
     const uint32_t batch = robust ? static_cast<uint32_t>(alloc::mom_block_size(static_cast<int>(n0))) : 8;
     const std::string k = key(l, n0, downstream_seeds::pilot(draw), batch);
     if (std::optional<Pilot> cached = cache_.try_load_pilot(k)) return std::move(*cached);
+    need(v.name + " allocation pilot N0 = " + std::to_string(n0) + ", draw " + std::to_string(draw));
     Pilot p = render_pilot(*l.renderer, n0, downstream_seeds::pilot(draw), robust);
     cache_.store_pilot(k, p);
     return p;
@@ -119,6 +125,7 @@ PilotSamples RenderedAllocationSource::pilot_samples(const SceneVariant& v, uint
     check_interrupt();
     const std::string k = key(l, n0, downstream_seeds::pilot(draw), 1);  // batch 1: one sample per batch
     if (std::optional<PilotSamples> cached = cache_.try_load_pilot_samples(k)) return std::move(*cached);
+    need(v.name + " allocation per-sample pilot N0 = " + std::to_string(n0) + ", draw " + std::to_string(draw));
     const Camera& c = l.session->scene().camera;
     PilotSamples s;
     s.samples = n0;
@@ -147,6 +154,56 @@ double RenderedAllocationSource::final_render_seconds(const SceneVariant& v, con
     spec.batch_spp = 16;
     spec.sample_counts = n;
     return l.renderer->render(spec).seconds;
+}
+
+void RenderedAllocationSource::need(const std::string& what) const {
+    if (offline_)
+        throw std::runtime_error("the render cache lacks " + what + " (--analyse-only renders nothing: run the study "
+                                 "without it, or its --shard / --jobs commands, first)");
+}
+
+namespace {
+// Whether the per-sample pilots of N0 are read (the median-of-means sweep, allocation.cpp).
+bool reads_pilot_samples(const StudyConfig& cfg, uint32_t n0) {
+    return alloc::mom_defined(static_cast<int>(n0)) && !cfg.alloc_mom_k.empty();
+}
+}  // namespace
+
+std::vector<std::string> RenderedAllocationSource::missing(const SceneVariant& v) {
+    // Keys from the scene's content at the allocation film, without the device.
+    const LoadedScene ls = load_variant(v, cfg_.alloc_res);
+    const Camera& c = ls.scene.camera;
+    auto key = [&](uint32_t spp, uint32_t seed, uint32_t batch) {
+        return cache_key({ls.digest, c.width, c.height, spp, seed, 0, batch, to_string(traversal_), ctx_.info().name,
+                          code_digest_});
+    };
+    auto absent = [&](const std::string& k, const std::string& kind) { return !fs::exists(cache_.path(k, kind)); };
+    std::vector<std::string> out;
+    for (uint32_t ch = 0; ch < cfg_.alloc_ref_chunks; ++ch)
+        if (absent(key(cfg_.alloc_ref_chunk_spp, downstream_seeds::reference_chunk(ch), 64), "frame"))
+            out.push_back(v.name + " allocation reference chunk " + std::to_string(ch));
+    if (absent(key(downstream_seeds::kPoolSize, downstream_seeds::kPool, 1), "pool")) out.push_back(v.name + " allocation pool");
+    for (uint32_t n0 : cfg_.alloc_pilots)
+        for (uint32_t d = 0; d < static_cast<uint32_t>(cfg_.alloc_draws); ++d) {
+            const bool robust = alloc::mom_defined(static_cast<int>(n0));
+            const uint32_t batch = robust ? static_cast<uint32_t>(alloc::mom_block_size(static_cast<int>(n0))) : 8;
+            if (absent(key(n0, downstream_seeds::pilot(d), batch), "pilot"))
+                out.push_back(v.name + " allocation pilot N0 = " + std::to_string(n0) + ", draw " + std::to_string(d));
+            if (reads_pilot_samples(cfg_, n0) && absent(key(n0, downstream_seeds::pilot(d), 1), "pilot-samples"))
+                out.push_back(v.name + " allocation per-sample pilot N0 = " + std::to_string(n0) + ", draw " +
+                              std::to_string(d));
+        }
+    return out;
+}
+
+void RenderedAllocationSource::render_all(const SceneVariant& v) {
+    reference(v);
+    pool(v);
+    for (uint32_t n0 : cfg_.alloc_pilots)
+        for (uint32_t d = 0; d < static_cast<uint32_t>(cfg_.alloc_draws); ++d) {
+            pilot(v, n0, d);
+            if (reads_pilot_samples(cfg_, n0)) pilot_samples(v, n0, d);
+        }
 }
 
 }  // namespace vkmech

@@ -29,6 +29,16 @@ public:
     PilotSamples pilot_samples(const SceneVariant& v, uint32_t n0, uint32_t draw) override;
     double final_render_seconds(const SceneVariant& v, const std::vector<uint32_t>& n) override;
 
+    // Scale-out (study --shard / --jobs / --analyse-only): the cache entries
+    // v's allocation study reads (reference chunks, pool, pilots, per-sample
+    // pilots) that the cache lacks, described one per line; rendering all of
+    // them; and an offline mode in which a missing entry throws
+    // std::runtime_error instead of being rendered (the timing renders, which
+    // are measurements and never cached, still run).
+    std::vector<std::string> missing(const SceneVariant& v);
+    void render_all(const SceneVariant& v);
+    void set_offline(bool offline) { offline_ = offline; }
+
 private:
     struct Loaded {
         SceneVariant variant;
@@ -48,6 +58,9 @@ private:
     std::string code_digest_;
     std::function<bool()> interrupted_;
     std::optional<Loaded> loaded_;
+    bool offline_ = false;
+    // A cache entry is missing: render it, or in offline mode throw naming it.
+    void need(const std::string& what) const;
 };
 
 }  // namespace vkmech

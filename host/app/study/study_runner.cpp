@@ -24,6 +24,7 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -324,7 +325,8 @@ RenderTally render_missing(const StudyPlan& p, const StudyDevice& dev, RenderCac
     return t;
 }
 
-void analyse(const StudyPlan& p, const StudyDevice& dev, RenderCache& cache, StudyOutput& out, FrameSource& frames) {
+void analyse(const StudyPlan& p, const StudyDevice& dev, RenderCache& cache, StudyOutput& out, FrameSource& frames,
+             bool offline) {
     const StudyConfig& cfg = p.cfg;
     const vk::Context& ctx = dev.ctx;
     const Traversal trav = dev.trav;
@@ -349,6 +351,7 @@ void analyse(const StudyPlan& p, const StudyDevice& dev, RenderCache& cache, Stu
         case StudyKind::Predictor: run_predictor(sc); break;
         case StudyKind::Allocation: {
             RenderedAllocationSource source(cfg, ctx, trav, cache, code_digest, [] { return study_interrupted(); });
+            source.set_offline(offline);
             AllocationContext ac{cfg, source, out, ctx.info().name};
             run_allocation(ac);
             break;
@@ -421,6 +424,78 @@ std::string report_header(const StudyOptions& o, const StudyPlan& p, const Study
     return header.str();
 }
 
+// ---- scale-out: work units, shards, job lists ----
+
+struct WorkUnit {
+    bool allocation = false;
+    size_t render = 0;  // index into the plan (a render unit)
+    SceneVariant scene;  // the allocation unit's scene
+};
+
+std::vector<WorkUnit> work_units(const StudyPlan& p) {
+    std::vector<WorkUnit> u;
+    for (size_t i = 0; i < p.renders.size(); ++i) u.push_back({false, i, {}});
+    if (p.has(StudyKind::Allocation))
+        for (const auto& s : p.cfg.scenes) u.push_back({true, 0, s});
+    return u;
+}
+
+std::string shell_quote(const std::string& s) {
+    if (!s.empty() && s.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-./=:,+@%") ==
+                          std::string::npos)
+        return s;
+    std::string q = "'";
+    for (char c : s) {
+        if (c == '\'') q += "'\\''";
+        else q += c;
+    }
+    return q + "'";
+}
+
+std::string absolute_path(const std::string& p) {
+    std::error_code ec;
+    const fs::path a = fs::absolute(p, ec);
+    return ec ? p : a.lexically_normal().string();
+}
+
+// The command that renders work unit k of M: this study's options with absolute paths, plus --shard k/M.
+std::string unit_command(const StudyOptions& o, const StudyPlan& p, size_t k, size_t M) {
+    std::error_code ec;
+    fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+    std::vector<std::string> a = {ec ? std::string("vkmech") : exe.string(), "study", o.study, "--preset", o.preset};
+    if (!o.scenes.empty()) {
+        std::string list;
+        for (size_t i = 0; i < o.scenes.size(); ++i) {
+            if (i) list += ',';
+            list += absolute_path(o.scenes[i]);
+        }
+        a.insert(a.end(), {"--scenes", list});
+    }
+    if (o.res) a.insert(a.end(), {"--res", std::to_string(*o.res)});
+    if (!o.spp_levels.empty()) {
+        std::string list;
+        for (size_t i = 0; i < o.spp_levels.size(); ++i) {
+            if (i) list += ',';
+            list += std::to_string(o.spp_levels[i]);
+        }
+        a.insert(a.end(), {"--spp-levels", list});
+    }
+    if (o.seeds) a.insert(a.end(), {"--seeds", std::to_string(*o.seeds)});
+    a.insert(a.end(), {"--out", absolute_path(p.out_dir), "--cache", absolute_path(p.cache_dir)});
+    if (!o.curve.empty()) a.insert(a.end(), {"--curve", absolute_path(o.curve)});
+    if (o.device) a.insert(a.end(), {"--device", std::to_string(*o.device)});
+    if (o.pipeline_cache) a.insert(a.end(), {"--pipeline-cache", *o.pipeline_cache});
+    a.insert(a.end(), {"--traversal", o.traversal});
+    if (o.equal_time) a.push_back("--equal-time");
+    a.insert(a.end(), {"--shard", std::to_string(k) + "/" + std::to_string(M)});
+    std::string cmd;
+    for (size_t i = 0; i < a.size(); ++i) {
+        if (i) cmd += ' ';
+        cmd += shell_quote(a[i]);
+    }
+    return cmd;
+}
+
 }  // namespace
 
 int run_study(const StudyOptions& o) {
@@ -432,18 +507,82 @@ int run_study(const StudyOptions& o) {
                  to_string(dev.trav), p.cache_dir.c_str());
     RenderCache cache(p.cache_dir);
     if (!o.plan_only) clean_stale_temporaries(p.cache_dir);  // `*.tmp-<pid>` of dead processes
-    const CacheState cs = key_renders(p, dev, cache);
-    const double alloc_paths = estimate(p, dev, cs);
+    // Scale-out: the work units, and the ones this run looks at (all, or this shard's: a shard keys and loads
+    // only its own scenes, so that a job list of one-unit commands stays cheap).
+    const std::vector<WorkUnit> units = work_units(p);
+    std::map<RenderRequest, size_t> unit_of;
+    for (size_t u = 0; u < units.size(); ++u)
+        if (!units[u].allocation) unit_of[p.renders[units[u].render]] = u;
+    auto in_shard = [&](size_t u) { return !o.shard || u % o.shard->second == o.shard->first; };
+    StudyPlan keyed = p;
+    if (o.shard) {
+        keyed.renders.clear();
+        for (const auto& r : p.renders)
+            if (in_shard(unit_of.at(r))) keyed.renders.push_back(r);
+    }
+    CacheState cs = key_renders(keyed, dev, cache);
+    std::set<size_t> missing_units;
+    std::vector<std::string> missing_lines;
+    for (const auto& r : cs.missing) {
+        missing_units.insert(unit_of.at(r));
+        missing_lines.push_back(describe(r));
+    }
+    std::optional<RenderedAllocationSource> alloc_source;
+    if (p.has(StudyKind::Allocation) && (!o.jobs_file.empty() || o.analyse_only || o.shard)) {
+        alloc_source.emplace(p.cfg, dev.ctx, dev.trav, cache, dev.code_digest, [] { return study_interrupted(); });
+        for (size_t u = 0; u < units.size(); ++u)
+            if (units[u].allocation && in_shard(u)) {
+                const auto m = alloc_source->missing(units[u].scene);
+                if (!m.empty()) missing_units.insert(u);
+                missing_lines.insert(missing_lines.end(), m.begin(), m.end());
+            }
+    }
+    if (!o.jobs_file.empty()) {
+        std::string jobs;
+        for (size_t u : missing_units) jobs += unit_command(o, p, u, units.size()) + "\n";
+        write_file_atomic(o.jobs_file, jobs);
+        std::printf("vkmech study %s: %zu of %zu work units are missing from the cache; wrote one command each to %s "
+                    "(run them in any order, on any machines sharing the cache, then `vkmech study %s ... "
+                    "--analyse-only`)\n",
+                    o.study.c_str(), missing_units.size(), units.size(), o.jobs_file.c_str(), o.study.c_str());
+        return 0;
+    }
+    if (o.analyse_only && !missing_units.empty()) {
+        std::fprintf(stderr, "vkmech: error: --analyse-only: the cache %s lacks %zu of %zu work units (%zu renders or "
+                     "inputs); the first ones:\n", p.cache_dir.c_str(), missing_units.size(), units.size(),
+                     missing_lines.size());
+        for (size_t i = 0; i < missing_lines.size() && i < 20; ++i) std::fprintf(stderr, "  %s\n", missing_lines[i].c_str());
+        std::fprintf(stderr, "render them with this command without --analyse-only, with --shard i/N, or with the "
+                     "commands of --jobs FILE\n");
+        return 1;
+    }
+    const double alloc_paths = o.shard ? 0.0 : estimate(p, dev, cs);
+    if (o.shard)
+        std::fprintf(stderr, "vkmech study: shard %u/%u: %zu of its renders missing, %zu allocation units\n", o.shard->first,
+                     o.shard->second, cs.missing.size(), missing_units.size() - cs.missing.size());
     if (o.plan_only) return 0;
 
     SignalGuard guard;  // SIGINT/SIGTERM until the end: the allocation study renders during its analysis
     const RenderTally tally = render_missing(p, dev, cache, cs);
+    if (o.shard) {
+        const auto [i, N] = *o.shard;
+        size_t alloc_units = 0;
+        for (size_t u = 0; u < units.size(); ++u)
+            if (units[u].allocation && in_shard(u) && missing_units.count(u)) {
+                alloc_source->render_all(units[u].scene);
+                ++alloc_units;
+            }
+        std::printf("vkmech study %s: shard %u/%u: %zu renders and %zu allocation inputs rendered into %s; no tables "
+                    "(run `--analyse-only` when every shard is done)\n",
+                    o.study.c_str(), i, N, tally.done, alloc_units, p.cache_dir.c_str());
+        return 0;
+    }
 
     // Experiments on cached frames only: a resumed study computes from exactly the same bytes.
     fs::create_directories(p.out_dir);
     StudyOutput out(p.out_dir);
     CacheFrames frames(cache, cs.keys);
-    analyse(p, dev, cache, out, frames);
+    analyse(p, dev, cache, out, frames, o.analyse_only);
     const int rc = plot(o, p.out_dir);
 
     const std::string header = report_header(o, p, dev, frames, tally, cs.paths_total, alloc_paths, t_start);

@@ -37,6 +37,17 @@ struct StudyOptions {
     std::string plot_script_missing;      // then: where it was searched and how to say where it is
     bool plan_only = false;               // print the plan and the expected cost, render nothing
     bool equal_time = false;              // allocation: also compare strategies at equal wall-clock time
+    // Scale-out (README "Studies on many machines"): the study's work units are
+    // its planned renders, in plan order, then one unit per scene for the
+    // allocation study's cached inputs. --shard i/N renders the units whose
+    // index is i mod N and writes no table; --jobs FILE writes one command per
+    // unit the cache lacks (each a --shard k/M of one unit) and renders
+    // nothing; --analyse-only renders nothing the cache keeps and refuses,
+    // listing them, when units are missing.
+    std::optional<std::pair<uint32_t, uint32_t>> shard;  // (i, N), 0 <= i < N
+    std::string shard_text;  // the CLI's "i/N", parsed into `shard` by cmd_study
+    std::string jobs_file;
+    bool analyse_only = false;
     std::string command_line;             // for the report
 };
 

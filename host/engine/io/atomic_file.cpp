@@ -1,5 +1,6 @@
 #include "io/atomic_file.hpp"
 
+#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -30,7 +31,21 @@ void fsync_directory(const fs::path& dir) {
 
 }  // namespace
 
-std::string atomic_temp_path(const std::string& path) { return path + ".tmp-" + std::to_string(::getpid()); }
+std::string atomic_temp_path(const std::string& path) {
+    return path + ".host-" + temp_host_name() + ".tmp-" + std::to_string(::getpid());
+}
+
+std::string temp_host_name() {
+    static const std::string name = [] {
+        char b[256] = {};
+        if (::gethostname(b, sizeof b - 1) != 0 || b[0] == 0) return std::string("unknown");
+        std::string s(b);
+        for (char& c : s)  // a file-name-safe spelling
+            if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_') c = '_';
+        return s;
+    }();
+    return name;
+}
 
 void write_all_fd(int fd, const void* data, size_t n) {
     const char* p = static_cast<const char*>(data);

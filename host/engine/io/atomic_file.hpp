@@ -1,5 +1,5 @@
 // Atomic file writes (issue "outputs"): every output file is written to
-// `path + ".tmp-<pid>"` in the destination directory, fsync'ed, then renamed
+// `path + ".host-<host>.tmp-<pid>"` in the destination directory, fsync'ed, then renamed
 // over `path`. A reader therefore sees either the old file or the complete new
 // one, never a partial file. On failure the temporary is removed and a
 // std::runtime_error naming the path and the reason is thrown.
@@ -10,8 +10,12 @@
 
 namespace vkmech {
 
-// The temporary name used for `path`: path + ".tmp-<pid>".
+// The temporary name used for `path`: path + ".host-<host>.tmp-<pid>", unique
+// across the machines that share a directory (a render cache on a shared
+// filesystem), so concurrent writers of one file never share a temporary.
 std::string atomic_temp_path(const std::string& path);
+// This machine's host name as it appears in temporaries (file-name-safe).
+std::string temp_host_name();
 
 // Writes `bytes` to `path` atomically (temp + fsync + rename, then a
 // best-effort fsync of the directory). Parent directories are created.

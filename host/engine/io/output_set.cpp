@@ -243,6 +243,11 @@ size_t clean_stale_temporaries(const std::string& dir) {
         long pid = -1;
         if (name.rfind(kStagingPrefix, 0) == 0) pid = leading_pid(name, std::strlen(kStagingPrefix));
         else pid = trailing_tmp_pid(name);
+        // Another machine's temporary (a shared filesystem): its pid means nothing here.
+        const size_t host = name.rfind(".host-"), tmp = name.rfind(".tmp-");
+        if (host != std::string::npos && tmp != std::string::npos && host < tmp &&
+            name.substr(host + 6, tmp - host - 6) != temp_host_name())
+            continue;
         if (pid <= 0 || process_alive(pid)) continue;
         std::error_code rec;
         if (fs::remove_all(e.path(), rec) > 0) ++n;
