@@ -173,8 +173,9 @@ TEST_CASE("allocation experiment: runs over a synthetic source without a device 
         for (uint32_t k = 0; k < 3; ++k) expect.push_back("pilot synthetic " + std::to_string(n0) + " " + std::to_string(k));
     REQUIRE(src.calls.size() >= expect.size());
     CHECK(std::vector<std::string>(src.calls.begin(), src.calls.begin() + expect.size()) == expect);
-    // Timing renders: uniform, observed-var, bucket-floor at N0 = 4; the two robust ones too at N0 = 16.
-    CHECK(src.final_totals.size() == 3 + 5);
+    // Timing renders: uniform, observed-var, bucket-floor, guarded and shrink at N0 = 4; the three robust ones too
+    // (robust-var, robust-floor, robust-adaptive) at N0 = 16.
+    CHECK(src.final_totals.size() == 5 + 8);
     for (uint64_t t : src.final_totals) CHECK(t == 33u * 16u);  // every strategy spends (1 + extra) x pixels
 
     auto rows = read_csv(tmp.file("tables/downstream.csv"));
@@ -223,7 +224,7 @@ TEST_CASE("allocation experiment: runs over a synthetic source without a device 
     // No heavy-tailed bucket: the bucket floor changes nothing, so bucket-floor ties observed-var exactly.
     CHECK(rows[1][2] == rows[1][3]);
     CHECK(rows[1][7] == "tie");
-    // Every configuration is listed: 2 pilots x (6 base strategies + guarded and shrink) + 3 robust at N0 = 16
+    // Every configuration is listed: 2 pilots x (6 base strategies + guarded and shrink) + 4 robust at N0 = 16
     // (the budget sweep's extra 32 is the main budget).
     // The block-count sweep asks for each N0 = 16 draw's samples once, and has one row per valid k.
     CHECK(std::count(src.calls.begin(), src.calls.end(), "pilot samples synthetic 16 0") == 1);
@@ -231,7 +232,17 @@ TEST_CASE("allocation experiment: runs over a synthetic source without a device 
     auto mom = read_csv(tmp.file("tables/mom_sweep.csv"));
     CHECK(mom.size() == 1 + 5);  // k = 2, 3, 4, 6, 8 all give blocks of >= 2 samples at N0 = 16
     auto all = read_csv(tmp.file("tables/downstream_all.csv"));
-    CHECK(all.size() == 1 + 2 * 8 + 3);
+    CHECK(all.size() == 1 + 2 * 8 + 4);
+    // robust-adaptive against the others at N0 = 16 (the only pilot where median-of-means is defined here); the
+    // synthetic labels have no rare-tail pixel, so it is robust-var exactly.
+    auto adaptive = read_csv(tmp.file("tables/robust_adaptive.csv"));
+    REQUIRE(adaptive.size() == 1 + 1);
+    CHECK(adaptive[1][1] == "16");
+    CHECK(adaptive[0][7] == "robust-var");
+    CHECK(adaptive[0][11] == "robust-adaptive");
+    REQUIRE(std::stod(adaptive[1][3]) == 0.0);
+    CHECK(adaptive[1][11] == adaptive[1][7]);
+    CHECK(adaptive[1][12] == "tie");
     // The strategies beyond the paper, one row per pilot; with no untrusted pilot pixel guarded is bucket-floor.
     auto beyond = read_csv(tmp.file("tables/beyond_floor.csv"));
     REQUIRE(beyond.size() == 1 + 2);
@@ -242,6 +253,29 @@ TEST_CASE("allocation experiment: runs over a synthetic source without a device 
             CHECK(beyond[r][9] == "tie");
         }
     }
+}
+
+TEST_CASE("allocation experiment: equal time covers every strategy - the plain ones at the smallest pilot and the robust ones where median-of-means is defined") {
+    TempDir tmp("alloc_exp_eq");
+    StudyConfig cfg = small_config();
+    cfg.equal_time = true;
+    cfg.equal_time_budgets = {8, 32};
+    SyntheticSource src;
+    StudyOutput out(tmp.path.string());
+    AllocationContext ctx{cfg, src, out, "no device"};
+    run_allocation(ctx);
+    // 13 timing renders (as above), then one render per equal-time strategy and budget at N0 = 4 and at N0 = 16.
+    CHECK(src.final_totals.size() == 13 + 2 * 5 + 2 * 5);
+    auto eq = read_csv(tmp.file("tables/equal_time.csv"));
+    auto eq_robust = read_csv(tmp.file("tables/equal_time_robust.csv"));
+    REQUIRE(eq.size() == 1 + 2 * 5);
+    REQUIRE(eq_robust.size() == 1 + 2 * 5);
+    std::vector<std::string> names, robust_names;
+    for (size_t r = 1; r < eq.size(); r += 2) names.push_back(eq[r][1]);
+    for (size_t r = 1; r < eq_robust.size(); r += 2) robust_names.push_back(eq_robust[r][1]);
+    CHECK(names == std::vector<std::string>{"uniform", "observed-var", "bucket-floor", "guarded", "shrink"});
+    CHECK(robust_names ==
+          std::vector<std::string>{"uniform", "observed-var", "robust-var", "robust-floor", "robust-adaptive"});
 }
 
 TEST_CASE("allocation experiment: a pool that does not match the reference's film is refused naming the scene") {

@@ -5,6 +5,7 @@
 // Pure C++, no Vulkan.
 #pragma once
 
+#include "allocation/adaptive_mom.hpp"
 #include "allocation/floor.hpp"
 #include "allocation/guard.hpp"
 #include "allocation/metrics.hpp"

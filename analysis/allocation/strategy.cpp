@@ -1,5 +1,6 @@
 #include "allocation/strategy.hpp"
 
+#include "allocation/adaptive_mom.hpp"
 #include "allocation/floor.hpp"
 #include "allocation/guard.hpp"
 #include "allocation/shrink.hpp"
@@ -22,6 +23,7 @@ const char* to_string(Strategy s) {
         case Strategy::RobustPlacebo: return "robust-placebo";
         case Strategy::Guarded: return "guarded";
         case Strategy::Shrink: return "shrink";
+        case Strategy::RobustAdaptive: return "robust-adaptive";
     }
     return "unknown";
 }
@@ -38,7 +40,8 @@ Strategy parse_strategy(const std::string& name) {
 }
 
 bool needs_mom(Strategy s) {
-    return s == Strategy::RobustVar || s == Strategy::RobustFloor || s == Strategy::RobustPlacebo;
+    return s == Strategy::RobustVar || s == Strategy::RobustFloor || s == Strategy::RobustPlacebo ||
+           s == Strategy::RobustAdaptive;
 }
 
 namespace {
@@ -96,6 +99,9 @@ std::vector<double> strategy_score(Strategy s, const ScoreInputs& in, uint64_t p
             return shrink_score(need(in.pilot_var, s, "pilot_var"), need(in.pilot_labels, s, "pilot_labels"),
                                 in.pilot_spp);
         }
+        case Strategy::RobustAdaptive:
+            return adaptive_mom_score(need(in.pilot_var, s, "pilot_var"), need(in.mom_var, s, "mom_var"),
+                                      need(in.pilot_labels, s, "pilot_labels"));
     }
     throw std::invalid_argument("alloc::strategy_score: unknown strategy");
 }

@@ -20,6 +20,7 @@ enum class Strategy {
     RobustPlacebo, // "robust-placebo": bucket_floor(MoM variance, shuffled pilot labels)
     Guarded,       // "guarded": bucket-floor, at least the uniform share on untrusted pixels (guard.hpp)
     Shrink,        // "shrink": the pilot variance shrunk towards its label's prior (shrink.hpp)
+    RobustAdaptive,// "robust-adaptive": the MoM block count chosen per pixel from its pilot label (adaptive_mom.hpp)
 };
 
 // Every strategy, in declaration order.
@@ -27,7 +28,7 @@ inline constexpr Strategy kAllStrategies[] = {
     Strategy::Uniform,     Strategy::ObservedVar, Strategy::Oracle,
     Strategy::BucketFloor, Strategy::Placebo,     Strategy::LabelOracle,
     Strategy::RobustVar,   Strategy::RobustFloor, Strategy::RobustPlacebo,
-    Strategy::Guarded,     Strategy::Shrink,
+    Strategy::Guarded,     Strategy::Shrink,      Strategy::RobustAdaptive,
 };
 
 // The command-line / report name ("uniform", "observed-var", ...).
@@ -64,6 +65,7 @@ struct ScoreInputs {
 //   RobustPlacebo -> bucket_floor(*mom_var, placebo_labels(*pilot_labels, placebo_seed))
 //   Guarded       -> guard_score(bucket_floor(*pilot_var, *pilot_labels), *untrusted)
 //   Shrink        -> shrink_score(*pilot_var, *pilot_labels, pilot_spp)
+//   RobustAdaptive -> adaptive_mom_score(*pilot_var, *mom_var, *pilot_labels)
 // placebo_seed is used by the two placebo strategies only.
 // Throws std::invalid_argument naming the missing input (e.g. "oracle_var")
 // when a needed pointer is null, when Uniform is given no input at all, or

@@ -102,6 +102,13 @@ Errors evaluate(const SceneData& d, const std::vector<uint32_t>& n) {
     return out;
 }
 
+// Plot colours (Okabe-Ito), one per strategy that appears in a figure.
+const std::map<Strategy, std::string> kStrategyColors = {
+    {Strategy::Uniform, "#777777"},     {Strategy::ObservedVar, "#D55E00"}, {Strategy::BucketFloor, "#0072B2"},
+    {Strategy::Oracle, "#009E73"},      {Strategy::Guarded, "#CC79A7"},     {Strategy::Shrink, "#E69F00"},
+    {Strategy::RobustVar, "#56B4E9"},   {Strategy::RobustFloor, "#000000"}, {Strategy::RobustAdaptive, "#F0E442"},
+};
+
 struct Key {
     uint32_t n0, floor, extra;
     Strategy s;
@@ -110,6 +117,21 @@ struct Key {
 
 }  // namespace
 
+std::vector<Strategy> allocation_timed_strategies(uint32_t n0) {
+    std::vector<Strategy> timed = {Strategy::Uniform, Strategy::ObservedVar, Strategy::BucketFloor, Strategy::Guarded,
+                                   Strategy::Shrink};
+    if (alloc::mom_defined(static_cast<int>(n0)))
+        timed.insert(timed.end(), {Strategy::RobustVar, Strategy::RobustFloor, Strategy::RobustAdaptive});
+    return timed;
+}
+
+std::vector<Strategy> allocation_equal_time_strategies(uint32_t n0) {
+    if (alloc::mom_defined(static_cast<int>(n0)))
+        return {Strategy::Uniform, Strategy::ObservedVar, Strategy::RobustVar, Strategy::RobustFloor,
+                Strategy::RobustAdaptive};
+    return {Strategy::Uniform, Strategy::ObservedVar, Strategy::BucketFloor, Strategy::Guarded, Strategy::Shrink};
+}
+
 void run_allocation(AllocationContext& a) {
     const StudyConfig& cfg = a.cfg;
     const std::string sec = "Downstream allocation";
@@ -117,18 +139,28 @@ void run_allocation(AllocationContext& a) {
     const uint32_t K = static_cast<uint32_t>(cfg.alloc_draws);
     const std::vector<Strategy> base = {Strategy::Uniform, Strategy::ObservedVar, Strategy::BucketFloor,
                                         Strategy::Oracle,  Strategy::Placebo,     Strategy::LabelOracle};
-    const std::vector<Strategy> robust = {Strategy::RobustVar, Strategy::RobustFloor, Strategy::RobustPlacebo};
+    const std::vector<Strategy> robust = {Strategy::RobustVar, Strategy::RobustFloor, Strategy::RobustPlacebo,
+                                          Strategy::RobustAdaptive};
     const std::vector<Strategy> beyond = {Strategy::Guarded, Strategy::Shrink};  // not in the paper (§6.5, §6.6)
     Table beyond_t{"beyond_floor", "Strategies beyond the paper: guarded (§6.5) and shrink (§6.6), floor 1",
                    {"scene", "N0", "untrusted px", "uniform", "obs-var", "b-floor", "guarded", "shrink", "placebo",
                     "MSE wins guarded vs b-floor", "MSE wins shrink vs obs-var"}, {}, ""};
+    Table beyond_f4_t = beyond_t;
+    beyond_f4_t.name = "beyond_floor_f4";
+    beyond_f4_t.title = "Strategies beyond the paper: guarded (§6.5) and shrink (§6.6), the f = 4 sample-floor control";
+    Table adaptive_t{"robust_adaptive", "The per-bucket adaptive median-of-means block count (robust-adaptive, §6.7) "
+                     "against the other strategies at equal samples",
+                     {"scene", "N0", "floor", "rare-tail px", "uniform", "obs-var", "b-floor", "robust-var",
+                      "robust-floor", "placebo", "robust-placebo", "robust-adaptive", "MSE wins r-adaptive vs r-var",
+                      "MSE wins r-adaptive vs obs-var", "MSE wins r-adaptive vs r-floor"}, {}, ""};
 
     Table main_t{"downstream", "", {"scene", "uniform", "obs-var", "b-floor", "oracle", "label-oracle", "placebo",
                                     "MSE wins", "p99 wins", "seed std obs/b-floor (dB)"}, {}, ""};
     Table f4_t = main_t;
     Table robust_t{"robust_alloc", "Robust-variance incumbent at the pilots where median-of-means is defined (tab:robust-alloc)",
                    {"scene", "N0", "obs-var", "robust-var", "robust-floor", "robust-placebo", "b-floor",
-                    "MSE wins r-floor vs r-var", "placebo dB vs obs-var", "b-floor dB vs obs-var"}, {}, ""};
+                    "MSE wins r-floor vs r-var", "placebo dB vs obs-var", "b-floor dB vs obs-var", "robust-adaptive",
+                    "MSE wins r-adaptive vs r-var"}, {}, ""};
     Table rel_t{"downstream_relmse", "Relative MSE at pilot N0 = " + std::to_string(n0_main) + ", floor 1 (unclamped linear RGB)",
                 {"scene", "uniform", "obs-var", "b-floor", "oracle", "label-oracle", "placebo", "relMSE wins"}, {}, ""};
     Table clamped_t{"downstream_clamped", "Clamped display-range PSNR at pilot N0 = " + std::to_string(n0_main) +
@@ -147,6 +179,12 @@ void run_allocation(AllocationContext& a) {
                  {"scene", "N0", "strategy", "pilot s", "allocation ms", "final s", "total s", "PSNR"}, {}, ""};
     Table eq_t{"equal_time", "Error versus wall-clock time (N0 = " + std::to_string(n0_main) + ", floor 1)",
                {"scene", "strategy", "extra SPP", "seconds", "PSNR"}, {}, ""};
+    // The robust strategies need a pilot where median-of-means is defined: their equal-time table is at the first such N0.
+    uint32_t n0_robust = 0;
+    for (uint32_t n0 : cfg.alloc_pilots)
+        if (n0_robust == 0 && alloc::mom_defined(static_cast<int>(n0))) n0_robust = n0;
+    Table eq_robust_t{"equal_time_robust", "Error versus wall-clock time of the median-of-means strategies (N0 = " +
+                      std::to_string(n0_robust) + ", floor 1)", eq_t.columns, {}, ""};
     report::Figure fig_pilot{"psnr_vs_pilot", "Equal-budget PSNR versus pilot budget (mean and seed std over draws)", "", 0, {}};
     report::Figure fig_budget{"psnr_vs_budget", "PSNR versus extra budget at N0 = " + std::to_string(n0_main), "", 0, {}};
     Table mom_t{"mom_sweep", "Median-of-means block-count sweep: robust-var and robust-floor PSNR against the block count k",
@@ -157,6 +195,8 @@ void run_allocation(AllocationContext& a) {
     for (int k : cfg.alloc_mom_k) rank_t.columns.push_back("MoM k=" + std::to_string(k));
     report::Figure fig_mom{"psnr_vs_mom_k", "PSNR versus the median-of-means block count k", "", 0, {}};
     report::Figure fig_time{"error_vs_time", "PSNR versus wall-clock seconds (pilot + allocation + final render)", "", 0, {}};
+    report::Figure fig_time_robust{"error_vs_time_robust", "PSNR versus wall-clock seconds of the median-of-means "
+                                   "strategies at N0 = " + std::to_string(n0_robust), "", 0, {}};
     std::string fail_heavy, tie_note;
     bool cubes_tie = true, saw_cubes = false;
 
@@ -217,8 +257,7 @@ void run_allocation(AllocationContext& a) {
         for (uint32_t n0 : cfg.alloc_pilots)
             for (uint32_t floor : cfg.alloc_floors) {
                 for (Strategy s : base) run_config(n0, floor, cfg.alloc_extra, s);
-                if (floor == 1)
-                    for (Strategy s : beyond) run_config(n0, floor, cfg.alloc_extra, s);
+                for (Strategy s : beyond) run_config(n0, floor, cfg.alloc_extra, s);
                 if (alloc::mom_defined(static_cast<int>(n0)))
                     for (Strategy s : robust) run_config(n0, floor, cfg.alloc_extra, s);
             }
@@ -243,6 +282,13 @@ void run_allocation(AllocationContext& a) {
         };
         auto mses = [&](const Key& k, bool p99) { return per_draw(k, p99 ? &Errors::p99 : &Errors::mse); };
         auto psnr_cell = [&](const Key& k) { return Cell::num(stats::mean(psnrs(k)), "%.2f"); };
+        // Paired MSE wins of configuration k over the same configuration with strategy `against`; "tie" when identical.
+        auto wins_cell = [&](const Key& k, Strategy against) {
+            const auto ma = mses(k, false), mb = mses({k.n0, k.floor, k.extra, against}, false);
+            if (ma == mb) return Cell::str("tie");
+            const auto w = alloc::paired_wins(ma, mb);
+            return Cell::str(std::to_string(w.wins) + "/" + std::to_string(w.draws));
+        };
         bool heavy = false;
         for (uint8_t l : d.ref_labels) heavy |= alloc::is_heavy_tailed(l);
 
@@ -314,24 +360,35 @@ void run_allocation(AllocationContext& a) {
                           Cell::num(m(Strategy::RobustPlacebo), "%.2f"), Cell::num(m(Strategy::BucketFloor), "%.2f"),
                           Cell::str(std::to_string(w.wins) + "/" + std::to_string(w.draws)),
                           Cell::num(m(Strategy::Placebo) - m(Strategy::ObservedVar), "%+.2f"),
-                          Cell::num(m(Strategy::BucketFloor) - m(Strategy::ObservedVar), "%+.2f")});
+                          Cell::num(m(Strategy::BucketFloor) - m(Strategy::ObservedVar), "%+.2f"),
+                          Cell::num(m(Strategy::RobustAdaptive), "%.2f"),
+                          wins_cell({n0, 1, cfg.alloc_extra, Strategy::RobustAdaptive}, Strategy::RobustVar)});
         }
-        for (uint32_t n0 : cfg.alloc_pilots) {
-            auto m = [&](Strategy s) { return Cell::num(stats::mean(psnrs({n0, 1, cfg.alloc_extra, s})), "%.2f"); };
-            auto wins = [&](Strategy a, Strategy b) {
-                const auto ma = mses({n0, 1, cfg.alloc_extra, a}, false), mb = mses({n0, 1, cfg.alloc_extra, b}, false);
-                if (ma == mb) return Cell::str("tie");
-                const auto w = alloc::paired_wins(ma, mb);
-                return Cell::str(std::to_string(w.wins) + "/" + std::to_string(w.draws));
-            };
-            double untrusted = 0.0;  // mean over the draws of the pilot's untrusted pixels
-            for (const alloc::PilotDiagnosis& dg : d.diagnoses[n0]) untrusted += static_cast<double>(dg.untrusted);
-            untrusted /= static_cast<double>(d.diagnoses[n0].size());
-            beyond_t.add({Cell::str(scene.name), Cell::integer(n0), Cell::num(untrusted, "%.1f"), m(Strategy::Uniform),
-                          m(Strategy::ObservedVar), m(Strategy::BucketFloor), m(Strategy::Guarded), m(Strategy::Shrink),
-                          m(Strategy::Placebo), wins(Strategy::Guarded, Strategy::BucketFloor),
-                          wins(Strategy::Shrink, Strategy::ObservedVar)});
-        }
+        for (uint32_t floor : cfg.alloc_floors)
+            for (uint32_t n0 : cfg.alloc_pilots) {
+                auto m = [&](Strategy s) { return Cell::num(stats::mean(psnrs({n0, floor, cfg.alloc_extra, s})), "%.2f"); };
+                auto wins = [&](Strategy s, Strategy against) { return wins_cell({n0, floor, cfg.alloc_extra, s}, against); };
+                double untrusted = 0.0;  // mean over the draws of the pilot's untrusted pixels
+                for (const alloc::PilotDiagnosis& dg : d.diagnoses[n0]) untrusted += static_cast<double>(dg.untrusted);
+                untrusted /= static_cast<double>(d.diagnoses[n0].size());
+                if (floor == 1 || floor == alloc::kStudyControlFloor)
+                    (floor == 1 ? beyond_t : beyond_f4_t)
+                        .add({Cell::str(scene.name), Cell::integer(n0), Cell::num(untrusted, "%.1f"), m(Strategy::Uniform),
+                              m(Strategy::ObservedVar), m(Strategy::BucketFloor), m(Strategy::Guarded),
+                              m(Strategy::Shrink), m(Strategy::Placebo), wins(Strategy::Guarded, Strategy::BucketFloor),
+                              wins(Strategy::Shrink, Strategy::ObservedVar)});
+                if (!alloc::mom_defined(static_cast<int>(n0))) continue;
+                double rare = 0.0;  // mean over the draws of the pilot's rare-tail pixels (where k = 1)
+                for (const Pilot& pl : d.pilots[n0]) rare += static_cast<double>(alloc::rare_tail_pixels(pl.labels));
+                rare /= static_cast<double>(d.pilots[n0].size());
+                adaptive_t.add({Cell::str(scene.name), Cell::integer(n0), Cell::integer(floor), Cell::num(rare, "%.1f"),
+                                m(Strategy::Uniform), m(Strategy::ObservedVar), m(Strategy::BucketFloor),
+                                m(Strategy::RobustVar), m(Strategy::RobustFloor), m(Strategy::Placebo),
+                                m(Strategy::RobustPlacebo), m(Strategy::RobustAdaptive),
+                                wins(Strategy::RobustAdaptive, Strategy::RobustVar),
+                                wins(Strategy::RobustAdaptive, Strategy::ObservedVar),
+                                wins(Strategy::RobustAdaptive, Strategy::RobustFloor)});
+            }
         for (const auto& [k, errs] : res) {
             auto p = psnrs(k);
             auto w = alloc::paired_wins(mses(k, false), mses({k.n0, k.floor, k.extra, Strategy::ObservedVar}, false));
@@ -364,9 +421,8 @@ void run_allocation(AllocationContext& a) {
         pb.xlabel = "extra SPP per pixel";
         pp.ylabel = pb.ylabel = "PSNR (dB)";
         pp.logx = pb.logx = true;
-        const std::map<Strategy, std::string> colors = {{Strategy::Uniform, "#777777"}, {Strategy::ObservedVar, "#D55E00"},
-                                                        {Strategy::BucketFloor, "#0072B2"}, {Strategy::Oracle, "#009E73"}};
-        for (auto [s, col] : colors) {
+        for (Strategy s : {Strategy::Uniform, Strategy::ObservedVar, Strategy::Oracle, Strategy::BucketFloor}) {
+            const std::string& col = kStrategyColors.at(s);
             report::Series sp{alloc::to_string(s), {}, {}, {}, {}, col, "o", s == Strategy::Oracle ? "--" : "-", 0, 0, {}};
             report::Series sb = sp;
             for (uint32_t n0 : cfg.alloc_pilots) {
@@ -476,9 +532,7 @@ void run_allocation(AllocationContext& a) {
         // Wall time: the pilot's GPU time, the allocation, and a real GPU render of draw 0's n(p).
         auto final_seconds = [&](const std::vector<uint32_t>& n) { return a.source.final_render_seconds(scene, n); };
         for (uint32_t n0 : cfg.alloc_pilots) {
-            std::vector<Strategy> timed = {Strategy::Uniform, Strategy::ObservedVar, Strategy::BucketFloor};
-            if (alloc::mom_defined(static_cast<int>(n0))) timed.insert(timed.end(), {Strategy::RobustVar, Strategy::RobustFloor});
-            for (Strategy s : timed) {
+            for (Strategy s : allocation_timed_strategies(n0)) {
                 const Pilot& pl = d.pilots[n0][0];
                 AdaptivePlan plan = plan_allocation(s, pilot_inputs(d, n0, 0), cfg.alloc_extra, 1, 7919u);
                 double fs_ = final_seconds(plan.n);
@@ -488,29 +542,35 @@ void run_allocation(AllocationContext& a) {
                             Cell::num(stats::mean(psnrs({n0, 1, cfg.alloc_extra, s})), "%.2f")});
             }
         }
-        if (cfg.equal_time) {
+        // Equal time: per strategy and extra budget, the mean PSNR over the draws against the measured seconds of
+        // the mean pilot + draw 0's allocation + a real render of draw 0's n(p).
+        auto equal_time = [&](uint32_t n0, Table& t, report::Figure& fig) {
             report::Panel pt;
             pt.title = scene.name;
             pt.xlabel = "wall-clock seconds (pilot + allocation + final render)";
             pt.ylabel = "PSNR (dB)";
             pt.logx = true;
-            for (Strategy s : {Strategy::Uniform, Strategy::ObservedVar, Strategy::BucketFloor}) {
-                report::Series st{alloc::to_string(s), {}, {}, {}, {}, colors.at(s), "o", "-", 0, 0, {}};
-                double pilot_s = 0;
-                for (const auto& pl : d.pilots[n0_main]) pilot_s += pl.seconds / K;
+            double pilot_s = 0;
+            for (const auto& pl : d.pilots[n0]) pilot_s += pl.seconds / K;
+            for (Strategy s : allocation_equal_time_strategies(n0)) {
+                report::Series st{alloc::to_string(s), {}, {}, {}, {}, kStrategyColors.at(s), "o", "-", 0, 0, {}};
                 for (uint32_t extra : cfg.equal_time_budgets) {
-                    run_config(n0_main, 1, extra, s);
-                    AdaptivePlan plan = plan_allocation(s, pilot_inputs(d, n0_main, 0), extra, 1, 7919u);
-                    double t = pilot_s + plan.allocation_ms / 1000.0 + final_seconds(plan.n);
-                    double ps = stats::mean(psnrs({n0_main, 1, extra, s}));
-                    eq_t.add({Cell::str(scene.name), Cell::str(alloc::to_string(s)), Cell::integer(extra), Cell::num(t, "%.3f"),
-                              Cell::num(ps, "%.2f")});
-                    st.x.push_back(t);
+                    run_config(n0, 1, extra, s);
+                    AdaptivePlan plan = plan_allocation(s, pilot_inputs(d, n0, 0), extra, 1, 7919u);
+                    double secs = pilot_s + plan.allocation_ms / 1000.0 + final_seconds(plan.n);
+                    double ps = stats::mean(psnrs({n0, 1, extra, s}));
+                    t.add({Cell::str(scene.name), Cell::str(alloc::to_string(s)), Cell::integer(extra),
+                           Cell::num(secs, "%.3f"), Cell::num(ps, "%.2f")});
+                    st.x.push_back(secs);
                     st.y.push_back(ps);
                 }
                 pt.series.push_back(st);
             }
-            fig_time.panels.push_back(pt);
+            fig.panels.push_back(pt);
+        };
+        if (cfg.equal_time) {
+            equal_time(n0_main, eq_t, fig_time);
+            if (n0_robust != 0) equal_time(n0_robust, eq_robust_t, fig_time_robust);
         }
     }
 
@@ -536,7 +596,8 @@ void run_allocation(AllocationContext& a) {
     f4_t.note = "As tab:downstream with every pixel guaranteed 4 samples, deducted from the Neyman share (totals unchanged).";
     robust_t.note = "Median-of-means over k = ceil(sqrt(N0)) contiguous blocks of the pilot (per-block ddof 1, remainder "
                     "discarded); not defined at N0 = 4. Placebo / b-floor columns: PSNR gain over observed-var of the "
-                    "shuffled-label floor and of the real one — the gain specific to the label is the difference.";
+                    "shuffled-label floor and of the real one — the gain specific to the label is the difference. robust-adaptive "
+                    "(§6.7): k chosen per pilot label, its wins against robust-var (\"tie\": identical in every draw).";
     timing_t.note = "Measured on this device for pilot draw 0 (GPU times vary run to run; the error columns do not). The "
                   "final render is the GPU adaptive render of the strategy's n(p).";
     eq_t.note = "Each point: the mean PSNR over the draws at one extra budget, against the measured wall time of pilot + "
@@ -560,6 +621,24 @@ void run_allocation(AllocationContext& a) {
                     "its label's empirical-Bayes prior. Wins: draws with the lower MSE; \"tie\": identical in every draw.";
     a.out.table(sec, beyond_t, "whether the two strategies that go past the paper help: guarded should matter only where "
                                "the pilot leaves untrusted pixels, shrink most at the shortest pilot.");
+    if (!beyond_f4_t.rows.empty()) {
+        beyond_f4_t.note = "As tab:beyond_floor with every pixel guaranteed " + std::to_string(alloc::kStudyControlFloor) +
+                           " samples, deducted from the Neyman share (totals unchanged).";
+        a.out.table(sec, beyond_f4_t, "the same with a shared floor of 4 samples: whether guarded and shrink still help "
+                                      "once a plain sample floor protects every pixel.");
+    }
+    if (!adaptive_t.rows.empty()) {
+        adaptive_t.note = "PSNR (dB, unclamped, reference peak), mean over the draws, extra budget " + ex +
+                          ", at every pilot where median-of-means is defined and every floor. robust-adaptive: the "
+                          "plain pilot variance (k = 1) on pixels whose pilot label is delta_mediated or "
+                          "specular_direct, robust-var's median-of-means (k = ceil(sqrt(N0))) everywhere else, "
+                          "unlabelled pixels included (§6.7); the rule was fixed a priori, not fitted to these scenes. "
+                          "rare-tail px: the pilot's pixels where k = 1, mean over the draws (0: robust-adaptive is "
+                          "robust-var bit for bit). Wins: draws with the lower MSE; \"tie\": identical in every draw.";
+        a.out.table(sec, adaptive_t, "whether choosing the block count per pilot label beats one block count for every "
+                                     "pixel (robust-var), the label's floor (robust-floor) and the plain variance; the "
+                                     "placebo columns are the gain of a shuffled partition.");
+    }
     a.out.table(sec, all_t, "every pilot, floor, budget and strategy, for further analysis.");
     if (!mom_t.rows.empty()) {
         mom_t.note = "Per pilot N0 where median-of-means is defined and per block count k (blocks of floor(N0 / k) "
@@ -583,7 +662,17 @@ void run_allocation(AllocationContext& a) {
     a.out.figure(sec, fig_budget, "per scene: PSNR against the extra budget per pixel at the smallest pilot.");
     if (cfg.equal_time) {
         a.out.table(sec, eq_t, "error against seconds: the comparison at equal wall-clock time rather than equal samples.");
-        a.out.figure(sec, fig_time, "per scene: PSNR against measured seconds for uniform, observed-var and bucket-floor.");
+        a.out.figure(sec, fig_time, "per scene: PSNR against measured seconds for uniform, observed-var, bucket-floor, "
+                                    "guarded and shrink.");
+        if (!eq_robust_t.rows.empty()) {
+            eq_robust_t.note = "As tab:equal_time, at the first pilot where median-of-means is defined (the robust "
+                               "strategies are not defined at N0 = " + n0s + "); uniform and observed-var repeated "
+                               "at this pilot for reference.";
+            a.out.table(sec, eq_robust_t, "the same comparison at equal wall-clock time for robust-var, robust-floor "
+                                          "and robust-adaptive.");
+            a.out.figure(sec, fig_time_robust, "per scene: PSNR against measured seconds for uniform, observed-var, "
+                                               "robust-var, robust-floor and robust-adaptive.");
+        }
     }
     a.out.check("bucket-floor beats observed-var on paired MSE in at least 7 of " + std::to_string(K) +
                     " draws at N0 = " + n0s + " on every scene with heavy-tailed buckets",

@@ -44,4 +44,11 @@ struct AllocationContext {
 
 void run_allocation(AllocationContext& a);
 
+// The strategies whose wall time run_allocation measures at pilot n0 (one
+// final render each, tab alloc_time), and those of its equal-time table at n0
+// (one final render per equal-time budget each): at the smallest pilot the
+// plain-variance ones, where median-of-means is defined the robust ones.
+std::vector<alloc::Strategy> allocation_timed_strategies(uint32_t n0);
+std::vector<alloc::Strategy> allocation_equal_time_strategies(uint32_t n0);
+
 }  // namespace vkmech

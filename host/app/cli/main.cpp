@@ -61,7 +61,8 @@ int main(int argc, char** argv) {
                        "Two-stage adaptive rendering (docs/descriptor.md §6) with this allocation strategy: uniform, observed-var, "
                        "bucket-floor, robust-var, robust-floor, placebo, robust-placebo, guarded (bucket-floor with at least "
                        "the uniform share where the pilot cannot be trusted), shrink (the pilot variance shrunk towards its label's "
-                       "empirical-Bayes prior)");
+                       "empirical-Bayes prior), robust-adaptive (median-of-means with the block count chosen per pixel from its pilot "
+                       "label: the plain variance on delta_mediated and specular_direct pixels, ceil(sqrt(N0)) blocks elsewhere)");
     render->add_option("--pilot", render_opts.pilot, "Adaptive: pilot samples per pixel N0 (default 16)")
         ->check(CLI::Range(2u, 4096u));
     render->add_option("--budget", render_opts.budget,

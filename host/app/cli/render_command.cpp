@@ -135,6 +135,20 @@ void print_diagnosis(alloc::Strategy s, const alloc::PilotDiagnosis& d) {
     }
 }
 
+// docs/descriptor.md §6.7: which block count robust-adaptive uses where, from the pilot labels alone.
+void print_adaptive_k(const std::vector<uint8_t>& labels, uint32_t n0) {
+    const size_t rare = alloc::rare_tail_pixels(labels);
+    const int k = alloc::mom_block_count(static_cast<int>(n0));
+    if (rare == 0)
+        std::printf("robust-adaptive: no delta_mediated or specular_direct pilot pixels, identical to robust-var "
+                    "(k = %d everywhere)\n",
+                    k);
+    else
+        std::printf("robust-adaptive: k = 1 (the plain pilot variance) on %zu pilot pixels labelled delta_mediated or "
+                    "specular_direct, k = %d (median-of-means, as robust-var) on the other %zu\n",
+                    rare, k, labels.size() - rare);
+}
+
 struct UntrustedAllocation {
     uint32_t min_n = ~0u, max_n = 0;
     size_t below_uniform = 0;
@@ -349,6 +363,7 @@ int cmd_render_adaptive(const RenderOptions& o) {
     }
 
     print_diagnosis(strategy, diag);
+    if (strategy == alloc::Strategy::RobustAdaptive) print_adaptive_k(pilot.labels, o.pilot);
 
     alloc::ScoreInputs in;
     in.pilot_var = &pilot.var;

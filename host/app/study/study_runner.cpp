@@ -1,6 +1,7 @@
 #include "study/study_runner.hpp"
 
 #include "study/separation_gpu.hpp"
+#include "allocation/mom.hpp"
 #include "experiments/study_context.hpp"
 #include "io/atomic_file.hpp"
 #include "io/output_set.hpp"
@@ -241,9 +242,19 @@ double estimate(const StudyPlan& p, const StudyDevice& dev, const CacheState& cs
     double alloc_paths = 0;
     if (std::find(kinds.begin(), kinds.end(), StudyKind::Allocation) != kinds.end()) {
         double per_pixel = cfg.alloc_ref_chunks * cfg.alloc_ref_chunk_spp + 256.0;
-        for (uint32_t n0 : cfg.alloc_pilots) per_pixel += cfg.alloc_draws * n0 + 5 * (1.0 + cfg.alloc_extra);
-        if (cfg.equal_time)
-            for (uint32_t e : cfg.equal_time_budgets) per_pixel += 3 * (1.0 + e);
+        for (uint32_t n0 : cfg.alloc_pilots)
+            per_pixel += cfg.alloc_draws * n0 + allocation_timed_strategies(n0).size() * (1.0 + cfg.alloc_extra);
+        if (cfg.equal_time && !cfg.alloc_pilots.empty()) {
+            std::vector<uint32_t> eq_pilots = {cfg.alloc_pilots.front()};  // the smallest pilot and the first robust one
+            for (uint32_t n0 : cfg.alloc_pilots)
+                if (alloc::mom_defined(static_cast<int>(n0))) {
+                    eq_pilots.push_back(n0);
+                    break;
+                }
+            for (uint32_t n0 : eq_pilots)
+                for (uint32_t e : cfg.equal_time_budgets)
+                    per_pixel += allocation_equal_time_strategies(n0).size() * (1.0 + e);
+        }
         for (const auto& sc : cfg.scenes) {
             LoadedScene ls = load_variant(sc, cfg.alloc_res);
             double paths = per_pixel * ls.scene.camera.width * ls.scene.camera.height;
