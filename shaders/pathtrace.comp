@@ -1,6 +1,11 @@
 #version 460
 // The render entry: one invocation per pixel runs this batch's samples and
 // writes the pixel's batch moments (GpuPixelAccum). The host merges batches.
+// Compiled twice per traversal (CMakeLists.txt): the default module, and with
+// VKMECH_DIRECT_GLOSSY defined the variant for `render --extra-output
+// direct_glossy` (docs/descriptor.md §3.4), which also writes into side.z the
+// energy of `direct` events whose end vertex is glossy. The #ifdef keeps the
+// default module's SPIR-V (the studies' code digest) unchanged.
 #extension GL_GOOGLE_include_directive : require
 #include "shared/types.h"
 #include "shared/bindings.h"
@@ -87,6 +92,9 @@ struct Tally {
     float glossy;       // energy of events whose V1..Vn has a glossy lobe
     float depth_sum;    // sum of energy * n over events with n >= 1
     float depth_w;      // sum of energy over events with n >= 1
+#ifdef VKMECH_DIRECT_GLOSSY
+    float direct_glossy;  // energy of `direct` events whose end vertex is glossy (l = G)
+#endif
 };
 
 void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_before, bool glossy_before) {
@@ -95,6 +103,9 @@ void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_be
     float e = luminance(contrib);
     uint b = classify_event(n, end_lobe, delta_before);
     t.bucket[b] += e;
+#ifdef VKMECH_DIRECT_GLOSSY
+    if (b == BUCKET_DIRECT && end_lobe == LOBE_G) t.direct_glossy += e;
+#endif
     if (DEBUG_EVENTS && g_debug_pixel) {
         uint slot = atomicAdd(debug_count, 1u);
         if (slot < params.debug.y) {
@@ -292,6 +303,9 @@ void main() {
     float glossy_sum = 0.0;
     float depth_sum = 0.0;
     float depth_w = 0.0;
+#ifdef VKMECH_DIRECT_GLOSSY
+    float direct_glossy_sum = 0.0;
+#endif
     g_debug_pixel = DEBUG_EVENTS && params.debug.y > 0u && pixel == params.debug.x;
     for (uint i = 0u; i < count; ++i) {
         g_sample_index = first + i;
@@ -307,6 +321,9 @@ void main() {
         t.glossy = 0.0;
         t.depth_sum = 0.0;
         t.depth_w = 0.0;
+#ifdef VKMECH_DIRECT_GLOSSY
+        t.direct_glossy = 0.0;
+#endif
         if (params.scene.w == MODE_PATH) {
             path_sample(rng, o, d, t);
         } else {
@@ -340,6 +357,9 @@ void main() {
         glossy_sum += t.glossy;
         depth_sum += t.depth_sum;
         depth_w += t.depth_w;
+#ifdef VKMECH_DIRECT_GLOSSY
+        direct_glossy_sum += t.direct_glossy;
+#endif
     }
     GpuPixelAccum a;
     a.rgb = vec4(rgb_sum, n_ok);
@@ -348,6 +368,10 @@ void main() {
     a.lum = vec4(ldexp(mean_s, lum_exp), m2_s, nonfinite, float(lum_exp));
     a.bucket0 = vec4(bucket_sum[0], bucket_sum[1], bucket_sum[2], bucket_sum[3]);
     a.bucket1 = vec4(bucket_sum[4], bucket_sum[5], bucket_sum[6], glossy_sum);
+#ifdef VKMECH_DIRECT_GLOSSY
+    a.side = vec4(depth_sum, depth_w, direct_glossy_sum, 0.0);
+#else
     a.side = vec4(depth_sum, depth_w, 0.0, 0.0);
+#endif
     accum[pixel] = a;
 }

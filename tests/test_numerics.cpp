@@ -17,6 +17,7 @@
 
 using namespace vkmech;
 using testing::RenderSetup;
+using testing::read_text;
 
 namespace {
 
@@ -44,13 +45,6 @@ double nonfinite_samples(const Frame& f) {
     double n = 0.0;
     for (const auto& p : f.pixels) n += p.nonfinite;
     return n;
-}
-
-std::string read_text(const std::string& path) {
-    std::ifstream in(path);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
 }
 
 bool contains(const std::string& s, const std::string& what) { return s.find(what) != std::string::npos; }

@@ -161,7 +161,9 @@ struct GpuPixelAccum {
     vec4 lum;          // x: mean luminance, y: M2 / 4^w (scaled Welford), z: non-finite samples, w: exponent
     vec4 bucket0;      // energy sums of buckets 0..3
     vec4 bucket1;      // energy sums of buckets 4..6, w: glossy-touching energy sum
-    vec4 side;         // x: sum(energy * depth) over n >= 1, y: energy sum over n >= 1
+    vec4 side;         // x: sum(energy * depth) over n >= 1, y: energy sum over n >= 1,
+                       // z: energy sum of `direct` events with a glossy end vertex (the
+                       // direct-glossy variant only, else 0), w: 0
 };
 
 // Ray-tracing test kernel (tracerays.comp): one ray in, one hit out.

@@ -46,6 +46,8 @@ struct RenderOptions {
     std::string capture = "on";     // on | off: the mechanism descriptor
     bool generic = false;           // the unspecialized pipeline (for comparisons)
     bool preview = false;           // provisional direct-light preview instead of the estimator
+    // Optional outputs beyond the descriptor: direct_glossy (docs/descriptor.md §3.4).
+    std::vector<std::string> extra_outputs;
     // Two-stage adaptive rendering (docs/descriptor.md §6): strategy, pilot N0, extra budget, floor, pilot draw.
     std::string adaptive;
     uint32_t pilot = 16;

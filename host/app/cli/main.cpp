@@ -55,6 +55,12 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(-30.0f, 30.0f));
     render->add_option("--capture", render_opts.capture, "Mechanism descriptor capture: on (default) or off")
         ->check(CLI::IsMember({"on", "off"}));
+    render->add_option("--extra-output", render_opts.extra_outputs,
+                       "Optional extra outputs (comma-separated): direct_glossy = the direct bucket's energy whose end "
+                       "vertex is glossy, as EXR channel bucket.direct_glossy and a JSON share (docs/descriptor.md "
+                       "§3.4; a second shader variant, needs --capture on)")
+        ->delimiter(',')
+        ->check(CLI::IsMember({"direct_glossy"}));
     render->add_flag("--generic", render_opts.generic, "Use the unspecialized pipeline (every effect compiled in)");
     render->add_flag("--preview", render_opts.preview, "Fast direct-light preview instead of the full estimator");
     render->add_option("--adaptive", render_opts.adaptive,

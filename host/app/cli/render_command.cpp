@@ -197,6 +197,14 @@ std::string adaptive_json(alloc::Strategy s, const RenderOptions& o, const alloc
     return j.str();
 }
 
+// `--extra-output direct_glossy` (docs/descriptor.md §3.4): the direct-glossy shader variant. It
+// splits the descriptor's direct bucket, so it needs the capture.
+bool wants_direct_glossy(const RenderOptions& o, bool capture) {
+    const bool on = std::find(o.extra_outputs.begin(), o.extra_outputs.end(), "direct_glossy") != o.extra_outputs.end();
+    if (on && !capture) throw UsageError("--extra-output direct_glossy needs --capture on (it splits the direct bucket)");
+    return on;
+}
+
 }  // namespace
 
 void check_curve_for_cli(const std::string& path) { (void)load_curve_for_cli(path); }
@@ -210,6 +218,7 @@ int cmd_render(const RenderOptions& o) {
     std::string out_dir = o.out_dir.empty() ? "out/" + name : o.out_dir;
     Estimator estimator = render_estimator(o, Estimator::Mis);
     bool capture = o.capture == "on";
+    const bool direct_glossy = wants_direct_glossy(o, capture);
     SignalGuard signals;  // SIGINT/SIGTERM: stop at the next batch, remove the staged files, exit 130/143
     std::unique_ptr<OutputSet> set = open_output_set(out_dir, name);
 
@@ -220,6 +229,7 @@ int cmd_render(const RenderOptions& o) {
     const SceneArrays& arrays = session.arrays();
     Features features = o.generic ? Features::generic(estimator, capture) : session.features(estimator, capture);
     features.end_vertex = parse_end_vertex(o.end_vertex);
+    features.direct_glossy = direct_glossy;
     const vk::PipelineStats before = ctx.pipeline_cache().stats();
     Renderer renderer = session.renderer(features);
     const vk::PipelineStats pipes = ctx.pipeline_cache().stats() - before;
@@ -267,6 +277,9 @@ int cmd_render(const RenderOptions& o) {
                         100.0 * summary->energy_share[b]);
         std::printf("labelled pixels: %llu of %zu; other energy: %g\n",
                     static_cast<unsigned long long>(summary->labelled_pixels), frame.pixels.size(), summary->other_energy);
+        if (summary->has_direct_glossy)
+            std::printf("direct energy ending at a glossy vertex: %.2f%% of direct, %.2f%% of all\n",
+                        100.0 * summary->direct_glossy_share_of_direct, 100.0 * summary->direct_glossy_energy_share);
     }
     double clipped = clipped_share(frame.rgb_mean(), o.exposure);
     std::printf("preview: exposure %+.2f EV, %.2f%% of pixels clip%s\n", o.exposure, 100.0 * clipped,
@@ -299,6 +312,7 @@ int cmd_render_adaptive(const RenderOptions& o) {
         }
     }
     if (o.floor > 1 + o.budget) throw UsageError("--floor exceeds the per-pixel average (1 + --budget)");
+    const bool direct_glossy = wants_direct_glossy(o, true);
     // The frozen curve is read before anything renders: a bad file is bad input (exit 2).
     // Without --curve: the installed (or source tree's) frozen curve; none found means no prediction.
     std::string curve_path = o.curve;
@@ -325,6 +339,7 @@ int cmd_render_adaptive(const RenderOptions& o) {
     const Scene& scene = session.scene();
     Features features = session.features(estimator, true);
     features.end_vertex = parse_end_vertex(o.end_vertex);
+    features.direct_glossy = direct_glossy;
     const vk::PipelineStats before = ctx.pipeline_cache().stats();
     Renderer renderer = session.renderer(features);
     const vk::PipelineStats pipes = ctx.pipeline_cache().stats() - before;

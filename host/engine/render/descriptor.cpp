@@ -59,6 +59,12 @@ Descriptor derive_descriptor(const Frame& f) {
         }
         d.depth[i] = p.depth_weight > 0.0 ? static_cast<float>(p.depth_weighted_sum / p.depth_weight) : 0.0f;
     }
+    if (f.direct_glossy_sum.size() == n) {
+        d.direct_glossy.resize(n);
+        for (size_t i = 0; i < n; ++i)
+            d.direct_glossy[i] =
+                f.pixels[i].count > 0 ? static_cast<float>(f.direct_glossy_sum[i] / f.pixels[i].count) : 0.0f;
+    }
     return d;
 }
 
@@ -85,6 +91,14 @@ DescriptorSummary summarize(const Frame& f, const Descriptor& d) {
         s.energy_share[b] = total > 0 ? energy[b] / total : 0.0;
     }
     s.other_energy = energy[gpu::BUCKET_OTHER];
+    if (!d.direct_glossy.empty()) {
+        double direct_glossy = 0.0;
+        for (float v : d.direct_glossy) direct_glossy += v;
+        const double direct = energy[gpu::BUCKET_DIRECT];
+        s.has_direct_glossy = true;
+        s.direct_glossy_energy_share = total > 0 ? direct_glossy / total : 0.0;
+        s.direct_glossy_share_of_direct = direct > 0 ? direct_glossy / direct : 0.0;
+    }
     return s;
 }
 

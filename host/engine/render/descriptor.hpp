@@ -26,6 +26,9 @@ struct Descriptor {
     std::vector<float> caustic_frac; // L_delta_mediated / sum
     std::vector<float> depth;        // energy-weighted mean n over n >= 1
     std::vector<float> total_energy; // sum_b L_b
+    // docs/descriptor.md §3.4, only when the frame has the split (render --extra-output direct_glossy):
+    // the part of L_direct whose events end at a glossy vertex (mean per-sample energy, <= L_direct).
+    std::vector<float> direct_glossy;
 };
 
 // argmax with ties broken to the lower index; kNoLabel when every entry is 0.
@@ -40,6 +43,11 @@ struct DescriptorSummary {
     uint64_t nonfinite_samples = 0;
     double other_energy = 0.0;  // absolute energy in `other` (expected 0)
     double max_bucket_sum_error = 0.0;  // max |sum_b L_b - lum_mean| / max(lum_mean, 1e-8)
+    // docs/descriptor.md §3.4, when the descriptor has direct_glossy: the image's glossy-ended direct
+    // energy as a share of all bucket energy and as a share of the direct bucket's (0 without any).
+    bool has_direct_glossy = false;
+    double direct_glossy_energy_share = 0.0;
+    double direct_glossy_share_of_direct = 0.0;
 };
 
 DescriptorSummary summarize(const Frame& frame, const Descriptor& d);

@@ -33,6 +33,11 @@ struct Features {
     bool textures = true;
     bool capture = true;  // the mechanism descriptor
     bool debug_events = false;  // record one pixel's contribution events (tests)
+    // `render --extra-output direct_glossy` (docs/descriptor.md §3.4): the pipeline built from the
+    // path tracer's second SPIR-V module, which also sums the `direct` bucket's energy whose end
+    // vertex is glossy (Frame::direct_glossy_sum). Not a specialization constant: the default
+    // module stays byte-identical. Needs capture.
+    bool direct_glossy = false;
     Estimator estimator = Estimator::Nee;
     EndVertex end_vertex = EndVertex::LastNonDelta;
 

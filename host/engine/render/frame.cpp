@@ -31,6 +31,7 @@ void Frame::merge(const std::vector<gpu::GpuPixelAccum>& batch) {
         p.glossy_sum += a.bucket1.w;
         p.depth_weighted_sum += a.side.x;
         p.depth_weight += a.side.y;
+        if (!direct_glossy_sum.empty()) direct_glossy_sum[i] += a.side.z;  // the variant's; 0 otherwise
     }
 }
 
@@ -49,6 +50,10 @@ void Frame::merge(const Frame& other) {
         x.depth_weighted_sum += y.depth_weighted_sum;
         x.depth_weight += y.depth_weight;
     }
+    if (other.direct_glossy_sum.size() == direct_glossy_sum.size())
+        for (size_t i = 0; i < direct_glossy_sum.size(); ++i) direct_glossy_sum[i] += other.direct_glossy_sum[i];
+    else
+        direct_glossy_sum.clear();  // only one of the two has the split: the sum has none
     samples += other.samples;
     seconds += other.seconds;
 }

@@ -36,11 +36,17 @@ struct Frame {
     std::vector<PixelStats> pixels;
     double seconds = 0.0;  // wall time of the GPU work
     uint64_t samples = 0;  // samples taken (spp * pixels)
+    // `render --extra-output direct_glossy` (docs/descriptor.md §3.4): per pixel, the energy sum of the
+    // `direct` bucket's events whose end vertex is glossy (at most bucket_sum[BUCKET_DIRECT]).
+    // Empty unless the renderer ran the direct-glossy variant; kept apart from PixelStats so that
+    // the render cache's per-pixel format does not change (the cache does not store it).
+    std::vector<double> direct_glossy_sum;
 
     void merge(const std::vector<gpu::GpuPixelAccum>& batch);
     // Another render of the same film on disjoint samples (e.g. a chunk of a
     // reference): sums added, moments merged with Chan's update, samples and
-    // seconds added. Throws std::invalid_argument when the films differ.
+    // seconds added. Throws std::invalid_argument when the films differ. The direct-glossy
+    // sums are added when both frames have them and dropped otherwise.
     void merge(const Frame& other);
     std::vector<float> rgb_mean() const;  // 3 per pixel
 };

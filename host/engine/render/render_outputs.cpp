@@ -19,10 +19,11 @@ namespace fs = std::filesystem;
 
 namespace vkmech {
 
-std::vector<std::string> exr_channel_names(bool capture) {
+std::vector<std::string> exr_channel_names(bool capture, bool direct_glossy) {
     std::vector<std::string> names = {"R", "G", "B"};
     if (capture) {
         for (const char* b : kBucketNames) names.push_back(std::string("bucket.") + b);
+        if (direct_glossy) names.push_back("bucket.direct_glossy");
         for (const char* c : {"dominant", "purity", "glossy_frac", "caustic_frac", "depth"}) names.push_back(c);
         for (const char* b : kBucketNames) names.push_back(std::string("frac.") + b);
     }
@@ -175,6 +176,9 @@ std::string summary_json(const RenderInfo& info, const Frame& frame, const Descr
               << ", \"energy_share\": " << s->energy_share[b] << "}" << (b + 1 < kBucketCount ? "," : "") << "\n";
         }
         o << "  }";
+        if (s->has_direct_glossy)
+            o << ",\n  \"direct_glossy\": {\"energy_share\": " << s->direct_glossy_energy_share
+              << ", \"share_of_direct\": " << s->direct_glossy_share_of_direct << "}";
     }
     o << "\n}\n";
     return o.str();
@@ -195,6 +199,7 @@ WrittenFiles write_render_outputs(OutputSet& set, const RenderInfo& info, const 
     if (d) {
         for (uint32_t b = 0; b < kBucketCount; ++b)
             channel(std::string("bucket.") + kBucketNames[b], [&](size_t i) { return d->bucket_energy[i][b]; });
+        if (!d->direct_glossy.empty()) channel("bucket.direct_glossy", [&](size_t i) { return d->direct_glossy[i]; });
         channel("dominant", [&](size_t i) { return static_cast<float>(d->dominant[i]); });
         channel("purity", [&](size_t i) { return d->purity[i]; });
         channel("glossy_frac", [&](size_t i) { return d->glossy_frac[i]; });

@@ -45,8 +45,9 @@ struct WrittenFiles {
     std::vector<std::string> warnings;
 };
 
-// The EXR channel names, in file order (documented in README.md).
-std::vector<std::string> exr_channel_names(bool capture);
+// The EXR channel names, in file order (documented in README.md); `direct_glossy`: with
+// `render --extra-output direct_glossy` (bucket.direct_glossy after the seven bucket.* channels).
+std::vector<std::string> exr_channel_names(bool capture, bool direct_glossy = false);
 
 // Stages the files in `set` (their final paths are returned); checks for
 // SIGINT/SIGTERM between files (throws Interrupted). The caller adds any

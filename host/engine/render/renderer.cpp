@@ -91,8 +91,11 @@ Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Feature
         bindings.push_back({BINDING_BVH_NODES, DT::eStorageBuffer});
         bindings.push_back({BINDING_BVH_TRIS, DT::eStorageBuffer});
     }
-    pipeline_ = std::make_unique<vk::ComputePipeline>(ctx, pathtrace_spirv(gpu_.traversal()), bindings, 0,
-                                                      spec_constants(features_));
+    if (features_.direct_glossy && !features_.capture)
+        throw std::invalid_argument("the direct_glossy output needs the mechanism capture on");
+    // The direct-glossy variant is another SPIR-V module, so another pipeline (and pipeline-cache entry).
+    pipeline_ = std::make_unique<vk::ComputePipeline>(ctx, pathtrace_spirv(gpu_.traversal(), features_.direct_glossy),
+                                                      bindings, 0, spec_constants(features_));
     size_t pixels = static_cast<size_t>(scene.camera.width) * scene.camera.height;
     if (const uint64_t heap = ctx.info().device_local_bytes; heap > 0 && film_device_bytes(pixels) > heap)
         film_out_of_memory(scene.camera, "the device's largest memory heap has " + vk::byte_size_text(heap));
@@ -140,6 +143,7 @@ Frame Renderer::render(const RenderSpec& spec) {
     std::vector<gpu::GpuPixelAccum> batch;
     try {
         frame.pixels.assign(pixels, PixelStats{});
+        if (features_.direct_glossy) frame.direct_glossy_sum.assign(pixels, 0.0);
         batch.resize(pixels);
     } catch (const std::bad_alloc&) {
         film_out_of_memory(cam, "the host could not allocate it");

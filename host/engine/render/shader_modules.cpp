@@ -3,6 +3,8 @@
 #include <cstdint>
 
 #include "shaders/spv_pathtrace_bvh.h"
+#include "shaders/spv_pathtrace_direct_glossy_bvh.h"
+#include "shaders/spv_pathtrace_direct_glossy_rayquery.h"
 #include "shaders/spv_pathtrace_rayquery.h"
 #include "shaders/spv_tracerays_bvh.h"
 #include "shaders/spv_tracerays_rayquery.h"
@@ -12,6 +14,12 @@ namespace vkmech {
 std::span<const uint32_t> pathtrace_spirv(Traversal t) {
     if (t == Traversal::RayQuery) return spv_pathtrace_rayquery;
     return spv_pathtrace_bvh;
+}
+
+std::span<const uint32_t> pathtrace_spirv(Traversal t, bool direct_glossy) {
+    if (!direct_glossy) return pathtrace_spirv(t);
+    if (t == Traversal::RayQuery) return spv_pathtrace_direct_glossy_rayquery;
+    return spv_pathtrace_direct_glossy_bvh;
 }
 
 std::span<const uint32_t> tracerays_spirv(Traversal t) {

@@ -7,7 +7,10 @@
 
 namespace vkmech {
 
+// The path tracer: the default module (what the studies' code digest hashes) and, with
+// `direct_glossy`, the variant compiled with VKMECH_DIRECT_GLOSSY (docs/descriptor.md §3.4).
 std::span<const uint32_t> pathtrace_spirv(Traversal t);
+std::span<const uint32_t> pathtrace_spirv(Traversal t, bool direct_glossy);
 std::span<const uint32_t> tracerays_spirv(Traversal t);
 
 }  // namespace vkmech
