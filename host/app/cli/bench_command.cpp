@@ -79,9 +79,52 @@ int cmd_bench_traversal(const BenchOptions& o) {
     return 0;
 }
 
+namespace {
+
+// `bench render --profile`: per scene and batch size, the render's wall time split into the batch loop's steps.
+int bench_render_profile(const BenchOptions& o, const std::vector<std::string>& names, const vk::Context& ctx) {
+    std::printf("device: %s (%s); %ux%u film, %u spp per render (the median of 3 renders by wall time); seconds per "
+                "render; dispatch = record + submit + wait (the device's work)\n",
+                ctx.info().name.c_str(), ctx.info().type.c_str(), o.res, o.res, o.spp);
+    std::printf("%-20s %-9s %6s %8s %9s %9s %9s %9s %9s %7s %9s\n", "scene", "traversal", "batch", "batches", "total",
+                "upload", "dispatch", "readback", "accum.", "other", "Mpaths/s");
+    for (const auto& n : names) {
+        Scene scene = load_scene(resolve_scene_path(n));
+        scene.camera.set_film_width(static_cast<int>(o.res));
+        const Traversal t = resolve_traversal(ctx, Traversal::Auto);
+        RenderSession session(ctx, scene, t);
+        Renderer r = session.renderer(session.features());
+        for (uint32_t b : o.batches) {
+            RenderSpec spec;
+            spec.spp = o.spp;
+            spec.batch_spp = b;
+            r.render(spec);  // warm-up
+            std::vector<std::pair<double, RenderProfile>> runs;
+            for (int i = 0; i < 3; ++i) {
+                RenderProfile prof;
+                spec.profile = &prof;
+                const Frame f = r.render(spec);
+                runs.emplace_back(f.seconds, prof);
+            }
+            std::sort(runs.begin(), runs.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+            const auto& [total, p] = runs[1];
+            const double other = total - p.upload - p.dispatch - p.readback - p.accumulate;
+            const double paths = static_cast<double>(o.spp) * scene.camera.width * scene.camera.height;
+            std::printf("%-20s %-9s %6u %8u %9.4f %9.4f %9.4f %9.4f %9.4f %7.4f %9.3f\n", scene_stem(n).c_str(),
+                        to_string(t), b, p.batches, total, p.upload, p.dispatch, p.readback, p.accumulate, other,
+                        paths / total / 1e6);
+            std::fflush(stdout);
+        }
+    }
+    return 0;
+}
+
+}  // namespace
+
 int cmd_bench_render(const BenchOptions& o) {
     const std::vector<std::string> names = bench_scenes(o);
     vk::Context ctx(bench_context_options(o));
+    if (o.profile) return bench_render_profile(o, names, ctx);
     std::printf("device: %s (%s); %ux%u film, %u spp per measurement, median of 3; paths/s in millions\n",
                 ctx.info().name.c_str(), ctx.info().type.c_str(), o.res, o.res, o.spp);
     std::printf("%-20s %-9s %12s %12s %12s %12s\n", "scene", "traversal", "specialized", "generic", "capture off",

@@ -86,6 +86,8 @@ struct BenchOptions {
     uint32_t rays = 1u << 18;
     uint32_t res = 128;  // bench render: film width
     uint32_t spp = 8;    // bench render: samples per measurement
+    bool profile = false;       // bench render: where a render's time goes, per batch size
+    std::vector<uint32_t> batches{1, 8, 64};  // bench render --profile: samples per dispatch tried
     std::optional<uint32_t> device;
     std::optional<std::string> pipeline_cache;
 };

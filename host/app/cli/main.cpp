@@ -110,6 +110,12 @@ int main(int argc, char** argv) {
     bench_render->add_option("--res", bench_opts.res, "Film width")->check(CLI::Range(8u, 4096u));
     bench_render->add_option("--spp", bench_opts.spp, "Samples per pixel per measurement")->check(CLI::Range(1u, 4096u));
     bench_render->add_option("--device", bench_opts.device, "Vulkan device index");
+    bench_render->add_flag("--profile", bench_opts.profile,
+                           "Where the render's time goes (parameter upload, dispatch = submit + wait, readback, host "
+                           "accumulation) for each --batches size, instead of the specialization table");
+    bench_render->add_option("--batches", bench_opts.batches, "--profile: samples per dispatch to try (default 1,8,64)")
+        ->delimiter(',')
+        ->check(CLI::Range(1u, 4096u));
     add_pipeline_cache_option(bench_render, bench_opts.pipeline_cache);
 
     StudyOptions study_opts;

@@ -195,7 +195,16 @@ Frame Renderer::render(const RenderSpec& spec) {
                                          }) - order.begin());
             p.adaptive.y = static_cast<uint32_t>(active);
         }
+        using clk = std::chrono::steady_clock;
+        auto t_phase = clk::now();
+        auto lap = [&](double RenderProfile::*slot) {  // adds the time since the last lap to the profile's slot
+            if (!spec.profile) return;
+            const auto now = clk::now();
+            spec.profile->*slot += std::chrono::duration<double>(now - t_phase).count();
+            t_phase = now;
+        };
         params_.upload(ctx_, &p, sizeof(p));
+        lap(&RenderProfile::upload);
         ctx_.submit_and_wait([&](::vk::CommandBuffer cmd) {
             if (order.empty()) pipeline_->record(cmd, (cam.width + 7) / 8, (cam.height + 7) / 8, 1);
             else {
@@ -204,13 +213,18 @@ Frame Renderer::render(const RenderSpec& spec) {
                 pipeline_->record(cmd, gx, (groups + gx - 1) / gx, 1);
             }
         });
+        lap(&RenderProfile::dispatch);
         accum_.download(ctx_, batch.data(), batch.size() * sizeof(gpu::GpuPixelAccum));
+        lap(&RenderProfile::readback);
         // Pixels outside the active prefix were not written in this batch: they took no samples.
         for (size_t i = active; i < order.size(); ++i) batch[order[i]] = gpu::GpuPixelAccum{};
         frame.merge(batch);
+        lap(&RenderProfile::accumulate);
         if (spec.on_batch) spec.on_batch(batch);
         done += n;
         if (spec.progress) spec.progress(done, total_spp);
+        lap(&RenderProfile::callbacks);
+        if (spec.profile) spec.profile->batches += 1;
     }
     frame.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     frame.samples = total_samples;

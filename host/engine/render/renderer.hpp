@@ -12,6 +12,18 @@
 
 namespace vkmech {
 
+// Where a render's wall time goes, batch by batch (bench render --profile):
+// host clock around each step of the batch loop. `dispatch` is submit + wait,
+// so it holds the GPU's work (on lavapipe: the path tracing on the CPU).
+struct RenderProfile {
+    uint32_t batches = 0;
+    double upload = 0.0;      // the batch's parameters to the device
+    double dispatch = 0.0;    // record, submit, wait for the fence
+    double readback = 0.0;    // the accumulation buffer to the host
+    double accumulate = 0.0;  // Frame::merge: the batch into the frame's running moments (double)
+    double callbacks = 0.0;   // on_batch and progress
+};
+
 struct RenderSpec {
     uint32_t spp = 64;
     uint32_t seed = 0;
@@ -24,6 +36,8 @@ struct RenderSpec {
     std::function<void(uint32_t, uint32_t)> progress;
     // Called with each batch's raw per-pixel moments (tests, per-frame studies).
     std::function<void(const std::vector<gpu::GpuPixelAccum>&)> on_batch;
+    // When set, filled with the time of each step of the batch loop (summed over batches).
+    RenderProfile* profile = nullptr;
 };
 
 struct SceneOnDevice;  // render/session.hpp
