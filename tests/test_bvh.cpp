@@ -89,3 +89,23 @@ TEST_CASE("bvh: the BVH of every project scene is well formed") {
 TEST_CASE("bvh: an empty triangle list is refused rather than encoded") {
     CHECK_THROWS_AS(build_bvh({}), std::invalid_argument);
 }
+
+TEST_CASE("bvh: geometrically graded triangles do not make a tree deeper than the traversal stack") {
+    // Triangles whose sizes and positions shrink geometrically towards a point (a fractal, or a scene mixing
+    // kilometres and millimetres): binned SAH peels a few off per level, so without a depth bound the tree is
+    // as deep as there are scales, and the shaders' 64-entry traversal stack (trace_bvh.glsl) would drop
+    // subtrees silently.
+    for (float ratio : {0.5f, 0.9f, 0.98f, 0.99f}) {
+        std::vector<glm::vec3> pos;
+        float s = 1.0f;
+        for (int i = 0; i < 20000 && s > 1e-30f; ++i, s *= ratio) {
+            const glm::vec3 c(s, 0.3f * s, 0.0f);
+            for (glm::vec3 v : {glm::vec3(0, 0, 0), glm::vec3(0.1f, 0, 0), glm::vec3(0, 0.1f, 0.05f)}) pos.push_back(c + s * v);
+        }
+        Bvh bvh = build_bvh(pos);
+        CHECK(validate_bvh(bvh, in_bvh_order(bvh, pos)) == "");
+        const BvhStats st = bvh_stats(bvh);
+        INFO("ratio ", ratio, ": ", pos.size() / 3, " triangles, depth ", st.max_depth);
+        CHECK(st.max_depth <= kBvhMaxDepth);
+    }
+}

@@ -49,7 +49,13 @@ struct Builder {
         return static_cast<uint32_t>(nodes.size() - 1);
     }
 
-    void build(uint32_t begin, uint32_t end) {
+    static uint32_t ceil_log2(uint32_t x) {
+        uint32_t k = 0;
+        while (k < 32 && (uint64_t{1} << k) < x) ++k;
+        return k;
+    }
+
+    void build(uint32_t begin, uint32_t end, uint32_t depth = 0) {
         Box bounds, cbounds;
         for (uint32_t i = begin; i < end; ++i) {
             bounds.grow(tri_box[order[i]]);
@@ -58,6 +64,24 @@ struct Builder {
         uint32_t count = end - begin;
         uint32_t self = make_node(bounds, begin, count);
         if (count <= opt.max_leaf_size) return;
+
+        // Depth bound (kBvhMaxDepth): when SAH could take this subtree past it, split at the object
+        // median of the widest centroid axis instead; halving keeps depth + ceil(log2(count)) constant.
+        if (depth + ceil_log2(count) + 1 >= kBvhMaxDepth) {
+            int axis = 0;
+            const glm::vec3 ext = cbounds.hi - cbounds.lo;
+            if (ext.y > ext[axis]) axis = 1;
+            if (ext.z > ext[axis]) axis = 2;
+            const uint32_t mid = begin + count / 2;
+            std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
+                             [&](uint32_t a, uint32_t b) { return centroid[a][axis] < centroid[b][axis]; });
+            nodes[self].bmax.w = as_float(0u);
+            build(begin, mid, depth + 1);
+            const uint32_t second = static_cast<uint32_t>(nodes.size());
+            nodes[self].bmin.w = as_float(second);
+            build(mid, end, depth + 1);
+            return;
+        }
 
         // Binned SAH over the axis of largest centroid extent, then all axes.
         float best_cost = std::numeric_limits<float>::max();
@@ -126,10 +150,10 @@ struct Builder {
         }
         // Interior: first child follows immediately, second child index in offset.
         nodes[self].bmax.w = as_float(0u);
-        build(begin, mid);
+        build(begin, mid, depth + 1);
         uint32_t second = static_cast<uint32_t>(nodes.size());
         nodes[self].bmin.w = as_float(second);
-        build(mid, end);
+        build(mid, end, depth + 1);
     }
 };
 

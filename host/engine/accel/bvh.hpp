@@ -18,6 +18,13 @@ struct Bvh {
     std::vector<uint32_t> order;
 };
 
+// The deepest a built tree may be (root at depth 0): the traversal shaders
+// keep at most depth - 1 deferred nodes on a 64-entry stack
+// (shaders/trace_bvh.glsl BVH_STACK_SIZE), and the builder recurses once per
+// level. build_bvh guarantees it: where binned SAH could go deeper it splits
+// at the object median, which needs only ceil(log2(count)) more levels.
+constexpr uint32_t kBvhMaxDepth = 60;
+
 struct BvhBuildOptions {
     uint32_t max_leaf_size = 4;
     uint32_t bins = 16;
