@@ -10,6 +10,7 @@
 #   ci/bench-cycles.sh [--spp 64,256] [--rounds 3] [--res 256]
 #                      [--out out/bench-cycles] [--estimators mis[,nee,...]]
 #                      [--capture on|off] [--scene FILE.xml] [--no-warmup]
+#                      [--report-only]   (re-print the table from OUT's runs)
 #   env: VKMECH (default build/vkmech), BLENDER (default blender)
 #
 # The Cycles scene is built from the same XML by
@@ -54,8 +55,9 @@ ESTIMATORS=mis
 CAPTURE=on
 SCENE=scenes/glass_caustic.xml
 WARMUP=1
+REPORT_ONLY=0
 
-usage() { sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'; }
 while [ $# -gt 0 ]; do
     case "$1" in
         --spp) LEVELS=$2; shift 2 ;;
@@ -66,6 +68,7 @@ while [ $# -gt 0 ]; do
         --capture) CAPTURE=$2; shift 2 ;;
         --scene) SCENE=$2; shift 2 ;;
         --no-warmup) WARMUP=0; shift ;;
+        --report-only) REPORT_ONLY=1; shift ;;
         -h|--help) usage; exit 0 ;;
         *) echo "bench-cycles.sh: unknown option $1" >&2; usage >&2; exit 2 ;;
     esac
@@ -84,7 +87,7 @@ mkdir -p "$OUT"
 OUT=$(cd "$OUT" && pwd)
 CACHE="$OUT/pipeline-cache"
 
-{
+[ "$REPORT_ONLY" = 1 ] || {
     echo "date: $(date -u '+%Y-%m-%d %H:%M:%S UTC')"
     echo "host: $(nproc) cores, $(uname -m)"
     echo "uptime at start: $(uptime)"
@@ -118,11 +121,14 @@ run() {
 NAMES=()
 for e in "${ESTS[@]}"; do NAMES+=("vkmech-$e"); done
 NAMES+=(cycles)
-if [ "$WARMUP" = 1 ]; then
+RUN_ROUNDS=$ROUNDS
+if [ "$REPORT_ONLY" = 1 ]; then
+    RUN_ROUNDS=0  # only the table below, from the runs already in $OUT
+elif [ "$WARMUP" = 1 ]; then
     echo "warm-up (untimed: pipeline cache, file cache)"
     for n in "${NAMES[@]}"; do run "$n" 1 0 > /dev/null; done
 fi
-for ((r = 1; r <= ROUNDS; r++)); do
+for ((r = 1; r <= RUN_ROUNDS; r++)); do
     for spp in "${SPPS[@]}"; do
         order=("${NAMES[@]}")
         if (( r % 2 == 0 )); then  # alternate who goes first, round by round
@@ -157,7 +163,7 @@ for spp in levels:
         c = med["cycles"]
         rw = "%.2f" % (med[n][0] / c[0]) if n != "cycles" else ""
         rc = "%.2f" % (med[n][1] / c[1]) if n != "cycles" else ""
-        d = "%+.2f %%" % (100 * (lum[n] / lum["cycles"] - 1)) if n != "cycles" else ""
-        print("| %s | %s | %.2f | %.2f | %s | %s | %.4f | %s |" % (spp, n, med[n][0], med[n][1], rw, rc, lum[n], d))
+        d = "%+.3f %%" % (100 * (lum[n] / lum["cycles"] - 1)) if n != "cycles" else ""
+        print("| %s | %s | %.2f | %.2f | %s | %s | %.5f | %s |" % (spp, n, med[n][0], med[n][1], rw, rc, lum[n], d))
 EOF
 echo "per-run times: $OUT/r*/spp*/*/time (wall user sys); images: $OUT/r$ROUNDS/spp*/*/image.{exr,png}"
