@@ -3,15 +3,23 @@ with Cycles to a linear float OpenEXR (R, G, B).
 
   blender -b --factory-startup --python analysis/validation/blender_scene.py -- \
       SCENE.xml OUT.exr SPP RES [--bounces B] [--seed S] [--threads N]
-      [--mutate roughness-linear|two-sided-light]
+      [--mutate roughness-linear|two-sided-light] [--png PREVIEW.png]
 
 --bounces and --mutate exist only for the sensitivity checks
 (sensitivity.sh): they build a deliberately wrong Cycles scene.
+--min-light-bounces M sets Cycles' Min Light Bounces (no Russian roulette
+at bounce indices <= M; default 0, Cycles' own default); the benchmark sets
+it so Russian roulette starts at the same vertex as vkmech's rr_depth.
+--threads 0 uses every core (Blender's AUTO thread mode; ci/bench-cycles.sh).
+--png also writes an 8-bit sRGB preview of the same render (view transform
+Standard, no exposure), after the EXR.
 
 Only the subset of Mitsuba XML that make_scenes.py writes is understood
 (everything else is an error, so nothing is silently dropped):
   integrator path (max_depth), perspective sensor (fov, fov_axis x, lookat),
-  obj shapes in world coordinates (v, vt, vn, triangles), bsdfs diffuse
+  obj shapes in world coordinates (v, vt, vn, triangles), rectangle, cube
+  and sphere shapes (to_world of translate / rotate / scale; sphere center
+  and radius), bsdfs diffuse
   (rgb or bitmap reflectance), twosided, dielectric, conductor and
   roughconductor (material none, ggx), area emitters (rgb radiance).
 
@@ -21,6 +29,12 @@ Mapping (Mitsuba -> Cycles 3.4):
   conductor none     -> Glossy BSDF, Sharp, colour specular_reflectance
   roughconductor ggx -> Glossy BSDF, GGX, roughness sqrt(alpha)
                         (Cycles svm closure: alpha = roughness^2)
+  rectangle / cube   -> the same quad [-1,1]^2 (normal +z) / box [-1,1]^3
+                        as a mesh, transformed by to_world
+  sphere             -> UV sphere mesh, 128 segments x 64 rings, smooth
+                        shading: the same tessellation as vkmech's sphere
+                        (host/engine/scene/primitives.hpp, 16128 triangles,
+                        interpolated normals); Mitsuba's is analytic
   area emitter       -> Emission (colour = radiance, strength 1) on the front
                         face only: Mix(Backfacing) with black on the back
   max_depth d        -> max bounces d - 2 for every bounce kind (Mitsuba counts
@@ -104,6 +118,62 @@ def make_mesh(name, path):
                 normals[li] = vn[c[2]]
         me.normals_split_custom_set(normals)
     ob = bpy.data.objects.new(name, me)
+    bpy.context.scene.collection.objects.link(ob)
+    return ob
+
+
+def to_world(node):
+    """Mitsuba <transform>: each child is applied after the ones before it."""
+    M = Matrix.Identity(4)
+    if node is None:
+        return M
+    for t in node:
+        if t.tag == "translate":
+            T = Matrix.Translation(Vector(floats(t.attrib["value"])))
+        elif t.tag == "scale":
+            if "value" in t.attrib:
+                v = floats(t.attrib["value"])
+                v = v * 3 if len(v) == 1 else v
+            else:
+                v = [float(t.attrib.get(k, "1")) for k in "xyz"]
+            T = Matrix.Diagonal(Vector(v)).to_4x4()
+        elif t.tag == "rotate":
+            axis = Vector([float(t.attrib.get(k, "0")) for k in "xyz"])
+            T = Matrix.Rotation(math.radians(float(t.attrib["angle"])), 4, axis.normalized())
+        else:
+            die("unsupported transform <%s>" % t.tag)
+        M = T @ M
+    return M
+
+
+def make_primitive(name, kind, p):
+    """Mitsuba rectangle, cube or sphere as a Blender mesh object."""
+    me = bpy.data.meshes.new(name)
+    if kind == "sphere":
+        import bmesh
+        bm = bmesh.new()
+        bmesh.ops.create_uvsphere(bm, u_segments=128, v_segments=64, radius=1.0)
+        bm.to_mesh(me)
+        bm.free()
+        for poly in me.polygons:
+            poly.use_smooth = True
+        c = Vector(floats(p["center"].attrib["value"])) if "center" in p else Vector((0, 0, 0))
+        r = float(p["radius"].attrib["value"]) if "radius" in p else 1.0
+        M = Matrix.Translation(c) @ Matrix.Scale(r, 4)
+        if "to_world" in p:
+            die("sphere: use center and radius, not to_world")
+    else:
+        if kind == "rectangle":
+            v = [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]
+            f = [(0, 1, 2, 3)]  # counter-clockwise seen from +z: normal +z
+        else:  # cube [-1,1]^3, outward normals
+            v = [(x, y, z) for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)]
+            f = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+        me.from_pydata(v, [], f)
+        M = to_world(p.get("to_world"))
+    me.update()
+    ob = bpy.data.objects.new(name, me)
+    ob.matrix_world = M
     bpy.context.scene.collection.objects.link(ob)
     return ob
 
@@ -267,11 +337,15 @@ def main():
         elif node.tag == "bsdf":
             mats.byid[node.attrib["id"]] = mats.bsdf(node)
         elif node.tag == "shape":
-            if node.attrib["type"] != "obj":
-                die("only obj shapes")
+            kind = node.attrib["type"]
             p = props(node)
-            path = os.path.join(base, p["filename"].attrib["value"])
-            ob = make_mesh(os.path.basename(path), path)
+            if kind == "obj":
+                path = os.path.join(base, p["filename"].attrib["value"])
+                ob = make_mesh(os.path.basename(path), path)
+            elif kind in ("rectangle", "cube", "sphere"):
+                ob = make_primitive(node.attrib.get("id", kind), kind, p)
+            else:
+                die("unsupported shape " + kind)
             em = node.find("emitter")
             ref = node.find("ref")
             b = node.find("bsdf")
@@ -304,8 +378,12 @@ def main():
     r.resolution_percentage = 100
     r.film_transparent = False
     r.use_persistent_data = False
-    r.threads_mode = "FIXED"
-    r.threads = int(opts.get("--threads", "2"))
+    threads = int(opts.get("--threads", "2"))
+    if threads == 0:
+        r.threads_mode = "AUTO"  # every core, as lavapipe uses
+    else:
+        r.threads_mode = "FIXED"
+        r.threads = threads
     c = sc.cycles
     c.device = "CPU"
     c.samples = spp
@@ -319,6 +397,8 @@ def main():
     c.transmission_bounces = bounces
     c.volume_bounces = 0
     c.transparent_max_bounces = bounces
+    c.min_light_bounces = int(opts.get("--min-light-bounces", "0"))
+    c.min_transparent_bounces = 0
     c.sample_clamp_direct = 0.0
     c.sample_clamp_indirect = 0.0
     c.blur_glossy = 0.0
@@ -341,8 +421,14 @@ def main():
     r.use_compositing = False
     r.use_sequencer = False
     r.filepath = os.path.abspath(out_path)
-    print("blender_scene.py: %s -> %s, %d spp, %dx%d, max bounces %d" % (scene_path, out_path, spp, res, res, bounces))
+    print("blender_scene.py: %s -> %s, %d spp, %dx%d, max bounces %d, min light bounces %d, threads %s"
+          % (scene_path, out_path, spp, res, res, bounces, c.min_light_bounces, r.threads_mode))
     bpy.ops.render.render(write_still=True)
+    if "--png" in opts:
+        im.file_format = "PNG"
+        im.color_mode = "RGB"
+        im.color_depth = "8"
+        bpy.data.images["Render Result"].save_render(os.path.abspath(opts["--png"]), scene=sc)
 
 
 main()
