@@ -7,7 +7,7 @@
 #   bash ci/bench-scaling.sh [VKMECH] [OUT_DIR]
 #
 # Pixels: glass_caustic at 64..512 px, 16 spp. Samples: glass_caustic at
-# 128 px, 16..1024 spp. Triangles: a Cornell-style box holding one
+# 128 px, 16..1024 spp. Triangles: the camera inside a closed box holding one
 # tessellated sphere (OBJ, written here) of 1e3..1e6 triangles (2e6 with
 # VKMECH_BENCH_BIG=1), 128 px, 16 spp. Writes OUT_DIR/scaling.md and prints it.
 set -euo pipefail
@@ -88,15 +88,16 @@ PYEOF
     cat > "$WORK/mesh_box.xml" <<XML
 <scene version="3.0.0">
   <integrator type="path"><integer name="max_depth" value="12"/></integrator>
-  <sensor type="perspective"><float name="fov" value="39.3"/>
-    <transform name="to_world"><lookat origin="0, -3.9, 1" target="0, 0, 1" up="0, 0, 1"/></transform>
+  <sensor type="perspective"><float name="fov" value="70"/>
+    <transform name="to_world"><lookat origin="0, -0.95, 1.3" target="0, 0.3, 0.45" up="0, 0, 1"/></transform>
     <film type="hdrfilm"><integer name="width" value="256"/><integer name="height" value="256"/></film></sensor>
-  <bsdf type="diffuse" id="white"><rgb name="reflectance" value="0.73, 0.73, 0.7"/></bsdf>
-  <bsdf type="roughconductor" id="metal"><string name="material" value="Al"/><float name="alpha" value="0.2"/></bsdf>
+  <bsdf type="twosided" id="white"><bsdf type="diffuse"><rgb name="reflectance" value="0.73, 0.73, 0.7"/></bsdf></bsdf>
+  <bsdf type="twosided" id="metal"><bsdf type="roughconductor"><string name="material" value="Al"/>
+    <float name="alpha" value="0.2"/></bsdf></bsdf>
   <shape type="cube"><transform name="to_world"><scale value="1, 1, 1"/><translate value="0, 0, 1"/></transform>
     <boolean name="flip_normals" value="true"/><ref id="white"/></shape>
   <shape type="obj"><string name="filename" value="sphere.obj"/>
-    <transform name="to_world"><scale value="1.2"/><translate value="0, 0, 0.1"/></transform><ref id="metal"/></shape>
+    <transform name="to_world"><scale value="0.8"/><translate value="0, 0.3, 0.05"/></transform><ref id="metal"/></shape>
   <shape type="rectangle"><transform name="to_world"><scale value="0.25"/><rotate x="1" angle="180"/>
     <translate value="0, 0, 1.99"/></transform><emitter type="area"><rgb name="radiance" value="17, 12, 4"/></emitter></shape>
 </scene>
