@@ -5,6 +5,7 @@
 #include "render/gpu_scene.hpp"
 #include "render/ray_caster.hpp"
 #include "render/renderer.hpp"
+#include "render/traversal_dump.hpp"
 #include "render/session.hpp"
 #include "scene/scene.hpp"
 #include "vk/context.hpp"
@@ -12,6 +13,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -55,27 +57,42 @@ vk::ContextOptions bench_context_options(const BenchOptions& o) {
 int cmd_bench_traversal(const BenchOptions& o) {
     const std::vector<std::string> names = bench_scenes(o);
     vk::Context ctx(bench_context_options(o));
-    std::printf("device: %s (%s), %u random rays per measurement (closest hit; median of 3)\n", ctx.info().name.c_str(),
-                ctx.info().type.c_str(), o.rays);
+    std::printf("device: %s (%s), %u random rays per measurement (closest hit; median of 3; seed %u)\n",
+                ctx.info().name.c_str(), ctx.info().type.c_str(), o.rays, kBenchTraversalSeed);
     std::printf("%-22s %10s %16s %16s\n", "scene", "triangles", "rayquery Mray/s", "bvh Mray/s");
     for (const auto& n : names) {
         Scene scene = load_scene(resolve_scene_path(n));
         SceneArrays arrays = flatten_scene(scene);
-        auto rays = random_rays(arrays, o.rays, 1);
+        auto rays = random_rays(arrays, o.rays, kBenchTraversalSeed);
+        std::vector<gpu::GpuHit> bvh_hits;
         auto measure = [&](Traversal t) -> double {
             GpuScene g(ctx, arrays, t);
             RayCaster caster(ctx, g);
-            caster.trace(rays, false);  // warm-up
+            auto hits = caster.trace(rays, false);  // warm-up
+            if (t == Traversal::Bvh) bvh_hits = std::move(hits);
             std::vector<double> s(3);
             for (auto& x : s) caster.trace(rays, false, &x);
             std::sort(s.begin(), s.end());
-            return rays.size() / s[1] / 1e6;
+            return rays.size() / s[1];
         };
-        std::string rq = ctx.ray_query_enabled() ? std::to_string(measure(Traversal::RayQuery)).substr(0, 6) : "n/a";
-        std::string bvh = std::to_string(measure(Traversal::Bvh)).substr(0, 6);
-        std::printf("%-22s %10zu %16s %16s\n", scene_stem(n).c_str(), arrays.triangles.size(), rq.c_str(), bvh.c_str());
+        std::optional<double> rq;
+        if (ctx.ray_query_enabled()) rq = measure(Traversal::RayQuery);
+        const double bvh = measure(Traversal::Bvh);
+        std::string rq_text = rq ? std::to_string(*rq / 1e6).substr(0, 6) : "n/a";
+        std::string bvh_text = std::to_string(bvh / 1e6).substr(0, 6);
+        std::printf("%-22s %10zu %16s %16s\n", scene_stem(n).c_str(), arrays.triangles.size(), rq_text.c_str(),
+                    bvh_text.c_str());
+        if (o.dump_dir) {
+            TraversalDumpInfo info;
+            info.device = ctx.info().name;
+            info.seed = kBenchTraversalSeed;
+            info.bvh_rays_per_second = bvh;
+            info.rayquery_rays_per_second = rq;
+            write_traversal_dump(*o.dump_dir, scene_stem(n), make_traversal_dump(arrays, rays, bvh_hits), info);
+        }
         std::fflush(stdout);
     }
+    if (o.dump_dir) std::printf("dumped triangles, rays, hits and rays/s to %s\n", o.dump_dir->c_str());
     return 0;
 }
 

@@ -90,7 +90,12 @@ struct BenchOptions {
     std::vector<uint32_t> batches{1, 8, 64};  // bench render --profile: samples per dispatch tried
     std::optional<uint32_t> device;
     std::optional<std::string> pipeline_cache;
+    std::optional<std::string> dump_dir;  // bench traversal --dump DIR
 };
+
+// `vkmech bench traversal` traces random_rays(arrays, rays, kBenchTraversalSeed)
+// on every scene, so that its rays are the same from run to run.
+inline constexpr uint32_t kBenchTraversalSeed = 1;
 
 // `vkmech study`: the options are the study runner's own (study/study_runner.hpp);
 // cmd_study resolves scene names to files and the default --out.

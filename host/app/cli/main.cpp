@@ -101,6 +101,11 @@ int main(int argc, char** argv) {
         ->delimiter(',');
     bench_trav->add_option("--rays", bench_opts.rays, "Rays per measurement")->check(CLI::Range(1000u, 1u << 26));
     bench_trav->add_option("--device", bench_opts.device, "Vulkan device index (see `vkmech devices`)");
+    bench_trav->add_option("--dump", bench_opts.dump_dir,
+                           "Write each scene's triangles, rays, software-BVH closest hits and rays/s to DIR "
+                           "(<scene>.tris.bin, .rays.bin, .hits.bin, .json; layout in docs/performance.md) for "
+                           "ci/bench-embree.sh")
+        ->type_name("DIR");
     add_pipeline_cache_option(bench_trav, bench_opts.pipeline_cache);
 
     auto* bench_render = bench->add_subcommand(

@@ -45,17 +45,26 @@ std::vector<gpu::GpuHit> RayCaster::trace(const std::vector<gpu::GpuRay>& rays, 
 }
 
 std::vector<gpu::GpuRay> random_rays(const SceneArrays& arrays, uint32_t count, uint32_t seed) {
+    // Fully specified, so that the same seed gives the same rays with every
+    // standard library and compiler: std::mt19937's output is fixed by the
+    // standard (std::uniform_real_distribution's mapping is not), and the five
+    // draws per ray are sequenced (function arguments are not).
     std::mt19937 rng(seed);
-    std::uniform_real_distribution<float> U(0.0f, 1.0f);
+    auto U = [&rng] { return static_cast<float>(rng() >> 8) * 0x1p-24f; };  // [0, 1), 24 bits
     glm::vec3 lo = arrays.bbox_lo, hi = arrays.bbox_hi;
     glm::vec3 pad = (hi - lo) * 0.05f;
     lo -= pad;
     hi += pad;
     std::vector<gpu::GpuRay> rays(count);
     for (auto& r : rays) {
-        glm::vec3 o = lo + (hi - lo) * glm::vec3(U(rng), U(rng), U(rng));
-        float z = 1.0f - 2.0f * U(rng);
-        float phi = 6.2831853f * U(rng);
+        const float ux = U();
+        const float uy = U();
+        const float uz = U();
+        const float uc = U();
+        const float up = U();
+        glm::vec3 o = lo + (hi - lo) * glm::vec3(ux, uy, uz);
+        float z = 1.0f - 2.0f * uc;
+        float phi = 6.2831853f * up;
         float s = std::sqrt(std::max(0.0f, 1.0f - z * z));
         glm::vec3 d(s * std::cos(phi), s * std::sin(phi), z);
         r.origin = glm::vec4(o, 0.0f);

@@ -19,7 +19,10 @@ private:
 };
 
 // Random rays for tests and benchmarks: origins uniform in the scene's box
-// (slightly enlarged), directions uniform on the sphere.
+// enlarged by 5% of its size on every side, directions uniform on the
+// sphere, tmin 0, tmax 1e30; deterministic for a given seed on every
+// platform up to the last bit of std::sin/std::cos (docs/performance.md
+// "Traversal versus Embree" spells out the formula).
 std::vector<gpu::GpuRay> random_rays(const SceneArrays& arrays, uint32_t count, uint32_t seed);
 
 }  // namespace vkmech
