@@ -344,6 +344,15 @@ TEST_CASE("cache: a NaN sealed with a valid checksum - an old-format file - and 
     CHECK(rep.stale.size() == 2);
 }
 
+TEST_CASE("digest: an empty buffer hashes like any other empty input (no memcpy from null)") {
+    // An empty std::vector's data() may be null; under UBSan a memcpy from it was reported (study keys).
+    const std::vector<float> empty;
+    const char nothing[1] = {0};
+    CHECK(Digest().bytes(empty.data(), 0).hex() == Digest().bytes(nothing, 0).hex());
+    CHECK(Digest().bytes(nullptr, 0).hex() == Digest().bytes(nothing, 0).hex());
+    CHECK(Digest().bytes(nothing, 1).hex() != Digest().hex());
+}
+
 TEST_CASE("temporaries: names carry the host and only this host's dead writers' temporaries are cleaned") {
     TempDir tmp("rel_tmp_host");
     const std::string t = atomic_temp_path((tmp.path / "k.frame").string());

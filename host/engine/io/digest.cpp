@@ -28,7 +28,7 @@ Digest& Digest::bytes(const void* data, size_t n) {
         b_ = mix64(b_ + w * 0xff51afd7ed558ccdull) ^ (b_ >> 17);
     }
     uint64_t tail = 0;
-    std::memcpy(&tail, p + i, n - i);
+    if (n > i) std::memcpy(&tail, p + i, n - i);  // never memcpy from null (an empty vector's data())
     tail ^= static_cast<uint64_t>(n - i) << 56;
     a_ = mix64(a_ ^ tail) + 0x9e3779b97f4a7c15ull;
     b_ = mix64(b_ + tail * 0xff51afd7ed558ccdull) ^ (b_ >> 17);
