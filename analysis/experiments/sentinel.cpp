@@ -15,19 +15,6 @@ namespace vkmech::sentinel {
 
 namespace {
 
-std::string num(double x) {
-    if (!std::isfinite(x)) return "null";
-    char b[64];
-    std::snprintf(b, sizeof b, "%.9g", x);
-    return b;
-}
-
-std::string str(const std::string& s) {
-    std::string r = "\"";  // appended piecewise: GCC 12 warns falsely (-Wrestrict) on "\"" + std::string
-    r += json_escape(s);
-    r += '"';
-    return r;
-}
 
 // How evaluate decides a categorical prediction (docs/descriptor.md §9.4).
 std::string pass_rule(const std::string& name, const std::string& what) {
@@ -37,7 +24,7 @@ std::string pass_rule(const std::string& name, const std::string& what) {
         const std::string a = pair.substr(0, vs), b = vs == std::string::npos ? "?" : pair.substr(vs + 4);
         const std::string over = " over the protocol's pilot draws (equal samples: the protocol's extra budget and floor, "
                                  "final images from the shared pool, PSNR on unclamped RGB against the reference)";
-        const std::string share = num(kWinShare);
+        const std::string share = json_number(kWinShare);
         if (what == "helps")
             return "PASS if " + a + "'s mean PSNR is above " + b + "'s and its MSE is lower on at least " + share +
                    " of the draws, FAIL if its mean PSNR is not above, INDETERMINATE otherwise" + over;
@@ -68,7 +55,7 @@ std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis&
     if (curve) {
         const PilotPrediction p = predict_from_pilot(*curve, pilot);
         const std::string covers = std::to_string(p.labelled) + " pilot-labelled pixels of " + std::to_string(d.pixels);
-        const std::string pass = "PASS if |measured - predicted| <= " + num(kReliabilityTolerance) +
+        const std::string pass = "PASS if |measured - predicted| <= " + json_number(kReliabilityTolerance) +
                                  " (the curve's largest first-party leave-one-scene-out error, rounded up); measured: "
                                  "the share of the pixels labelled in both the registered pilot and the reference whose "
                                  "dominant labels agree (§5 agreement)";
@@ -85,7 +72,7 @@ std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis&
     const DescriptorSummary s = summarize(pilot, desc);
     for (uint32_t b = 0; b < kBucketCount; ++b) {
         const std::string bucket = kBucketNames[b];
-        const std::string band = "PASS if |measured - predicted| <= " + num(kShareTolerance) + "; measured: ";
+        const std::string band = "PASS if |measured - predicted| <= " + json_number(kShareTolerance) + "; measured: ";
         out.push_back({"coverage." + bucket + ".pixel_share", "", s.pixel_share[b],
                        std::to_string(s.labelled_pixels) + " pilot-labelled pixels",
                        "the pilot's share of labelled pixels whose dominant bucket is " + bucket,
@@ -107,7 +94,7 @@ std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis&
                                 "; first-party evidence: observed-var below uniform on 5 of 7 scenes at N0 = 4, above "
                                 "on 6 of 7 at N0 = 16)";
     const std::string var_rule =
-        n0_rule + " or the untrusted share is at least " + num(kUntrustedFailShare) +
+        n0_rule + " or the untrusted share is at least " + json_number(kUntrustedFailShare) +
         " (the ajar-door mode: the pilot leaves pixels it cannot vouch for with the floor only), helps otherwise; " + share;
     out.push_back(outcome("allocation.observed-var_vs_uniform", starved ? "fails" : "helps", all_px, var_rule));
     out.push_back(outcome("allocation.bucket-floor_vs_uniform", starved ? "fails" : "helps", all_px, var_rule));
@@ -135,8 +122,8 @@ std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis&
         out.push_back(outcome("structure.rho_CG_sign", sees ? "positive" : "negative",
                               "the reference's labelled pixels (Spearman rho of caustic_frac and glossy_frac, §5.4)",
                               "positive if the delta-S and glossy families' mutual visibility is at least " +
-                                  num(kVisibilitySignThreshold) + ", negative otherwise; measured " +
-                                  num(sep->mutual_visibility) + " over " + std::to_string(sep->segments) +
+                                  json_number(kVisibilitySignThreshold) + ", negative otherwise; measured " +
+                                  json_number(sep->mutual_visibility) + " over " + std::to_string(sep->segments) +
                                   " segments (Finding 1)"));
     }
     return out;
@@ -145,21 +132,21 @@ std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis&
 std::string record_json(const Record& r) {
     const alloc::PilotDiagnosis& d = r.diagnosis;
     std::ostringstream j;
-    j << "{\n  \"format\": " << str(kFormat) << ",\n  \"format_version\": " << kFormatVersion;
-    j << ",\n  \"scene\": {\"name\": " << str(r.scene_name) << ", \"path\": " << str(r.scene_path)
-      << ", \"sha256\": " << str(r.scene_sha256) << ", \"files\": [";
+    j << "{\n  \"format\": " << json_string(kFormat) << ",\n  \"format_version\": " << kFormatVersion;
+    j << ",\n  \"scene\": {\"name\": " << json_string(r.scene_name) << ", \"path\": " << json_string(r.scene_path)
+      << ", \"sha256\": " << json_string(r.scene_sha256) << ", \"files\": [";
     for (size_t i = 0; i < r.scene_files.size(); ++i)
-        j << (i ? ", " : "") << "{\"path\": " << str(r.scene_files[i].path) << ", \"sha256\": " << str(r.scene_files[i].sha256)
+        j << (i ? ", " : "") << "{\"path\": " << json_string(r.scene_files[i].path) << ", \"sha256\": " << json_string(r.scene_files[i].sha256)
           << "}";
     j << "], \"params\": {";
     size_t pi = 0;
-    for (const auto& [k, v] : r.params) j << (pi++ ? ", " : "") << str(k) << ": " << str(v);
+    for (const auto& [k, v] : r.params) j << (pi++ ? ", " : "") << json_string(k) << ": " << json_string(v);
     j << "}}";
     j << ",\n  \"settings\": {\"width\": " << r.width << ", \"height\": " << r.height << ", \"pilot_spp\": " << r.pilot_spp
       << ", \"pilot_draw\": " << r.pilot_draw << ", \"pilot_seed\": " << r.pilot_seed
-      << ", \"estimator\": " << str(r.estimator) << ", \"end_vertex\": " << str(r.end_vertex)
-      << ", \"light_selection\": " << str(r.light_selection) << ", \"max_depth\": " << r.max_depth
-      << ", \"rr_depth\": " << r.rr_depth << ", \"traversal\": " << str(r.traversal) << "}";
+      << ", \"estimator\": " << json_string(r.estimator) << ", \"end_vertex\": " << json_string(r.end_vertex)
+      << ", \"light_selection\": " << json_string(r.light_selection) << ", \"max_depth\": " << r.max_depth
+      << ", \"rr_depth\": " << r.rr_depth << ", \"traversal\": " << json_string(r.traversal) << "}";
     j << ",\n  \"protocol\": {\"reference_spp\": " << r.protocol.reference_spp << ", \"draws\": " << r.protocol.draws
       << ", \"extra_spp\": " << r.protocol.extra_spp << ", \"floor\": " << r.protocol.floor << "}";
     j << ",\n  \"renders\": [";
@@ -167,14 +154,14 @@ std::string record_json(const Record& r) {
         j << (i ? ", " : "") << "{\"purpose\": \"pilot\", \"seed\": " << r.renders[i].seed << ", \"spp\": " << r.renders[i].spp
           << "}";
     j << "]";
-    j << ",\n  \"code\": {\"version\": " << str(r.version) << ", \"code_digest\": " << str(r.code_digest)
-      << ", \"spirv_sha256\": " << str(r.spirv_sha256) << "}";
-    j << ",\n  \"registered_utc\": " << str(r.registered_utc);
-    j << ",\n  \"device\": " << str(r.device);
+    j << ",\n  \"code\": {\"version\": " << json_string(r.version) << ", \"code_digest\": " << json_string(r.code_digest)
+      << ", \"spirv_sha256\": " << json_string(r.spirv_sha256) << "}";
+    j << ",\n  \"registered_utc\": " << json_string(r.registered_utc);
+    j << ",\n  \"device\": " << json_string(r.device);
     j << ",\n  \"curve\": ";
     if (r.curve_path.empty()) j << "null";
     else
-        j << "{\"path\": " << str(r.curve_path) << ", \"sha256\": " << str(r.curve_sha256)
+        j << "{\"path\": " << json_string(r.curve_path) << ", \"sha256\": " << json_string(r.curve_sha256)
           << ", \"pilot_spp\": " << r.curve_pilot_spp << ", \"reference_spp\": " << r.curve_reference_spp << "}";
     j << ",\n  \"diagnosis\": {\"pixels\": " << d.pixels << ", \"labelled\": " << d.labelled << ", \"seen\": " << d.seen
       << ", \"heavy\": " << d.heavy << ", \"floor_changed\": " << d.floor_changed
@@ -188,16 +175,16 @@ std::string record_json(const Record& r) {
     if (!r.separation) j << "null";
     else
         j << "{\"delta_objects\": " << r.separation->delta_objects << ", \"glossy_objects\": " << r.separation->glossy_objects
-          << ", \"min_distance\": " << num(r.separation->min_distance)
-          << ", \"mutual_visibility\": " << num(r.separation->mutual_visibility)
+          << ", \"min_distance\": " << json_number(r.separation->min_distance)
+          << ", \"mutual_visibility\": " << json_number(r.separation->mutual_visibility)
           << ", \"segments\": " << r.separation->segments << ", \"visible\": " << r.separation->visible << "}";
     j << ",\n  \"predictions\": [";
     for (size_t i = 0; i < r.predictions.size(); ++i) {
         const Prediction& p = r.predictions[i];
-        j << (i ? "," : "") << "\n    {\"name\": " << str(p.name) << ", \"predicted\": "
-          << (p.outcome.empty() ? num(p.value) : str(p.outcome)) << ", \"covers\": " << str(p.covers)
-          << ", \"tolerance\": " << num(p.tolerance) << ", \"rule\": " << str(p.rule)
-          << ", \"pass_if\": " << str(p.pass_if) << "}";
+        j << (i ? "," : "") << "\n    {\"name\": " << json_string(p.name) << ", \"predicted\": "
+          << (p.outcome.empty() ? json_number(p.value) : json_string(p.outcome)) << ", \"covers\": " << json_string(p.covers)
+          << ", \"tolerance\": " << json_number(p.tolerance) << ", \"rule\": " << json_string(p.rule)
+          << ", \"pass_if\": " << json_string(p.pass_if) << "}";
     }
     j << "\n  ]\n}\n";
     return j.str();
@@ -228,7 +215,7 @@ Verification verify_record(const std::string& text, const std::string& file) {
     const JsonValue* version = doc->find("format_version");
     if (!version || version->kind != JsonValue::Number) return bad("it lacks a numeric \"format_version\"");
     if (version->number != kFormatVersion)
-        return {Verification::Malformed, f + ": unknown sentinel record format version " + num(version->number) +
+        return {Verification::Malformed, f + ": unknown sentinel record format version " + json_number(version->number) +
                                              " (this vkmech reads version " + std::to_string(kFormatVersion) + ")"};
     struct Required {
         const char* key;

@@ -29,14 +29,6 @@ std::string fmt(const char* f, double x) {
     return b;
 }
 
-std::string jnum(double x) { return std::isfinite(x) ? fmt("%.9g", x) : "null"; }
-
-std::string jstr(const std::string& s) {
-    std::string r = "\"";
-    r += json_escape(s);
-    r += '"';
-    return r;
-}
 
 // The final image of an allocation (per pixel the mean of the first n(p) pool
 // frames, non-finite samples counted out) and its MSE against the reference
@@ -261,27 +253,27 @@ Evaluation evaluate(const Record& r, const EvalInputs& in) {
 std::string evaluation_json(const Record& r, const std::string& record_sha256, const Evaluation& e) {
     std::ostringstream j;
     j << "{\n  \"format\": \"vkmech sentinel evaluation\",\n  \"format_version\": 1";
-    j << ",\n  \"record\": {\"scene\": " << jstr(r.scene_name) << ", \"sha256\": " << jstr(record_sha256)
-      << ", \"registered_utc\": " << jstr(r.registered_utc) << "}";
+    j << ",\n  \"record\": {\"scene\": " << json_string(r.scene_name) << ", \"sha256\": " << json_string(record_sha256)
+      << ", \"registered_utc\": " << json_string(r.registered_utc) << "}";
     j << ",\n  \"summary\": {\"pass\": " << e.pass << ", \"fail\": " << e.fail << ", \"indeterminate\": " << e.indeterminate
-      << ", \"pilot_reproduced\": " << (e.pilot_reproduced ? "true" : "false") << ", \"psnr_peak\": " << jnum(e.peak) << "}";
+      << ", \"pilot_reproduced\": " << (e.pilot_reproduced ? "true" : "false") << ", \"psnr_peak\": " << json_number(e.peak) << "}";
     j << ",\n  \"outcomes\": [";
     for (size_t i = 0; i < e.outcomes.size(); ++i) {
         const Outcome& o = e.outcomes[i];
-        j << (i ? "," : "") << "\n    {\"name\": " << jstr(o.name) << ", \"predicted\": " << jstr(o.predicted)
-          << ", \"measured\": " << jstr(o.measured) << ", \"verdict\": " << jstr(o.verdict) << ", \"detail\": " << jstr(o.detail)
+        j << (i ? "," : "") << "\n    {\"name\": " << json_string(o.name) << ", \"predicted\": " << json_string(o.predicted)
+          << ", \"measured\": " << json_string(o.measured) << ", \"verdict\": " << json_string(o.verdict) << ", \"detail\": " << json_string(o.detail)
           << "}";
     }
     j << "\n  ],\n  \"strategies\": [";
     for (size_t i = 0; i < e.strategies.size(); ++i) {
         const StrategyScore& s = e.strategies[i];
-        j << (i ? "," : "") << "\n    {\"name\": " << jstr(s.name) << ", \"psnr_mean\": " << jnum(s.psnr_mean)
-          << ", \"psnr_std\": " << jnum(s.psnr_std) << ", \"wins_vs_uniform\": " << s.wins_vs_uniform << ", \"mse\": [";
-        for (size_t k = 0; k < s.mse.size(); ++k) j << (k ? ", " : "") << jnum(s.mse[k]);
+        j << (i ? "," : "") << "\n    {\"name\": " << json_string(s.name) << ", \"psnr_mean\": " << json_number(s.psnr_mean)
+          << ", \"psnr_std\": " << json_number(s.psnr_std) << ", \"wins_vs_uniform\": " << s.wins_vs_uniform << ", \"mse\": [";
+        for (size_t k = 0; k < s.mse.size(); ++k) j << (k ? ", " : "") << json_number(s.mse[k]);
         j << "]}";
     }
     j << "\n  ],\n  \"checks\": [";
-    for (size_t i = 0; i < e.checks.size(); ++i) j << (i ? ", " : "") << "\n    " << jstr(e.checks[i]);
+    for (size_t i = 0; i < e.checks.size(); ++i) j << (i ? ", " : "") << "\n    " << json_string(e.checks[i]);
     j << "\n  ]\n}\n";
     return j.str();
 }

@@ -1,5 +1,6 @@
 #include "io/json.hpp"
 
+#include <cmath>
 #include <cstdio>
 
 namespace vkmech {
@@ -23,6 +24,20 @@ std::string json_escape(const std::string& s) {
         }
     }
     return o;
+}
+
+std::string json_string(const std::string& s) {
+    std::string r = "\"";  // appended piecewise: GCC 12 warns falsely (-Wrestrict) on "\"" + std::string
+    r += json_escape(s);
+    r += '"';
+    return r;
+}
+
+std::string json_number(double x) {
+    if (!std::isfinite(x)) return "null";
+    char b[64];
+    std::snprintf(b, sizeof b, "%.9g", x);
+    return b;
 }
 
 }  // namespace vkmech
