@@ -5,6 +5,7 @@
 #include "stats/summary.hpp"
 #include "render/descriptor.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -19,6 +20,38 @@ Pilot make_pilot(Frame frame, std::vector<double> mom_var) {
     out.labels = derive_descriptor(out.frame).dominant;
     out.mom_var = std::move(mom_var);
     return out;
+}
+
+std::vector<double> mean_rgb(const Frame& f) {
+    std::vector<double> out(3 * f.pixels.size());
+    for (size_t p = 0; p < f.pixels.size(); ++p) {
+        const double n = f.pixels[p].count;
+        for (int c = 0; c < 3; ++c) out[3 * p + c] = n > 0 ? f.pixels[p].rgb_sum[c] / n : 0.0;
+    }
+    return out;
+}
+
+std::vector<double> final_image_rgb(const SamplePool& pool, const std::vector<uint32_t>& n) {
+    std::vector<double> out(3 * pool.pixels);
+    for (size_t p = 0; p < pool.pixels; ++p) {
+        double s[3] = {0, 0, 0}, cnt = 0;
+        for (uint32_t f = 0; f < n[p]; ++f) {
+            const float* x = pool.at(f, p);
+            if (x[3] == 0.0f) continue;  // a non-finite sample: counted out, as the renderer does
+            s[0] += x[0];
+            s[1] += x[1];
+            s[2] += x[2];
+            cnt += 1;
+        }
+        for (int c = 0; c < 3; ++c) out[3 * p + c] = cnt > 0 ? s[c] / cnt : 0.0;
+    }
+    return out;
+}
+
+double psnr_peak(const std::vector<double>& rgb) {
+    double peak = 0.0;
+    for (double v : rgb) peak = std::max(peak, v);
+    return peak > 0.0 ? peak : 1.0;  // a black reference: PSNR against peak 1
 }
 
 std::vector<double> PilotSamples::mom_variance(int k) const {

@@ -64,6 +64,16 @@ struct PilotSamples {
     std::vector<double> mom_variance(int k) const;
 };
 
+// A frame's per-pixel mean RGB over its finite samples (0 where it has none),
+// in double, 3 per pixel: a reference's unclamped linear RGB (docs/descriptor.md §6).
+std::vector<double> mean_rgb(const Frame& f);
+// The final image of an allocation, 3 per pixel: the mean of the first n(p)
+// pool frames of each pixel, non-finite samples counted out as the renderer
+// does (0 where none is left).
+std::vector<double> final_image_rgb(const SamplePool& pool, const std::vector<uint32_t>& n);
+// The PSNR peak of a reference: its largest RGB value, 1 when none is positive.
+double psnr_peak(const std::vector<double>& rgb);
+
 struct AdaptivePlan {
     std::vector<uint32_t> n;  // samples per pixel
     double allocation_ms = 0.0;

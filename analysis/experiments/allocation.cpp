@@ -66,19 +66,11 @@ Errors evaluate(const SceneData& d, const std::vector<uint32_t>& n) {
     std::vector<double> lum(d.P);
     double se = 0, rel = 0, se_clamped = 0;
     std::array<double, kBucketCount> bse{}, bn{};
+    const std::vector<double> img = final_image_rgb(d.pool, n);
     for (size_t p = 0; p < d.P; ++p) {
-        double s[3] = {0, 0, 0}, cnt = 0;
-        for (uint32_t f = 0; f < n[p]; ++f) {
-            const float* x = d.pool.at(f, p);
-            if (x[3] == 0.0f) continue;  // a non-finite sample: counted out, as the renderer does
-            s[0] += x[0];
-            s[1] += x[1];
-            s[2] += x[2];
-            cnt += 1;
-        }
-        double e = 0, v[3];
+        const double* v = &img[3 * p];
+        double e = 0;
         for (int c = 0; c < 3; ++c) {
-            v[c] = cnt > 0 ? s[c] / cnt : 0.0;
             const double r = d.ref_rgb[3 * p + c];
             const double diff = v[c] - r;
             e += diff * diff / 3.0;
@@ -207,22 +199,13 @@ void run_allocation(AllocationContext& a) {
         d.w = ref.width;
         d.h = ref.height;
         d.P = static_cast<size_t>(d.w) * d.h;
-        d.ref_rgb.resize(3 * d.P);
+        // The mean over all samples taken (a non-finite one counts out, as in the final images).
+        d.ref_rgb = mean_rgb(ref);
         d.ref_rgb_clamped.resize(3 * d.P);
         d.ref_lum.resize(d.P);
-        d.peak = 0.0;
-        for (size_t p = 0; p < d.P; ++p) {
-            // The mean over all samples taken (a non-finite one counts out, as in the final images).
-            double n = ref.pixels[p].count;
-            for (int c = 0; c < 3; ++c) {
-                const double r = n > 0 ? ref.pixels[p].rgb_sum[c] / n : 0.0;
-                d.ref_rgb[3 * p + c] = r;
-                d.ref_rgb_clamped[3 * p + c] = std::clamp(r, 0.0, 1.0);
-                d.peak = std::max(d.peak, r);
-            }
-            d.ref_lum[p] = lum_of(d.ref_rgb[3 * p], d.ref_rgb[3 * p + 1], d.ref_rgb[3 * p + 2]);
-        }
-        if (!(d.peak > 0.0)) d.peak = 1.0;  // a black reference: PSNR against peak 1
+        for (size_t i = 0; i < 3 * d.P; ++i) d.ref_rgb_clamped[i] = std::clamp(d.ref_rgb[i], 0.0, 1.0);
+        for (size_t p = 0; p < d.P; ++p) d.ref_lum[p] = lum_of(d.ref_rgb[3 * p], d.ref_rgb[3 * p + 1], d.ref_rgb[3 * p + 2]);
+        d.peak = psnr_peak(d.ref_rgb);
         d.ref_labels = derive_descriptor(ref).dominant;
 
         // The pool, then K disjoint pilot draws per N0 (median-of-means blocks where defined).

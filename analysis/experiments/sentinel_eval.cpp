@@ -30,27 +30,6 @@ std::string fmt(const char* f, double x) {
 }
 
 
-// The final image of an allocation (per pixel the mean of the first n(p) pool
-// frames, non-finite samples counted out) and its MSE against the reference
-// RGB, as in the allocation study (docs/descriptor.md §6).
-double final_mse(const SamplePool& pool, const std::vector<uint32_t>& n, const std::vector<double>& ref_rgb) {
-    double se = 0.0;
-    for (size_t p = 0; p < pool.pixels; ++p) {
-        double s[3] = {0, 0, 0}, cnt = 0;
-        for (uint32_t f = 0; f < n[p]; ++f) {
-            const float* x = pool.at(f, p);
-            if (x[3] == 0.0f) continue;
-            for (int c = 0; c < 3; ++c) s[c] += x[c];
-            cnt += 1;
-        }
-        for (int c = 0; c < 3; ++c) {
-            const double d = (cnt > 0 ? s[c] / cnt : 0.0) - ref_rgb[3 * p + c];
-            se += d * d / 3.0;
-        }
-    }
-    return se / static_cast<double>(pool.pixels);
-}
-
 struct Scores {
     std::map<std::string, StrategyScore> by_name;
     std::map<std::string, std::vector<std::vector<uint32_t>>> plans;  // per draw
@@ -81,16 +60,8 @@ Evaluation evaluate(const Record& r, const EvalInputs& in) {
 
     Evaluation e;
     // The reference: unclamped RGB, the PSNR peak, its descriptor.
-    std::vector<double> ref_rgb(3 * P);
-    e.peak = 0.0;
-    for (size_t p = 0; p < P; ++p) {
-        const double n = ref.pixels[p].count;
-        for (int c = 0; c < 3; ++c) {
-            ref_rgb[3 * p + c] = n > 0 ? ref.pixels[p].rgb_sum[c] / n : 0.0;
-            e.peak = std::max(e.peak, ref_rgb[3 * p + c]);
-        }
-    }
-    if (!(e.peak > 0.0)) e.peak = 1.0;
+    const std::vector<double> ref_rgb = mean_rgb(ref);
+    e.peak = psnr_peak(ref_rgb);
     const Descriptor rd = derive_descriptor(ref);
     const DescriptorSummary rs = summarize(ref, rd);
 
@@ -132,7 +103,7 @@ Evaluation evaluate(const Record& r, const EvalInputs& in) {
             const AdaptivePlan plan = plan_allocation(s, si, r.protocol.extra_spp, r.protocol.floor, 7919ull * (k + 1));
             StrategyScore& ss = sc.by_name[alloc::to_string(s)];
             ss.name = alloc::to_string(s);
-            ss.mse.push_back(final_mse(*in.pool, plan.n, ref_rgb));
+            ss.mse.push_back(alloc::mse(final_image_rgb(*in.pool, plan.n), ref_rgb));
             sc.plans[ss.name].push_back(plan.n);
         }
     }
