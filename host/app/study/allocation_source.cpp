@@ -35,10 +35,23 @@ RenderedAllocationSource::Loaded& RenderedAllocationSource::load(const SceneVari
     return *loaded_;
 }
 
-std::string RenderedAllocationSource::key(const Loaded& l, uint32_t spp, uint32_t seed, uint32_t batch) const {
-    const Camera& c = l.session->scene().camera;
-    return cache_key({l.digest, c.width, c.height, spp, seed, 0, batch, to_string(traversal_), ctx_.info().name,
+namespace {
+// The samples per dispatch of each cached input (part of its key): reference chunks 64, the pool and the
+// per-sample pilots 1 (one frame per sample), a pilot its median-of-means block size where that is defined.
+constexpr uint32_t kReferenceBatch = 64;
+uint32_t pilot_batch(uint32_t n0) {
+    return alloc::mom_defined(static_cast<int>(n0)) ? static_cast<uint32_t>(alloc::mom_block_size(static_cast<int>(n0))) : 8;
+}
+}  // namespace
+
+std::string RenderedAllocationSource::key(const std::string& digest, const Camera& c, uint32_t spp, uint32_t seed,
+                                          uint32_t batch) const {
+    return cache_key({digest, c.width, c.height, spp, seed, 0, batch, to_string(traversal_), ctx_.info().name,
                       code_digest_});
+}
+
+std::string RenderedAllocationSource::key(const Loaded& l, uint32_t spp, uint32_t seed, uint32_t batch) const {
+    return key(l.digest, l.session->scene().camera, spp, seed, batch);
 }
 
 void RenderedAllocationSource::check_interrupt() const {
@@ -51,14 +64,14 @@ Frame RenderedAllocationSource::reference(const SceneVariant& v) {
     for (uint32_t c = 0; c < cfg_.alloc_ref_chunks; ++c) {
         check_interrupt();
         const uint32_t seed = downstream_seeds::reference_chunk(c);
-        const std::string k = key(l, cfg_.alloc_ref_chunk_spp, seed, 64);
+        const std::string k = key(l, cfg_.alloc_ref_chunk_spp, seed, kReferenceBatch);
         std::optional<Frame> f = cache_.try_load(k);
         if (!f) {
             need(v.name + " allocation reference chunk " + std::to_string(c));
             RenderSpec spec;
             spec.spp = cfg_.alloc_ref_chunk_spp;
             spec.seed = seed;
-            spec.batch_spp = 64;
+            spec.batch_spp = kReferenceBatch;
             f = l.renderer->render(spec);
             cache_.store(k, *f, v.name + " allocation reference chunk " + std::to_string(c));
         }
@@ -111,8 +124,7 @@ Pilot RenderedAllocationSource::pilot(const SceneVariant& v, uint32_t n0, uint32
     Loaded& l = load(v);
     check_interrupt();
     const bool robust = alloc::mom_defined(static_cast<int>(n0));
-    const uint32_t batch = robust ? static_cast<uint32_t>(alloc::mom_block_size(static_cast<int>(n0))) : 8;
-    const std::string k = key(l, n0, downstream_seeds::pilot(draw), batch);
+    const std::string k = key(l, n0, downstream_seeds::pilot(draw), pilot_batch(n0));
     if (std::optional<Pilot> cached = cache_.try_load_pilot(k)) return std::move(*cached);
     need(v.name + " allocation pilot N0 = " + std::to_string(n0) + ", draw " + std::to_string(draw));
     Pilot p = render_pilot(*l.renderer, n0, downstream_seeds::pilot(draw), robust);
@@ -172,22 +184,16 @@ bool reads_pilot_samples(const StudyConfig& cfg, uint32_t n0) {
 std::vector<std::string> RenderedAllocationSource::missing(const SceneVariant& v) {
     // Keys from the scene's content at the allocation film, without the device.
     const LoadedScene ls = load_variant(v, cfg_.alloc_res);
-    const Camera& c = ls.scene.camera;
-    auto key = [&](uint32_t spp, uint32_t seed, uint32_t batch) {
-        return cache_key({ls.digest, c.width, c.height, spp, seed, 0, batch, to_string(traversal_), ctx_.info().name,
-                          code_digest_});
-    };
+    auto key = [&](uint32_t spp, uint32_t seed, uint32_t batch) { return this->key(ls.digest, ls.scene.camera, spp, seed, batch); };
     auto absent = [&](const std::string& k, const std::string& kind) { return !fs::exists(cache_.path(k, kind)); };
     std::vector<std::string> out;
     for (uint32_t ch = 0; ch < cfg_.alloc_ref_chunks; ++ch)
-        if (absent(key(cfg_.alloc_ref_chunk_spp, downstream_seeds::reference_chunk(ch), 64), "frame"))
+        if (absent(key(cfg_.alloc_ref_chunk_spp, downstream_seeds::reference_chunk(ch), kReferenceBatch), "frame"))
             out.push_back(v.name + " allocation reference chunk " + std::to_string(ch));
     if (absent(key(downstream_seeds::kPoolSize, downstream_seeds::kPool, 1), "pool")) out.push_back(v.name + " allocation pool");
     for (uint32_t n0 : cfg_.alloc_pilots)
         for (uint32_t d = 0; d < static_cast<uint32_t>(cfg_.alloc_draws); ++d) {
-            const bool robust = alloc::mom_defined(static_cast<int>(n0));
-            const uint32_t batch = robust ? static_cast<uint32_t>(alloc::mom_block_size(static_cast<int>(n0))) : 8;
-            if (absent(key(n0, downstream_seeds::pilot(d), batch), "pilot"))
+            if (absent(key(n0, downstream_seeds::pilot(d), pilot_batch(n0)), "pilot"))
                 out.push_back(v.name + " allocation pilot N0 = " + std::to_string(n0) + ", draw " + std::to_string(d));
             if (reads_pilot_samples(cfg_, n0) && absent(key(n0, downstream_seeds::pilot(d), 1), "pilot-samples"))
                 out.push_back(v.name + " allocation per-sample pilot N0 = " + std::to_string(n0) + ", draw " +

@@ -48,6 +48,7 @@ private:
     };
     // The variant on the device at the allocation resolution; one is kept at a time.
     Loaded& load(const SceneVariant& v);
+    std::string key(const std::string& digest, const Camera& c, uint32_t spp, uint32_t seed, uint32_t batch) const;
     std::string key(const Loaded& l, uint32_t spp, uint32_t seed, uint32_t batch) const;
     void check_interrupt() const;
 
