@@ -24,14 +24,9 @@
 
 using namespace vkmech;
 
-namespace {
+using testing::read_text;
 
-std::string read_text(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
+namespace {
 
 void write_text(const std::string& path, const std::string& s) {
     std::ofstream out(path, std::ios::binary);

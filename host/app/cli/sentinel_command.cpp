@@ -143,15 +143,19 @@ int cmd_sentinel_register(const SentinelOptions& o) {
     return 0;
 }
 
-int cmd_sentinel_verify(const std::string& file) {
+namespace {
+// A record file's bytes; UsageError (exit 2) when it cannot be read.
+std::string read_record(const std::string& file) {
     std::ifstream in(file, std::ios::binary);
-    if (!in) {
-        std::cerr << "vkmech: error: cannot read sentinel record '" << file << "'\n";
-        return 2;
-    }
+    if (!in) throw UsageError("cannot read sentinel record '" + file + "'");
     std::stringstream ss;
     ss << in.rdbuf();
-    const sentinel::Verification v = sentinel::verify_record(ss.str(), file);
+    return ss.str();
+}
+}  // namespace
+
+int cmd_sentinel_verify(const std::string& file) {
+    const sentinel::Verification v = sentinel::verify_record(read_record(file), file);
     if (v.kind == sentinel::Verification::Intact) {
         std::printf("%s\n", v.message.c_str());
         return 0;
@@ -161,11 +165,7 @@ int cmd_sentinel_verify(const std::string& file) {
 }
 
 int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o) {
-    std::ifstream in(o.record, std::ios::binary);
-    if (!in) throw UsageError("cannot read sentinel record '" + o.record + "'");
-    std::stringstream ss;
-    ss << in.rdbuf();
-    const std::string text = ss.str();
+    const std::string text = read_record(o.record);
     const sentinel::Verification v = sentinel::verify_record(text, o.record);
     if (v.kind != sentinel::Verification::Intact) {
         std::cerr << "vkmech: error: " << v.message << "; refusing to evaluate it\n";
