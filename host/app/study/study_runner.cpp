@@ -525,21 +525,24 @@ int run_study(const StudyOptions& o) {
     for (size_t u = 0; u < units.size(); ++u)
         if (!units[u].allocation) unit_of[p.renders[units[u].render]] = u;
     auto in_shard = [&](size_t u) { return !o.shard || u % o.shard->second == o.shard->first; };
-    StudyPlan keyed = p;
+    const bool scale_out = !o.jobs_file.empty() || o.analyse_only || o.shard;
+    StudyPlan shard_plan;
     if (o.shard) {
-        keyed.renders.clear();
+        shard_plan = StudyPlan{p.cfg, p.kinds, p.out_dir, p.cache_dir, {}};
         for (const auto& r : p.renders)
-            if (in_shard(unit_of.at(r))) keyed.renders.push_back(r);
+            if (in_shard(unit_of.at(r))) shard_plan.renders.push_back(r);
     }
-    CacheState cs = key_renders(keyed, dev, cache);
+    CacheState cs = key_renders(o.shard ? shard_plan : p, dev, cache);
+    // The missing units (and what they lack), for --jobs, --analyse-only and --shard only.
     std::set<size_t> missing_units;
     std::vector<std::string> missing_lines;
-    for (const auto& r : cs.missing) {
-        missing_units.insert(unit_of.at(r));
-        missing_lines.push_back(describe(r));
-    }
+    if (scale_out)
+        for (const auto& r : cs.missing) {
+            missing_units.insert(unit_of.at(r));
+            missing_lines.push_back(describe(r));
+        }
     std::optional<RenderedAllocationSource> alloc_source;
-    if (p.has(StudyKind::Allocation) && (!o.jobs_file.empty() || o.analyse_only || o.shard)) {
+    if (p.has(StudyKind::Allocation) && scale_out) {
         alloc_source.emplace(p.cfg, dev.ctx, dev.trav, cache, dev.code_digest, [] { return study_interrupted(); });
         for (size_t u = 0; u < units.size(); ++u)
             if (units[u].allocation && in_shard(u)) {
