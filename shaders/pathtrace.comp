@@ -34,11 +34,11 @@ vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
     SurfaceHit s = surface_hit(h.prim, h.bary);
     vec3 L = vec3(0.0);
     bool front = dot(s.ng, d) < 0.0;
-    if (s.emitter != 0u && front) L += emitters[s.emitter - 1u].radiance.rgb;
+    if (s.emitter != 0u && front) L += emitter_radiance(s.emitter - 1u);
     if (params.scene.x == 0u) return L;
     vec3 ng = front ? s.ng : -s.ng;
     vec3 ns = dot(s.ns, ng) < 0.0 ? -s.ns : s.ns;
-    GpuMaterial m = materials[s.material];
+    GpuMaterial m = material_at(s.material);
     vec3 albedo = (m.header.x == MAT_DIFFUSE || m.header.x == MAT_PLASTIC || m.header.x == MAT_ROUGHPLASTIC ||
                    m.header.x == MAT_PRINCIPLED) ? m.reflectance.rgb : vec3(0.5);
     vec3 lu = vec3(rng_next(rng), rng_next(rng), rng_next(rng));
@@ -146,7 +146,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
 
         // ---- emission seen by this segment ----
         if (s.emitter != 0u && dot(s.ng, d) < 0.0) {
-            GpuEmitter em = emitters[s.emitter - 1u];
+            GpuEmitter em = emitter_at(s.emitter - 1u);
             vec3 Le = em.radiance.rgb;
             if (k == 1u) {
                 add_event(tally, throughput * Le, 0u, LOBE_NONE, false, false);
@@ -167,7 +167,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
         }
         if (k >= max_depth) break;  // no segment left for NEE or a bounce
 
-        GpuMaterial m = materials[s.material];
+        GpuMaterial m = material_at(s.material);
         Frame3 fr = frame_from_normal(s.ns);
         vec3 wo_world = -d;
         vec3 wo = to_local(fr, wo_world);

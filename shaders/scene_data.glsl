@@ -2,33 +2,55 @@
 #ifndef VKMECH_SCENE_DATA_GLSL
 #define VKMECH_SCENE_DATA_GLSL
 
-layout(std140, set = 0, binding = BINDING_PARAMS) uniform ParamsBlock { GpuParams params; };
-layout(std430, set = 0, binding = BINDING_VERTICES) readonly buffer Vertices { GpuVertex vertices[]; };
-layout(std430, set = 0, binding = BINDING_TRIANGLES) readonly buffer Triangles { uvec4 triangles[]; };
-layout(std430, set = 0, binding = BINDING_MATERIALS) readonly buffer Materials { GpuMaterial materials[]; };
-layout(std430, set = 0, binding = BINDING_LIGHT_TRIS) readonly buffer LightTris { GpuLightTriangle light_tris[]; };
-layout(std430, set = 0, binding = BINDING_EMITTERS) readonly buffer Emitters { GpuEmitter emitters[]; };
-// Textures: linear RGB texels of every texture, and per texture TEX_WORDS
-// uvec4 (shared/types.h: first texel, size, kind, uv transform).
-layout(std430, set = 0, binding = BINDING_TEXELS) readonly buffer Texels { vec4 texels[]; };
-layout(std430, set = 0, binding = BINDING_TEXTURES) readonly buffer Textures { uvec4 textures[]; };
+#extension GL_EXT_samplerless_texture_functions : require
 
-// Repeat wrap in float (GLSL's integer % is undefined for negative operands).
+layout(std140, set = 0, binding = BINDING_PARAMS) uniform ParamsBlock { GpuParams params; };
+// The scene arrays are uniform texel buffers of RGBA32 uint texels, one
+// texel per vec4 of the host structs (shared/types.h): a texel fetch loads a
+// whole vec4 per invocation, where on lavapipe a storage-buffer load at a
+// divergent address loops over the invocations (host GpuScene).
+layout(set = 0, binding = BINDING_VERTICES) uniform utextureBuffer vertex_buf;      // GpuVertex: 2 texels
+layout(set = 0, binding = BINDING_TRIANGLES) uniform utextureBuffer triangle_buf;   // uvec4
+layout(set = 0, binding = BINDING_MATERIALS) uniform utextureBuffer material_buf;   // GpuMaterial: 9 texels
+layout(set = 0, binding = BINDING_LIGHT_TRIS) uniform utextureBuffer light_tri_buf; // GpuLightTriangle: 2 texels
+layout(set = 0, binding = BINDING_EMITTERS) uniform utextureBuffer emitter_buf;     // GpuEmitter: 2 texels
+layout(set = 0, binding = BINDING_TEXELS) uniform utextureBuffer texel_buf;         // vec4 (linear RGB)
+layout(set = 0, binding = BINDING_TEXTURES) uniform utextureBuffer texture_buf;     // uvec4, TEX_WORDS per texture
+
+vec4 fetch_vec4(utextureBuffer b, uint i) { return uintBitsToFloat(texelFetch(b, int(i))); }
+
+GpuVertex vertex_at(uint i) { return GpuVertex(fetch_vec4(vertex_buf, 2u * i), fetch_vec4(vertex_buf, 2u * i + 1u)); }
+vec3 vertex_position(uint i) { return fetch_vec4(vertex_buf, 2u * i).xyz; }
+vec3 vertex_normal(uint i) { return fetch_vec4(vertex_buf, 2u * i + 1u).xyz; }
+uvec4 triangle_at(uint i) { return texelFetch(triangle_buf, int(i)); }
+GpuMaterial material_at(uint i) {
+    uint b = 9u * i;
+    return GpuMaterial(texelFetch(material_buf, int(b)), fetch_vec4(material_buf, b + 1u), fetch_vec4(material_buf, b + 2u),
+                       fetch_vec4(material_buf, b + 3u), fetch_vec4(material_buf, b + 4u), fetch_vec4(material_buf, b + 5u),
+                       fetch_vec4(material_buf, b + 6u), fetch_vec4(material_buf, b + 7u), fetch_vec4(material_buf, b + 8u));
+}
+GpuLightTriangle light_tri_at(uint i) {
+    return GpuLightTriangle(texelFetch(light_tri_buf, int(2u * i)), fetch_vec4(light_tri_buf, 2u * i + 1u));
+}
+float light_tri_cdf(uint i) { return fetch_vec4(light_tri_buf, 2u * i + 1u).x; }
+GpuEmitter emitter_at(uint i) { return GpuEmitter(fetch_vec4(emitter_buf, 2u * i), texelFetch(emitter_buf, int(2u * i + 1u))); }
+vec3 emitter_radiance(uint i) { return fetch_vec4(emitter_buf, 2u * i).rgb; }
+
 vec3 texel_at(uvec4 info, float x, float y) {
     float w = float(info.y);
     float h = float(info.z);
     uint xi = uint(clamp(mod(x, w), 0.0, w - 1.0));
     uint yi = uint(clamp(mod(y, h), 0.0, h - 1.0));
-    return texels[info.x + yi * info.y + xi].rgb;
+    return fetch_vec4(texel_buf, info.x + yi * info.y + xi).rgb;
 }
 
 // Mitsuba's bitmap (bilinear or nearest, repeat wrap) and checkerboard
 // textures after their to_uv transform; uv (0, 0) is the top-left corner of
 // an image (host/scene convention).
 vec3 texture_lookup(uint tex, vec2 uv_in) {
-    uvec4 info = textures[TEX_WORDS * tex];
-    uvec4 r0 = textures[TEX_WORDS * tex + 1u];
-    uvec4 r1 = textures[TEX_WORDS * tex + 2u];
+    uvec4 info = texelFetch(texture_buf, int(TEX_WORDS * tex));
+    uvec4 r0 = texelFetch(texture_buf, int(TEX_WORDS * tex + 1u));
+    uvec4 r1 = texelFetch(texture_buf, int(TEX_WORDS * tex + 2u));
     vec2 uv = vec2(dot(uintBitsToFloat(r0.xyz), vec3(uv_in, 1.0)), dot(uintBitsToFloat(r1.xyz), vec3(uv_in, 1.0)));
     uint kind = info.w & 0xFFu;
     if (kind == TEX_CHECKERBOARD) {
@@ -36,7 +58,7 @@ vec3 texture_lookup(uint tex, vec2 uv_in) {
         vec2 f = uv - floor(uv);
         bool mu = f.x > 0.5;
         bool mv = f.y > 0.5;
-        return texels[info.x + (mu != mv ? 0u : 1u)].rgb;
+        return fetch_vec4(texel_buf, info.x + (mu != mv ? 0u : 1u)).rgb;
     }
     vec2 p = uv * vec2(float(info.y), float(info.z));
     if ((info.w & TEX_NEAREST_BIT) != 0u) return texel_at(info, floor(p.x), floor(p.y));
@@ -80,10 +102,10 @@ struct SurfaceHit {
 };
 
 SurfaceHit surface_hit(uint prim, vec2 bary) {
-    uvec4 tri = triangles[prim];
-    GpuVertex a = vertices[tri.x];
-    GpuVertex b = vertices[tri.y];
-    GpuVertex c = vertices[tri.z];
+    uvec4 tri = triangle_at(prim);
+    GpuVertex a = vertex_at(tri.x);
+    GpuVertex b = vertex_at(tri.y);
+    GpuVertex c = vertex_at(tri.z);
     float w0 = 1.0 - bary.x - bary.y;
     SurfaceHit s;
     s.p = w0 * a.position.xyz + bary.x * b.position.xyz + bary.y * c.position.xyz;
@@ -130,7 +152,7 @@ uint select_light_triangle(float u) {
     uint hi = params.scene.x - 1u;
     while (lo < hi) {
         uint mid = (lo + hi) / 2u;
-        if (light_tris[mid].cdf.x < u) lo = mid + 1u; else hi = mid;
+        if (light_tri_cdf(mid) < u) lo = mid + 1u; else hi = mid;
     }
     return lo;
 }
@@ -145,12 +167,12 @@ struct LightSample {
 
 LightSample sample_light(vec3 u) {
     uint li = select_light_triangle(u.x);
-    GpuLightTriangle lt = light_tris[li];
+    GpuLightTriangle lt = light_tri_at(li);
     uint prim = lt.info.x;
-    uvec4 tri = triangles[prim];
-    vec3 a = vertices[tri.x].position.xyz;
-    vec3 b = vertices[tri.y].position.xyz;
-    vec3 c = vertices[tri.z].position.xyz;
+    uvec4 tri = triangle_at(prim);
+    vec3 a = vertex_position(tri.x);
+    vec3 b = vertex_position(tri.y);
+    vec3 c = vertex_position(tri.z);
     float su = sqrt(u.y);
     float b0 = 1.0 - su;
     float b1 = u.z * su;
@@ -162,12 +184,11 @@ LightSample sample_light(vec3 u) {
         // them, exactly as at an emitter hit (surface_hit): a third-party mesh
         // whose winding disagrees with its normals emits on the same side
         // whether the light is sampled or hit.
-        vec3 n = b0 * vertices[tri.x].normal.xyz + b1 * vertices[tri.y].normal.xyz +
-                 (1.0 - b0 - b1) * vertices[tri.z].normal.xyz;
+        vec3 n = b0 * vertex_normal(tri.x) + b1 * vertex_normal(tri.y) + (1.0 - b0 - b1) * vertex_normal(tri.z);
         if (dot(n, s.n) < 0.0) s.n = -s.n;
     }
     s.scale = max_abs3(a, b, c);
-    s.radiance = emitters[lt.info.y].radiance.rgb;
+    s.radiance = emitter_radiance(lt.info.y);
     s.pdf_area = lt.cdf.z;
     return s;
 }

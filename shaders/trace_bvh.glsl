@@ -3,9 +3,22 @@
 #ifndef VKMECH_TRACE_BVH_GLSL
 #define VKMECH_TRACE_BVH_GLSL
 
-layout(std430, set = 0, binding = BINDING_BVH_NODES) readonly buffer BvhNodes { GpuBvhNode bvh_nodes[]; };
-// Three vec4 per triangle (v0, v1, v2), in BVH order == scene triangle order.
-layout(std430, set = 0, binding = BINDING_BVH_TRIS) readonly buffer BvhTris { vec4 bvh_tri_pos[]; };
+#extension GL_EXT_samplerless_texture_functions : require
+
+// Both are uniform texel buffers of RGBA32 uint texels (a texel fetch loads
+// a whole vec4 per invocation on lavapipe, where a storage-buffer load at a
+// divergent address loads every component of every invocation on its own;
+// docs/performance.md): the 4-wide nodes are four texels each
+// (GpuBvh4Node: origin and exponents, two of quantized bounds, children),
+// the triangles three (v0, v1, v2; xyz are float bits), in
+// BVH order == scene triangle order.
+layout(set = 0, binding = BINDING_BVH_NODES) uniform utextureBuffer bvh_nodes;
+layout(set = 0, binding = BINDING_BVH_TRIS) uniform utextureBuffer bvh_tri_pos;
+
+// Byte k of each component of q, for the four children.
+vec4 bvh_bytes(uint q) { return vec4((uvec4(q) >> uvec4(0u, 8u, 16u, 24u)) & 0xFFu); }
+
+vec3 bvh_vertex(uint i) { return uintBitsToFloat(texelFetch(bvh_tri_pos, int(i)).xyz); }
 
 struct Hit {
     float t;
@@ -13,7 +26,6 @@ struct Hit {
     vec2 bary;  // (u, v): p = (1-u-v) v0 + u v1 + v v2
 };
 
-const uint BVH_STACK_SIZE = 64u;
 
 vec3 safe_inverse(vec3 d) {
     const float big = 1e30;
@@ -26,24 +38,11 @@ vec3 safe_inverse(vec3 d) {
 // (RAY_TMAX), so a hit at any scene scale is never mistaken for a miss.
 const float BVH_MISS = 3.4e38;
 
-// Slab test; returns the entry distance or BVH_MISS when missed.
-float bvh_box_entry(vec3 bmin, vec3 bmax, vec3 o, vec3 inv_d, float tmin, float tmax) {
-    vec3 t0 = (bmin - o) * inv_d;
-    vec3 t1 = (bmax - o) * inv_d;
-    vec3 lo = min(t0, t1);
-    vec3 hi = max(t0, t1);
-    float enter = max(max(lo.x, lo.y), max(lo.z, tmin));
-    float leave = min(min(hi.x, hi.y), min(hi.z, tmax));
-    // Robust to rounding at grazing slabs (Ize 2013: scale the far bound).
-    leave *= 1.0000004;
-    return enter <= leave ? enter : BVH_MISS;
-}
-
 // Möller–Trumbore, double-sided.
 bool bvh_tri_intersect(uint i, vec3 o, vec3 d, float tmin, float tmax, out float t, out vec2 uv) {
-    vec3 v0 = bvh_tri_pos[3u * i].xyz;
-    vec3 e1 = bvh_tri_pos[3u * i + 1u].xyz - v0;
-    vec3 e2 = bvh_tri_pos[3u * i + 2u].xyz - v0;
+    vec3 v0 = bvh_vertex(3u * i);
+    vec3 e1 = bvh_vertex(3u * i + 1u) - v0;
+    vec3 e2 = bvh_vertex(3u * i + 2u) - v0;
     vec3 p = cross(d, e2);
     float det = dot(e1, p);
     if (det == 0.0) return false;
@@ -62,54 +61,105 @@ bool bvh_tri_intersect(uint i, vec3 o, vec3 d, float tmin, float tmax, out float
     return true;
 }
 
+#ifdef VKMECH_COUNTERS
+// The instrumented variant (tracerays.comp for `bench traversal --counters`):
+// per invocation, the work of its last trace.
+uint bvh_count_nodes = 0u;   // interior nodes fetched (four child boxes tested each)
+uint bvh_count_leaves = 0u;  // leaves visited
+uint bvh_count_tris = 0u;    // triangles tested
+uint bvh_count_stack = 0u;   // deepest stack
+#define BVH_COUNT(stmt) stmt
+#else
+#define BVH_COUNT(stmt)
+#endif
+
+// Orders two (distance, child) pairs by distance.
+void bvh_order(inout float da, inout uint ca, inout float db, inout uint cb) {
+    bool swap = db < da;
+    float t = da;
+    uint c = ca;
+    da = swap ? db : da;
+    ca = swap ? cb : ca;
+    db = swap ? t : db;
+    cb = swap ? c : cb;
+}
+
+// Closest hit (any_hit false) or any hit in (tmin, tmax). Interior nodes are
+// visited until the ray reaches a leaf or runs out of work, then the leaf's
+// triangles are tested, so that the invocations of a SIMD group test
+// triangles together. A node's four child boxes are tested at once; the hit
+// children are visited near to far (the nearest next, the others pushed far
+// first). Slab test robust to rounding at grazing slabs (Ize 2013: the far
+// bound is scaled up).
 bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit) {
     hit.t = tmax;
     hit.prim = 0xFFFFFFFFu;
     hit.bary = vec2(0.0);
     vec3 inv_d = safe_inverse(d);
-    uint stack[BVH_STACK_SIZE];
+    uint stack[BVH4_STACK_SIZE];
     uint sp = 0u;
-    uint node = 0u;
-    if (bvh_box_entry(bvh_nodes[0].bmin.xyz, bvh_nodes[0].bmax.xyz, o, inv_d, tmin, tmax) >= BVH_MISS) return false;
-    while (true) {
-        GpuBvhNode n = bvh_nodes[node];
-        uint offset = floatBitsToUint(n.bmin.w);
-        uint count = floatBitsToUint(n.bmax.w);
-        if (count > 0u) {
-            for (uint k = 0u; k < count; ++k) {
-                float t;
-                vec2 uv;
-                if (bvh_tri_intersect(offset + k, o, d, tmin, hit.t, t, uv)) {
-                    hit.t = t;
-                    hit.prim = offset + k;
-                    hit.bary = uv;
-                    if (any_hit) return true;
-                }
-            }
-        } else {
-            uint a = node + 1u;
-            uint b = offset;
-            GpuBvhNode na = bvh_nodes[a];
-            GpuBvhNode nb = bvh_nodes[b];
-            float ta = bvh_box_entry(na.bmin.xyz, na.bmax.xyz, o, inv_d, tmin, hit.t);
-            float tb = bvh_box_entry(nb.bmin.xyz, nb.bmax.xyz, o, inv_d, tmin, hit.t);
-            if (ta < BVH_MISS && tb < BVH_MISS) {
-                // Near child first; push the far one.
-                if (tb < ta) { uint tmp = a; a = b; b = tmp; }
-                if (sp < BVH_STACK_SIZE) { stack[sp] = b; sp += 1u; }
-                node = a;
-                continue;
-            } else if (ta < BVH_MISS) {
-                node = a;
-                continue;
-            } else if (tb < BVH_MISS) {
-                node = b;
-                continue;
+    const uint DONE = 0xFFFFFFFFu;
+    uint ref = 0u;  // the root: interior node 0
+    while (ref != DONE) {
+        while (ref != DONE && (ref >> BVH4_COUNT_SHIFT) == 0u) {
+            BVH_COUNT(bvh_count_nodes += 1u);
+            uvec4 head = texelFetch(bvh_nodes, int(4u * ref));
+            uvec4 q0 = texelFetch(bvh_nodes, int(4u * ref + 1u));
+            uvec4 q1 = texelFetch(bvh_nodes, int(4u * ref + 2u));
+            uvec4 child = texelFetch(bvh_nodes, int(4u * ref + 3u));
+            // Decode: bound = origin + q * 2^(e - 127), exact products (collapse_bvh4).
+            vec3 org = uintBitsToFloat(head.xyz);
+            vec3 step = uintBitsToFloat(((uvec3(head.w) >> uvec3(0u, 8u, 16u)) & 0xFFu) << 23u);
+            vec4 lx = org.x + bvh_bytes(q0.x) * step.x, ly = org.y + bvh_bytes(q0.y) * step.y;
+            vec4 lz = org.z + bvh_bytes(q0.z) * step.z, hx = org.x + bvh_bytes(q0.w) * step.x;
+            vec4 hy = org.y + bvh_bytes(q1.x) * step.y, hz = org.z + bvh_bytes(q1.y) * step.z;
+            vec4 t0x = (lx - o.x) * inv_d.x, t1x = (hx - o.x) * inv_d.x;
+            vec4 t0y = (ly - o.y) * inv_d.y, t1y = (hy - o.y) * inv_d.y;
+            vec4 t0z = (lz - o.z) * inv_d.z, t1z = (hz - o.z) * inv_d.z;
+            vec4 enter = max(max(min(t0x, t1x), min(t0y, t1y)), max(min(t0z, t1z), vec4(tmin)));
+            vec4 leave = min(min(max(t0x, t1x), max(t0y, t1y)), min(max(t0z, t1z), vec4(hit.t))) * 1.0000004;
+            bvec4 hits = bvec4(uvec4(lessThanEqual(enter, leave)) & uvec4(notEqual(child, uvec4(BVH4_EMPTY))));
+            float d0 = hits.x ? enter.x : BVH_MISS, d1 = hits.y ? enter.y : BVH_MISS;
+            float d2 = hits.z ? enter.z : BVH_MISS, d3 = hits.w ? enter.w : BVH_MISS;
+            uint c0 = child.x, c1 = child.y, c2 = child.z, c3 = child.w;
+            bvh_order(d0, c0, d1, c1);
+            bvh_order(d2, c2, d3, c3);
+            bvh_order(d0, c0, d2, c2);
+            bvh_order(d1, c1, d3, c3);
+            bvh_order(d1, c1, d2, c2);
+            if (d0 < BVH_MISS) {
+                ref = c0;
+                if (d3 < BVH_MISS) { stack[sp] = c3; sp += 1u; }
+                if (d2 < BVH_MISS) { stack[sp] = c2; sp += 1u; }
+                if (d1 < BVH_MISS) { stack[sp] = c1; sp += 1u; }
+                BVH_COUNT(bvh_count_stack = max(bvh_count_stack, sp));
+            } else if (sp == 0u) {
+                ref = DONE;
+            } else {
+                sp -= 1u;
+                ref = stack[sp];
             }
         }
-        if (sp == 0u) break;
-        sp -= 1u;
-        node = stack[sp];
+        if (ref == DONE) break;
+        uint offset = ref & BVH4_INDEX_MASK;
+        uint count = ref >> BVH4_COUNT_SHIFT;
+        BVH_COUNT(bvh_count_leaves += 1u; bvh_count_tris += count);
+        for (uint k = 0u; k < count; ++k) {
+            float t;
+            vec2 uv;
+            if (bvh_tri_intersect(offset + k, o, d, tmin, hit.t, t, uv)) {
+                hit.t = t;
+                hit.prim = offset + k;
+                hit.bary = uv;
+            }
+        }
+        if (any_hit && hit.prim != 0xFFFFFFFFu) return true;
+        if (sp == 0u) {
+            ref = DONE;
+        } else {
+            sp -= 1u;
+            ref = stack[sp];
+        }
     }
     return hit.prim != 0xFFFFFFFFu;
 }

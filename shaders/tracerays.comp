@@ -1,6 +1,9 @@
 #version 460
 // Traces a buffer of rays and records the closest hits: the traversal
-// agreement test and `vkmech bench traversal`.
+// agreement test and `vkmech bench traversal`. With VKMECH_COUNTERS (software
+// BVH only) it records instead the traversal's work per ray, as uint bits:
+// interior nodes, leaves, triangles tested, deepest stack
+// (`bench traversal --counters`).
 #extension GL_GOOGLE_include_directive : require
 #include "shared/types.h"
 #include "shared/bindings.h"
@@ -23,6 +26,11 @@ void main() {
         return;
     }
     Hit h;
+#ifdef VKMECH_COUNTERS
+    trace_closest(r.origin.xyz, r.direction.xyz, r.origin.w, r.direction.w, h);
+    hits[i].hit = uintBitsToFloat(uvec4(bvh_count_nodes, bvh_count_leaves, bvh_count_tris, bvh_count_stack));
+    return;
+#endif
     if (trace_closest(r.origin.xyz, r.direction.xyz, r.origin.w, r.direction.w, h)) {
         hits[i].hit = vec4(h.t, h.bary, uintBitsToFloat(h.prim));
     } else {

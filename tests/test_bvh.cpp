@@ -109,3 +109,176 @@ TEST_CASE("bvh: geometrically graded triangles do not make a tree deeper than th
         CHECK(st.max_depth <= kBvhMaxDepth);
     }
 }
+
+namespace {
+
+// Walks a 4-wide tree (gpu::GpuBvh4Node) from the root and returns "" when
+// every triangle 0..n-1 is in exactly one leaf, every child box (as the
+// traversal decodes it) contains every triangle below it, every interior reference is in range and no node
+// is reached twice; otherwise the first fault. depth_out: the deepest chain
+// of interior nodes (the root is 1).
+// worst_steps: the largest gap between a decoded child box and the exact box
+// of its triangles, in quantization steps of that axis (2^(e - 127)).
+std::string check_bvh4(const std::vector<gpu::GpuBvh4Node>& nodes, const std::vector<glm::vec3>& pos_bvh_order,
+                       uint32_t* depth_out = nullptr, double* worst_steps = nullptr) {
+    double worst = 0.0;
+    const size_t n = pos_bvh_order.size() / 3;
+    std::vector<int> seen(n, 0);
+    std::vector<int> visited(nodes.size(), 0);
+    uint32_t deepest = 0;
+    std::string fault;
+    // Returns the box of everything below node `i`, checking each child box contains its part.
+    auto walk = [&](auto& self, uint32_t i, uint32_t depth, glm::vec3& lo, glm::vec3& hi) -> void {
+        if (!fault.empty()) return;
+        if (i >= nodes.size()) { fault = "interior reference out of range"; return; }
+        if (visited[i]++) { fault = "node reached twice"; return; }
+        deepest = std::max(deepest, depth);
+        const auto& nd = nodes[i];
+        for (int k = 0; k < 4; ++k) {
+            const uint32_t c = nd.child[k];
+            if (c == gpu::BVH4_EMPTY) continue;
+            glm::vec3 clo(std::numeric_limits<float>::max()), chi(-std::numeric_limits<float>::max());
+            const uint32_t count = c >> gpu::BVH4_COUNT_SHIFT, index = c & gpu::BVH4_INDEX_MASK;
+            if (count == 0) {
+                self(self, index, depth + 1, clo, chi);
+            } else {
+                for (uint32_t t = index; t < index + count; ++t) {
+                    if (t >= n) { fault = "leaf triangle out of range"; return; }
+                    seen[t] += 1;
+                    for (int v = 0; v < 3; ++v) {
+                        clo = glm::min(clo, pos_bvh_order[3 * t + v]);
+                        chi = glm::max(chi, pos_bvh_order[3 * t + v]);
+                    }
+                }
+            }
+            glm::vec3 blo, bhi;
+            decode_bvh4_box(nd, k, blo, bhi);
+            if (glm::any(glm::lessThan(clo, blo)) || glm::any(glm::greaterThan(chi, bhi))) {
+                if (fault.empty()) fault = "a child box does not contain its triangles";
+                return;
+            }
+            for (int a = 0; a < 3; ++a) {
+                const uint32_t e = (std::bit_cast<uint32_t>(nd.origin.w) >> (8 * a)) & 0xFFu;
+                const double step = std::ldexp(1.0, static_cast<int>(e) - 127);
+                worst = std::max(worst, (static_cast<double>(clo[a]) - blo[a]) / step);
+                worst = std::max(worst, (static_cast<double>(bhi[a]) - chi[a]) / step);
+            }
+            lo = glm::min(lo, clo);
+            hi = glm::max(hi, chi);
+        }
+    };
+    if (nodes.empty()) return "no nodes";
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    walk(walk, 0, 1, lo, hi);
+    if (!fault.empty()) return fault;
+    for (size_t t = 0; t < n; ++t)
+        if (seen[t] != 1) return "triangle " + std::to_string(t) + " is in " + std::to_string(seen[t]) + " leaves";
+    if (depth_out) *depth_out = deepest;
+    if (worst_steps) *worst_steps = worst;
+    return "";
+}
+
+}  // namespace
+
+TEST_CASE("bvh: the 4-wide tree holds every triangle once inside every box above it") {
+    for (uint32_t n : {1u, 2u, 4u, 5u, 100u, 10000u}) {
+        CAPTURE(n);
+        auto pos = triangle_soup(n, n + 11, 0.5f);
+        Bvh bvh = build_bvh(pos);
+        auto nodes = collapse_bvh4(bvh);
+        uint32_t depth = 0;
+        CHECK(check_bvh4(nodes, in_bvh_order(bvh, pos), &depth) == "");
+        // Opening interior children two levels at a time roughly halves the depth.
+        CHECK(2 * depth <= bvh_stats(bvh).max_depth + 2);
+        if (n <= 4) {  // the binary tree is one leaf: a root with one child
+            CHECK(nodes.size() == 1);
+            CHECK(nodes[0].child[0] == (0u | (n << gpu::BVH4_COUNT_SHIFT)));
+            CHECK(nodes[0].child[1] == gpu::BVH4_EMPTY);
+        } else {
+            // A node has an empty slot only when it had no interior child left to open.
+            size_t short_with_interior = 0;
+            for (const auto& nd : nodes) {
+                if (nd.child[3] != gpu::BVH4_EMPTY) continue;
+                for (int k = 0; k < 4; ++k)
+                    short_with_interior += nd.child[k] != gpu::BVH4_EMPTY && (nd.child[k] >> gpu::BVH4_COUNT_SHIFT) == 0;
+            }
+            CHECK(short_with_interior == 0);
+        }
+    }
+}
+
+TEST_CASE("bvh: the 4-wide checker detects a corrupted tree") {
+    auto pos = triangle_soup(500, 3, 0.5f);
+    Bvh bvh = build_bvh(pos);
+    auto nodes = collapse_bvh4(bvh);
+    auto ordered = in_bvh_order(bvh, pos);
+    REQUIRE(check_bvh4(nodes, ordered) == "");
+    SUBCASE("a shrunken child box") {
+        nodes[0].q0[3] &= ~0xFF00u;  // child 1's hi_x decodes to the node's lower corner
+        CHECK(check_bvh4(nodes, ordered) != "");
+    }
+    SUBCASE("a dropped child") {
+        nodes[0].child[2] = gpu::BVH4_EMPTY;
+        CHECK(check_bvh4(nodes, ordered) != "");
+    }
+}
+
+TEST_CASE("bvh: the 4-wide tree of every project scene and of a graded deep tree is well formed") {
+    for (const auto& path : testing::project_scene_paths()) {
+        CAPTURE(path);
+        SceneArrays a = flatten_scene(load_scene(path));
+        std::vector<glm::vec3> pos(a.tri_positions.size());
+        for (size_t i = 0; i < pos.size(); ++i) pos[i] = glm::vec3(a.tri_positions[i]);
+        CHECK(check_bvh4(a.bvh4, pos) == "");
+    }
+    // The deepest binary trees the builder makes (kBvhMaxDepth) still fit the traversal stack.
+    std::vector<glm::vec3> pos;
+    float s = 1.0f;
+    for (int i = 0; i < 20000 && s > 1e-30f; ++i, s *= 0.99f) {
+        const glm::vec3 c(s, 0.3f * s, 0.0f);
+        for (glm::vec3 v : {glm::vec3(0, 0, 0), glm::vec3(0.1f, 0, 0), glm::vec3(0, 0.1f, 0.05f)}) pos.push_back(c + s * v);
+    }
+    Bvh bvh = build_bvh(pos);
+    uint32_t depth = 0;
+    auto nodes = collapse_bvh4(bvh);
+    CHECK(check_bvh4(nodes, in_bvh_order(bvh, pos), &depth) == "");
+    INFO("binary depth ", bvh_stats(bvh).max_depth, ", 4-wide depth ", depth);
+    CHECK(3 * depth <= gpu::BVH4_STACK_SIZE);
+}
+
+TEST_CASE("bvh: a leaf too large for the 4-wide encoding is refused") {
+    Bvh bvh;
+    gpu::GpuBvhNode leaf;
+    leaf.bmin = glm::vec4(0.0f, 0.0f, 0.0f, std::bit_cast<float>(0u));
+    leaf.bmax = glm::vec4(1.0f, 1.0f, 1.0f, std::bit_cast<float>(16u));
+    bvh.nodes.push_back(leaf);
+    bvh.order.resize(16);
+    CHECK_THROWS_AS(collapse_bvh4(bvh), std::length_error);
+    bvh.nodes[0].bmax.w = std::bit_cast<float>(15u);
+    bvh.order.resize(15);
+    CHECK(collapse_bvh4(bvh).size() == 1);
+}
+
+TEST_CASE("bvh: quantized child boxes contain their children within one step at every scale") {
+    // The same soup scaled from 1e-30 to 1e37 and moved away from the origin: every decoded
+    // box contains its triangles (check_bvh4) and lies within one quantization step of
+    // their exact box on every side (the encoder rounds each bound outwards to the nearest
+    // step; float rounding of origin + q * step can add an ulp).
+    for (float scale : {1e-30f, 1e-6f, 1.0f, 1e6f, 1e30f, 1e37f}) {
+        for (float offset : {0.0f, 9.0f, -3e7f}) {
+            CAPTURE(scale);
+            CAPTURE(offset);
+            auto pos = triangle_soup(2000, 5, 0.3f);
+            bool finite = true;
+            for (auto& p : pos) {
+                p = p * scale + glm::vec3(offset * scale, -offset * scale, offset);
+                finite = finite && glm::all(glm::lessThan(glm::abs(p), glm::vec3(std::numeric_limits<float>::max())));
+            }
+            if (!finite) continue;  // -3e7 x 1e37 overflows float; 9 x 1e37 + 10.3 x 1e37 does not
+            Bvh bvh = build_bvh(pos);
+            double worst = 0.0;
+            CHECK(check_bvh4(collapse_bvh4(bvh), in_bvh_order(bvh, pos), nullptr, &worst) == "");
+            CHECK(worst < 1.01);
+        }
+    }
+}

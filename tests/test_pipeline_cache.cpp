@@ -88,10 +88,8 @@ std::unique_ptr<vkc::Context> context_with_cache(const std::string& dir) {
 std::unique_ptr<vkc::ComputePipeline> tracerays_pipeline(const vkc::Context& ctx) {
     using DT = ::vk::DescriptorType;
     using namespace gpu;
-    std::vector<vkc::BindingDesc> bindings = {{BINDING_RAYS, DT::eStorageBuffer},
-                                              {BINDING_HITS, DT::eStorageBuffer},
-                                              {BINDING_BVH_NODES, DT::eStorageBuffer},
-                                              {BINDING_BVH_TRIS, DT::eStorageBuffer}};
+    std::vector<vkc::BindingDesc> bindings = {{BINDING_RAYS, DT::eStorageBuffer}, {BINDING_HITS, DT::eStorageBuffer}};
+    for (const auto& b : traversal_bindings(Traversal::Bvh)) bindings.push_back(b);
     return std::make_unique<vkc::ComputePipeline>(ctx, tracerays_spirv(Traversal::Bvh), bindings, 8);
 }
 

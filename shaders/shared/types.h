@@ -135,6 +135,27 @@ struct GpuBvhNode {
     vec4 bmax;    // xyz, w: uintBitsToFloat(count)
 };
 
+// The 4-wide tree the software traversal runs (host/engine/accel/bvh.hpp
+// collapse_bvh4, shaders/trace_bvh.glsl): the binary tree above with
+// children and grandchildren pulled up, so one node holds up to four child
+// boxes, each quantized to 8 bits per bound against the node's box: on axis
+// a, a child's bound is origin[a] + q * 2^(e[a] - 127) (q: a byte of q0/q1;
+// e[a]: byte a of origin.w's bits), computed in float and rounded outwards
+// by the encoder so the decoded box always contains the child. Byte k of each
+// q word belongs to child k. child[k]: BVH4_EMPTY for an unused slot; an
+// interior child's node index (below BVH4_COUNT_SHIFT bits, count 0); a
+// leaf's first triangle | (triangle count << BVH4_COUNT_SHIFT).
+VKM_CONST BVH4_EMPTY = 0xFFFFFFFFu;
+VKM_CONST BVH4_COUNT_SHIFT = 28u;
+VKM_CONST BVH4_INDEX_MASK = 0x0FFFFFFFu;
+VKM_CONST BVH4_STACK_SIZE = 96u;  // >= 3 x the deepest chain of interior nodes (collapse_bvh4 checks)
+struct GpuBvh4Node {
+    vec4 origin;  // xyz: the node box's lower corner; w: uintBitsToFloat(e_x | e_y << 8 | e_z << 16)
+    uvec4 q0;     // lo_x, lo_y, lo_z, hi_x
+    uvec4 q1;     // hi_y, hi_z, 0, 0
+    uvec4 child;
+};
+
 struct GpuParams {
     mat4 camera_to_world;
     vec4 camera;       // tan(half fov x), tan(half fov y), aperture radius, focus distance

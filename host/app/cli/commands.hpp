@@ -91,6 +91,7 @@ struct BenchOptions {
     std::optional<uint32_t> device;
     std::optional<std::string> pipeline_cache;
     std::optional<std::string> dump_dir;  // bench traversal --dump DIR
+    bool counters = false;                // bench traversal --counters: the software BVH's work per ray
 };
 
 // `vkmech bench traversal` traces random_rays(arrays, rays, kBenchTraversalSeed)

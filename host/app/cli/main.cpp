@@ -106,6 +106,10 @@ int main(int argc, char** argv) {
                            "(<scene>.tris.bin, .rays.bin, .hits.bin, .json; layout in docs/performance.md) for "
                            "ci/bench-embree.sh")
         ->type_name("DIR");
+    bench_trav->add_flag("--counters", bench_opts.counters,
+                         "Also trace the rays once with the instrumented software-BVH shader and print its work per "
+                         "ray: interior nodes, leaves, triangles tested (mean, and mean of the maximum over groups of "
+                         "8 and 32 consecutive rays: one SIMD vector on lavapipe, one warp on NVIDIA), deepest stack");
     add_pipeline_cache_option(bench_trav, bench_opts.pipeline_cache);
 
     auto* bench_render = bench->add_subcommand(

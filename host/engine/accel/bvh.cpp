@@ -159,6 +159,133 @@ struct Builder {
 
 }  // namespace
 
+namespace {
+
+// The smallest e (a normal float's exponent, -126..127) with 255 * 2^e >= extent.
+int quantization_exponent(double extent) {
+    int e = -126;
+    if (extent > 0.0) e = std::max(-126, static_cast<int>(std::ceil(std::log2(extent / 255.0))) - 1);
+    while (std::ldexp(255.0, e) < extent) ++e;
+    return std::min(e, 127);  // extents are below 2 * FLT_MAX < 255 * 2^127
+}
+
+// The decoded bound origin + q * scale in float, as the shader computes it (q * scale is exact).
+float dequantize(float origin, float scale, uint32_t q) { return origin + static_cast<float>(q) * scale; }
+
+// The largest q whose decoded bound is <= x (q = 0 decodes to origin <= x).
+uint32_t quantize_down(float origin, float scale, float x) {
+    double q = std::floor((static_cast<double>(x) - origin) / scale);
+    uint32_t u = static_cast<uint32_t>(std::clamp(q, 0.0, 255.0));
+    while (u > 0 && dequantize(origin, scale, u) > x) --u;
+    return u;
+}
+
+// The smallest q whose decoded bound is >= x (q = 255 always is: 255 * scale >= the node's extent).
+uint32_t quantize_up(float origin, float scale, float x) {
+    double q = std::ceil((static_cast<double>(x) - origin) / scale);
+    uint32_t u = static_cast<uint32_t>(std::clamp(q, 0.0, 255.0));
+    while (u < 255 && dequantize(origin, scale, u) < x) ++u;
+    while (u > 0 && dequantize(origin, scale, u - 1) >= x) --u;
+    return u;
+}
+
+}  // namespace
+
+void decode_bvh4_box(const gpu::GpuBvh4Node& node, int k, glm::vec3& lo, glm::vec3& hi) {
+    const uint32_t e = std::bit_cast<uint32_t>(node.origin.w);
+    const uint32_t shift = 8u * static_cast<uint32_t>(k);
+    const uint32_t qlo[3] = {node.q0[0], node.q0[1], node.q0[2]};
+    const uint32_t qhi[3] = {node.q0[3], node.q1[0], node.q1[1]};
+    for (int a = 0; a < 3; ++a) {
+        const float scale = std::bit_cast<float>(((e >> (8 * a)) & 0xFFu) << 23);
+        lo[a] = dequantize(node.origin[a], scale, (qlo[a] >> shift) & 0xFFu);
+        hi[a] = dequantize(node.origin[a], scale, (qhi[a] >> shift) & 0xFFu);
+    }
+}
+
+std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh) {
+    if (bvh.nodes.empty()) throw std::invalid_argument("collapse_bvh4: empty tree");
+    const auto& nodes = bvh.nodes;
+    auto offset = [&](uint32_t n) { return std::bit_cast<uint32_t>(nodes[n].bmin.w); };
+    auto count = [&](uint32_t n) { return std::bit_cast<uint32_t>(nodes[n].bmax.w); };
+    auto area = [&](uint32_t n) {
+        glm::vec3 d = glm::vec3(nodes[n].bmax) - glm::vec3(nodes[n].bmin);
+        return d.x * d.y + d.y * d.z + d.z * d.x;
+    };
+    constexpr uint32_t kLimit = gpu::BVH4_INDEX_MASK - 16u;
+    if (bvh.order.size() > kLimit) throw std::length_error("collapse_bvh4: too many triangles for the 4-wide encoding");
+    std::vector<gpu::GpuBvh4Node> out;
+    out.reserve(nodes.size() / 2 + 1);
+    uint32_t deepest = 0;
+    // emit(children, depth): writes one 4-wide node with these binary nodes as its children.
+    auto emit = [&](auto& self, std::vector<uint32_t> kids, uint32_t depth) -> uint32_t {
+        deepest = std::max(deepest, depth);
+        if (3u * deepest > gpu::BVH4_STACK_SIZE) throw std::length_error("collapse_bvh4: tree deeper than the traversal stack");
+        // Open every interior child once, then the largest interior ones.
+        for (size_t k = 0, n = kids.size(); k < n && kids.size() < 4; ++k) {
+            const uint32_t c = kids[k];
+            if (count(c) == 0 && kids.size() + 1 <= 4) {
+                kids[k] = c + 1;
+                kids.push_back(offset(c));
+            }
+        }
+        while (kids.size() < 4) {
+            int best = -1;
+            for (size_t k = 0; k < kids.size(); ++k)
+                if (count(kids[k]) == 0 && (best < 0 || area(kids[k]) > area(kids[static_cast<size_t>(best)])))
+                    best = static_cast<int>(k);
+            if (best < 0) break;
+            const uint32_t c = kids[static_cast<size_t>(best)];
+            kids[static_cast<size_t>(best)] = c + 1;
+            kids.push_back(offset(c));
+        }
+        const uint32_t self_index = static_cast<uint32_t>(out.size());
+        if (self_index >= kLimit) throw std::length_error("collapse_bvh4: too many nodes for the 4-wide encoding");
+        out.emplace_back();
+        gpu::GpuBvh4Node node{};
+        node.child = glm::uvec4(gpu::BVH4_EMPTY);
+        std::array<glm::vec3, 4> lo{}, hi{};
+        glm::vec3 nlo(std::numeric_limits<float>::max()), nhi(-std::numeric_limits<float>::max());
+        for (size_t k = 0; k < kids.size(); ++k) {
+            lo[k] = glm::vec3(nodes[kids[k]].bmin);
+            hi[k] = glm::vec3(nodes[kids[k]].bmax);
+            nlo = glm::min(nlo, lo[k]);
+            nhi = glm::max(nhi, hi[k]);
+        }
+        node.origin = glm::vec4(nlo, 0.0f);
+        uint32_t exponents = 0;
+        for (int a = 0; a < 3; ++a) {
+            const int e = quantization_exponent(static_cast<double>(nhi[a]) - nlo[a]);
+            exponents |= static_cast<uint32_t>(e + 127) << (8 * a);
+            const float scale = std::ldexp(1.0f, e);
+            for (size_t k = 0; k < kids.size(); ++k) {
+                const uint32_t qlo = quantize_down(nlo[a], scale, lo[k][a]);
+                const uint32_t qhi = quantize_up(nlo[a], scale, hi[k][a]);
+                const uint32_t shift = 8u * static_cast<uint32_t>(k);
+                node.q0[a] |= qlo << shift;
+                if (a == 0) node.q0[3] |= qhi << shift;
+                else node.q1[a - 1] |= qhi << shift;
+            }
+        }
+        node.origin.w = std::bit_cast<float>(exponents);
+        for (size_t k = 0; k < kids.size(); ++k) {
+            const uint32_t c = kids[k];
+            const int i = static_cast<int>(k);
+            if (count(c) > 0) {
+                if (count(c) > 15u) throw std::length_error("collapse_bvh4: a leaf of more than 15 triangles");
+                node.child[i] = offset(c) | (count(c) << gpu::BVH4_COUNT_SHIFT);
+            } else {
+                node.child[i] = self(self, std::vector<uint32_t>{c + 1, offset(c)}, depth + 1);
+            }
+        }
+        out[self_index] = node;
+        return self_index;
+    };
+    if (count(0) > 0) emit(emit, {0u}, 1);
+    else emit(emit, {1u, offset(0)}, 1);
+    return out;
+}
+
 Bvh build_bvh(const std::vector<glm::vec3>& tri_positions, const BvhBuildOptions& options) {
     Builder b{tri_positions, options, {}, {}, {}, {}};
     uint32_t n = static_cast<uint32_t>(tri_positions.size() / 3);

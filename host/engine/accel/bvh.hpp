@@ -1,5 +1,6 @@
-// Host-built SAH BVH over triangles, flattened depth-first for the software
-// traversal (shaders/trace_bvh.glsl).
+// Host-built SAH BVH over triangles: a binary tree flattened depth-first
+// (the CPU-side geometry queries use it), and its 4-wide quantized collapse
+// that the software traversal runs (shaders/trace_bvh.glsl).
 #pragma once
 
 #include "shared/types.h"
@@ -18,11 +19,12 @@ struct Bvh {
     std::vector<uint32_t> order;
 };
 
-// The deepest a built tree may be (root at depth 0): the traversal shaders
-// keep at most depth - 1 deferred nodes on a 64-entry stack
-// (shaders/trace_bvh.glsl BVH_STACK_SIZE), and the builder recurses once per
-// level. build_bvh guarantees it: where binned SAH could go deeper it splits
-// at the object median, which needs only ceil(log2(count)) more levels.
+// The deepest a built tree may be (root at depth 0): its 4-wide collapse is
+// then at most 30 interior levels deep, and the traversal keeps at most
+// three deferred children per level on a 96-entry stack (BVH4_STACK_SIZE);
+// the builder also recurses once per level. build_bvh guarantees it: where
+// binned SAH could go deeper it splits at the object median, which needs
+// only ceil(log2(count)) more levels.
 constexpr uint32_t kBvhMaxDepth = 60;
 
 struct BvhBuildOptions {
@@ -39,6 +41,21 @@ Bvh build_bvh(const std::vector<glm::vec3>& tri_positions, const BvhBuildOptions
 // range. Otherwise a description of the first fault.
 // tri_positions here are in BVH order (position i is triangle order[i]).
 std::string validate_bvh(const Bvh& bvh, const std::vector<glm::vec3>& tri_positions_in_bvh_order);
+
+// The 4-wide tree the software traversal runs (gpu::GpuBvh4Node): each
+// node takes its binary node's two children, opens every interior one among
+// them (so an interior child of a 4-wide node is at least two binary levels
+// below it), then opens the interior child of largest surface area until it
+// has four. Leaves keep their triangle ranges (BVH order). Node 0 is the
+// root (a tree that is one leaf becomes a root with that one child). Child
+// boxes are quantized outwards: decode_bvh4_box contains the child's box.
+// Throws std::length_error when the tree cannot be encoded: more than
+// 2^28 - 16 triangles or nodes, a leaf of more than 15 triangles, or
+// interior chains deeper than the traversal stack allows.
+std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh);
+
+// Child k's box as the traversal decodes it (float arithmetic, as the shader).
+void decode_bvh4_box(const gpu::GpuBvh4Node& node, int k, glm::vec3& lo, glm::vec3& hi);
 
 struct BvhStats {
     uint32_t nodes = 0, leaves = 0, max_depth = 0, max_leaf = 0;

@@ -140,6 +140,11 @@ SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
     }
 
     a.bvh = build_bvh(pos3);
+    try {
+        a.bvh4 = collapse_bvh4(a.bvh);
+    } catch (const std::length_error& e) {
+        throw SceneError(scene.source, 0, std::string("the scene is too large for the software BVH: ") + e.what());
+    }
     size_t n = tris.size();
     a.triangles.resize(n);
     a.triangle_mesh.resize(n);
@@ -221,25 +226,100 @@ SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
     return a;
 }
 
+std::vector<vk::BindingDesc> traversal_bindings(Traversal t) {
+    using DT = ::vk::DescriptorType;
+    if (t == Traversal::RayQuery) return {{gpu::BINDING_TLAS, DT::eAccelerationStructureKHR}};
+    if (t == Traversal::Bvh)
+        return {{gpu::BINDING_BVH_NODES, DT::eUniformTexelBuffer}, {gpu::BINDING_BVH_TRIS, DT::eUniformTexelBuffer}};
+    throw std::invalid_argument("traversal_bindings: the traversal is not resolved");
+}
+
+void GpuScene::bind_traversal(vk::ComputePipeline& pipeline) const {
+    if (traversal_ == Traversal::RayQuery) {
+        pipeline.bind_acceleration_structure(gpu::BINDING_TLAS, accel_->tlas());
+    } else {
+        pipeline.bind_texel_buffer(gpu::BINDING_BVH_NODES, bvh_nodes_view());
+        pipeline.bind_texel_buffer(gpu::BINDING_BVH_TRIS, tri_positions_view());
+    }
+}
+
+namespace {
+
+// A view of `texels` RGBA32 uint texels of b (shaders read it as a utextureBuffer).
+std::unique_ptr<::vk::raii::BufferView> texel_view(const vk::Context& ctx, const vk::Buffer& b, size_t texels,
+                                                   const char* what) {
+    const uint32_t limit = ctx.physical().getProperties().limits.maxTexelBufferElements;
+    if (texels > limit) {
+        std::string msg = "the scene needs ";
+        msg += std::to_string(texels);
+        msg += " texels of ";
+        msg += what;
+        msg += ", more than this device's limit of ";
+        msg += std::to_string(limit);
+        msg += " (maxTexelBufferElements); make the scene smaller (fewer triangles, smaller textures)";
+        throw SceneError("", 0, msg);
+    }
+    return std::make_unique<::vk::raii::BufferView>(
+        ctx.device(), ::vk::BufferViewCreateInfo{.buffer = b.handle(),
+                                                 .format = ::vk::Format::eR32G32B32A32Uint,
+                                                 .offset = 0,
+                                                 .range = std::max<size_t>(texels, 1) * 16});
+}
+
+template <class T>
+size_t texels_of(const std::vector<T>& v) {
+    static_assert(sizeof(T) % 16 == 0);
+    return v.size() * (sizeof(T) / 16);
+}
+
+}  // namespace
+
+std::vector<vk::BindingDesc> scene_bindings(Traversal t) {
+    using DT = ::vk::DescriptorType;
+    std::vector<vk::BindingDesc> b = {
+        {gpu::BINDING_VERTICES, DT::eUniformTexelBuffer},   {gpu::BINDING_TRIANGLES, DT::eUniformTexelBuffer},
+        {gpu::BINDING_MATERIALS, DT::eUniformTexelBuffer},  {gpu::BINDING_LIGHT_TRIS, DT::eUniformTexelBuffer},
+        {gpu::BINDING_EMITTERS, DT::eUniformTexelBuffer},   {gpu::BINDING_TEXELS, DT::eUniformTexelBuffer},
+        {gpu::BINDING_TEXTURES, DT::eUniformTexelBuffer}};
+    for (const auto& x : traversal_bindings(t)) b.push_back(x);
+    return b;
+}
+
+void GpuScene::bind_scene(vk::ComputePipeline& pipeline) const {
+    for (const auto& [binding, view] : views_) pipeline.bind_texel_buffer(binding, **view);
+    bind_traversal(pipeline);
+}
+
 GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal traversal)
     : traversal_(resolve_traversal(ctx, traversal)) {
     using BU = ::vk::BufferUsageFlagBits;
-    ::vk::BufferUsageFlags ssbo = BU::eStorageBuffer;
-    vertices = vk::Buffer::from_vector(ctx, a.vertices, ssbo);
-    triangles = vk::Buffer::from_vector(ctx, a.triangles, ssbo);
-    materials = vk::Buffer::from_vector(ctx, a.materials, ssbo);
-    emitters = vk::Buffer::from_vector(ctx, a.emitters, ssbo);
-    light_triangles = vk::Buffer::from_vector(ctx, a.light_triangles, ssbo);
-    texels = vk::Buffer::from_vector(ctx, a.texels, ssbo);
-    textures = vk::Buffer::from_vector(ctx, a.textures, ssbo);
-    ::vk::BufferUsageFlags pos_usage = ssbo;
+    const ::vk::BufferUsageFlags texel = BU::eUniformTexelBuffer;
+    vertices = vk::Buffer::from_vector(ctx, a.vertices, texel);
+    triangles = vk::Buffer::from_vector(ctx, a.triangles, texel);
+    materials = vk::Buffer::from_vector(ctx, a.materials, texel);
+    emitters = vk::Buffer::from_vector(ctx, a.emitters, texel);
+    light_triangles = vk::Buffer::from_vector(ctx, a.light_triangles, texel);
+    texels = vk::Buffer::from_vector(ctx, a.texels, texel);
+    textures = vk::Buffer::from_vector(ctx, a.textures, texel);
+    views_.emplace_back(gpu::BINDING_VERTICES, texel_view(ctx, vertices, texels_of(a.vertices), "vertices"));
+    views_.emplace_back(gpu::BINDING_TRIANGLES, texel_view(ctx, triangles, texels_of(a.triangles), "triangles"));
+    views_.emplace_back(gpu::BINDING_MATERIALS, texel_view(ctx, materials, texels_of(a.materials), "materials"));
+    views_.emplace_back(gpu::BINDING_LIGHT_TRIS,
+                        texel_view(ctx, light_triangles, texels_of(a.light_triangles), "emissive triangles"));
+    views_.emplace_back(gpu::BINDING_EMITTERS, texel_view(ctx, emitters, texels_of(a.emitters), "emitters"));
+    views_.emplace_back(gpu::BINDING_TEXELS, texel_view(ctx, texels, texels_of(a.texels), "texture texels"));
+    views_.emplace_back(gpu::BINDING_TEXTURES, texel_view(ctx, textures, texels_of(a.textures), "texture records"));
+    ::vk::BufferUsageFlags pos_usage = texel;
     if (traversal_ == Traversal::RayQuery)
-        pos_usage = pos_usage | BU::eAccelerationStructureBuildInputReadOnlyKHR | BU::eShaderDeviceAddress;
+        pos_usage = pos_usage | BU::eStorageBuffer | BU::eAccelerationStructureBuildInputReadOnlyKHR |
+                    BU::eShaderDeviceAddress;
     tri_positions = vk::Buffer::from_vector(ctx, a.tri_positions, pos_usage);
     if (traversal_ == Traversal::RayQuery) {
         accel_ = std::make_unique<RayTracingAccel>(ctx, tri_positions, static_cast<uint32_t>(a.triangles.size()));
     } else {
-        bvh_nodes = vk::Buffer::from_vector(ctx, a.bvh.nodes, ssbo);
+        bvh_nodes = vk::Buffer::from_vector(ctx, a.bvh4, texel);
+        bvh_nodes_view_ = texel_view(ctx, bvh_nodes, texels_of(a.bvh4), "BVH nodes");
+        tri_positions_view_ = texel_view(ctx, tri_positions, texels_of(a.tri_positions), "triangle positions");
     }
 }
 

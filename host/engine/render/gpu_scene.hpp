@@ -8,6 +8,7 @@
 #include "scene/scene.hpp"
 #include "shared/types.h"
 #include "vk/buffer.hpp"
+#include "vk/pipeline.hpp"
 
 #include <memory>
 #include <optional>
@@ -37,6 +38,7 @@ struct SceneArrays {
     std::vector<glm::vec4> texels;        // every texture's linear RGB texels
     std::vector<glm::uvec4> textures;     // gpu::TEX_WORDS per texture (shared/types.h)
     Bvh bvh;
+    std::vector<gpu::GpuBvh4Node> bvh4;  // collapse_bvh4(bvh): what the software traversal reads
     float light_weight_total = 0.0f;  // sum of the light-selection weights (power: luminance x area)
     LightSelection light_selection = LightSelection::Uniform;
     glm::vec3 bbox_lo{0.0f}, bbox_hi{0.0f};
@@ -52,11 +54,32 @@ public:
     const RayTracingAccel* accel() const { return accel_.get(); }
 
     vk::Buffer vertices, triangles, materials, emitters, light_triangles, bvh_nodes, tri_positions, texels, textures;
+    // The shaders read every scene array (and the software traversal its BVH
+    // nodes and triangle positions) as uniform texel buffers of RGBA32 uint
+    // texels (shaders/scene_data.glsl, trace_bvh.glsl): on lavapipe a texel
+    // fetch loads a whole texel per invocation with vector loads, where a
+    // storage-buffer load at a divergent address loops over the invocations
+    // and bounds-checks every component (docs/performance.md).
+    ::vk::BufferView bvh_nodes_view() const { return **bvh_nodes_view_; }
+    ::vk::BufferView tri_positions_view() const { return **tri_positions_view_; }
+    // Binds this scene's traversal data (traversal_bindings(traversal())).
+    void bind_traversal(vk::ComputePipeline& pipeline) const;
+    // Binds every scene array and the traversal data (scene_bindings(traversal())).
+    void bind_scene(vk::ComputePipeline& pipeline) const;
 
 private:
     Traversal traversal_;
     std::unique_ptr<RayTracingAccel> accel_;
+    std::unique_ptr<::vk::raii::BufferView> bvh_nodes_view_, tri_positions_view_;
+    std::vector<std::pair<uint32_t, std::unique_ptr<::vk::raii::BufferView>>> views_;  // binding, scene array
 };
+
+// The descriptor bindings of a traversal's data (shaders/traversal.glsl): the
+// TLAS for ray query; the 4-wide BVH and the triangle positions as uniform
+// texel buffers for the software BVH. t must be resolved (not Auto).
+std::vector<vk::BindingDesc> traversal_bindings(Traversal t);
+// The scene arrays' bindings (uniform texel buffers) and the traversal's.
+std::vector<vk::BindingDesc> scene_bindings(Traversal t);
 
 // Auto: ray query on GPUs that have it; the BVH on CPU devices (faster there,
 // measured) and on devices without ray query.

@@ -3,35 +3,46 @@
 #include "render/shader_modules.hpp"
 #include "shared/bindings.h"
 
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <random>
+#include <stdexcept>
 
 namespace vkmech {
 
 RayCaster::RayCaster(const vk::Context& ctx, const GpuScene& scene) : ctx_(ctx), scene_(scene) {}
 
 std::vector<gpu::GpuHit> RayCaster::trace(const std::vector<gpu::GpuRay>& rays, bool any_hit, double* seconds) {
+    return dispatch(rays, any_hit, false, seconds);
+}
+
+std::vector<RayCaster::Work> RayCaster::trace_work(const std::vector<gpu::GpuRay>& rays) {
+    if (scene_.traversal() == Traversal::RayQuery)
+        throw std::invalid_argument("traversal counters exist for the software BVH only");
+    std::vector<gpu::GpuHit> raw = dispatch(rays, false, true, nullptr);
+    std::vector<Work> work(raw.size());
+    for (size_t i = 0; i < raw.size(); ++i) {
+        const glm::vec4& h = raw[i].hit;
+        work[i] = Work{std::bit_cast<uint32_t>(h.x), std::bit_cast<uint32_t>(h.y), std::bit_cast<uint32_t>(h.z),
+                       std::bit_cast<uint32_t>(h.w)};
+    }
+    return work;
+}
+
+std::vector<gpu::GpuHit> RayCaster::dispatch(const std::vector<gpu::GpuRay>& rays, bool any_hit, bool counters,
+                                             double* seconds) {
     using DT = ::vk::DescriptorType;
     using namespace gpu;
-    bool rq = scene_.traversal() == Traversal::RayQuery;
     std::vector<vk::BindingDesc> bindings = {{BINDING_RAYS, DT::eStorageBuffer}, {BINDING_HITS, DT::eStorageBuffer}};
-    if (rq) bindings.push_back({BINDING_TLAS, DT::eAccelerationStructureKHR});
-    else {
-        bindings.push_back({BINDING_BVH_NODES, DT::eStorageBuffer});
-        bindings.push_back({BINDING_BVH_TRIS, DT::eStorageBuffer});
-    }
-    vk::ComputePipeline pipe(ctx_, tracerays_spirv(scene_.traversal()), bindings, 8);
+    for (const auto& b : traversal_bindings(scene_.traversal())) bindings.push_back(b);
+    vk::ComputePipeline pipe(ctx_, tracerays_spirv(scene_.traversal(), counters), bindings, 8);
     vk::Buffer in = vk::Buffer::from_vector(ctx_, rays, ::vk::BufferUsageFlagBits::eStorageBuffer);
     vk::Buffer out(ctx_, std::max<size_t>(16, rays.size() * sizeof(gpu::GpuHit)), ::vk::BufferUsageFlagBits::eStorageBuffer,
                    vk::MemoryUse::Readback);
     pipe.bind_buffer(BINDING_RAYS, in.handle());
     pipe.bind_buffer(BINDING_HITS, out.handle());
-    if (rq) pipe.bind_acceleration_structure(BINDING_TLAS, scene_.accel()->tlas());
-    else {
-        pipe.bind_buffer(BINDING_BVH_NODES, scene_.bvh_nodes.handle());
-        pipe.bind_buffer(BINDING_BVH_TRIS, scene_.tri_positions.handle());
-    }
+    scene_.bind_traversal(pipe);
     pipe.warm_up();  // a lazy driver compiles here, outside the timed dispatch
     uint32_t push[2] = {static_cast<uint32_t>(rays.size()), any_hit ? 1u : 0u};
     auto t0 = std::chrono::steady_clock::now();

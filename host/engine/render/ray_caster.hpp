@@ -13,7 +13,17 @@ public:
     // Returns one hit per ray and the seconds the device spent on the dispatch.
     std::vector<gpu::GpuHit> trace(const std::vector<gpu::GpuRay>& rays, bool any_hit, double* seconds = nullptr);
 
+    // The software BVH's work per ray for a closest-hit trace (the
+    // instrumented shader variant): interior nodes fetched, leaves visited,
+    // triangles tested, deepest traversal stack. Throws std::invalid_argument
+    // on a ray-query scene.
+    struct Work {
+        uint32_t nodes, leaves, triangles, stack;
+    };
+    std::vector<Work> trace_work(const std::vector<gpu::GpuRay>& rays);
+
 private:
+    std::vector<gpu::GpuHit> dispatch(const std::vector<gpu::GpuRay>& rays, bool any_hit, bool counters, double* seconds);
     const vk::Context& ctx_;
     const GpuScene& scene_;
 };

@@ -78,19 +78,11 @@ Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Feature
     features_.orthographic = scene.camera.type == CameraType::Orthographic;
     using DT = ::vk::DescriptorType;
     using namespace gpu;
-    std::vector<vk::BindingDesc> bindings = {
-        {BINDING_PARAMS, DT::eUniformBuffer},     {BINDING_VERTICES, DT::eStorageBuffer},
-        {BINDING_TRIANGLES, DT::eStorageBuffer},  {BINDING_MATERIALS, DT::eStorageBuffer},
-        {BINDING_LIGHT_TRIS, DT::eStorageBuffer}, {BINDING_EMITTERS, DT::eStorageBuffer},
-        {BINDING_ACCUM, DT::eStorageBuffer},      {BINDING_TEXELS, DT::eStorageBuffer},
-        {BINDING_TEXTURES, DT::eStorageBuffer},   {BINDING_DEBUG, DT::eStorageBuffer},
-        {BINDING_SAMPLE_COUNTS, DT::eStorageBuffer}};
-    bool rq = gpu_.traversal() == Traversal::RayQuery;
-    if (rq) bindings.push_back({BINDING_TLAS, DT::eAccelerationStructureKHR});
-    else {
-        bindings.push_back({BINDING_BVH_NODES, DT::eStorageBuffer});
-        bindings.push_back({BINDING_BVH_TRIS, DT::eStorageBuffer});
-    }
+    std::vector<vk::BindingDesc> bindings = {{BINDING_PARAMS, DT::eUniformBuffer},
+                                             {BINDING_ACCUM, DT::eStorageBuffer},
+                                             {BINDING_DEBUG, DT::eStorageBuffer},
+                                             {BINDING_SAMPLE_COUNTS, DT::eStorageBuffer}};
+    for (const auto& b : scene_bindings(gpu_.traversal())) bindings.push_back(b);
     if (features_.direct_glossy && !features_.capture)
         throw std::invalid_argument("the direct_glossy output needs the mechanism capture on");
     // The direct-glossy variant is another SPIR-V module, so another pipeline (and pipeline-cache entry).
@@ -111,24 +103,13 @@ Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Feature
         film_out_of_memory(scene.camera, std::string("allocating failed: ") + e.what());
     }
     pipeline_->bind_buffer(BINDING_PARAMS, params_.handle());
-    pipeline_->bind_buffer(BINDING_VERTICES, gpu_.vertices.handle());
-    pipeline_->bind_buffer(BINDING_TRIANGLES, gpu_.triangles.handle());
-    pipeline_->bind_buffer(BINDING_MATERIALS, gpu_.materials.handle());
-    pipeline_->bind_buffer(BINDING_LIGHT_TRIS, gpu_.light_triangles.handle());
-    pipeline_->bind_buffer(BINDING_EMITTERS, gpu_.emitters.handle());
     pipeline_->bind_buffer(BINDING_ACCUM, accum_.handle());
-    pipeline_->bind_buffer(BINDING_TEXELS, gpu_.texels.handle());
-    pipeline_->bind_buffer(BINDING_TEXTURES, gpu_.textures.handle());
+    gpu_.bind_scene(*pipeline_);
     // The debug buffer: a counter (16 bytes) then the events; minimal when off.
     debug_ = vk::Buffer(ctx, 16 + sizeof(gpu::GpuDebugEvent) * (features_.debug_events ? 65536 : 1),
                         ::vk::BufferUsageFlagBits::eStorageBuffer, vk::MemoryUse::Readback);
     pipeline_->bind_buffer(BINDING_DEBUG, debug_.handle());
     pipeline_->bind_buffer(BINDING_SAMPLE_COUNTS, sample_counts_.handle());
-    if (rq) pipeline_->bind_acceleration_structure(BINDING_TLAS, gpu_.accel()->tlas());
-    else {
-        pipeline_->bind_buffer(BINDING_BVH_NODES, gpu_.bvh_nodes.handle());
-        pipeline_->bind_buffer(BINDING_BVH_TRIS, gpu_.tri_positions.handle());
-    }
     // Compile now (lavapipe compiles at the first dispatch), so that a
     // Frame's seconds count rendering only.
     pipeline_->warm_up();

@@ -1,12 +1,14 @@
 #include "render/shader_modules.hpp"
 
 #include <cstdint>
+#include <stdexcept>
 
 #include "shaders/spv_pathtrace_bvh.h"
 #include "shaders/spv_pathtrace_direct_glossy_bvh.h"
 #include "shaders/spv_pathtrace_direct_glossy_rayquery.h"
 #include "shaders/spv_pathtrace_rayquery.h"
 #include "shaders/spv_tracerays_bvh.h"
+#include "shaders/spv_tracerays_counters_bvh.h"
 #include "shaders/spv_tracerays_rayquery.h"
 
 namespace vkmech {
@@ -22,8 +24,12 @@ std::span<const uint32_t> pathtrace_spirv(Traversal t, bool direct_glossy) {
     return spv_pathtrace_direct_glossy_bvh;
 }
 
-std::span<const uint32_t> tracerays_spirv(Traversal t) {
-    if (t == Traversal::RayQuery) return spv_tracerays_rayquery;
+std::span<const uint32_t> tracerays_spirv(Traversal t, bool counters) {
+    if (t == Traversal::RayQuery) {
+        if (counters) throw std::invalid_argument("traversal counters exist for the software BVH only");
+        return spv_tracerays_rayquery;
+    }
+    if (counters) return spv_tracerays_counters_bvh;
     return spv_tracerays_bvh;
 }
 

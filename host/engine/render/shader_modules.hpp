@@ -11,6 +11,8 @@ namespace vkmech {
 // `direct_glossy`, the variant compiled with VKMECH_DIRECT_GLOSSY (docs/descriptor.md §3.4).
 std::span<const uint32_t> pathtrace_spirv(Traversal t);
 std::span<const uint32_t> pathtrace_spirv(Traversal t, bool direct_glossy);
-std::span<const uint32_t> tracerays_spirv(Traversal t);
+// The ray tracer of tests and benchmarks; `counters`: the instrumented variant
+// (VKMECH_COUNTERS, software BVH only; throws std::invalid_argument for ray query).
+std::span<const uint32_t> tracerays_spirv(Traversal t, bool counters = false);
 
 }  // namespace vkmech

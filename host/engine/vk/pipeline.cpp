@@ -86,6 +86,15 @@ void ComputePipeline::bind_acceleration_structure(uint32_t binding, ::vk::Accele
                                        nullptr);
 }
 
+void ComputePipeline::bind_texel_buffer(uint32_t binding, ::vk::BufferView view) {
+    ctx_.device().updateDescriptorSets(::vk::WriteDescriptorSet{.dstSet = **set_,
+                                                                .dstBinding = binding,
+                                                                .descriptorCount = 1,
+                                                                .descriptorType = type_of(binding),
+                                                                .pTexelBufferView = &view},
+                                       nullptr);
+}
+
 void ComputePipeline::warm_up() const {
     auto t0 = std::chrono::steady_clock::now();
     std::vector<uint8_t> zeros(push_bytes_, 0);

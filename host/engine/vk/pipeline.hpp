@@ -27,6 +27,7 @@ public:
 
     void bind_buffer(uint32_t binding, ::vk::Buffer buffer, ::vk::DeviceSize size = VK_WHOLE_SIZE);
     void bind_acceleration_structure(uint32_t binding, ::vk::AccelerationStructureKHR as);
+    void bind_texel_buffer(uint32_t binding, ::vk::BufferView view);
 
     // Drivers may compile lazily, at the first dispatch (lavapipe does): an
     // empty dispatch (0 workgroups; valid Vulkan, does nothing) makes them
