@@ -5,7 +5,10 @@
 // VKMECH_DIRECT_GLOSSY defined the variant for `render --extra-output
 // direct_glossy` (docs/descriptor.md §3.4), which also writes into side.z the
 // energy of `direct` events whose end vertex is glossy. The #ifdef keeps the
-// default module's SPIR-V (the studies' code digest) unchanged.
+// default module's SPIR-V (the studies' code digest) unchanged. With
+// VKMECH_COUNTERS (software BVH only; `bench render --profile --counters`)
+// it also adds the traversal's work of each invocation to BINDING_COUNTERS:
+// traces, interior nodes, leaves, triangles tested, and the deepest stack.
 #extension GL_GOOGLE_include_directive : require
 #include "shared/types.h"
 #include "shared/bindings.h"
@@ -22,6 +25,9 @@ layout(local_size_x = 8, local_size_y = 8) in;
 #include "mechanism.glsl"
 
 layout(std430, set = 0, binding = BINDING_ACCUM) writeonly buffer Accum { GpuPixelAccum accum[]; };
+#ifdef VKMECH_COUNTERS
+layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint counters[8]; };
+#endif
 
 const float PI = 3.14159265358979;
 
@@ -374,4 +380,11 @@ void main() {
     a.side = vec4(depth_sum, depth_w, 0.0, 0.0);
 #endif
     accum[pixel] = a;
+#ifdef VKMECH_COUNTERS
+    atomicAdd(counters[0], bvh_count_rays);
+    atomicAdd(counters[1], bvh_count_nodes);
+    atomicAdd(counters[2], bvh_count_leaves);
+    atomicAdd(counters[3], bvh_count_tris);
+    atomicMax(counters[4], bvh_count_stack);
+#endif
 }

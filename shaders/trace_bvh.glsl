@@ -64,6 +64,7 @@ bool bvh_tri_intersect(uint i, vec3 o, vec3 d, float tmin, float tmax, out float
 #ifdef VKMECH_COUNTERS
 // The instrumented variant (tracerays.comp for `bench traversal --counters`):
 // per invocation, the work of its last trace.
+uint bvh_count_rays = 0u;    // traces (closest-hit and shadow rays)
 uint bvh_count_nodes = 0u;   // interior nodes fetched (four child boxes tested each)
 uint bvh_count_leaves = 0u;  // leaves visited
 uint bvh_count_tris = 0u;    // triangles tested
@@ -95,6 +96,7 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
     hit.t = tmax;
     hit.prim = 0xFFFFFFFFu;
     hit.bary = vec2(0.0);
+    BVH_COUNT(bvh_count_rays += 1u);
     vec3 inv_d = safe_inverse(d);
     uint stack[BVH4_STACK_SIZE];
     uint sp = 0u;

@@ -37,6 +37,10 @@ TEST_CASE("cli: bad usage and bad input exit with code 2 and say what is wrong")
     r = run_cli("render --scene ring_caustic --traversal warp");
     CHECK(r.code == 2);
 
+    r = run_cli("bench render --counters --scenes cubes_dof");
+    CHECK(r.code == 2);
+    CHECK(r.output.find("--counters needs --profile") != std::string::npos);
+
     r = run_cli("render --scene ring_caustic --light-selection brightest");
     CHECK(r.code == 2);
     r = run_cli("render --scene ring_caustic --end-vertex first");

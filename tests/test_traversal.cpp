@@ -5,6 +5,8 @@
 
 #include "render/gpu_scene.hpp"
 #include "render/ray_caster.hpp"
+#include "render/renderer.hpp"
+#include "render/session.hpp"
 #include "scene/scene.hpp"
 
 #include <doctest/doctest.h>
@@ -109,6 +111,72 @@ TEST_SUITE("gpu") {
             for (size_t i = 0; i < rays.size(); ++i) any_diff += (any_rq[i].hit.x > 0.0f) != (any_bvh[i].hit.x > 0.0f);
             CHECK(any_diff == 0);
         }
+        CHECK(ctx->validation_messages() == 0);
+    }
+
+    TEST_CASE("traversal: the instrumented shaders count the work derived by hand and leave the image unchanged") {
+        VKMECH_REQUIRE_GPU(ctx);
+        // The quad is two triangles: one binary leaf, so the 4-wide root holds one leaf child.
+        // A ray onto the quad fetches the root, visits that leaf and tests both triangles; a
+        // ray beside it fetches the root only; a ray pointing away fetches the root only.
+        SceneArrays arrays = flatten_scene(testing::quad_scene());
+        REQUIRE(arrays.bvh4.size() == 1);
+        GpuScene g(*ctx, arrays, Traversal::Bvh);
+        RayCaster caster(*ctx, g);
+        std::vector<gpu::GpuRay> rays = {{glm::vec4(0.3f, 0.2f, 2.0f, 0.0f), glm::vec4(0, 0, -1, 1e30f)},
+                                         {glm::vec4(3.0f, 0.2f, 2.0f, 0.0f), glm::vec4(0, 0, -1, 1e30f)},
+                                         {glm::vec4(0.3f, 0.2f, 2.0f, 0.0f), glm::vec4(0, 0, 1, 1e30f)}};
+        auto work = caster.trace_work(rays);
+        REQUIRE(work.size() == 3);
+        CHECK(work[0].nodes == 1);
+        CHECK(work[0].leaves == 1);
+        CHECK(work[0].triangles == 2);
+        CHECK(work[0].stack == 0);
+        for (int i : {1, 2}) {
+            CAPTURE(i);
+            CHECK(work[i].nodes == 1);
+            CHECK(work[i].leaves == 0);
+            CHECK(work[i].triangles == 0);
+        }
+        if (ctx->ray_query_enabled()) {
+            GpuScene rq(*ctx, arrays, Traversal::RayQuery);
+            RayCaster c(*ctx, rq);
+            CHECK_THROWS_AS(c.trace_work(rays), std::invalid_argument);
+        }
+
+        // The path tracer's variant: the same samples give the same image, and the totals are
+        // consistent: every path traces its camera ray, at most two traces per vertex
+        // (closest hit and shadow ray), every trace fetches the root.
+        const std::string path = std::string(VKMECH_SOURCE_DIR) + "/scenes/cubes_dof.xml";
+        Scene scene = load_scene(path);
+        scene.camera.set_film_width(24);
+        RenderSession session(*ctx, scene, Traversal::Bvh);
+        Features plain = session.features();
+        Features counted = plain;
+        counted.counters = true;
+        RenderSpec spec;
+        spec.spp = 4;
+        Renderer ra = session.renderer(plain);
+        Renderer rb = session.renderer(counted);
+        Frame fa = ra.render(spec);
+        Frame fb = rb.render(spec);
+        REQUIRE(fa.pixels.size() == fb.pixels.size());
+        size_t differ = 0;
+        for (size_t i = 0; i < fa.pixels.size(); ++i) differ += fa.pixels[i].rgb_sum != fb.pixels[i].rgb_sum;
+        CHECK(differ == 0);
+        CHECK(ra.counters().rays == 0.0);
+        const TraversalCounters c = rb.counters();
+        const double paths = 4.0 * scene.camera.width * scene.camera.height;
+        CHECK(c.rays >= paths);
+        CHECK(c.rays <= paths * 2.0 * scene.integrator.max_depth);
+        CHECK(c.nodes >= c.rays);
+        CHECK(c.triangles >= c.leaves);
+        CHECK(c.leaves > 0.0);
+        CHECK(c.deepest_stack > 0);
+        CHECK(c.deepest_stack <= gpu::BVH4_STACK_SIZE);
+        // Counts add up over renders.
+        rb.render(spec);
+        CHECK(rb.counters().rays == 2.0 * c.rays);
         CHECK(ctx->validation_messages() == 0);
     }
 

@@ -174,6 +174,24 @@ int bench_render_profile(const BenchOptions& o, const std::vector<std::string>& 
                         paths / total / 1e6);
             std::fflush(stdout);
         }
+        if (o.counters) {
+            // The instrumented module on the software BVH (whatever `auto` picked for the timing).
+            RenderSession bvh_session(ctx, scene, Traversal::Bvh);
+            Features f = bvh_session.features();
+            f.counters = true;
+            Renderer rc = bvh_session.renderer(f);
+            RenderSpec spec;
+            spec.spp = o.spp;
+            rc.render(spec);
+            const TraversalCounters& c = rc.counters();
+            const double paths = static_cast<double>(o.spp) * scene.camera.width * scene.camera.height;
+            const double rays = std::max(c.rays, 1.0);
+            std::printf("  %s, software BVH, %u spp: %.3g traces (%.2f per path); per trace: interior nodes %.2f, "
+                        "leaves %.2f, triangles %.2f; deepest stack %u\n",
+                        scene_stem(n).c_str(), o.spp, c.rays, c.rays / paths, c.nodes / rays, c.leaves / rays,
+                        c.triangles / rays, c.deepest_stack);
+            std::fflush(stdout);
+        }
     }
     return 0;
 }

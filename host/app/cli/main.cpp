@@ -125,6 +125,10 @@ int main(int argc, char** argv) {
     bench_render->add_option("--batches", bench_opts.batches, "--profile: samples per dispatch to try (default 1,8,64)")
         ->delimiter(',')
         ->check(CLI::Range(1u, 4096u));
+    bench_render->add_flag("--counters", bench_opts.counters,
+                           "--profile: also render each scene once with the instrumented software-BVH shader and "
+                           "print the traversal's work: traces per path, interior nodes, leaves and triangles per "
+                           "trace, deepest stack");
     add_pipeline_cache_option(bench_render, bench_opts.pipeline_cache);
 
     StudyOptions study_opts;
@@ -220,7 +224,10 @@ int main(int argc, char** argv) {
         if (*sentinel_evaluate) return cmd_sentinel_evaluate(evaluate_opts);
         if (*check) return cmd_check(check_opts);
         if (*bench_trav) return cmd_bench_traversal(bench_opts);
-        if (*bench_render) return cmd_bench_render(bench_opts);
+        if (*bench_render) {
+            if (bench_opts.counters && !bench_opts.profile) throw UsageError("bench render --counters needs --profile");
+            return cmd_bench_render(bench_opts);
+        }
         if (*study) {
             study_opts.command_line = "vkmech";
             for (const auto& a : args) study_opts.command_line += " " + a;

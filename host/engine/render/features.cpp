@@ -76,6 +76,7 @@ std::string Features::describe() const {
     add(capture, "capture");
     add(debug_events, "debug-events");
     add(direct_glossy, "direct-glossy");
+    add(counters, "counters");
     if (s.empty()) s = "diffuse-only";
     s += std::string(" estimator=") + to_string(estimator);
     if (end_vertex != EndVertex::LastNonDelta) s += std::string(" end-vertex=") + to_string(end_vertex);

@@ -38,6 +38,9 @@ struct Features {
     // vertex is glossy (Frame::direct_glossy_sum). Not a specialization constant: the default
     // module stays byte-identical. Needs capture.
     bool direct_glossy = false;
+    // `bench render --profile --counters`: the instrumented module (VKMECH_COUNTERS) that counts
+    // the software BVH's work (Renderer::counters()). Software BVH only; not with direct_glossy.
+    bool counters = false;
     Estimator estimator = Estimator::Nee;
     EndVertex end_vertex = EndVertex::LastNonDelta;
 

@@ -81,12 +81,13 @@ Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Feature
     std::vector<vk::BindingDesc> bindings = {{BINDING_PARAMS, DT::eUniformBuffer},
                                              {BINDING_ACCUM, DT::eStorageBuffer},
                                              {BINDING_DEBUG, DT::eStorageBuffer},
-                                             {BINDING_SAMPLE_COUNTS, DT::eStorageBuffer}};
+                                             {BINDING_SAMPLE_COUNTS, DT::eStorageBuffer},
+                                             {BINDING_COUNTERS, DT::eStorageBuffer}};
     for (const auto& b : scene_bindings(gpu_.traversal())) bindings.push_back(b);
     if (features_.direct_glossy && !features_.capture)
         throw std::invalid_argument("the direct_glossy output needs the mechanism capture on");
     // The direct-glossy variant is another SPIR-V module, so another pipeline (and pipeline-cache entry).
-    pipeline_ = std::make_unique<vk::ComputePipeline>(ctx, pathtrace_spirv(gpu_.traversal(), features_.direct_glossy),
+    pipeline_ = std::make_unique<vk::ComputePipeline>(ctx, pathtrace_spirv(gpu_.traversal(), features_.direct_glossy, features_.counters),
                                                       bindings, 0, spec_constants(features_));
     size_t pixels = static_cast<size_t>(scene.camera.width) * scene.camera.height;
     if (const uint64_t heap = ctx.info().device_local_bytes; heap > 0 && film_device_bytes(pixels) > heap)
@@ -110,6 +111,9 @@ Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Feature
                         ::vk::BufferUsageFlagBits::eStorageBuffer, vk::MemoryUse::Readback);
     pipeline_->bind_buffer(BINDING_DEBUG, debug_.handle());
     pipeline_->bind_buffer(BINDING_SAMPLE_COUNTS, sample_counts_.handle());
+    // The counters variant's totals (8 uints, zeroed before each batch); bound always, written by it only.
+    counter_buffer_ = vk::Buffer(ctx, 8 * sizeof(uint32_t), ::vk::BufferUsageFlagBits::eStorageBuffer, vk::MemoryUse::Readback);
+    pipeline_->bind_buffer(BINDING_COUNTERS, counter_buffer_.handle());
     // Compile now (lavapipe compiles at the first dispatch), so that a
     // Frame's seconds count rendering only.
     pipeline_->warm_up();
@@ -185,6 +189,10 @@ Frame Renderer::render(const RenderSpec& spec) {
             t_phase = now;
         };
         params_.upload(ctx_, &p, sizeof(p));
+        if (features_.counters) {
+            const uint32_t zeros[8] = {};
+            counter_buffer_.upload(ctx_, zeros, sizeof(zeros));
+        }
         lap(&RenderProfile::upload);
         ctx_.submit_and_wait([&](::vk::CommandBuffer cmd) {
             if (order.empty()) pipeline_->record(cmd, (cam.width + 7) / 8, (cam.height + 7) / 8, 1);
@@ -195,6 +203,15 @@ Frame Renderer::render(const RenderSpec& spec) {
             }
         });
         lap(&RenderProfile::dispatch);
+        if (features_.counters) {
+            uint32_t c[8];
+            counter_buffer_.download(ctx_, c, sizeof(c));
+            counters_.rays += c[0];
+            counters_.nodes += c[1];
+            counters_.leaves += c[2];
+            counters_.triangles += c[3];
+            counters_.deepest_stack = std::max(counters_.deepest_stack, c[4]);
+        }
         accum_.download(ctx_, batch.data(), batch.size() * sizeof(gpu::GpuPixelAccum));
         lap(&RenderProfile::readback);
         // Pixels outside the active prefix were not written in this batch: they took no samples.

@@ -24,6 +24,13 @@ struct RenderProfile {
     double callbacks = 0.0;   // on_batch and progress
 };
 
+// The software BVH's work over every render of a Renderer built with
+// Features::counters (the instrumented shader), summed over its batches.
+struct TraversalCounters {
+    double rays = 0, nodes = 0, leaves = 0, triangles = 0;  // traces; interior nodes, leaves, triangles per trace summed
+    uint32_t deepest_stack = 0;
+};
+
 struct RenderSpec {
     uint32_t spp = 64;
     uint32_t seed = 0;
@@ -53,6 +60,8 @@ public:
     // events of one pixel (at most `capacity`), in no particular order.
     std::vector<gpu::GpuDebugEvent> render_debug_events(const RenderSpec& spec, uint32_t pixel, uint32_t capacity,
                                                         Frame* frame = nullptr);
+    // With Features::counters: the traversal's work of every render so far.
+    const TraversalCounters& counters() const { return counters_; }
 
 private:
     std::shared_ptr<const SceneOnDevice> on_device_;
@@ -62,7 +71,8 @@ private:
     const GpuScene& gpu_;
     Features features_;
     std::unique_ptr<vk::ComputePipeline> pipeline_;
-    vk::Buffer params_, accum_, debug_, sample_counts_;
+    vk::Buffer params_, accum_, debug_, sample_counts_, counter_buffer_;
+    TraversalCounters counters_;
     uint32_t debug_pixel_ = 0, debug_capacity_ = 0;
 };
 

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "shaders/spv_pathtrace_bvh.h"
+#include "shaders/spv_pathtrace_counters_bvh.h"
 #include "shaders/spv_pathtrace_direct_glossy_bvh.h"
 #include "shaders/spv_pathtrace_direct_glossy_rayquery.h"
 #include "shaders/spv_pathtrace_rayquery.h"
@@ -18,7 +19,12 @@ std::span<const uint32_t> pathtrace_spirv(Traversal t) {
     return spv_pathtrace_bvh;
 }
 
-std::span<const uint32_t> pathtrace_spirv(Traversal t, bool direct_glossy) {
+std::span<const uint32_t> pathtrace_spirv(Traversal t, bool direct_glossy, bool counters) {
+    if (counters) {
+        if (t != Traversal::Bvh || direct_glossy)
+            throw std::invalid_argument("traversal counters exist for the software BVH's default path tracer only");
+        return spv_pathtrace_counters_bvh;
+    }
     if (!direct_glossy) return pathtrace_spirv(t);
     if (t == Traversal::RayQuery) return spv_pathtrace_direct_glossy_rayquery;
     return spv_pathtrace_direct_glossy_bvh;

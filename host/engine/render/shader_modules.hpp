@@ -10,7 +10,9 @@ namespace vkmech {
 // The path tracer: the default module (what the studies' code digest hashes) and, with
 // `direct_glossy`, the variant compiled with VKMECH_DIRECT_GLOSSY (docs/descriptor.md §3.4).
 std::span<const uint32_t> pathtrace_spirv(Traversal t);
-std::span<const uint32_t> pathtrace_spirv(Traversal t, bool direct_glossy);
+// `counters`: the instrumented variant (VKMECH_COUNTERS; software BVH, not with direct_glossy;
+// throws std::invalid_argument otherwise).
+std::span<const uint32_t> pathtrace_spirv(Traversal t, bool direct_glossy, bool counters = false);
 // The ray tracer of tests and benchmarks; `counters`: the instrumented variant
 // (VKMECH_COUNTERS, software BVH only; throws std::invalid_argument for ray query).
 std::span<const uint32_t> tracerays_spirv(Traversal t, bool counters = false);
