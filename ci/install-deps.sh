@@ -22,6 +22,7 @@ PKGS=(
   libcli11-dev
   zlib1g-dev
   python3-matplotlib
+  parallel
   clang libclang-rt-14-dev
 )
 

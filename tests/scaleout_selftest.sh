@@ -3,7 +3,8 @@
 # one render cache produce tables byte-identical to a single-process study.
 #   1. `study all --preset quick` in one process (reference tables);
 #   2. --analyse-only on an empty cache refuses (exit 1) and names what is missing;
-#   3. two concurrent workers (xargs -P 2, as GNU parallel would run them) render
+#   3. two concurrent workers under GNU parallel (ci/install-deps.sh installs
+#      it; without it, xargs -P 2 runs them the same way) render
 #      --shard 0/2 and --shard 1/2 into one cache, then --analyse-only builds
 #      the tables: ci/compare-outputs.py must find no difference (timing tables
 #      and the report header are measurements and are skipped);
@@ -18,6 +19,17 @@ ROOT="$(cd "$(dirname "$0")/.." && pwd)"
 TMP="$(mktemp -d)"
 trap 'rm -rf "$TMP"' EXIT
 fail=0
+if command -v parallel > /dev/null 2>&1; then
+    echo "workers: GNU parallel ($(parallel --will-cite --version | head -1))"
+    shard_workers() { parallel --will-cite -j 2 "$VK" study all --preset quick --no-plots --out "$TMP/shared" --shard {} ::: 0/2 1/2; }
+    job_workers() { parallel --will-cite -j 2 < "$1"; }
+else
+    echo "workers: xargs -P 2 (GNU parallel is not installed)"
+    shard_workers() {
+        printf '0/2\n1/2\n' | xargs -P 2 -I{} "$VK" study all --preset quick --no-plots --out "$TMP/shared" --shard {}
+    }
+    job_workers() { xargs -P 2 -I{} bash -c '{}' < "$1"; }
+fi
 check() {  # check "what" command...
     local what="$1"
     shift
@@ -33,8 +45,7 @@ check "--analyse-only on an empty cache exits 1" test "$rc" -eq 1
 check "--analyse-only names what is missing" grep -q "lacks" "$TMP/empty.log"
 check "--analyse-only rendered nothing" test -z "$(ls -A "$TMP/shared/cache" 2>/dev/null | grep -v '^\.' || true)"
 
-printf '0/2\n1/2\n' | xargs -P 2 -I{} "$VK" study all --preset quick --no-plots --out "$TMP/shared" --shard {} \
-    > "$TMP/shards.log" 2>&1
+shard_workers > "$TMP/shards.log" 2>&1
 check "two concurrent shard workers succeed" test $? -eq 0
 check "each shard wrote no table" test ! -e "$TMP/shared/tables"
 "$VK" study all --preset quick --no-plots --out "$TMP/shared" --analyse-only > "$TMP/analyse.log" 2>&1
@@ -47,7 +58,7 @@ check "no temporary left in the shared cache" test -z "$(ls "$TMP/shared/cache" 
 "$VK" study stability --preset quick --no-plots --out "$TMP/stab2" --jobs "$TMP/jobs.txt" > "$TMP/jobs.log" 2>&1
 check "--jobs writes one command per missing work unit" test "$(wc -l < "$TMP/jobs.txt")" -gt 1
 check "--jobs rendered nothing" test -z "$(ls -A "$TMP/stab2/cache" 2>/dev/null | grep -v '^\.' || true)"
-xargs -P 2 -I{} bash -c '{} > /dev/null 2>&1' < "$TMP/jobs.txt"
+job_workers "$TMP/jobs.txt" > "$TMP/jobworkers.log" 2>&1
 check "two workers ran every job" test $? -eq 0
 "$VK" study stability --preset quick --no-plots --out "$TMP/stab2" --jobs "$TMP/jobs2.txt" > /dev/null 2>&1
 check "after the jobs, --jobs lists nothing" test ! -s "$TMP/jobs2.txt"
