@@ -381,10 +381,17 @@ void main() {
 #endif
     accum[pixel] = a;
 #ifdef VKMECH_COUNTERS
-    atomicAdd(counters[0], bvh_count_rays);
-    atomicAdd(counters[1], bvh_count_nodes);
-    atomicAdd(counters[2], bvh_count_leaves);
-    atomicAdd(counters[3], bvh_count_tris);
+    // counters[5] != 0: a 32-bit total wrapped in this batch (the host refuses the counts).
+    uint wrapped = 0u;
+    uint before = atomicAdd(counters[0], bvh_count_rays);
+    wrapped |= uint(before + bvh_count_rays < before);
+    before = atomicAdd(counters[1], bvh_count_nodes);
+    wrapped |= uint(before + bvh_count_nodes < before);
+    before = atomicAdd(counters[2], bvh_count_leaves);
+    wrapped |= uint(before + bvh_count_leaves < before);
+    before = atomicAdd(counters[3], bvh_count_tris);
+    wrapped |= uint(before + bvh_count_tris < before);
     atomicMax(counters[4], bvh_count_stack);
+    if (wrapped != 0u) atomicOr(counters[5], 1u);
 #endif
 }

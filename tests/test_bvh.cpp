@@ -93,7 +93,7 @@ TEST_CASE("bvh: an empty triangle list is refused rather than encoded") {
 TEST_CASE("bvh: geometrically graded triangles do not make a tree deeper than the traversal stack") {
     // Triangles whose sizes and positions shrink geometrically towards a point (a fractal, or a scene mixing
     // kilometres and millimetres): binned SAH peels a few off per level, so without a depth bound the tree is
-    // as deep as there are scales, and the shaders' 64-entry traversal stack (trace_bvh.glsl) would drop
+    // as deep as there are scales, and the traversal stack (then 64 entries; BVH4_STACK_SIZE since) would drop
     // subtrees silently.
     for (float ratio : {0.5f, 0.9f, 0.98f, 0.99f}) {
         std::vector<glm::vec3> pos;
@@ -280,5 +280,31 @@ TEST_CASE("bvh: quantized child boxes contain their children within one step at 
             CHECK(check_bvh4(collapse_bvh4(bvh), in_bvh_order(bvh, pos), nullptr, &worst) == "");
             CHECK(worst < 1.01);
         }
+    }
+}
+
+TEST_CASE("bvh: a child bound far below the node's extent rounds outwards too (review case)") {
+    // The node's extent on x, 1e-15 - (-255), rounds in double to exactly 255: a code chosen
+    // from that rounded extent decoded to 0 < 1e-15. Found in review of the quantizer.
+    std::vector<glm::vec3> pos = {{-255.0f, 0.0f, 0.0f}, {1e-15f, 0.0f, 0.0f}, {0.0f, 1.0f, 1.0f},
+                                  {-255.0f, 0.0f, 0.0f}, {1e-15f, 0.0f, 0.0f}, {0.0f, 2.0f, 1.0f}};
+    for (int copies = 0; copies < 3; ++copies) pos.insert(pos.end(), pos.begin(), pos.begin() + 6);
+    Bvh bvh = build_bvh(pos);
+    CHECK(check_bvh4(collapse_bvh4(bvh), in_bvh_order(bvh, pos)) == "");
+    // And on random nodes whose corners sit at exact multiples of the step: every decoded
+    // box contains its child under rounding to nearest (check_bvh4) ...
+    std::mt19937 rng(3);
+    std::uniform_int_distribution<int> ex(-20, 100);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    for (int trial = 0; trial < 200; ++trial) {
+        const float step = std::ldexp(1.0f, ex(rng));
+        std::vector<glm::vec3> p;
+        for (int t = 0; t < 6; ++t) {
+            const glm::vec3 c(-255.0f * step * u(rng), step * u(rng) * 1e-6f, -step * 7.0f * u(rng));
+            for (int v = 0; v < 3; ++v) p.push_back(c + glm::vec3(u(rng), u(rng), u(rng)) * (step * 1e-7f));
+        }
+        Bvh b = build_bvh(p);
+        CAPTURE(trial);
+        CHECK(check_bvh4(collapse_bvh4(b), in_bvh_order(b, p)) == "");
     }
 }

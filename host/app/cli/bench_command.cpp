@@ -182,6 +182,7 @@ int bench_render_profile(const BenchOptions& o, const std::vector<std::string>& 
             Renderer rc = bvh_session.renderer(f);
             RenderSpec spec;
             spec.spp = o.spp;
+            spec.batch_spp = 1;  // the counters are 32-bit totals per batch
             rc.render(spec);
             const TraversalCounters& c = rc.counters();
             const double paths = static_cast<double>(o.spp) * scene.camera.width * scene.camera.height;

@@ -161,31 +161,65 @@ struct Builder {
 
 namespace {
 
-// The smallest e (a normal float's exponent, -126..127) with 255 * 2^e >= extent.
-int quantization_exponent(double extent) {
-    int e = -126;
-    if (extent > 0.0) e = std::max(-126, static_cast<int>(std::ceil(std::log2(extent / 255.0))) - 1);
-    while (std::ldexp(255.0, e) < extent) ++e;
-    return std::min(e, 127);  // extents are below 2 * FLT_MAX < 255 * 2^127
+// x - origin of two floats, bracketed: `lo` <= the exact difference <= `hi`
+// (equal when the double subtraction is exact, which TwoSum detects).
+struct Gap {
+    double lo, hi;
+};
+Gap gap(float x, float origin) {
+    const double a = x, b = -static_cast<double>(origin);
+    const double sum = a + b;
+    const double bb = sum - a;
+    const double err = (a - (sum - bb)) + (b - bb);
+    if (err == 0.0) return {sum, sum};
+    return {std::nextafter(sum, -HUGE_VAL), std::nextafter(sum, HUGE_VAL)};
 }
 
 // The decoded bound origin + q * scale in float, as the shader computes it (q * scale is exact).
 float dequantize(float origin, float scale, uint32_t q) { return origin + static_cast<float>(q) * scale; }
 
-// The largest q whose decoded bound is <= x (q = 0 decodes to origin <= x).
-uint32_t quantize_down(float origin, float scale, float x) {
-    double q = std::floor((static_cast<double>(x) - origin) / scale);
-    uint32_t u = static_cast<uint32_t>(std::clamp(q, 0.0, 255.0));
-    while (u > 0 && dequantize(origin, scale, u) > x) --u;
+// A code is safe when the exact origin + q * scale bounds x, so that the decode
+// in float bounds it under any monotone rounding (to nearest, toward zero, a
+// fused multiply-add: Vulkan does not fix the rounding mode), and when the
+// float decode as this host rounds it (to nearest; inf on overflow) does too.
+bool safe_up(float origin, double scale, float x, const Gap& g, uint32_t q) {
+    return q * scale >= g.hi && dequantize(origin, static_cast<float>(scale), q) >= x;
+}
+bool safe_down(float origin, double scale, float x, const Gap& g, uint32_t q) {
+    return q == 0 || (q * scale <= g.lo && dequantize(origin, static_cast<float>(scale), q) <= x);
+}
+
+// The smallest e (a normal float's exponent, -126..127) whose code 255 safely
+// bounds every child's upper bound `his[0..n)` from the node's lower corner.
+int quantization_exponent(float lo, const float* his, size_t n) {
+    double widest = 0.0;
+    for (size_t k = 0; k < n; ++k) widest = std::max(widest, gap(his[k], lo).hi);
+    int e = -126;
+    if (widest > 0.0) e = std::max(-126, static_cast<int>(std::ceil(std::log2(widest / 255.0))) - 1);
+    auto all_safe = [&](int ex) {
+        for (size_t k = 0; k < n; ++k)
+            if (!safe_up(lo, std::ldexp(1.0, ex), his[k], gap(his[k], lo), 255)) return false;
+        return true;
+    };
+    while (e < 127 && !all_safe(e)) ++e;
+    return e;  // at 127, 255 * 2^127 exceeds every float extent (and decodes to inf)
+}
+
+// The largest safe q for a lower bound x (q = 0 decodes to origin <= x exactly).
+uint32_t quantize_down(float origin, double scale, float x) {
+    const Gap g = gap(x, origin);
+    uint32_t u = static_cast<uint32_t>(std::clamp(std::floor(g.lo / scale), 0.0, 255.0));
+    while (u < 255 && safe_down(origin, scale, x, g, u + 1)) ++u;
+    while (!safe_down(origin, scale, x, g, u)) --u;
     return u;
 }
 
-// The smallest q whose decoded bound is >= x (q = 255 always is: 255 * scale >= the node's extent).
-uint32_t quantize_up(float origin, float scale, float x) {
-    double q = std::ceil((static_cast<double>(x) - origin) / scale);
-    uint32_t u = static_cast<uint32_t>(std::clamp(q, 0.0, 255.0));
-    while (u < 255 && dequantize(origin, scale, u) < x) ++u;
-    while (u > 0 && dequantize(origin, scale, u - 1) >= x) --u;
+// The smallest safe q for an upper bound x (q = 255 is safe: quantization_exponent).
+uint32_t quantize_up(float origin, double scale, float x) {
+    const Gap g = gap(x, origin);
+    uint32_t u = static_cast<uint32_t>(std::clamp(std::ceil(g.hi / scale), 0.0, 255.0));
+    while (u < 255 && !safe_up(origin, scale, x, g, u)) ++u;
+    while (u > 0 && safe_up(origin, scale, x, g, u - 1)) --u;
     return u;
 }
 
@@ -255,9 +289,11 @@ std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh) {
         node.origin = glm::vec4(nlo, 0.0f);
         uint32_t exponents = 0;
         for (int a = 0; a < 3; ++a) {
-            const int e = quantization_exponent(static_cast<double>(nhi[a]) - nlo[a]);
+            float his[4] = {};
+            for (size_t k = 0; k < kids.size(); ++k) his[k] = hi[k][a];
+            const int e = quantization_exponent(nlo[a], his, kids.size());
             exponents |= static_cast<uint32_t>(e + 127) << (8 * a);
-            const float scale = std::ldexp(1.0f, e);
+            const double scale = std::ldexp(1.0, e);
             for (size_t k = 0; k < kids.size(); ++k) {
                 const uint32_t qlo = quantize_down(nlo[a], scale, lo[k][a]);
                 const uint32_t qhi = quantize_up(nlo[a], scale, hi[k][a]);

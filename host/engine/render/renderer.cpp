@@ -206,6 +206,9 @@ Frame Renderer::render(const RenderSpec& spec) {
         if (features_.counters) {
             uint32_t c[8];
             counter_buffer_.download(ctx_, c, sizeof(c));
+            if (c[5] != 0)
+                throw std::runtime_error("traversal counters: a 32-bit total overflowed in one batch; render the "
+                                         "counters with fewer samples per batch or a smaller film");
             counters_.rays += c[0];
             counters_.nodes += c[1];
             counters_.leaves += c[2];
