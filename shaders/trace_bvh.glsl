@@ -26,7 +26,6 @@ struct Hit {
     vec2 bary;  // (u, v): p = (1-u-v) v0 + u v1 + v v2
 };
 
-
 vec3 safe_inverse(vec3 d) {
     const float big = 1e30;
     return vec3(abs(d.x) > 1e-30 ? 1.0 / d.x : (d.x >= 0.0 ? big : -big),
@@ -62,8 +61,8 @@ bool bvh_tri_intersect(uint i, vec3 o, vec3 d, float tmin, float tmax, out float
 }
 
 #ifdef VKMECH_COUNTERS
-// The instrumented variant (tracerays.comp for `bench traversal --counters`):
-// per invocation, the work of its last trace.
+// The instrumented variants (tracerays.comp, pathtrace.comp with
+// VKMECH_COUNTERS): the work of every trace of this invocation, summed.
 uint bvh_count_rays = 0u;    // traces (closest-hit and shadow rays)
 uint bvh_count_nodes = 0u;   // interior nodes fetched (four child boxes tested each)
 uint bvh_count_leaves = 0u;  // leaves visited

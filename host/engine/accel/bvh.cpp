@@ -255,23 +255,22 @@ std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh) {
     auto emit = [&](auto& self, std::vector<uint32_t> kids, uint32_t depth) -> uint32_t {
         deepest = std::max(deepest, depth);
         if (3u * deepest > gpu::BVH4_STACK_SIZE) throw std::length_error("collapse_bvh4: tree deeper than the traversal stack");
-        // Open every interior child once, then the largest interior ones.
-        for (size_t k = 0, n = kids.size(); k < n && kids.size() < 4; ++k) {
+        // Opening kids[k] replaces the interior node by its two children.
+        auto open = [&](size_t k) {
             const uint32_t c = kids[k];
-            if (count(c) == 0 && kids.size() + 1 <= 4) {
-                kids[k] = c + 1;
-                kids.push_back(offset(c));
-            }
-        }
+            kids[k] = c + 1;
+            kids.push_back(offset(c));
+        };
+        // Open every interior child once, then the largest interior ones.
+        for (size_t k = 0, n = kids.size(); k < n && kids.size() < 4; ++k)
+            if (count(kids[k]) == 0) open(k);
         while (kids.size() < 4) {
             int best = -1;
             for (size_t k = 0; k < kids.size(); ++k)
                 if (count(kids[k]) == 0 && (best < 0 || area(kids[k]) > area(kids[static_cast<size_t>(best)])))
                     best = static_cast<int>(k);
             if (best < 0) break;
-            const uint32_t c = kids[static_cast<size_t>(best)];
-            kids[static_cast<size_t>(best)] = c + 1;
-            kids.push_back(offset(c));
+            open(static_cast<size_t>(best));
         }
         const uint32_t self_index = static_cast<uint32_t>(out.size());
         if (self_index >= kLimit) throw std::length_error("collapse_bvh4: too many nodes for the 4-wide encoding");

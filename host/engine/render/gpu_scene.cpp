@@ -238,8 +238,7 @@ void GpuScene::bind_traversal(vk::ComputePipeline& pipeline) const {
     if (traversal_ == Traversal::RayQuery) {
         pipeline.bind_acceleration_structure(gpu::BINDING_TLAS, accel_->tlas());
     } else {
-        pipeline.bind_texel_buffer(gpu::BINDING_BVH_NODES, bvh_nodes_view());
-        pipeline.bind_texel_buffer(gpu::BINDING_BVH_TRIS, tri_positions_view());
+        for (const auto& [binding, view] : traversal_views_) pipeline.bind_texel_buffer(binding, **view);
     }
 }
 
@@ -318,8 +317,9 @@ GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal trave
         accel_ = std::make_unique<RayTracingAccel>(ctx, tri_positions, static_cast<uint32_t>(a.triangles.size()));
     } else {
         bvh_nodes = vk::Buffer::from_vector(ctx, a.bvh4, texel);
-        bvh_nodes_view_ = texel_view(ctx, bvh_nodes, texels_of(a.bvh4), "BVH nodes");
-        tri_positions_view_ = texel_view(ctx, tri_positions, texels_of(a.tri_positions), "triangle positions");
+        traversal_views_.emplace_back(gpu::BINDING_BVH_NODES, texel_view(ctx, bvh_nodes, texels_of(a.bvh4), "BVH nodes"));
+        traversal_views_.emplace_back(gpu::BINDING_BVH_TRIS,
+                                      texel_view(ctx, tri_positions, texels_of(a.tri_positions), "triangle positions"));
     }
 }
 

@@ -60,8 +60,6 @@ public:
     // fetch loads a whole texel per invocation with vector loads, where a
     // storage-buffer load at a divergent address loops over the invocations
     // and bounds-checks every component (docs/performance.md).
-    ::vk::BufferView bvh_nodes_view() const { return **bvh_nodes_view_; }
-    ::vk::BufferView tri_positions_view() const { return **tri_positions_view_; }
     // Binds this scene's traversal data (traversal_bindings(traversal())).
     void bind_traversal(vk::ComputePipeline& pipeline) const;
     // Binds every scene array and the traversal data (scene_bindings(traversal())).
@@ -70,8 +68,8 @@ public:
 private:
     Traversal traversal_;
     std::unique_ptr<RayTracingAccel> accel_;
-    std::unique_ptr<::vk::raii::BufferView> bvh_nodes_view_, tri_positions_view_;
-    std::vector<std::pair<uint32_t, std::unique_ptr<::vk::raii::BufferView>>> views_;  // binding, scene array
+    // (binding, view): the scene arrays; the software BVH's nodes and triangle positions.
+    std::vector<std::pair<uint32_t, std::unique_ptr<::vk::raii::BufferView>>> views_, traversal_views_;
 };
 
 // The descriptor bindings of a traversal's data (shaders/traversal.glsl): the

@@ -66,33 +66,26 @@ ComputePipeline::ComputePipeline(const Context& ctx, std::span<const uint32_t> s
     throw VulkanError("ComputePipeline: binding " + std::to_string(binding) + " is not in the layout");
 }
 
+void ComputePipeline::write(uint32_t binding, ::vk::WriteDescriptorSet w) {
+    w.dstSet = **set_;
+    w.dstBinding = binding;
+    w.descriptorCount = 1;
+    w.descriptorType = type_of(binding);
+    ctx_.device().updateDescriptorSets(w, nullptr);
+}
+
 void ComputePipeline::bind_buffer(uint32_t binding, ::vk::Buffer buffer, ::vk::DeviceSize size) {
     ::vk::DescriptorBufferInfo info{.buffer = buffer, .offset = 0, .range = size};
-    ctx_.device().updateDescriptorSets(::vk::WriteDescriptorSet{.dstSet = **set_,
-                                                                .dstBinding = binding,
-                                                                .descriptorCount = 1,
-                                                                .descriptorType = type_of(binding),
-                                                                .pBufferInfo = &info},
-                                       nullptr);
+    write(binding, ::vk::WriteDescriptorSet{.pBufferInfo = &info});
 }
 
 void ComputePipeline::bind_acceleration_structure(uint32_t binding, ::vk::AccelerationStructureKHR as) {
     ::vk::WriteDescriptorSetAccelerationStructureKHR as_info{.accelerationStructureCount = 1, .pAccelerationStructures = &as};
-    ctx_.device().updateDescriptorSets(::vk::WriteDescriptorSet{.pNext = &as_info,
-                                                                .dstSet = **set_,
-                                                                .dstBinding = binding,
-                                                                .descriptorCount = 1,
-                                                                .descriptorType = type_of(binding)},
-                                       nullptr);
+    write(binding, ::vk::WriteDescriptorSet{.pNext = &as_info});
 }
 
 void ComputePipeline::bind_texel_buffer(uint32_t binding, ::vk::BufferView view) {
-    ctx_.device().updateDescriptorSets(::vk::WriteDescriptorSet{.dstSet = **set_,
-                                                                .dstBinding = binding,
-                                                                .descriptorCount = 1,
-                                                                .descriptorType = type_of(binding),
-                                                                .pTexelBufferView = &view},
-                                       nullptr);
+    write(binding, ::vk::WriteDescriptorSet{.pTexelBufferView = &view});
 }
 
 void ComputePipeline::warm_up() const {

@@ -41,6 +41,8 @@ public:
 
 private:
     ::vk::DescriptorType type_of(uint32_t binding) const;
+    // Writes one descriptor of `binding` (w's set, binding, count and type are filled in).
+    void write(uint32_t binding, ::vk::WriteDescriptorSet w);
     const Context& ctx_;
     std::vector<BindingDesc> bindings_;
     std::unique_ptr<::vk::raii::DescriptorSetLayout> set_layout_;
