@@ -272,13 +272,30 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
     }
 }
 
+// (a * b) mod n for n < 2^24 without 64-bit integers: b a byte at a time.
+uint mulmod(uint a, uint b, uint n) {
+    a %= n;
+    uint r = 0u;
+    for (int shift = 24; shift >= 0; shift -= 8) {
+        r = ((r << 8u) % n + (a * ((b >> uint(shift)) & 0xFFu)) % n) % n;
+    }
+    return r;
+}
+
 void main() {
     uint width = params.film.x;
     uint height = params.film.y;
-    uvec2 px = gl_GlobalInvocationID.xy;
+    // Workgroup order: lavapipe gives each of its threads one contiguous
+    // range of workgroup indices, so the workgroup with index w takes tile
+    // w * stride mod n (params.adaptive.z, coprime with n: a permutation),
+    // and every thread's range is spread over the whole image instead of
+    // one band of it (docs/performance.md, "Balancing lavapipe's threads").
+    uint groups = gl_NumWorkGroups.x * gl_NumWorkGroups.y;
+    uint tile = mulmod(gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x, params.adaptive.z, groups);
+    uvec2 px = uvec2(tile % gl_NumWorkGroups.x, tile / gl_NumWorkGroups.x) * 8u + gl_LocalInvocationID.xy;
     if (params.adaptive.x != 0u) {
         // 1D over the active pixels (rows of at most 65535 workgroups).
-        uint slot = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * 64u + gl_LocalInvocationIndex;
+        uint slot = tile * 64u + gl_LocalInvocationIndex;
         if (slot >= params.adaptive.y) return;
         uint p = sample_counts[width * height + slot];
         px = uvec2(p % width, p / width);

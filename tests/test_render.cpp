@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <numeric>
 #include <glm/gtc/matrix_inverse.hpp>
 #include <set>
 
@@ -42,6 +43,42 @@ ImageStats image_stats(const Frame& f) {
 }
 
 }  // namespace
+
+TEST_CASE("render: the workgroup order is a permutation that spreads every thread's range over the image") {
+    CHECK_THROWS_AS(workgroup_stride(0), std::invalid_argument);
+    CHECK_THROWS_AS(workgroup_stride((uint64_t{1} << 24) + 1), std::invalid_argument);
+    for (uint64_t n : {uint64_t{1}, uint64_t{2}, uint64_t{3}, uint64_t{15}, uint64_t{25}, uint64_t{1024},
+                       uint64_t{4096}, uint64_t{65535} * 3, (uint64_t{1} << 24) - 1, uint64_t{1} << 24}) {
+        uint64_t s = workgroup_stride(n);
+        CHECK(s < std::max<uint64_t>(n, 1));
+        CHECK(std::gcd(s, n) == 1);
+    }
+    // A 32 x 32 tile film split into contiguous index ranges as lavapipe
+    // splits a dispatch among 2, 4 or 8 threads: every range gets between 40
+    // and 60% of its tiles in the top half and in the left half (the plain
+    // row-major order would give one thread the whole top half).
+    const uint64_t gx = 32, n = gx * gx, s = workgroup_stride(n);
+    std::vector<int> seen(n, 0);
+    for (uint64_t w = 0; w < n; ++w) seen[(w * s) % n] += 1;
+    CHECK(std::all_of(seen.begin(), seen.end(), [](int c) { return c == 1; }));
+    for (uint64_t threads : {2, 4, 8}) {
+        const uint64_t chunk = n / threads;
+        for (uint64_t t = 0; t < threads; ++t) {
+            int top = 0, left = 0;
+            for (uint64_t w = t * chunk; w < (t + 1) * chunk; ++w) {
+                uint64_t tile = (w * s) % n;
+                top += tile / gx < gx / 2;
+                left += tile % gx < gx / 2;
+            }
+            CAPTURE(threads);
+            CAPTURE(t);
+            CHECK(top >= 0.4 * chunk);
+            CHECK(top <= 0.6 * chunk);
+            CHECK(left >= 0.4 * chunk);
+            CHECK(left <= 0.6 * chunk);
+        }
+    }
+}
 
 TEST_SUITE("gpu") {
     TEST_CASE("render: bucket energies sum to the pixel luminance and `other` gets nothing - on every scene") {
@@ -118,6 +155,27 @@ TEST_SUITE("gpu") {
         setup.seed = 1;
         Frame d = testing::render_scene(*ctx, path, setup);
         CHECK(std::memcmp(&a.pixels[0], &d.pixels[0], sizeof(PixelStats) * a.pixels.size()) != 0);
+    }
+
+    TEST_CASE("render: a 37x37 film takes every pixel once - the workgroup order and the adaptive pixel list agree bit for bit") {
+        VKMECH_REQUIRE_GPU(ctx);
+        RenderSetup setup;
+        setup.res = 37;  // 5 x 5 workgroups of 8 x 8, the last row and column partly outside
+        setup.spp = 4;
+        setup.batch = 4;
+        std::string path = project_scene("glass_caustic");
+        Frame a = testing::render_scene(*ctx, path, setup);
+        REQUIRE(a.pixels.size() == 37u * 37u);
+        setup.sample_counts.assign(a.pixels.size(), setup.spp);  // the 1D adaptive mapping, every pixel
+        Frame b = testing::render_scene(*ctx, path, setup);
+        REQUIRE(b.pixels.size() == a.pixels.size());
+        size_t wrong_count = 0, differ = 0;
+        for (size_t i = 0; i < a.pixels.size(); ++i) {
+            wrong_count += a.pixels[i].count != setup.spp;
+            differ += std::memcmp(&a.pixels[i], &b.pixels[i], sizeof(PixelStats)) != 0;
+        }
+        CHECK(wrong_count == 0);
+        CHECK(differ == 0);
     }
 
     TEST_CASE("render: ray query and BVH images agree on every scene") {

@@ -6,8 +6,9 @@
 
 #include <algorithm>
 #include <chrono>
-#include <stdexcept>
 #include <cmath>
+#include <numeric>
+#include <stdexcept>
 
 #include <unistd.h>
 
@@ -53,6 +54,14 @@ uint64_t physical_ram_bytes() {
 }
 
 }  // namespace
+
+uint32_t workgroup_stride(uint64_t n) {
+    if (n == 0 || n > (uint64_t{1} << 24))
+        throw std::invalid_argument("workgroup order: " + std::to_string(n) + " workgroups (1 to 2^24 supported)");
+    uint64_t stride = static_cast<uint64_t>(std::llround(static_cast<double>(n) * 0.6180339887498949)) % n;
+    while (std::gcd(stride, n) != 1) stride = (stride + 1) % n;  // gcd(0, 1) = 1 ends n = 1
+    return static_cast<uint32_t>(stride);
+}
 
 glm::vec2 camera_tangents(const Camera& cam) {
     float t = std::tan(glm::radians(cam.fov_deg) * 0.5f);
@@ -188,6 +197,13 @@ Frame Renderer::render(const RenderSpec& spec) {
             spec.profile->*slot += std::chrono::duration<double>(now - t_phase).count();
             t_phase = now;
         };
+        uint32_t gx = (cam.width + 7) / 8, gy = (cam.height + 7) / 8;
+        if (!order.empty()) {
+            uint32_t groups = static_cast<uint32_t>((active + 63) / 64);
+            gx = std::min(groups, 65535u);  // the guaranteed maxComputeWorkGroupCount
+            gy = (groups + gx - 1) / gx;
+        }
+        p.adaptive.z = workgroup_stride(static_cast<uint64_t>(gx) * gy);
         params_.upload(ctx_, &p, sizeof(p));
         if (features_.counters) {
             const uint32_t zeros[8] = {};
@@ -195,12 +211,7 @@ Frame Renderer::render(const RenderSpec& spec) {
         }
         lap(&RenderProfile::upload);
         ctx_.submit_and_wait([&](::vk::CommandBuffer cmd) {
-            if (order.empty()) pipeline_->record(cmd, (cam.width + 7) / 8, (cam.height + 7) / 8, 1);
-            else {
-                uint32_t groups = static_cast<uint32_t>((active + 63) / 64);
-                uint32_t gx = std::min(groups, 65535u);  // the guaranteed maxComputeWorkGroupCount
-                pipeline_->record(cmd, gx, (groups + gx - 1) / gx, 1);
-            }
+            pipeline_->record(cmd, gx, gy, 1);
         });
         lap(&RenderProfile::dispatch);
         if (features_.counters) {

@@ -76,6 +76,14 @@ private:
     uint32_t debug_pixel_ = 0, debug_capacity_ = 0;
 };
 
+// The path tracer's workgroup order (pathtrace.comp): the workgroup with
+// index w of a dispatch of n renders tile w * stride mod n. The stride is
+// coprime with n, so the order is a permutation, and near n times the golden
+// ratio's conjugate, so any contiguous range of indices (what each lavapipe
+// thread gets) is spread over the whole image. Throws std::invalid_argument
+// for n = 0 or n > 2^24 (the shader's modular product needs n <= 2^24).
+uint32_t workgroup_stride(uint64_t n);
+
 // Camera parameters of Params: tan of the half field of view on x and y.
 glm::vec2 camera_tangents(const Camera& camera);
 
