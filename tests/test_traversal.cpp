@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 
 using namespace vkmech;
 
@@ -26,21 +27,38 @@ struct Agreement {
     std::string first_mismatch;
 };
 
-// Double-precision ray/triangle distance (Möller–Trumbore), -1 on a miss:
-// the independent judge of ties.
-double cpu_hit(const SceneArrays& a, uint32_t prim, const gpu::GpuRay& r) {
+// Double-precision ray/triangle distance (Möller–Trumbore), NaN when the
+// ray is parallel to the plane; `margin` is min(u, v, 1 - u - v), how far
+// inside the triangle (negative: outside) the point lies in barycentrics.
+double cpu_plane_hit(const SceneArrays& a, size_t prim, const gpu::GpuRay& r, double& margin) {
     glm::dvec3 o(r.origin), d(r.direction);
     glm::dvec3 v0(a.tri_positions[3 * prim]), v1(a.tri_positions[3 * prim + 1]), v2(a.tri_positions[3 * prim + 2]);
     glm::dvec3 e1 = v1 - v0, e2 = v2 - v0, p = glm::cross(d, e2);
     double det = glm::dot(e1, p);
-    if (det == 0.0) return -1.0;
-    glm::dvec3 s = o - v0;
-    double u = glm::dot(s, p) / det;
-    glm::dvec3 q = glm::cross(s, e1);
-    double v = glm::dot(d, q) / det;
-    const double eps = 1e-5;  // float traversal may accept hits this close outside an edge
-    if (u < -eps || v < -eps || u + v > 1.0 + eps) return -1.0;
-    return glm::dot(e2, q) / det;
+    glm::dvec3 s = o - v0, q = glm::cross(s, e1);
+    double u = glm::dot(s, p) / det, v = glm::dot(d, q) / det;
+    margin = std::min({u, v, 1.0 - u - v});
+    return det == 0.0 ? std::nan("") : glm::dot(e2, q) / det;
+}
+
+// Float traversal may accept hits this close outside an edge (barycentrics).
+constexpr double kEdgeSlack = 1e-5;
+
+// The distance to `prim`, -1 on a miss: the independent judge of ties.
+double cpu_hit(const SceneArrays& a, uint32_t prim, const gpu::GpuRay& r) {
+    double margin;
+    double t = cpu_plane_hit(a, prim, r, margin);
+    return std::isnan(t) || margin < -kEdgeSlack ? -1.0 : t;
+}
+
+// Every project scene, loaded and flattened.
+void for_each_project_scene(const std::function<void(const std::string&, const SceneArrays&)>& fn) {
+    auto paths = testing::project_scene_paths();
+    REQUIRE(!paths.empty());
+    for (const auto& path : paths) {
+        CAPTURE(path);
+        fn(path, flatten_scene(load_scene(path)));
+    }
 }
 
 Agreement compare(const SceneArrays& arrays, const std::vector<gpu::GpuRay>& rays, const std::vector<gpu::GpuHit>& a,
@@ -77,30 +95,22 @@ Agreement compare(const SceneArrays& arrays, const std::vector<gpu::GpuRay>& ray
 }
 
 // The brute-force judge of one ray: every triangle tested in double. A hit
-// is *clear* when the point lies inside the triangle by a margin of 1e-5 in
-// barycentric terms (float traversal must find it) and *possible* when it
-// lies within 1e-5 outside an edge (float traversal may report it).
+// is *clear* when the point lies inside the triangle by kEdgeSlack (float
+// traversal must find it) and *possible* when it lies at most kEdgeSlack
+// outside an edge (float traversal may report it).
 struct BruteForce {
     double clear = -1.0;     // nearest clear hit, -1: none
     double possible = -1.0;  // nearest possible hit, -1: none
 };
 
 BruteForce brute_force(const SceneArrays& a, const gpu::GpuRay& r) {
-    const double eps = 1e-5;
     BruteForce b;
-    glm::dvec3 o(r.origin), d(r.direction);
-    const double tmin = r.origin.w, tmax = r.direction.w;
     for (size_t prim = 0; prim < a.tri_positions.size() / 3; ++prim) {
-        glm::dvec3 v0(a.tri_positions[3 * prim]), v1(a.tri_positions[3 * prim + 1]), v2(a.tri_positions[3 * prim + 2]);
-        glm::dvec3 e1 = v1 - v0, e2 = v2 - v0, p = glm::cross(d, e2);
-        double det = glm::dot(e1, p);
-        if (det == 0.0) continue;
-        glm::dvec3 s = o - v0, q = glm::cross(s, e1);
-        double u = glm::dot(s, p) / det, v = glm::dot(d, q) / det, t = glm::dot(e2, q) / det;
-        if (!(t > tmin && t < tmax)) continue;
-        double margin = std::min({u, v, 1.0 - u - v});
-        if (margin >= -eps && (b.possible < 0.0 || t < b.possible)) b.possible = t;
-        if (margin >= eps && (b.clear < 0.0 || t < b.clear)) b.clear = t;
+        double margin;
+        double t = cpu_plane_hit(a, prim, r, margin);
+        if (!(t > r.origin.w && t < r.direction.w)) continue;  // also NaN
+        if (margin >= -kEdgeSlack && (b.possible < 0.0 || t < b.possible)) b.possible = t;
+        if (margin >= kEdgeSlack && (b.clear < 0.0 || t < b.clear)) b.clear = t;
     }
     return b;
 }
@@ -113,12 +123,7 @@ TEST_SUITE("gpu") {
         // one checks the software BVH alone wherever it runs (the NVIDIA
         // machines without ray query run exactly this path).
         VKMECH_REQUIRE_GPU(ctx);
-        auto paths = testing::project_scene_paths();
-        REQUIRE(!paths.empty());
-        for (const auto& path : paths) {
-            CAPTURE(path);
-            Scene scene = load_scene(path);
-            SceneArrays arrays = flatten_scene(scene);
+        for_each_project_scene([&](const std::string& path, const SceneArrays& arrays) {
             const size_t tris = arrays.tri_positions.size() / 3;
             // About 5e7 ray-triangle tests a scene: 500 to 4000 rays.
             const uint32_t count = static_cast<uint32_t>(std::clamp<size_t>(50000000 / std::max<size_t>(tris, 1), 500, 4000));
@@ -153,7 +158,7 @@ TEST_SUITE("gpu") {
             CHECK(bad == 0);
             CHECK(clear_hits > count / 10);  // the rays really hit the scene
             MESSAGE(path << ": " << count << " rays, " << clear_hits << " clear hits, all agree with brute force");
-        }
+        });
         CHECK(ctx->validation_messages() == 0);
     }
 
@@ -164,12 +169,7 @@ TEST_SUITE("gpu") {
             MESSAGE("skipped: device has no ray query; the BVH alone is tested elsewhere");
             return;
         }
-        auto paths = testing::project_scene_paths();
-        REQUIRE(!paths.empty());
-        for (const auto& path : paths) {
-            CAPTURE(path);
-            Scene scene = load_scene(path);
-            SceneArrays arrays = flatten_scene(scene);
+        for_each_project_scene([&](const std::string& path, const SceneArrays& arrays) {
             auto rays = random_rays(arrays, 100000, 42);
             GpuScene rq(*ctx, arrays, Traversal::RayQuery);
             GpuScene bvh(*ctx, arrays, Traversal::Bvh);
@@ -190,7 +190,7 @@ TEST_SUITE("gpu") {
             uint32_t any_diff = 0;
             for (size_t i = 0; i < rays.size(); ++i) any_diff += (any_rq[i].hit.x > 0.0f) != (any_bvh[i].hit.x > 0.0f);
             CHECK(any_diff == 0);
-        }
+        });
         CHECK(ctx->validation_messages() == 0);
     }
 
