@@ -84,6 +84,23 @@ void bvh_order(inout float da, inout uint ca, inout float db, inout uint cb) {
     cb = swap ? c : cb;
 }
 
+// Push and pop on bvh_trace's stack (registers s0..s7 over memory).
+#define BVH_PUSH(x)                                   \
+    {                                                 \
+        if (sp >= 8u) stack[sp - 8u] = s7;            \
+        s7 = s6; s6 = s5; s5 = s4; s4 = s3;           \
+        s3 = s2; s2 = s1; s1 = s0; s0 = (x);          \
+        sp += 1u;                                     \
+    }
+#define BVH_POP(dst)                                  \
+    {                                                 \
+        dst = s0;                                     \
+        s0 = s1; s1 = s2; s2 = s3; s3 = s4;           \
+        s4 = s5; s5 = s6; s6 = s7;                    \
+        sp -= 1u;                                     \
+        if (sp >= 8u) s7 = stack[sp - 8u];            \
+    }
+
 // Closest hit (any_hit false) or any hit in (tmin, tmax). Interior nodes are
 // visited until the ray reaches a leaf or runs out of work, then the leaf's
 // triangles are tested, so that the invocations of a SIMD group test
@@ -97,8 +114,12 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
     hit.bary = vec2(0.0);
     BVH_COUNT(bvh_count_rays += 1u);
     vec3 inv_d = safe_inverse(d);
-    uint stack[BVH4_STACK_SIZE];
+    // The stack's top eight entries live in registers (s0 the top), the rest
+    // in memory: a push or pop is eight vector selects, and only a stack
+    // deeper than eight touches memory (per invocation on lavapipe).
+    uint stack[BVH4_STACK_SIZE - 8u];
     uint sp = 0u;
+    uint s0 = 0u, s1 = 0u, s2 = 0u, s3 = 0u, s4 = 0u, s5 = 0u, s6 = 0u, s7 = 0u;
     const uint DONE = 0xFFFFFFFFu;
     uint ref = 0u;  // the root: interior node 0
     while (ref != DONE) {
@@ -130,15 +151,14 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
             bvh_order(d1, c1, d2, c2);
             if (d0 < BVH_MISS) {
                 ref = c0;
-                if (d3 < BVH_MISS) { stack[sp] = c3; sp += 1u; }
-                if (d2 < BVH_MISS) { stack[sp] = c2; sp += 1u; }
-                if (d1 < BVH_MISS) { stack[sp] = c1; sp += 1u; }
+                if (d3 < BVH_MISS) BVH_PUSH(c3);
+                if (d2 < BVH_MISS) BVH_PUSH(c2);
+                if (d1 < BVH_MISS) BVH_PUSH(c1);
                 BVH_COUNT(bvh_count_stack = max(bvh_count_stack, sp));
             } else if (sp == 0u) {
                 ref = DONE;
             } else {
-                sp -= 1u;
-                ref = stack[sp];
+                BVH_POP(ref);
             }
         }
         if (ref == DONE) break;
@@ -158,8 +178,7 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
         if (sp == 0u) {
             ref = DONE;
         } else {
-            sp -= 1u;
-            ref = stack[sp];
+            BVH_POP(ref);
         }
     }
     return hit.prim != 0xFFFFFFFFu;
