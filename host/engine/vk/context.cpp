@@ -274,10 +274,24 @@ uint32_t Context::find_memory_type(uint32_t type_bits, ::vk::MemoryPropertyFlags
                                                                              .commandBufferCount = 1});
     ::vk::raii::CommandBuffer cmd = std::move(cmds[0]);
     cmd.begin(::vk::CommandBufferBeginInfo{.flags = ::vk::CommandBufferUsageFlagBits::eOneTimeSubmit});
+    // Earlier submissions' writes (a dispatch's results, a copy) become
+    // visible to these commands: a barrier's first scope covers every
+    // command submitted before it, and a fence alone orders execution only.
+    cmd.pipelineBarrier(::vk::PipelineStageFlagBits::eAllCommands, ::vk::PipelineStageFlagBits::eAllCommands, {},
+                        ::vk::MemoryBarrier{.srcAccessMask = ::vk::AccessFlagBits::eMemoryWrite,
+                                            .dstAccessMask = ::vk::AccessFlagBits::eMemoryRead |
+                                                             ::vk::AccessFlagBits::eMemoryWrite},
+                        {}, {});
     return cmd;
 }
 
 void Context::end_one_shot(::vk::raii::CommandBuffer& cmd) const {
+    // The device's writes become visible to host reads after the fence
+    // (Vulkan: a fence's memory dependency covers device accesses only).
+    cmd.pipelineBarrier(::vk::PipelineStageFlagBits::eAllCommands, ::vk::PipelineStageFlagBits::eHost, {},
+                        ::vk::MemoryBarrier{.srcAccessMask = ::vk::AccessFlagBits::eMemoryWrite,
+                                            .dstAccessMask = ::vk::AccessFlagBits::eHostRead},
+                        {}, {});
     cmd.end();
     ::vk::CommandBuffer raw = *cmd;
     device_->resetFences({**fence_});
