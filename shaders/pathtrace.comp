@@ -272,7 +272,8 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
     }
 }
 
-// (a * b) mod n for n < 2^24 without 64-bit integers: b a byte at a time.
+// (a * b) mod n for n <= 2^24 without 64-bit integers: b a byte at a time
+// (every partial product and shifted remainder stays below 2^32).
 uint mulmod(uint a, uint b, uint n) {
     a %= n;
     uint r = 0u;
