@@ -27,6 +27,11 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(std430, set = 0, binding = BINDING_ACCUM) writeonly buffer Accum { GpuPixelAccum accum[]; };
 #ifdef VKMECH_COUNTERS
 layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint counters[8]; };
+// Adds v to counters[k]; true when the 32-bit total wrapped.
+bool counter_add(uint k, uint v) {
+    uint before = atomicAdd(counters[k], v);
+    return before + v < before;
+}
 #endif
 
 const float PI = 3.14159265358979;
@@ -400,16 +405,11 @@ void main() {
     accum[pixel] = a;
 #ifdef VKMECH_COUNTERS
     // counters[5] != 0: a 32-bit total wrapped in this batch (the host refuses the counts).
-    uint wrapped = 0u;
-    uint before = atomicAdd(counters[0], bvh_count_rays);
-    wrapped |= uint(before + bvh_count_rays < before);
-    before = atomicAdd(counters[1], bvh_count_nodes);
-    wrapped |= uint(before + bvh_count_nodes < before);
-    before = atomicAdd(counters[2], bvh_count_leaves);
-    wrapped |= uint(before + bvh_count_leaves < before);
-    before = atomicAdd(counters[3], bvh_count_tris);
-    wrapped |= uint(before + bvh_count_tris < before);
+    bool wrapped = counter_add(0u, bvh_count_rays);
+    wrapped = counter_add(1u, bvh_count_nodes) || wrapped;
+    wrapped = counter_add(2u, bvh_count_leaves) || wrapped;
+    wrapped = counter_add(3u, bvh_count_tris) || wrapped;
     atomicMax(counters[4], bvh_count_stack);
-    if (wrapped != 0u) atomicOr(counters[5], 1u);
+    if (wrapped) atomicOr(counters[5], 1u);
 #endif
 }
