@@ -11,14 +11,16 @@
 // docs/performance.md): the 4-wide nodes are four texels each
 // (GpuBvh4Node: origin and exponents, two of quantized bounds, children),
 // the triangles three (v0, v1, v2; xyz are float bits), in
-// BVH order == scene triangle order.
+// BVH order == scene triangle order. The three w components hold a fourth
+// vertex d where triangle i = (a, b, c) and triangle i + 1 = (a, c, d) form a
+// quad in the same leaf (host Bvh::quad_next), else the bits of a: one fetch
+// of three texels then tests both triangles of a quad.
 layout(set = 0, binding = BINDING_BVH_NODES) uniform utextureBuffer bvh_nodes;
 layout(set = 0, binding = BINDING_BVH_TRIS) uniform utextureBuffer bvh_tri_pos;
 
 // Byte k of each component of q, for the four children.
 vec4 bvh_bytes(uint q) { return vec4((uvec4(q) >> uvec4(0u, 8u, 16u, 24u)) & 0xFFu); }
 
-vec3 bvh_vertex(uint i) { return uintBitsToFloat(texelFetch(bvh_tri_pos, int(i)).xyz); }
 
 struct Hit {
     float t;
@@ -37,11 +39,8 @@ vec3 safe_inverse(vec3 d) {
 // (RAY_TMAX), so a hit at any scene scale is never mistaken for a miss.
 const float BVH_MISS = 3.4e38;
 
-// Möller–Trumbore, double-sided.
-bool bvh_tri_intersect(uint i, vec3 o, vec3 d, float tmin, float tmax, out float t, out vec2 uv) {
-    vec3 v0 = bvh_vertex(3u * i);
-    vec3 e1 = bvh_vertex(3u * i + 1u) - v0;
-    vec3 e2 = bvh_vertex(3u * i + 2u) - v0;
+// Möller–Trumbore, double-sided, on the triangle (v0, v0 + e1, v0 + e2).
+bool bvh_tri_intersect(vec3 v0, vec3 e1, vec3 e2, vec3 o, vec3 d, float tmin, float tmax, out float t, out vec2 uv) {
     vec3 p = cross(d, e2);
     float det = dot(e1, p);
     if (det == 0.0) return false;
@@ -165,14 +164,28 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
         uint offset = ref & BVH4_INDEX_MASK;
         uint count = ref >> BVH4_COUNT_SHIFT;
         BVH_COUNT(bvh_count_leaves += 1u; bvh_count_tris += count);
-        for (uint k = 0u; k < count; ++k) {
+        for (uint k = 0u; k < count;) {
+            uint i = offset + k;
+            uvec4 ta = texelFetch(bvh_tri_pos, int(3u * i));
+            uvec4 tb = texelFetch(bvh_tri_pos, int(3u * i + 1u));
+            uvec4 tc = texelFetch(bvh_tri_pos, int(3u * i + 2u));
+            uvec3 td = uvec3(ta.w, tb.w, tc.w);
+            vec3 a = uintBitsToFloat(ta.xyz);
+            vec3 ac = uintBitsToFloat(tc.xyz) - a;
             float t;
             vec2 uv;
-            if (bvh_tri_intersect(offset + k, o, d, tmin, hit.t, t, uv)) {
+            if (bvh_tri_intersect(a, uintBitsToFloat(tb.xyz) - a, ac, o, d, tmin, hit.t, t, uv)) {
                 hit.t = t;
-                hit.prim = offset + k;
+                hit.prim = i;
                 hit.bary = uv;
             }
+            bool quad = any(notEqual(td, ta.xyz));
+            if (quad && bvh_tri_intersect(a, ac, uintBitsToFloat(td) - a, o, d, tmin, hit.t, t, uv)) {
+                hit.t = t;
+                hit.prim = i + 1u;
+                hit.bary = uv;
+            }
+            k += quad ? 2u : 1u;
         }
         if (any_hit && hit.prim != 0xFFFFFFFFu) return true;
         if (sp == 0u) {

@@ -4,6 +4,9 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
+#include <array>
+#include <bit>
 #include <random>
 
 using namespace vkmech;
@@ -83,7 +86,73 @@ TEST_CASE("bvh: the BVH of every project scene is well formed") {
         for (size_t i = 0; i < pos.size(); ++i) pos[i] = glm::vec3(a.tri_positions[i]);  // already in BVH order
         CHECK(validate_bvh(a.bvh, pos) == "");
         CHECK(bvh_stats(a.bvh).max_leaf <= 8);
+        // The w components carry a quad's fourth vertex, else the first vertex again.
+        for (size_t i = 0; i < a.bvh.order.size(); ++i) {
+            const glm::vec3 w(a.tri_positions[3 * i].w, a.tri_positions[3 * i + 1].w, a.tri_positions[3 * i + 2].w);
+            const glm::vec3 expect = a.bvh.quad_next[i] ? pos[3 * i + 5] : pos[3 * i];
+            REQUIRE(std::bit_cast<glm::uvec3>(w) == std::bit_cast<glm::uvec3>(expect));
+        }
     }
+}
+
+namespace {
+
+// The leaf of the binary tree holding BVH position i: {offset, count}.
+std::pair<uint32_t, uint32_t> leaf_of(const Bvh& bvh, uint32_t i) {
+    for (const auto& n : bvh.nodes) {
+        uint32_t count = std::bit_cast<uint32_t>(n.bmax.w), offset = std::bit_cast<uint32_t>(n.bmin.w);
+        if (count > 0 && i >= offset && i < offset + count) return {offset, count};
+    }
+    return {0, 0};
+}
+
+bool same_bits(const glm::vec3& p, const glm::vec3& q) { return std::bit_cast<glm::uvec3>(p) == std::bit_cast<glm::uvec3>(q); }
+
+}  // namespace
+
+TEST_CASE("bvh: the two triangles of a quad end up next to each other in their leaf") {
+    // A 24 x 24 height field of quads, each split as (a, b, c), (a, c, d), the
+    // triangles shuffled; and as many quads split the other way round,
+    // (a, b, c) and (a, d, c), which are not the pattern and stay single.
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> H(-0.3f, 0.3f);
+    const int n = 24;
+    std::vector<glm::vec3> grid((n + 1) * (n + 1));
+    for (int y = 0; y <= n; ++y)
+        for (int x = 0; x <= n; ++x) grid[y * (n + 1) + x] = glm::vec3(float(x), float(y), H(rng));
+    std::vector<std::array<glm::vec3, 3>> tris;
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+            glm::vec3 a = grid[y * (n + 1) + x], b = grid[y * (n + 1) + x + 1];
+            glm::vec3 c = grid[(y + 1) * (n + 1) + x + 1], d = grid[(y + 1) * (n + 1) + x];
+            tris.push_back({a, b, c});
+            if ((x + y) % 2 == 0) tris.push_back({a, c, d});
+            else tris.push_back({a, d, c});  // winding flipped: not (a, c, d)
+        }
+    std::shuffle(tris.begin(), tris.end(), rng);
+    std::vector<glm::vec3> pos;
+    for (const auto& t : tris) pos.insert(pos.end(), t.begin(), t.end());
+
+    Bvh bvh = build_bvh(pos);
+    auto ordered = in_bvh_order(bvh, pos);
+    REQUIRE(validate_bvh(bvh, ordered) == "");
+    REQUIRE(bvh.quad_next.size() == bvh.order.size());
+    size_t pairs = 0;
+    for (uint32_t i = 0; i < bvh.order.size(); ++i) {
+        if (!bvh.quad_next[i]) continue;
+        CAPTURE(i);
+        ++pairs;
+        auto [offset, count] = leaf_of(bvh, i);
+        REQUIRE(i + 1 < offset + count);  // the partner is in the same leaf
+        CHECK(!bvh.quad_next[i + 1]);
+        CHECK(same_bits(ordered[3 * i + 3], ordered[3 * i]));      // shares a
+        CHECK(same_bits(ordered[3 * i + 4], ordered[3 * i + 2]));  // and c
+        CHECK(!same_bits(ordered[3 * i + 5], ordered[3 * i]));     // d is not a
+    }
+    // Half the quads have the pattern; the builder keeps most of them in one leaf.
+    MESSAGE("quads paired: " << pairs << " of " << n * n / 2);
+    CHECK(pairs >= n * n / 2 * 6 / 10);
+    CHECK(pairs <= n * n / 2);
 }
 
 TEST_CASE("bvh: an empty triangle list is refused rather than encoded") {

@@ -157,6 +157,45 @@ struct Builder {
     }
 };
 
+// Bit-identical points: a shared quad vertex is the same float triple.
+bool same_point(const glm::vec3& p, const glm::vec3& q) {
+    return std::bit_cast<glm::uvec3>(p) == std::bit_cast<glm::uvec3>(q);
+}
+
+// Reorders each leaf's range of bvh.order so that the triangles (a, b, c) and
+// (a, c, d) of a quad are adjacent, the first of them first, and marks them in
+// bvh.quad_next. Greedy in leaf order; a leaf holds at most a few triangles.
+void pair_quads(Bvh& bvh, const std::vector<glm::vec3>& pos) {
+    bvh.quad_next.assign(bvh.order.size(), 0);
+    auto vertex = [&](uint32_t tri, int k) -> const glm::vec3& { return pos[3 * size_t{tri} + k]; };
+    std::vector<uint32_t> leaf;
+    for (const auto& node : bvh.nodes) {
+        uint32_t count = std::bit_cast<uint32_t>(node.bmax.w);
+        if (count < 2) continue;  // interior (0) or a single triangle
+        uint32_t offset = std::bit_cast<uint32_t>(node.bmin.w);
+        leaf.assign(bvh.order.begin() + offset, bvh.order.begin() + offset + count);
+        std::vector<bool> used(count, false);
+        uint32_t out = offset;
+        for (uint32_t i = 0; i < count; ++i) {
+            if (used[i]) continue;
+            uint32_t t = leaf[i];
+            for (uint32_t j = 0; j < count; ++j) {
+                uint32_t u = leaf[j];
+                if (j == i || used[j] || !same_point(vertex(u, 0), vertex(t, 0)) || !same_point(vertex(u, 1), vertex(t, 2)) ||
+                    same_point(vertex(u, 2), vertex(t, 0)))
+                    continue;
+                used[i] = used[j] = true;
+                bvh.quad_next[out] = 1;
+                bvh.order[out++] = t;
+                bvh.order[out++] = u;
+                break;
+            }
+        }
+        for (uint32_t i = 0; i < count; ++i)
+            if (!used[i]) bvh.order[out++] = leaf[i];
+    }
+}
+
 }  // namespace
 
 namespace {
@@ -337,7 +376,9 @@ Bvh build_bvh(const std::vector<glm::vec3>& tri_positions, const BvhBuildOptions
     // valid encoding (count 0 means "interior").
     if (n == 0) throw std::invalid_argument("build_bvh: no triangles");
     b.build(0, n);
-    return Bvh{std::move(b.nodes), std::move(b.order)};
+    Bvh bvh{std::move(b.nodes), std::move(b.order), {}};
+    pair_quads(bvh, tri_positions);
+    return bvh;
 }
 
 std::string validate_bvh(const Bvh& bvh, const std::vector<glm::vec3>& pos) {

@@ -17,6 +17,12 @@ struct Bvh {
     // order[i]: the input triangle stored at BVH position i. Leaves reference
     // contiguous ranges of this order.
     std::vector<uint32_t> order;
+    // quad_next[i] != 0: BVH positions i and i + 1 are in the same leaf and
+    // form a quad, triangle i = (a, b, c) and triangle i + 1 = (a, c, d) with
+    // bit-identical positions and d != a (the usual split of a quad, as every
+    // tessellator and mesh loader here writes it). The traversal then fetches
+    // the quad's four vertices once (shaders/trace_bvh.glsl).
+    std::vector<uint8_t> quad_next;
 };
 
 // The deepest a built tree may be (root at depth 0): its 4-wide collapse is
@@ -33,7 +39,8 @@ struct BvhBuildOptions {
 };
 
 // tri_positions: 3 consecutive points per triangle; throws std::invalid_argument
-// when there are none.
+// when there are none. Within each leaf, the two triangles of a quad are
+// placed next to each other (quad_next).
 Bvh build_bvh(const std::vector<glm::vec3>& tri_positions, const BvhBuildOptions& options = {});
 
 // Empty string when well formed: every triangle in exactly one leaf, every

@@ -155,6 +155,13 @@ SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
         a.triangle_mesh[i] = tri_mesh[src];
         for (int k = 0; k < 3; ++k) a.tri_positions[3 * i + k] = glm::vec4(pos3[3 * src + k], 1.0f);
     }
+    // The w components of a triangle's three texels: the fourth vertex d of
+    // the quad it starts (Bvh::quad_next), else its own first vertex, so the
+    // traversal tests (a, c, d) as well exactly where the bits differ.
+    for (size_t i = 0; i < n; ++i) {
+        const glm::vec3 d = a.bvh.quad_next[i] ? glm::vec3(a.tri_positions[3 * i + 5]) : glm::vec3(a.tri_positions[3 * i]);
+        for (int k = 0; k < 3; ++k) a.tri_positions[3 * i + k].w = d[k];
+    }
 
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
     for (const auto& p : pos3) {

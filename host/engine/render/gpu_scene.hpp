@@ -31,7 +31,7 @@ struct SceneArrays {
     std::vector<gpu::GpuVertex> vertices;
     std::vector<glm::uvec4> triangles;     // i0, i1, i2, material|emitter|flat (BVH order)
     std::vector<uint32_t> triangle_mesh;   // mesh index of each triangle (BVH order)
-    std::vector<glm::vec4> tri_positions;  // 3 per triangle (BVH order)
+    std::vector<glm::vec4> tri_positions;  // 3 per triangle (BVH order); w: a quad's fourth vertex (flatten_scene)
     std::vector<gpu::GpuMaterial> materials;
     std::vector<gpu::GpuEmitter> emitters;
     std::vector<gpu::GpuLightTriangle> light_triangles;
