@@ -3,6 +3,7 @@
 #define VKMECH_SCENE_DATA_GLSL
 
 #extension GL_EXT_samplerless_texture_functions : require
+#include "features.glsl"
 
 layout(std140, set = 0, binding = BINDING_PARAMS) uniform ParamsBlock { GpuParams params; };
 // The scene arrays are uniform texel buffers of RGBA32 uint texels, one
@@ -19,15 +20,32 @@ layout(set = 0, binding = BINDING_TEXTURES) uniform utextureBuffer texture_buf; 
 
 vec4 fetch_vec4(utextureBuffer b, uint i) { return uintBitsToFloat(texelFetch(b, int(i))); }
 
-GpuVertex vertex_at(uint i) { return GpuVertex(fetch_vec4(vertex_buf, 2u * i), fetch_vec4(vertex_buf, 2u * i + 1u)); }
 vec3 vertex_position(uint i) { return fetch_vec4(vertex_buf, 2u * i).xyz; }
 vec3 vertex_normal(uint i) { return fetch_vec4(vertex_buf, 2u * i + 1u).xyz; }
 uvec4 triangle_at(uint i) { return texelFetch(triangle_buf, int(i)); }
+// Fetches only what the material's BSDF reads (the fields left out read 0):
+// a diffuse material reads its header and reflectance, two texels of nine;
+// `k` only conductors and plastics read, the last three only principled and
+// rough plastic (its tables), so scenes without those families (the feature
+// constants) never fetch them. A texel fetch is a function call per SIMD
+// vector on lavapipe, skipped when no invocation of the vector needs it.
 GpuMaterial material_at(uint i) {
     uint b = 9u * i;
-    return GpuMaterial(texelFetch(material_buf, int(b)), fetch_vec4(material_buf, b + 1u), fetch_vec4(material_buf, b + 2u),
-                       fetch_vec4(material_buf, b + 3u), fetch_vec4(material_buf, b + 4u), fetch_vec4(material_buf, b + 5u),
-                       fetch_vec4(material_buf, b + 6u), fetch_vec4(material_buf, b + 7u), fetch_vec4(material_buf, b + 8u));
+    const vec4 zero = vec4(0.0);
+    GpuMaterial m = GpuMaterial(texelFetch(material_buf, int(b)), fetch_vec4(material_buf, b + 1u), zero, zero, zero, zero, zero,
+                                zero, zero);
+    if (m.header.x != MAT_DIFFUSE) {
+        m.specular_reflectance = fetch_vec4(material_buf, b + 2u);
+        m.specular_transmittance = fetch_vec4(material_buf, b + 3u);
+        m.eta = fetch_vec4(material_buf, b + 4u);
+        if (FEATURE_CONDUCTOR || FEATURE_PLASTIC) m.k = fetch_vec4(material_buf, b + 5u);
+        if (FEATURE_PRINCIPLED || (FEATURE_PLASTIC && FEATURE_ROUGH)) {
+            m.principled0 = fetch_vec4(material_buf, b + 6u);
+            m.principled1 = fetch_vec4(material_buf, b + 7u);
+            m.principled2 = fetch_vec4(material_buf, b + 8u);
+        }
+    }
+    return m;
 }
 GpuLightTriangle light_tri_at(uint i) {
     return GpuLightTriangle(texelFetch(light_tri_buf, int(2u * i)), fetch_vec4(light_tri_buf, 2u * i + 1u));
@@ -101,25 +119,34 @@ struct SurfaceHit {
     uint emitter;  // emitter index + 1, 0 when not emissive
 };
 
+// The vertices' second texels (normal, v) are fetched only where they are
+// read: at a triangle with normals, or for the uv of a textured scene.
 SurfaceHit surface_hit(uint prim, vec2 bary) {
     uvec4 tri = triangle_at(prim);
-    GpuVertex a = vertex_at(tri.x);
-    GpuVertex b = vertex_at(tri.y);
-    GpuVertex c = vertex_at(tri.z);
+    bool flat_tri = (tri.w & TRI_FLAT_BIT) != 0u;
+    vec4 pa = fetch_vec4(vertex_buf, 2u * tri.x);
+    vec4 pb = fetch_vec4(vertex_buf, 2u * tri.y);
+    vec4 pc = fetch_vec4(vertex_buf, 2u * tri.z);
+    vec4 na = vec4(0.0), nb = vec4(0.0), nc = vec4(0.0);
+    if (!flat_tri || FEATURE_TEXTURES) {
+        na = fetch_vec4(vertex_buf, 2u * tri.x + 1u);
+        nb = fetch_vec4(vertex_buf, 2u * tri.y + 1u);
+        nc = fetch_vec4(vertex_buf, 2u * tri.z + 1u);
+    }
     float w0 = 1.0 - bary.x - bary.y;
     SurfaceHit s;
-    s.p = w0 * a.position.xyz + bary.x * b.position.xyz + bary.y * c.position.xyz;
-    s.scale = max_abs3(a.position.xyz, b.position.xyz, c.position.xyz);
-    s.ng = triangle_normal(b.position.xyz - a.position.xyz, c.position.xyz - a.position.xyz);
-    if ((tri.w & TRI_FLAT_BIT) != 0u) {
+    s.p = w0 * pa.xyz + bary.x * pb.xyz + bary.y * pc.xyz;
+    s.scale = max_abs3(pa.xyz, pb.xyz, pc.xyz);
+    s.ng = triangle_normal(pb.xyz - pa.xyz, pc.xyz - pa.xyz);
+    if (flat_tri) {
         s.ns = s.ng;
     } else {
-        vec3 n = w0 * a.normal.xyz + bary.x * b.normal.xyz + bary.y * c.normal.xyz;
+        vec3 n = w0 * na.xyz + bary.x * nb.xyz + bary.y * nc.xyz;
         float len = length(n);
         s.ns = len > 0.0 ? n / len : s.ng;
         if (dot(s.ns, s.ng) < 0.0) s.ng = -s.ng;  // winding disagrees with the authored normals
     }
-    s.uv = w0 * vec2(a.position.w, a.normal.w) + bary.x * vec2(b.position.w, b.normal.w) + bary.y * vec2(c.position.w, c.normal.w);
+    s.uv = w0 * vec2(pa.w, na.w) + bary.x * vec2(pb.w, nb.w) + bary.y * vec2(pc.w, nc.w);
     s.material = tri.w & TRI_MATERIAL_MASK;
     s.emitter = (tri.w >> TRI_EMITTER_SHIFT) & TRI_EMITTER_MASK;
     return s;
