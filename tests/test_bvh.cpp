@@ -259,7 +259,8 @@ TEST_CASE("bvh: the 4-wide tree holds every triangle once inside every box above
         CHECK(check_bvh4(nodes, in_bvh_order(bvh, pos), &depth) == "");
         // Opening interior children two levels at a time roughly halves the depth.
         CHECK(2 * depth <= bvh_stats(bvh).max_depth + 2);
-        if (n <= 4) {  // the binary tree is one leaf: a root with one child
+        if (n <= BvhBuildOptions{}.max_leaf_size) CHECK(bvh.nodes.size() == 1);
+        if (bvh.nodes.size() == 1) {  // the binary tree is one leaf: a root with one child
             CHECK(nodes.size() == 1);
             CHECK(nodes[0].child[0] == (0u | (n << gpu::BVH4_COUNT_SHIFT)));
             CHECK(nodes[0].child[1] == gpu::BVH4_EMPTY);

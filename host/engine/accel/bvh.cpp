@@ -136,8 +136,11 @@ struct Builder {
             // All centroids coincide: split the range in half.
             mid = begin + count / 2;
         } else {
+            // SAH: splitting costs a node visit plus the children's tests, each
+            // weighted by the chance (surface area) that a ray meets it.
             float leaf_cost = bounds.area() * count;
-            if (best_cost >= leaf_cost && count <= 2 * opt.max_leaf_size) return;  // stays a leaf
+            float split_cost = best_cost + opt.traversal_cost * bounds.area();
+            if (split_cost >= leaf_cost && count <= 2 * opt.max_leaf_size) return;  // stays a leaf
             float lo = cbounds.lo[best_axis], hi = cbounds.hi[best_axis];
             // In double: hi - lo of finite floats near +-3e38 overflows float.
             const double scale = nb / (static_cast<double>(hi) - lo);

@@ -33,9 +33,14 @@ struct Bvh {
 // only ceil(log2(count)) more levels.
 constexpr uint32_t kBvhMaxDepth = 60;
 
+// The defaults were measured on lavapipe with quads tested from one fetch
+// (docs/performance.md, "The third round"): leaves of at most 2 triangles
+// (4 where the split would not pay), 32 bins, one box test costing as much
+// as one triangle test.
 struct BvhBuildOptions {
-    uint32_t max_leaf_size = 4;
-    uint32_t bins = 16;
+    uint32_t max_leaf_size = 2;
+    uint32_t bins = 32;
+    float traversal_cost = 1.0f;  // an interior node's cost, in triangle tests (the leaf-or-split choice)
 };
 
 // tri_positions: 3 consecutive points per triangle; throws std::invalid_argument
