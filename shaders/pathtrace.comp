@@ -25,6 +25,8 @@ layout(local_size_x = 8, local_size_y = 8) in;
 #include "mechanism.glsl"
 
 layout(std430, set = 0, binding = BINDING_ACCUM) writeonly buffer Accum { GpuPixelAccum accum[]; };
+// The next pixel slot to claim (params.adaptive.w: claimed pixels), zeroed before each batch.
+layout(std430, set = 0, binding = BINDING_WORK) buffer Work { uint next_slot; };
 #ifdef VKMECH_COUNTERS
 layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint counters[8]; };
 // Adds v to counters[k]; true when the 32-bit total wrapped.
@@ -288,23 +290,23 @@ uint mulmod(uint a, uint b, uint n) {
     return r;
 }
 
-void main() {
+// Renders this batch's samples of the pixel in slot `slot`: the film in 8 x 8
+// tiles, tile t = slot / 64 (row-major over the film's tiles) and
+// invocation slot % 64 within it; in the adaptive mode the slot-th pixel of
+// the active list (sample_counts[width * height + slot]).
+void render_slot(uint slot) {
     uint width = params.film.x;
     uint height = params.film.y;
-    // Workgroup order: lavapipe gives each of its threads one contiguous
-    // range of workgroup indices, so the workgroup with index w takes tile
-    // w * stride mod n (params.adaptive.z, coprime with n: a permutation),
-    // and every thread's range is spread over the whole image instead of
-    // one band of it (docs/performance.md, "Balancing lavapipe's threads").
-    uint groups = gl_NumWorkGroups.x * gl_NumWorkGroups.y;
-    uint tile = mulmod(gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x, params.adaptive.z, groups);
-    uvec2 px = uvec2(tile % gl_NumWorkGroups.x, tile / gl_NumWorkGroups.x) * 8u + gl_LocalInvocationID.xy;
+    uvec2 px;
     if (params.adaptive.x != 0u) {
-        // 1D over the active pixels (rows of at most 65535 workgroups).
-        uint slot = tile * 64u + gl_LocalInvocationIndex;
         if (slot >= params.adaptive.y) return;
         uint p = sample_counts[width * height + slot];
         px = uvec2(p % width, p / width);
+    } else {
+        uint tiles_x = (width + 7u) / 8u;
+        uint tile = slot / 64u;
+        uint local = slot % 64u;
+        px = uvec2(tile % tiles_x, tile / tiles_x) * 8u + uvec2(local % 8u, local / 8u);
     }
     if (px.x >= width || px.y >= height) return;
     uint pixel = px.y * width + px.x;
@@ -403,6 +405,33 @@ void main() {
     a.side = vec4(depth_sum, depth_w, 0.0, 0.0);
 #endif
     accum[pixel] = a;
+}
+
+void main() {
+    // Claimed pixels (params.adaptive.w, CPU devices): each invocation takes
+    // the next slot from a counter until none is left, so the device's
+    // threads finish together (lavapipe splits a dispatch's workgroups into
+    // one contiguous range per thread up front, and whichever range holds
+    // more work would otherwise leave the other threads idle at the end).
+    // Tiles: the workgroup with index w renders tile w * stride mod n
+    // (params.adaptive.z, coprime with n: a permutation), an order spread
+    // over the image (docs/performance.md, "Balancing lavapipe's threads").
+    // One call site: the path tracer is inlined once.
+    bool claimed = params.adaptive.w != 0u;
+    uint slot, slots;
+    if (claimed) {
+        slots = params.adaptive.x != 0u ? params.adaptive.y : ((params.film.x + 7u) / 8u) * ((params.film.y + 7u) / 8u) * 64u;
+        slot = atomicAdd(next_slot, 1u);
+    } else {
+        uint groups = gl_NumWorkGroups.x * gl_NumWorkGroups.y;
+        uint tile = mulmod(gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x, params.adaptive.z, groups);
+        slot = tile * 64u + gl_LocalInvocationIndex;
+        slots = slot + 1u;
+    }
+    while (slot < slots) {
+        render_slot(slot);
+        slot = claimed ? atomicAdd(next_slot, 1u) : slots;
+    }
 #ifdef VKMECH_COUNTERS
     // counters[5] != 0: a 32-bit total wrapped in this batch (the host refuses the counts).
     bool wrapped = counter_add(0u, bvh_count_rays);

@@ -19,6 +19,7 @@ Frame render_scene(vk::Context& ctx, Scene scene, const RenderSetup& setup) {
     spec.spp = setup.spp;
     spec.seed = setup.seed;
     spec.batch_spp = setup.batch;
+    spec.pixel_order = setup.pixel_order;
     spec.on_batch = setup.on_batch;
     spec.sample_counts = setup.sample_counts;
     return r.render(spec);

@@ -23,6 +23,7 @@ struct RenderSetup {
     LoadOptions load;
     std::function<void(const std::vector<gpu::GpuPixelAccum>&)> on_batch;
     std::vector<uint32_t> sample_counts;  // adaptive: n(p) per pixel (docs/descriptor.md §6)
+    PixelOrder pixel_order = PixelOrder::Auto;
 };
 
 Frame render_scene(vk::Context& ctx, const std::string& path, const RenderSetup& setup);

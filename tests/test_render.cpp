@@ -157,25 +157,41 @@ TEST_SUITE("gpu") {
         CHECK(std::memcmp(&a.pixels[0], &d.pixels[0], sizeof(PixelStats) * a.pixels.size()) != 0);
     }
 
-    TEST_CASE("render: a 37x37 film takes every pixel once - the workgroup order and the adaptive pixel list agree bit for bit") {
+    TEST_CASE("render: a 137x137 film takes every pixel once - tiles and claimed pixels and the adaptive pixel list agree bit for bit") {
         VKMECH_REQUIRE_GPU(ctx);
         RenderSetup setup;
-        setup.res = 37;  // 5 x 5 workgroups of 8 x 8, the last row and column partly outside
-        setup.spp = 4;
-        setup.batch = 4;
+        // 18 x 18 tiles of 8 x 8, the last row and column partly outside; more
+        // tiles than the 256 workgroups a claimed dispatch starts, so
+        // invocations claim several slots each.
+        setup.res = 137;
+        // Two batches of one sample: a pixel that a batch skipped would keep
+        // the previous batch's moments in the reused buffer and count its
+        // first sample twice, so it would differ from the tiled frame.
+        setup.spp = 2;
+        setup.batch = 1;
+        setup.pixel_order = PixelOrder::Tiles;
         std::string path = project_scene("glass_caustic");
         Frame a = testing::render_scene(*ctx, path, setup);
-        REQUIRE(a.pixels.size() == 37u * 37u);
+        REQUIRE(a.pixels.size() == 137u * 137u);
+        std::vector<Frame> others;
+        setup.pixel_order = PixelOrder::Claimed;
+        others.push_back(testing::render_scene(*ctx, path, setup));
         setup.sample_counts.assign(a.pixels.size(), setup.spp);  // the 1D adaptive mapping, every pixel
-        Frame b = testing::render_scene(*ctx, path, setup);
-        REQUIRE(b.pixels.size() == a.pixels.size());
-        size_t wrong_count = 0, differ = 0;
-        for (size_t i = 0; i < a.pixels.size(); ++i) {
-            wrong_count += a.pixels[i].count != setup.spp;
-            differ += std::memcmp(&a.pixels[i], &b.pixels[i], sizeof(PixelStats)) != 0;
+        others.push_back(testing::render_scene(*ctx, path, setup));
+        setup.pixel_order = PixelOrder::Tiles;
+        others.push_back(testing::render_scene(*ctx, path, setup));
+        for (size_t k = 0; k < others.size(); ++k) {
+            CAPTURE(k);
+            const Frame& b = others[k];
+            REQUIRE(b.pixels.size() == a.pixels.size());
+            size_t wrong_count = 0, differ = 0;
+            for (size_t i = 0; i < a.pixels.size(); ++i) {
+                wrong_count += a.pixels[i].count != setup.spp || b.pixels[i].count != setup.spp;
+                differ += std::memcmp(&a.pixels[i], &b.pixels[i], sizeof(PixelStats)) != 0;
+            }
+            CHECK(wrong_count == 0);
+            CHECK(differ == 0);
         }
-        CHECK(wrong_count == 0);
-        CHECK(differ == 0);
     }
 
     TEST_CASE("render: ray query and BVH images agree on every scene") {

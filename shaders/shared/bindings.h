@@ -31,6 +31,7 @@ VKM_ID BINDING_TEXTURES = 13u;
 VKM_ID BINDING_DEBUG = 14u;
 VKM_ID BINDING_SAMPLE_COUNTS = 15u;
 VKM_ID BINDING_COUNTERS = 16u;  // pathtrace.comp's VKMECH_COUNTERS variant only (bench render --profile --counters)
+VKM_ID BINDING_WORK = 17u;      // pathtrace.comp: the pixel-slot counter of claimed pixels (params.adaptive.w)
 
 // Specialization-constant ids (layout(constant_id = ...)).
 VKM_ID SPEC_THIN_LENS = 0u;             // camera.glsl

@@ -165,7 +165,8 @@ struct GpuParams {
     vec4 lights;       // x: total light weight (ray offsets follow each hit triangle: scene_data.glsl)
     uvec4 debug;       // x: pixel whose events are recorded, y: capacity (0: off)
     uvec4 adaptive;    // x: 1 = per-pixel sample counts (binding 15): pixel p takes samples [0, n(p)) only,
-                       // y: pixels still taking samples, z: workgroup order stride (workgroup_stride)
+                       // y: pixels still taking samples, z: workgroup order stride (workgroup_stride),
+                       // w: 1 = claimed pixels (each invocation takes pixel slots from a counter, binding 17)
 };
 
 // One recorded contribution event (the GPU debug mode): the inputs of the

@@ -91,7 +91,8 @@ Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Feature
                                              {BINDING_ACCUM, DT::eStorageBuffer},
                                              {BINDING_DEBUG, DT::eStorageBuffer},
                                              {BINDING_SAMPLE_COUNTS, DT::eStorageBuffer},
-                                             {BINDING_COUNTERS, DT::eStorageBuffer}};
+                                             {BINDING_COUNTERS, DT::eStorageBuffer},
+                                             {BINDING_WORK, DT::eStorageBuffer}};
     for (const auto& b : scene_bindings(gpu_.traversal())) bindings.push_back(b);
     if (features_.direct_glossy && !features_.capture)
         throw std::invalid_argument("the direct_glossy output needs the mechanism capture on");
@@ -123,6 +124,9 @@ Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Feature
     // The counters variant's totals (8 uints, zeroed before each batch); bound always, written by it only.
     counter_buffer_ = vk::Buffer(ctx, 8 * sizeof(uint32_t), ::vk::BufferUsageFlagBits::eStorageBuffer, vk::MemoryUse::Readback);
     pipeline_->bind_buffer(BINDING_COUNTERS, counter_buffer_.handle());
+    // Claimed pixels' slot counter (zeroed before each batch that uses it).
+    work_ = vk::Buffer(ctx, 16, ::vk::BufferUsageFlagBits::eStorageBuffer, vk::MemoryUse::Upload);
+    pipeline_->bind_buffer(BINDING_WORK, work_.handle());
     // Compile now (lavapipe compiles at the first dispatch), so that a
     // Frame's seconds count rendering only.
     pipeline_->warm_up();
@@ -177,6 +181,8 @@ Frame Renderer::render(const RenderSpec& spec) {
     }
 
     auto t0 = std::chrono::steady_clock::now();
+    const bool claimed = spec.pixel_order == PixelOrder::Claimed || (spec.pixel_order == PixelOrder::Auto && ctx_.info().type == "cpu");
+    p.adaptive.w = claimed ? 1u : 0u;
     uint32_t batch_spp = std::max(1u, spec.batch_spp);
     for (uint32_t done = 0; done < total_spp;) {
         uint32_t n = std::min(batch_spp, total_spp - done);
@@ -204,6 +210,14 @@ Frame Renderer::render(const RenderSpec& spec) {
             gy = (groups + gx - 1) / gx;
         }
         p.adaptive.z = workgroup_stride(static_cast<uint64_t>(gx) * gy);
+        if (claimed) {
+            // Enough workgroups for every thread of the device to claim slots; the
+            // first to start on each thread takes slots until none is left.
+            gx = static_cast<uint32_t>(std::min<uint64_t>(static_cast<uint64_t>(gx) * gy, 256));
+            gy = 1;
+            const uint32_t zero[4] = {};
+            work_.upload(ctx_, zero, sizeof(zero));
+        }
         params_.upload(ctx_, &p, sizeof(p));
         if (features_.counters) {
             const uint32_t zeros[8] = {};

@@ -31,6 +31,15 @@ struct TraversalCounters {
     uint32_t deepest_stack = 0;
 };
 
+// How a dispatch's invocations find their pixels. Tiles: each workgroup
+// renders one 8 x 8 tile, in an order spread over the image (GPUs schedule
+// workgroups as they free up). Claimed: every invocation takes the next pixel
+// slot from a counter until none is left (CPU devices: lavapipe hands each
+// of its threads one contiguous range of workgroups up front, so a static
+// assignment leaves threads idle at the end of every dispatch). Auto:
+// claimed on CPU devices, tiles elsewhere. The images are the same bit for bit.
+enum class PixelOrder { Auto, Tiles, Claimed };
+
 struct RenderSpec {
     uint32_t spp = 64;
     uint32_t seed = 0;
@@ -45,6 +54,7 @@ struct RenderSpec {
     std::function<void(const std::vector<gpu::GpuPixelAccum>&)> on_batch;
     // When set, filled with the time of each step of the batch loop (summed over batches).
     RenderProfile* profile = nullptr;
+    PixelOrder pixel_order = PixelOrder::Auto;
 };
 
 struct SceneOnDevice;  // render/session.hpp
@@ -71,7 +81,7 @@ private:
     const GpuScene& gpu_;
     Features features_;
     std::unique_ptr<vk::ComputePipeline> pipeline_;
-    vk::Buffer params_, accum_, debug_, sample_counts_, counter_buffer_;
+    vk::Buffer params_, accum_, debug_, sample_counts_, counter_buffer_, work_;
     TraversalCounters counters_;
     uint32_t debug_pixel_ = 0, debug_capacity_ = 0;
 };
