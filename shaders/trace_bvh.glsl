@@ -113,6 +113,7 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
     hit.bary = vec2(0.0);
     BVH_COUNT(bvh_count_rays += 1u);
     vec3 inv_d = safe_inverse(d);
+    bvec3 neg = lessThan(inv_d, vec3(0.0));  // the far plane is a box's lower bound on these axes
     // The stack's top eight entries live in registers (s0 the top), the rest
     // in memory: a push or pop is eight vector selects, and only a stack
     // deeper than eight touches memory (per invocation on lavapipe).
@@ -131,14 +132,18 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
             // Decode: bound = origin + q * 2^(e - 127), exact products (collapse_bvh4).
             vec3 org = uintBitsToFloat(head.xyz);
             vec3 step = uintBitsToFloat(((uvec3(head.w) >> uvec3(0u, 8u, 16u)) & 0xFFu) << 23u);
-            vec4 lx = org.x + bvh_bytes(q0.x) * step.x, ly = org.y + bvh_bytes(q0.y) * step.y;
-            vec4 lz = org.z + bvh_bytes(q0.z) * step.z, hx = org.x + bvh_bytes(q0.w) * step.x;
-            vec4 hy = org.y + bvh_bytes(q1.x) * step.y, hz = org.z + bvh_bytes(q1.y) * step.z;
-            vec4 t0x = (lx - o.x) * inv_d.x, t1x = (hx - o.x) * inv_d.x;
-            vec4 t0y = (ly - o.y) * inv_d.y, t1y = (hy - o.y) * inv_d.y;
-            vec4 t0z = (lz - o.z) * inv_d.z, t1z = (hz - o.z) * inv_d.z;
-            vec4 enter = max(max(min(t0x, t1x), min(t0y, t1y)), max(min(t0z, t1z), vec4(tmin)));
-            vec4 leave = min(min(max(t0x, t1x), max(t0y, t1y)), min(max(t0z, t1z), vec4(hit.t))) * 1.0000004;
+            // The near and far planes by the ray's direction signs, picked on
+            // the packed bytes (one select covers four children): the slab's
+            // entry and exit are then the near and far distances, with no
+            // min/max between them.
+            uint nx = neg.x ? q0.w : q0.x, fx = neg.x ? q0.x : q0.w;
+            uint ny = neg.y ? q1.x : q0.y, fy = neg.y ? q0.y : q1.x;
+            uint nz = neg.z ? q1.y : q0.z, fz = neg.z ? q0.z : q1.y;
+            vec4 tnx = (org.x + bvh_bytes(nx) * step.x - o.x) * inv_d.x, tfx = (org.x + bvh_bytes(fx) * step.x - o.x) * inv_d.x;
+            vec4 tny = (org.y + bvh_bytes(ny) * step.y - o.y) * inv_d.y, tfy = (org.y + bvh_bytes(fy) * step.y - o.y) * inv_d.y;
+            vec4 tnz = (org.z + bvh_bytes(nz) * step.z - o.z) * inv_d.z, tfz = (org.z + bvh_bytes(fz) * step.z - o.z) * inv_d.z;
+            vec4 enter = max(max(tnx, tny), max(tnz, vec4(tmin)));
+            vec4 leave = min(min(tfx, tfy), min(tfz, vec4(hit.t))) * 1.0000004;
             bvec4 hits = bvec4(uvec4(lessThanEqual(enter, leave)) & uvec4(notEqual(child, uvec4(BVH4_EMPTY))));
             float d0 = hits.x ? enter.x : BVH_MISS, d1 = hits.y ? enter.y : BVH_MISS;
             float d2 = hits.z ? enter.z : BVH_MISS, d3 = hits.w ? enter.w : BVH_MISS;
