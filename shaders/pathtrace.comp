@@ -290,6 +290,9 @@ uint mulmod(uint a, uint b, uint n) {
     return r;
 }
 
+// The film's 8 x 8 tiles per row.
+uint film_tiles_x() { return (params.film.x + 7u) / 8u; }
+
 // Renders this batch's samples of the pixel in slot `slot`: the film in 8 x 8
 // tiles, tile t = slot / 64 (row-major over the film's tiles) and
 // invocation slot % 64 within it; in the adaptive mode the slot-th pixel of
@@ -303,10 +306,9 @@ void render_slot(uint slot) {
         uint p = sample_counts[width * height + slot];
         px = uvec2(p % width, p / width);
     } else {
-        uint tiles_x = (width + 7u) / 8u;
         uint tile = slot / 64u;
         uint local = slot % 64u;
-        px = uvec2(tile % tiles_x, tile / tiles_x) * 8u + uvec2(local % 8u, local / 8u);
+        px = uvec2(tile % film_tiles_x(), tile / film_tiles_x()) * 8u + uvec2(local % 8u, local / 8u);
     }
     if (px.x >= width || px.y >= height) return;
     uint pixel = px.y * width + px.x;
@@ -420,7 +422,7 @@ void main() {
     bool claimed = params.adaptive.w != 0u;
     uint slot, slots;
     if (claimed) {
-        slots = params.adaptive.x != 0u ? params.adaptive.y : ((params.film.x + 7u) / 8u) * ((params.film.y + 7u) / 8u) * 64u;
+        slots = params.adaptive.x != 0u ? params.adaptive.y : film_tiles_x() * ((params.film.y + 7u) / 8u) * 64u;
         slot = atomicAdd(next_slot, 1u);
     } else {
         uint groups = gl_NumWorkGroups.x * gl_NumWorkGroups.y;

@@ -21,7 +21,6 @@ layout(set = 0, binding = BINDING_BVH_TRIS) uniform utextureBuffer bvh_tri_pos;
 // Byte k of each component of q, for the four children.
 vec4 bvh_bytes(uint q) { return vec4((uvec4(q) >> uvec4(0u, 8u, 16u, 24u)) & 0xFFu); }
 
-
 struct Hit {
     float t;
     uint prim;

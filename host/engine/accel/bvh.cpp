@@ -172,12 +172,13 @@ void pair_quads(Bvh& bvh, const std::vector<glm::vec3>& pos) {
     bvh.quad_next.assign(bvh.order.size(), 0);
     auto vertex = [&](uint32_t tri, int k) -> const glm::vec3& { return pos[3 * size_t{tri} + k]; };
     std::vector<uint32_t> leaf;
+    std::vector<bool> used;
     for (const auto& node : bvh.nodes) {
         uint32_t count = std::bit_cast<uint32_t>(node.bmax.w);
         if (count < 2) continue;  // interior (0) or a single triangle
         uint32_t offset = std::bit_cast<uint32_t>(node.bmin.w);
         leaf.assign(bvh.order.begin() + offset, bvh.order.begin() + offset + count);
-        std::vector<bool> used(count, false);
+        used.assign(count, false);
         uint32_t out = offset;
         for (uint32_t i = 0; i < count; ++i) {
             if (used[i]) continue;

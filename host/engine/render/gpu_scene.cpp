@@ -153,14 +153,12 @@ SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
         uint32_t src = a.bvh.order[i];
         a.triangles[i] = tris[src];
         a.triangle_mesh[i] = tri_mesh[src];
-        for (int k = 0; k < 3; ++k) a.tri_positions[3 * i + k] = glm::vec4(pos3[3 * src + k], 1.0f);
-    }
-    // The w components of a triangle's three texels: the fourth vertex d of
-    // the quad it starts (Bvh::quad_next), else its own first vertex, so the
-    // traversal tests (a, c, d) as well exactly where the bits differ.
-    for (size_t i = 0; i < n; ++i) {
-        const glm::vec3 d = a.bvh.quad_next[i] ? glm::vec3(a.tri_positions[3 * i + 5]) : glm::vec3(a.tri_positions[3 * i]);
-        for (int k = 0; k < 3; ++k) a.tri_positions[3 * i + k].w = d[k];
+        // The w components of the three texels: the fourth vertex d of the
+        // quad this triangle starts (Bvh::quad_next: the next one is (a, c, d)),
+        // else its own first vertex, so the traversal tests (a, c, d) as well
+        // exactly where the bits differ.
+        const glm::vec3 d = a.bvh.quad_next[i] ? pos3[3 * size_t{a.bvh.order[i + 1]} + 2] : pos3[3 * src];
+        for (int k = 0; k < 3; ++k) a.tri_positions[3 * i + k] = glm::vec4(pos3[3 * src + k], d[k]);
     }
 
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());

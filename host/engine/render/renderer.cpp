@@ -209,7 +209,6 @@ Frame Renderer::render(const RenderSpec& spec) {
             gx = std::min(groups, 65535u);  // the guaranteed maxComputeWorkGroupCount
             gy = (groups + gx - 1) / gx;
         }
-        p.adaptive.z = workgroup_stride(static_cast<uint64_t>(gx) * gy);
         if (claimed) {
             // Enough workgroups for every thread of the device to claim slots; the
             // first to start on each thread takes slots until none is left.
@@ -217,6 +216,8 @@ Frame Renderer::render(const RenderSpec& spec) {
             gy = 1;
             const uint32_t zero[4] = {};
             work_.upload(ctx_, zero, sizeof(zero));
+        } else {
+            p.adaptive.z = workgroup_stride(static_cast<uint64_t>(gx) * gy);
         }
         params_.upload(ctx_, &p, sizeof(p));
         if (features_.counters) {
