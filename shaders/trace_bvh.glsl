@@ -8,8 +8,9 @@
 // Both are uniform texel buffers of RGBA32 uint texels (a texel fetch loads
 // a whole vec4 per invocation on lavapipe, where a storage-buffer load at a
 // divergent address loads every component of every invocation on its own;
-// docs/performance.md): the 4-wide nodes are four texels each
-// (GpuBvh4Node: origin and exponents, two of quantized bounds, children),
+// docs/performance.md): the 4-wide nodes are three texels each
+// (GpuBvh4Node: origin, exponents and child codes; two of quantized bounds,
+// the first child node and triangle),
 // the triangles three (v0, v1, v2; xyz are float bits), in
 // BVH order == scene triangle order. The three w components hold a fourth
 // vertex d where triangle i = (a, b, c) and triangle i + 1 = (a, c, d) form a
@@ -124,10 +125,20 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
     while (ref != DONE) {
         while (ref != DONE && (ref >> BVH4_COUNT_SHIFT) == 0u) {
             BVH_COUNT(bvh_count_nodes += 1u);
-            uvec4 head = texelFetch(bvh_nodes, int(4u * ref));
-            uvec4 q0 = texelFetch(bvh_nodes, int(4u * ref + 1u));
-            uvec4 q1 = texelFetch(bvh_nodes, int(4u * ref + 2u));
-            uvec4 child = texelFetch(bvh_nodes, int(4u * ref + 3u));
+            uvec4 head = texelFetch(bvh_nodes, int(3u * ref));
+            uvec4 q0 = texelFetch(bvh_nodes, int(3u * ref + 1u));
+            uvec4 q1 = texelFetch(bvh_nodes, int(3u * ref + 2u));
+            // The children (GpuBvh4Node): interior ones are consecutive nodes
+            // from first_node, leaves consecutive triangles from first_tri.
+            uvec4 code = uvec4(head.w >> 24u, head.w >> 28u, q1.z >> 28u, q1.w >> 28u) & 0xFu;
+            uvec4 interior = uvec4(equal(code, uvec4(BVH4_META_INTERIOR)));
+            uvec4 tris = max(code, uvec4(1u)) - 1u;  // a leaf's triangle count, else 0
+            uvec4 child = mix(
+                (uvec4(q1.w & BVH4_INDEX_MASK) + uvec4(0u, tris.x, tris.x + tris.y, tris.x + tris.y + tris.z)) |
+                    (tris << BVH4_COUNT_SHIFT),
+                uvec4(q1.z & BVH4_INDEX_MASK) +
+                    uvec4(0u, interior.x, interior.x + interior.y, interior.x + interior.y + interior.z),
+                bvec4(interior));
             // Decode: bound = origin + q * 2^(e - 127), exact products (collapse_bvh4).
             vec3 org = uintBitsToFloat(head.xyz);
             vec3 step = uintBitsToFloat(((uvec3(head.w) >> uvec3(0u, 8u, 16u)) & 0xFFu) << 23u);
@@ -143,7 +154,7 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
             vec4 tnz = (org.z + bvh_bytes(nz) * step.z - o.z) * inv_d.z, tfz = (org.z + bvh_bytes(fz) * step.z - o.z) * inv_d.z;
             vec4 enter = max(max(tnx, tny), max(tnz, vec4(tmin)));
             vec4 leave = min(min(tfx, tfy), min(tfz, vec4(hit.t))) * 1.0000004;
-            bvec4 hits = bvec4(uvec4(lessThanEqual(enter, leave)) & uvec4(notEqual(child, uvec4(BVH4_EMPTY))));
+            bvec4 hits = bvec4(uvec4(lessThanEqual(enter, leave)) & uvec4(notEqual(code, uvec4(BVH4_META_EMPTY))));
             float d0 = hits.x ? enter.x : BVH_MISS, d1 = hits.y ? enter.y : BVH_MISS;
             float d2 = hits.z ? enter.z : BVH_MISS, d3 = hits.w ? enter.w : BVH_MISS;
             uint c0 = child.x, c1 = child.y, c2 = child.z, c3 = child.w;

@@ -204,7 +204,7 @@ std::string check_bvh4(const std::vector<gpu::GpuBvh4Node>& nodes, const std::ve
         deepest = std::max(deepest, depth);
         const auto& nd = nodes[i];
         for (int k = 0; k < 4; ++k) {
-            const uint32_t c = nd.child[k];
+            const uint32_t c = bvh4_child(nd, k);
             if (c == gpu::BVH4_EMPTY) continue;
             glm::vec3 clo(std::numeric_limits<float>::max()), chi(-std::numeric_limits<float>::max());
             const uint32_t count = c >> gpu::BVH4_COUNT_SHIFT, index = c & gpu::BVH4_INDEX_MASK;
@@ -262,15 +262,16 @@ TEST_CASE("bvh: the 4-wide tree holds every triangle once inside every box above
         if (n <= BvhBuildOptions{}.max_leaf_size) CHECK(bvh.nodes.size() == 1);
         if (bvh.nodes.size() == 1) {  // the binary tree is one leaf: a root with one child
             CHECK(nodes.size() == 1);
-            CHECK(nodes[0].child[0] == (0u | (n << gpu::BVH4_COUNT_SHIFT)));
-            CHECK(nodes[0].child[1] == gpu::BVH4_EMPTY);
+            CHECK(bvh4_child(nodes[0], 0) == (0u | (n << gpu::BVH4_COUNT_SHIFT)));
+            CHECK(bvh4_child(nodes[0], 1) == gpu::BVH4_EMPTY);
         } else {
             // A node has an empty slot only when it had no interior child left to open.
             size_t short_with_interior = 0;
             for (const auto& nd : nodes) {
-                if (nd.child[3] != gpu::BVH4_EMPTY) continue;
+                if (bvh4_child(nd, 3) != gpu::BVH4_EMPTY) continue;
                 for (int k = 0; k < 4; ++k)
-                    short_with_interior += nd.child[k] != gpu::BVH4_EMPTY && (nd.child[k] >> gpu::BVH4_COUNT_SHIFT) == 0;
+                    short_with_interior +=
+                        bvh4_child(nd, k) != gpu::BVH4_EMPTY && (bvh4_child(nd, k) >> gpu::BVH4_COUNT_SHIFT) == 0;
             }
             CHECK(short_with_interior == 0);
         }
@@ -288,7 +289,28 @@ TEST_CASE("bvh: the 4-wide checker detects a corrupted tree") {
         CHECK(check_bvh4(nodes, ordered) != "");
     }
     SUBCASE("a dropped child") {
-        nodes[0].child[2] = gpu::BVH4_EMPTY;
+        nodes[0].q1[2] &= gpu::BVH4_INDEX_MASK;  // child 2's code: empty
+        CHECK(check_bvh4(nodes, ordered) != "");
+    }
+    SUBCASE("a leaf child one triangle short") {
+        // The first node with a leaf child of two or more triangles.
+        size_t i = nodes.size();
+        int k = 0;
+        for (size_t n = 0; n < nodes.size() && i == nodes.size(); ++n)
+            for (int j = 0; j < 4; ++j)
+                if ((bvh4_child(nodes[n], j) >> gpu::BVH4_COUNT_SHIFT) >= 2) {
+                    i = n;
+                    k = j;
+                    break;
+                }
+        REQUIRE(i < nodes.size());
+        auto& nd = nodes[i];
+        if (k < 2) {  // its code is in origin.w's bits 24..27 or 28..31
+            const uint32_t w = std::bit_cast<uint32_t>(nd.origin.w) - (1u << (24u + 4u * static_cast<uint32_t>(k)));
+            nd.origin.w = std::bit_cast<float>(w);
+        } else {  // in q1.z's or q1.w's bits 28..31
+            nd.q1[k] -= 1u << 28;
+        }
         CHECK(check_bvh4(nodes, ordered) != "");
     }
 }
@@ -320,13 +342,58 @@ TEST_CASE("bvh: a leaf too large for the 4-wide encoding is refused") {
     Bvh bvh;
     gpu::GpuBvhNode leaf;
     leaf.bmin = glm::vec4(0.0f, 0.0f, 0.0f, std::bit_cast<float>(0u));
-    leaf.bmax = glm::vec4(1.0f, 1.0f, 1.0f, std::bit_cast<float>(16u));
+    leaf.bmax = glm::vec4(1.0f, 1.0f, 1.0f, std::bit_cast<float>(gpu::BVH4_MAX_LEAF + 1));
     bvh.nodes.push_back(leaf);
-    bvh.order.resize(16);
+    bvh.order.resize(gpu::BVH4_MAX_LEAF + 1);
     CHECK_THROWS_AS(collapse_bvh4(bvh), std::length_error);
-    bvh.nodes[0].bmax.w = std::bit_cast<float>(15u);
-    bvh.order.resize(15);
-    CHECK(collapse_bvh4(bvh).size() == 1);
+    bvh.nodes[0].bmax.w = std::bit_cast<float>(gpu::BVH4_MAX_LEAF);
+    bvh.order.resize(gpu::BVH4_MAX_LEAF);
+    const auto nodes = collapse_bvh4(bvh);
+    REQUIRE(nodes.size() == 1);
+    CHECK(bvh4_child(nodes[0], 0) == (gpu::BVH4_MAX_LEAF << gpu::BVH4_COUNT_SHIFT));
+}
+
+TEST_CASE("bvh: the 4-wide encoding's consecutive children") {
+    // A node refers to its first interior child and its first leaf triangle only, so
+    // build_bvh orders the triangles such that each node's leaf children follow each
+    // other, and collapse_bvh4 places each node's interior children side by side.
+    auto pos = triangle_soup(3000, 17, 0.5f);
+    Bvh bvh = build_bvh(pos);
+    CHECK(validate_bvh(bvh, in_bvh_order(bvh, pos)) == "");
+    const auto nodes = collapse_bvh4(bvh);
+    REQUIRE(check_bvh4(nodes, in_bvh_order(bvh, pos)) == "");
+    size_t mixed = 0;
+    for (const auto& nd : nodes) {
+        uint32_t next_node = 0, next_tri = 0, interior = 0, leaves = 0;
+        for (int k = 0; k < 4; ++k) {
+            const uint32_t c = bvh4_child(nd, k);
+            if (c == gpu::BVH4_EMPTY) continue;
+            const uint32_t count = c >> gpu::BVH4_COUNT_SHIFT, index = c & gpu::BVH4_INDEX_MASK;
+            if (count == 0) {
+                if (interior++) CHECK(index == next_node);
+                next_node = index + 1;
+            } else {
+                if (leaves++) CHECK(index == next_tri);
+                next_tri = index + count;
+            }
+        }
+        mixed += interior > 0 && leaves > 0;
+    }
+    CHECK(mixed > 0);  // nodes with both kinds of children exist, so the codes' prefix sums are exercised
+    // A hand-made tree whose two leaves are in the wrong order for the encoding is refused.
+    Bvh bad;
+    auto node = [](float lo, float hi, uint32_t offset, uint32_t count) {
+        gpu::GpuBvhNode n;
+        n.bmin = glm::vec4(lo, 0.0f, 0.0f, std::bit_cast<float>(offset));
+        n.bmax = glm::vec4(hi, 1.0f, 1.0f, std::bit_cast<float>(count));
+        return n;
+    };
+    bad.nodes = {node(0.0f, 2.0f, 2u, 0u), node(0.0f, 1.0f, 2u, 1u), node(1.0f, 2.0f, 0u, 2u)};
+    bad.order = {0u, 1u, 2u};
+    CHECK_THROWS_AS(collapse_bvh4(bad), std::invalid_argument);
+    bad.nodes[1].bmin.w = std::bit_cast<float>(0u);
+    bad.nodes[2].bmin.w = std::bit_cast<float>(1u);
+    CHECK_NOTHROW(collapse_bvh4(bad));
 }
 
 TEST_CASE("bvh: quantized child boxes contain their children within one step at every scale") {

@@ -136,24 +136,34 @@ struct GpuBvhNode {
 };
 
 // The 4-wide tree the software traversal runs (host/engine/accel/bvh.hpp
-// collapse_bvh4, shaders/trace_bvh.glsl): the binary tree above with
-// children and grandchildren pulled up, so one node holds up to four child
-// boxes, each quantized to 8 bits per bound against the node's box: on axis
-// a, a child's bound is origin[a] + q * 2^(e[a] - 127) (q: a byte of q0/q1;
-// e[a]: byte a of origin.w's bits), computed in float and rounded outwards
-// by the encoder so the decoded box always contains the child. Byte k of each
-// q word belongs to child k. child[k]: BVH4_EMPTY for an unused slot; an
-// interior child's node index (below BVH4_COUNT_SHIFT bits, count 0); a
-// leaf's first triangle | (triangle count << BVH4_COUNT_SHIFT).
+// collapse_bvh4, shaders/trace_bvh.glsl), three RGBA32 texels a node: the
+// binary tree above with children and grandchildren pulled up, so one node
+// holds up to four child boxes, each quantized to 8 bits per bound against
+// the node's box: on axis a, a child's bound is origin[a] + q * 2^(e[a] - 127)
+// (q: a byte of q0/q1; e[a]: byte a of origin.w's bits), computed in float
+// and rounded outwards by the encoder so the decoded box always contains the
+// child. Byte k of each q word belongs to child k.
+// Child k is described by a 4-bit code: BVH4_META_EMPTY (an unused slot),
+// BVH4_META_INTERIOR, or 1 + its triangle count for a leaf (at most
+// BVH4_MAX_LEAF triangles). Codes of children 0 and 1: bits 24..27 and 28..31
+// of origin.w; of children 2 and 3: bits 28..31 of q1.z and q1.w. A node's
+// interior children are consecutive nodes from first_node (q1.z's low 28
+// bits) in child order, and its leaf children's triangles consecutive
+// triangles from first_tri (q1.w's low 28 bits) in child order (build_bvh
+// orders the triangles so). The traversal refers to a child as an interior
+// node's index (count 0) or a leaf's first triangle | (triangle count <<
+// BVH4_COUNT_SHIFT); BVH4_EMPTY none.
 VKM_CONST BVH4_EMPTY = 0xFFFFFFFFu;
 VKM_CONST BVH4_COUNT_SHIFT = 28u;
 VKM_CONST BVH4_INDEX_MASK = 0x0FFFFFFFu;
+VKM_CONST BVH4_META_EMPTY = 0u;
+VKM_CONST BVH4_META_INTERIOR = 1u;
+VKM_CONST BVH4_MAX_LEAF = 14u;
 VKM_CONST BVH4_STACK_SIZE = 96u;  // >= 3 x the deepest chain of interior nodes (collapse_bvh4 checks)
 struct GpuBvh4Node {
-    vec4 origin;  // xyz: the node box's lower corner; w: uintBitsToFloat(e_x | e_y << 8 | e_z << 16)
+    vec4 origin;  // xyz: the node box's lower corner; w: uintBitsToFloat(e_x | e_y << 8 | e_z << 16 | code0 << 24 | code1 << 28)
     uvec4 q0;     // lo_x, lo_y, lo_z, hi_x
-    uvec4 q1;     // hi_y, hi_z, 0, 0
-    uvec4 child;
+    uvec4 q1;     // hi_y, hi_z, first_node | code2 << 28, first_tri | code3 << 28
 };
 
 struct GpuParams {

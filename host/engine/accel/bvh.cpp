@@ -280,46 +280,107 @@ void decode_bvh4_box(const gpu::GpuBvh4Node& node, int k, glm::vec3& lo, glm::ve
     }
 }
 
+namespace {
+
+uint32_t leaf_offset(const Bvh& bvh, uint32_t n) { return std::bit_cast<uint32_t>(bvh.nodes[n].bmin.w); }
+uint32_t leaf_count(const Bvh& bvh, uint32_t n) { return std::bit_cast<uint32_t>(bvh.nodes[n].bmax.w); }
+
+// The binary nodes a 4-wide node takes as children, from the binary node's
+// two children `kids`: every interior one opened once (replaced by its two
+// children), then the interior one of largest surface area until there are
+// four.
+std::vector<uint32_t> bvh4_children(const Bvh& bvh, std::vector<uint32_t> kids) {
+    auto area = [&](uint32_t n) {
+        glm::vec3 d = glm::vec3(bvh.nodes[n].bmax) - glm::vec3(bvh.nodes[n].bmin);
+        return d.x * d.y + d.y * d.z + d.z * d.x;
+    };
+    auto open = [&](size_t k) {
+        const uint32_t c = kids[k];
+        kids[k] = c + 1;
+        kids.push_back(leaf_offset(bvh, c));
+    };
+    for (size_t k = 0, n = kids.size(); k < n && kids.size() < 4; ++k)
+        if (leaf_count(bvh, kids[k]) == 0) open(k);
+    while (kids.size() < 4) {
+        int best = -1;
+        for (size_t k = 0; k < kids.size(); ++k)
+            if (leaf_count(bvh, kids[k]) == 0 && (best < 0 || area(kids[k]) > area(kids[static_cast<size_t>(best)])))
+                best = static_cast<int>(k);
+        if (best < 0) break;
+        open(static_cast<size_t>(best));
+    }
+    return kids;
+}
+
+// The root 4-wide node's starting children: the root's two, or the root
+// itself when the tree is one leaf.
+std::vector<uint32_t> bvh4_root_kids(const Bvh& bvh) {
+    if (leaf_count(bvh, 0) > 0) return {0u};
+    return {1u, leaf_offset(bvh, 0)};
+}
+
+// Reorders the triangles so that the leaf children of every 4-wide node
+// (bvh4_children) hold consecutive triangles in child order, as the node
+// encoding needs (one first triangle per node); leaves are moved whole, so
+// quad pairs stay together.
+void group_bvh4_leaves(Bvh& bvh) {
+    std::vector<uint32_t> order;
+    std::vector<uint8_t> quad_next;
+    order.reserve(bvh.order.size());
+    quad_next.reserve(bvh.quad_next.size());
+    auto walk = [&](auto& self, const std::vector<uint32_t>& start) -> void {
+        const std::vector<uint32_t> kids = bvh4_children(bvh, start);
+        for (uint32_t c : kids) {
+            const uint32_t count = leaf_count(bvh, c);
+            if (count == 0) continue;
+            const uint32_t from = leaf_offset(bvh, c);
+            bvh.nodes[c].bmin.w = std::bit_cast<float>(static_cast<uint32_t>(order.size()));
+            order.insert(order.end(), bvh.order.begin() + from, bvh.order.begin() + from + count);
+            if (!bvh.quad_next.empty())
+                quad_next.insert(quad_next.end(), bvh.quad_next.begin() + from, bvh.quad_next.begin() + from + count);
+        }
+        for (uint32_t c : kids)
+            if (leaf_count(bvh, c) == 0) self(self, std::vector<uint32_t>{c + 1, leaf_offset(bvh, c)});
+    };
+    walk(walk, bvh4_root_kids(bvh));
+    bvh.order = std::move(order);
+    bvh.quad_next = std::move(quad_next);
+}
+
+}  // namespace
+
+uint32_t bvh4_child(const gpu::GpuBvh4Node& node, int k) {
+    const uint32_t w = std::bit_cast<uint32_t>(node.origin.w);
+    const uint32_t code[4] = {(w >> 24) & 0xFu, w >> 28, node.q1[2] >> 28, node.q1[3] >> 28};
+    uint32_t node_rank = 0, tri_offset = 0;
+    for (int j = 0; j < k; ++j) {
+        node_rank += code[j] == gpu::BVH4_META_INTERIOR;
+        tri_offset += code[j] > gpu::BVH4_META_INTERIOR ? code[j] - 1 : 0;
+    }
+    const uint32_t c = code[k];
+    if (c == gpu::BVH4_META_EMPTY) return gpu::BVH4_EMPTY;
+    if (c == gpu::BVH4_META_INTERIOR) return (node.q1[2] & gpu::BVH4_INDEX_MASK) + node_rank;
+    return ((node.q1[3] & gpu::BVH4_INDEX_MASK) + tri_offset) | ((c - 1) << gpu::BVH4_COUNT_SHIFT);
+}
+
 std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh) {
     if (bvh.nodes.empty()) throw std::invalid_argument("collapse_bvh4: empty tree");
     const auto& nodes = bvh.nodes;
-    auto offset = [&](uint32_t n) { return std::bit_cast<uint32_t>(nodes[n].bmin.w); };
-    auto count = [&](uint32_t n) { return std::bit_cast<uint32_t>(nodes[n].bmax.w); };
-    auto area = [&](uint32_t n) {
-        glm::vec3 d = glm::vec3(nodes[n].bmax) - glm::vec3(nodes[n].bmin);
-        return d.x * d.y + d.y * d.z + d.z * d.x;
-    };
+    auto offset = [&](uint32_t n) { return leaf_offset(bvh, n); };
+    auto count = [&](uint32_t n) { return leaf_count(bvh, n); };
     constexpr uint32_t kLimit = gpu::BVH4_INDEX_MASK - 16u;
     if (bvh.order.size() > kLimit) throw std::length_error("collapse_bvh4: too many triangles for the 4-wide encoding");
     std::vector<gpu::GpuBvh4Node> out;
     out.reserve(nodes.size() / 2 + 1);
     uint32_t deepest = 0;
-    // emit(children, depth): writes one 4-wide node with these binary nodes as its children.
-    auto emit = [&](auto& self, std::vector<uint32_t> kids, uint32_t depth) -> uint32_t {
+    // emit(start, index, depth): writes the 4-wide node `index` whose children
+    // come from the binary nodes `start` (bvh4_children), its interior
+    // children as consecutive new nodes.
+    auto emit = [&](auto& self, const std::vector<uint32_t>& start, uint32_t index, uint32_t depth) -> void {
         deepest = std::max(deepest, depth);
         if (3u * deepest > gpu::BVH4_STACK_SIZE) throw std::length_error("collapse_bvh4: tree deeper than the traversal stack");
-        // Opening kids[k] replaces the interior node by its two children.
-        auto open = [&](size_t k) {
-            const uint32_t c = kids[k];
-            kids[k] = c + 1;
-            kids.push_back(offset(c));
-        };
-        // Open every interior child once, then the largest interior ones.
-        for (size_t k = 0, n = kids.size(); k < n && kids.size() < 4; ++k)
-            if (count(kids[k]) == 0) open(k);
-        while (kids.size() < 4) {
-            int best = -1;
-            for (size_t k = 0; k < kids.size(); ++k)
-                if (count(kids[k]) == 0 && (best < 0 || area(kids[k]) > area(kids[static_cast<size_t>(best)])))
-                    best = static_cast<int>(k);
-            if (best < 0) break;
-            open(static_cast<size_t>(best));
-        }
-        const uint32_t self_index = static_cast<uint32_t>(out.size());
-        if (self_index >= kLimit) throw std::length_error("collapse_bvh4: too many nodes for the 4-wide encoding");
-        out.emplace_back();
+        const std::vector<uint32_t> kids = bvh4_children(bvh, start);
         gpu::GpuBvh4Node node{};
-        node.child = glm::uvec4(gpu::BVH4_EMPTY);
         std::array<glm::vec3, 4> lo{}, hi{};
         glm::vec3 nlo(std::numeric_limits<float>::max()), nhi(-std::numeric_limits<float>::max());
         for (size_t k = 0; k < kids.size(); ++k) {
@@ -345,22 +406,39 @@ std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh) {
                 else node.q1[a - 1] |= qhi << shift;
             }
         }
-        node.origin.w = std::bit_cast<float>(exponents);
+        // The children's codes, the first interior child and the first leaf triangle.
+        uint32_t code[4] = {gpu::BVH4_META_EMPTY, gpu::BVH4_META_EMPTY, gpu::BVH4_META_EMPTY, gpu::BVH4_META_EMPTY};
+        std::vector<uint32_t> interior;
+        uint32_t first_tri = 0, next_tri = 0;
+        bool any_leaf = false;
         for (size_t k = 0; k < kids.size(); ++k) {
             const uint32_t c = kids[k];
-            const int i = static_cast<int>(k);
-            if (count(c) > 0) {
-                if (count(c) > 15u) throw std::length_error("collapse_bvh4: a leaf of more than 15 triangles");
-                node.child[i] = offset(c) | (count(c) << gpu::BVH4_COUNT_SHIFT);
-            } else {
-                node.child[i] = self(self, std::vector<uint32_t>{c + 1, offset(c)}, depth + 1);
+            if (count(c) == 0) {
+                code[k] = gpu::BVH4_META_INTERIOR;
+                interior.push_back(c);
+                continue;
             }
+            if (count(c) > gpu::BVH4_MAX_LEAF)
+                throw std::length_error("collapse_bvh4: a leaf of more than " + std::to_string(gpu::BVH4_MAX_LEAF) + " triangles");
+            if (!any_leaf) first_tri = offset(c);
+            else if (offset(c) != next_tri)
+                throw std::invalid_argument("collapse_bvh4: a node's leaf children do not hold consecutive triangles (build_bvh orders them so)");
+            any_leaf = true;
+            next_tri = offset(c) + count(c);
+            code[k] = 1u + count(c);
         }
-        out[self_index] = node;
-        return self_index;
+        const uint32_t first_node = static_cast<uint32_t>(out.size());
+        if (first_node + interior.size() >= kLimit) throw std::length_error("collapse_bvh4: too many nodes for the 4-wide encoding");
+        out.resize(first_node + interior.size());
+        node.origin.w = std::bit_cast<float>(exponents | code[0] << 24 | code[1] << 28);
+        node.q1[2] = (interior.empty() ? 0u : first_node) | code[2] << 28;
+        node.q1[3] = first_tri | code[3] << 28;
+        out[index] = node;
+        for (size_t j = 0; j < interior.size(); ++j)
+            self(self, std::vector<uint32_t>{interior[j] + 1, offset(interior[j])}, first_node + static_cast<uint32_t>(j), depth + 1);
     };
-    if (count(0) > 0) emit(emit, {0u}, 1);
-    else emit(emit, {1u, offset(0)}, 1);
+    out.emplace_back();
+    emit(emit, bvh4_root_kids(bvh), 0u, 1u);
     return out;
 }
 
@@ -382,6 +460,7 @@ Bvh build_bvh(const std::vector<glm::vec3>& tri_positions, const BvhBuildOptions
     b.build(0, n);
     Bvh bvh{std::move(b.nodes), std::move(b.order), {}};
     pair_quads(bvh, tri_positions);
+    group_bvh4_leaves(bvh);
     return bvh;
 }
 

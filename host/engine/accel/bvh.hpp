@@ -45,7 +45,8 @@ struct BvhBuildOptions {
 
 // tri_positions: 3 consecutive points per triangle; throws std::invalid_argument
 // when there are none. Within each leaf, the two triangles of a quad are
-// placed next to each other (quad_next).
+// placed next to each other (quad_next), and the leaf children of each node
+// of the 4-wide collapse hold consecutive triangles (collapse_bvh4).
 Bvh build_bvh(const std::vector<glm::vec3>& tri_positions, const BvhBuildOptions& options = {});
 
 // Empty string when well formed: every triangle in exactly one leaf, every
@@ -58,13 +59,20 @@ std::string validate_bvh(const Bvh& bvh, const std::vector<glm::vec3>& tri_posit
 // node takes its binary node's two children, opens every interior one among
 // them (so an interior child of a 4-wide node is at least two binary levels
 // below it), then opens the interior child of largest surface area until it
-// has four. Leaves keep their triangle ranges (BVH order). Node 0 is the
-// root (a tree that is one leaf becomes a root with that one child). Child
-// boxes are quantized outwards: decode_bvh4_box contains the child's box.
-// Throws std::length_error when the tree cannot be encoded: more than
-// 2^28 - 16 triangles or nodes, a leaf of more than 15 triangles, or
-// interior chains deeper than the traversal stack allows.
+// has four. Leaves keep their triangle ranges (BVH order); a node's leaf
+// children must hold consecutive triangles in child order, as build_bvh
+// orders them. A node's interior children are consecutive nodes. Node 0 is
+// the root (a tree that is one leaf becomes a root with that one child).
+// Child boxes are quantized outwards: decode_bvh4_box contains the child's
+// box. Throws std::length_error when the tree cannot be encoded: more than
+// 2^28 - 16 triangles or nodes, a leaf of more than BVH4_MAX_LEAF triangles,
+// or interior chains deeper than the traversal stack allows;
+// std::invalid_argument when a node's leaf children are not consecutive.
 std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh);
+
+// Child k of a 4-wide node as the traversal refers to it: BVH4_EMPTY, an
+// interior node's index, or a leaf's first triangle | count << BVH4_COUNT_SHIFT.
+uint32_t bvh4_child(const gpu::GpuBvh4Node& node, int k);
 
 // Child k's box as the traversal decodes it (float arithmetic, as the shader).
 void decode_bvh4_box(const gpu::GpuBvh4Node& node, int k, glm::vec3& lo, glm::vec3& hi);

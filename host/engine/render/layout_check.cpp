@@ -11,7 +11,7 @@ static_assert(sizeof(GpuMaterial) == 9 * 16);
 static_assert(sizeof(GpuEmitter) == 32);
 static_assert(sizeof(GpuLightTriangle) == 32);
 static_assert(sizeof(GpuBvhNode) == 32);
-static_assert(sizeof(GpuBvh4Node) == 64);  // 4 RGBA32 texels (shaders/trace_bvh.glsl)
+static_assert(sizeof(GpuBvh4Node) == 48);  // 3 RGBA32 texels (shaders/trace_bvh.glsl)
 static_assert(sizeof(GpuParams) == 64 + 7 * 16);
 static_assert(sizeof(GpuDebugEvent) == 32);
 static_assert(offsetof(GpuParams, camera) == 64);
