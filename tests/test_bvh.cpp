@@ -353,6 +353,14 @@ TEST_CASE("bvh: a leaf too large for the 4-wide encoding is refused") {
     CHECK(bvh4_child(nodes[0], 0) == (gpu::BVH4_MAX_LEAF << gpu::BVH4_COUNT_SHIFT));
 }
 
+TEST_CASE("bvh: a leaf size the 4-wide encoding cannot hold is refused at build time") {
+    auto pos = triangle_soup(50, 5, 0.5f);
+    CHECK_THROWS_AS(build_bvh(pos, BvhBuildOptions{.max_leaf_size = 0}), std::invalid_argument);
+    CHECK_THROWS_AS(build_bvh(pos, BvhBuildOptions{.max_leaf_size = gpu::BVH4_MAX_LEAF / 2 + 1}), std::invalid_argument);
+    Bvh bvh = build_bvh(pos, BvhBuildOptions{.max_leaf_size = gpu::BVH4_MAX_LEAF / 2});
+    CHECK(check_bvh4(collapse_bvh4(bvh), in_bvh_order(bvh, pos)) == "");
+}
+
 TEST_CASE("bvh: the 4-wide encoding's consecutive children") {
     // A node refers to its first interior child and its first leaf triangle only, so
     // build_bvh orders the triangles such that each node's leaf children follow each

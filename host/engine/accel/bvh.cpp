@@ -443,6 +443,9 @@ std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh) {
 }
 
 Bvh build_bvh(const std::vector<glm::vec3>& tri_positions, const BvhBuildOptions& options) {
+    if (options.max_leaf_size == 0 || 2 * options.max_leaf_size > gpu::BVH4_MAX_LEAF)
+        throw std::invalid_argument("build_bvh: max_leaf_size must be 1.." + std::to_string(gpu::BVH4_MAX_LEAF / 2) +
+                                    " (leaves of up to twice that must fit the 4-wide encoding)");
     Builder b{tri_positions, options, {}, {}, {}, {}};
     uint32_t n = static_cast<uint32_t>(tri_positions.size() / 3);
     b.tri_box.resize(n);

@@ -38,7 +38,7 @@ constexpr uint32_t kBvhMaxDepth = 60;
 // (4 where the split would not pay), 32 bins, one box test costing as much
 // as one triangle test.
 struct BvhBuildOptions {
-    uint32_t max_leaf_size = 2;
+    uint32_t max_leaf_size = 2;  // 1..BVH4_MAX_LEAF / 2 (build_bvh throws std::invalid_argument otherwise)
     uint32_t bins = 32;
     float traversal_cost = 1.0f;  // an interior node's cost, in triangle tests (the leaf-or-split choice)
 };
