@@ -131,7 +131,7 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
             // The children (GpuBvh4Node): interior ones are consecutive nodes
             // from first_node, leaves consecutive triangles from first_tri.
             uvec4 code = uvec4(head.w >> 24u, head.w >> 28u, q1.z >> 28u, q1.w >> 28u) & 0xFu;
-            uvec4 interior = uvec4(equal(code, uvec4(BVH4_META_INTERIOR)));
+            uvec4 interior = uvec4(equal(code, uvec4(BVH4_CODE_INTERIOR)));
             uvec4 tris = max(code, uvec4(1u)) - 1u;  // a leaf's triangle count, else 0
             uvec4 child = mix(
                 (uvec4(q1.w & BVH4_INDEX_MASK) + uvec4(0u, tris.x, tris.x + tris.y, tris.x + tris.y + tris.z)) |
@@ -154,7 +154,7 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
             vec4 tnz = (org.z + bvh_bytes(nz) * step.z - o.z) * inv_d.z, tfz = (org.z + bvh_bytes(fz) * step.z - o.z) * inv_d.z;
             vec4 enter = max(max(tnx, tny), max(tnz, vec4(tmin)));
             vec4 leave = min(min(tfx, tfy), min(tfz, vec4(hit.t))) * 1.0000004;
-            bvec4 hits = bvec4(uvec4(lessThanEqual(enter, leave)) & uvec4(notEqual(code, uvec4(BVH4_META_EMPTY))));
+            bvec4 hits = bvec4(uvec4(lessThanEqual(enter, leave)) & uvec4(notEqual(code, uvec4(BVH4_CODE_EMPTY))));
             float d0 = hits.x ? enter.x : BVH_MISS, d1 = hits.y ? enter.y : BVH_MISS;
             float d2 = hits.z ? enter.z : BVH_MISS, d3 = hits.w ? enter.w : BVH_MISS;
             uint c0 = child.x, c1 = child.y, c2 = child.z, c3 = child.w;

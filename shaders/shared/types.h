@@ -143,8 +143,8 @@ struct GpuBvhNode {
 // (q: a byte of q0/q1; e[a]: byte a of origin.w's bits), computed in float
 // and rounded outwards by the encoder so the decoded box always contains the
 // child. Byte k of each q word belongs to child k.
-// Child k is described by a 4-bit code: BVH4_META_EMPTY (an unused slot),
-// BVH4_META_INTERIOR, or 1 + its triangle count for a leaf (at most
+// Child k is described by a 4-bit code: BVH4_CODE_EMPTY (an unused slot),
+// BVH4_CODE_INTERIOR, or 1 + its triangle count for a leaf (at most
 // BVH4_MAX_LEAF triangles). Codes of children 0 and 1: bits 24..27 and 28..31
 // of origin.w; of children 2 and 3: bits 28..31 of q1.z and q1.w. A node's
 // interior children are consecutive nodes from first_node (q1.z's low 28
@@ -156,8 +156,8 @@ struct GpuBvhNode {
 VKM_CONST BVH4_EMPTY = 0xFFFFFFFFu;
 VKM_CONST BVH4_COUNT_SHIFT = 28u;
 VKM_CONST BVH4_INDEX_MASK = 0x0FFFFFFFu;
-VKM_CONST BVH4_META_EMPTY = 0u;
-VKM_CONST BVH4_META_INTERIOR = 1u;
+VKM_CONST BVH4_CODE_EMPTY = 0u;
+VKM_CONST BVH4_CODE_INTERIOR = 1u;
 VKM_CONST BVH4_MAX_LEAF = 14u;
 VKM_CONST BVH4_STACK_SIZE = 96u;  // >= 3 x the deepest chain of interior nodes (collapse_bvh4 checks)
 struct GpuBvh4Node {

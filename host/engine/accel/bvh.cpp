@@ -354,12 +354,12 @@ uint32_t bvh4_child(const gpu::GpuBvh4Node& node, int k) {
     const uint32_t code[4] = {(w >> 24) & 0xFu, w >> 28, node.q1[2] >> 28, node.q1[3] >> 28};
     uint32_t node_rank = 0, tri_offset = 0;
     for (int j = 0; j < k; ++j) {
-        node_rank += code[j] == gpu::BVH4_META_INTERIOR;
-        tri_offset += code[j] > gpu::BVH4_META_INTERIOR ? code[j] - 1 : 0;
+        node_rank += code[j] == gpu::BVH4_CODE_INTERIOR;
+        tri_offset += code[j] > gpu::BVH4_CODE_INTERIOR ? code[j] - 1 : 0;
     }
     const uint32_t c = code[k];
-    if (c == gpu::BVH4_META_EMPTY) return gpu::BVH4_EMPTY;
-    if (c == gpu::BVH4_META_INTERIOR) return (node.q1[2] & gpu::BVH4_INDEX_MASK) + node_rank;
+    if (c == gpu::BVH4_CODE_EMPTY) return gpu::BVH4_EMPTY;
+    if (c == gpu::BVH4_CODE_INTERIOR) return (node.q1[2] & gpu::BVH4_INDEX_MASK) + node_rank;
     return ((node.q1[3] & gpu::BVH4_INDEX_MASK) + tri_offset) | ((c - 1) << gpu::BVH4_COUNT_SHIFT);
 }
 
@@ -407,14 +407,14 @@ std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh) {
             }
         }
         // The children's codes, the first interior child and the first leaf triangle.
-        uint32_t code[4] = {gpu::BVH4_META_EMPTY, gpu::BVH4_META_EMPTY, gpu::BVH4_META_EMPTY, gpu::BVH4_META_EMPTY};
+        uint32_t code[4] = {gpu::BVH4_CODE_EMPTY, gpu::BVH4_CODE_EMPTY, gpu::BVH4_CODE_EMPTY, gpu::BVH4_CODE_EMPTY};
         std::vector<uint32_t> interior;
         uint32_t first_tri = 0, next_tri = 0;
         bool any_leaf = false;
         for (size_t k = 0; k < kids.size(); ++k) {
             const uint32_t c = kids[k];
             if (count(c) == 0) {
-                code[k] = gpu::BVH4_META_INTERIOR;
+                code[k] = gpu::BVH4_CODE_INTERIOR;
                 interior.push_back(c);
                 continue;
             }
