@@ -322,7 +322,8 @@ std::vector<uint32_t> bvh4_root_kids(const Bvh& bvh) {
 // Reorders the triangles so that the leaf children of every 4-wide node
 // (bvh4_children) hold consecutive triangles in child order, as the node
 // encoding needs (one first triangle per node); leaves are moved whole, so
-// quad pairs stay together.
+// quad pairs stay together (after pair_quads: quad_next has an entry per
+// triangle).
 void group_bvh4_leaves(Bvh& bvh) {
     std::vector<uint32_t> order;
     std::vector<uint8_t> quad_next;
@@ -336,8 +337,7 @@ void group_bvh4_leaves(Bvh& bvh) {
             const uint32_t from = leaf_offset(bvh, c);
             bvh.nodes[c].bmin.w = std::bit_cast<float>(static_cast<uint32_t>(order.size()));
             order.insert(order.end(), bvh.order.begin() + from, bvh.order.begin() + from + count);
-            if (!bvh.quad_next.empty())
-                quad_next.insert(quad_next.end(), bvh.quad_next.begin() + from, bvh.quad_next.begin() + from + count);
+            quad_next.insert(quad_next.end(), bvh.quad_next.begin() + from, bvh.quad_next.begin() + from + count);
         }
         for (uint32_t c : kids)
             if (leaf_count(bvh, c) == 0) self(self, std::vector<uint32_t>{c + 1, leaf_offset(bvh, c)});
@@ -366,8 +366,6 @@ uint32_t bvh4_child(const gpu::GpuBvh4Node& node, int k) {
 std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh) {
     if (bvh.nodes.empty()) throw std::invalid_argument("collapse_bvh4: empty tree");
     const auto& nodes = bvh.nodes;
-    auto offset = [&](uint32_t n) { return leaf_offset(bvh, n); };
-    auto count = [&](uint32_t n) { return leaf_count(bvh, n); };
     constexpr uint32_t kLimit = gpu::BVH4_INDEX_MASK - 16u;
     if (bvh.order.size() > kLimit) throw std::length_error("collapse_bvh4: too many triangles for the 4-wide encoding");
     std::vector<gpu::GpuBvh4Node> out;
@@ -413,19 +411,19 @@ std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh) {
         bool any_leaf = false;
         for (size_t k = 0; k < kids.size(); ++k) {
             const uint32_t c = kids[k];
-            if (count(c) == 0) {
+            if (leaf_count(bvh, c) == 0) {
                 code[k] = gpu::BVH4_CODE_INTERIOR;
                 interior.push_back(c);
                 continue;
             }
-            if (count(c) > gpu::BVH4_MAX_LEAF)
+            if (leaf_count(bvh, c) > gpu::BVH4_MAX_LEAF)
                 throw std::length_error("collapse_bvh4: a leaf of more than " + std::to_string(gpu::BVH4_MAX_LEAF) + " triangles");
-            if (!any_leaf) first_tri = offset(c);
-            else if (offset(c) != next_tri)
+            if (!any_leaf) first_tri = leaf_offset(bvh, c);
+            else if (leaf_offset(bvh, c) != next_tri)
                 throw std::invalid_argument("collapse_bvh4: a node's leaf children do not hold consecutive triangles (build_bvh orders them so)");
             any_leaf = true;
-            next_tri = offset(c) + count(c);
-            code[k] = 1u + count(c);
+            next_tri = leaf_offset(bvh, c) + leaf_count(bvh, c);
+            code[k] = 1u + leaf_count(bvh, c);
         }
         const uint32_t first_node = static_cast<uint32_t>(out.size());
         if (first_node + interior.size() >= kLimit) throw std::length_error("collapse_bvh4: too many nodes for the 4-wide encoding");
@@ -435,7 +433,7 @@ std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh) {
         node.q1[3] = first_tri | code[3] << 28;
         out[index] = node;
         for (size_t j = 0; j < interior.size(); ++j)
-            self(self, std::vector<uint32_t>{interior[j] + 1, offset(interior[j])}, first_node + static_cast<uint32_t>(j), depth + 1);
+            self(self, std::vector<uint32_t>{interior[j] + 1, leaf_offset(bvh, interior[j])}, first_node + static_cast<uint32_t>(j), depth + 1);
     };
     out.emplace_back();
     emit(emit, bvh4_root_kids(bvh), 0u, 1u);
