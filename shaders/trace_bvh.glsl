@@ -83,13 +83,33 @@ void bvh_order(inout float da, inout uint ca, inout float db, inout uint cb) {
     cb = swap ? c : cb;
 }
 
-// Push and pop on bvh_trace's stack (registers s0..s7 over memory).
+// Push and pop on bvh_trace's stack (registers s0..s7 over memory). A push
+// shifts the registers down; the register that falls off the bottom has been
+// written to memory before (BVH_SPILL). A pop shifts them up and refills s7
+// from memory. On lavapipe an `if` whose body is a single short block runs
+// for every invocation (masked) whether or not any needs it, and a store or
+// load at a per-invocation index into the memory part is a loop over the
+// SIMD vector's invocations; so BVH_SPILL and the refill are written as
+// blocks with a second condition inside (the stack bound, which the tree
+// never reaches: collapse_bvh4 checks it), which lavapipe branches over when
+// no invocation of the vector needs memory (docs/performance.md).
 #define BVH_PUSH(x)                                   \
     {                                                 \
-        if (sp >= 8u) stack[sp - 8u] = s7;            \
         s7 = s6; s6 = s5; s5 = s4; s4 = s3;           \
         s3 = s2; s2 = s1; s1 = s0; s0 = (x);          \
         sp += 1u;                                     \
+    }
+// Before n pushes: the registers s7, s6, s5 (in that order) fall off the
+// bottom of the register part once the stack holds eight or more entries.
+#define BVH_SPILL(n)                                                        \
+    {                                                                       \
+        if (sp + (n) > 8u) {                                                \
+            if (sp + 3u <= BVH4_STACK_SIZE) {                               \
+                if (sp >= 8u) stack[sp - 8u] = s7;                          \
+                if (sp >= 7u && (n) >= 2u) stack[sp - 7u] = s6;             \
+                if (sp >= 6u && (n) >= 3u) stack[sp - 6u] = s5;             \
+            }                                                               \
+        }                                                                   \
     }
 #define BVH_POP(dst)                                  \
     {                                                 \
@@ -97,7 +117,9 @@ void bvh_order(inout float da, inout uint ca, inout float db, inout uint cb) {
         s0 = s1; s1 = s2; s2 = s3; s3 = s4;           \
         s4 = s5; s5 = s6; s6 = s7;                    \
         sp -= 1u;                                     \
-        if (sp >= 8u) s7 = stack[sp - 8u];            \
+        if (sp >= 8u) {                               \
+            if (sp < BVH4_STACK_SIZE) s7 = stack[sp - 8u]; \
+        }                                             \
     }
 
 // Closest hit (any_hit false) or any hit in (tmin, tmax). Interior nodes are
@@ -165,6 +187,8 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
             bvh_order(d1, c1, d2, c2);
             if (d0 < BVH_MISS) {
                 ref = c0;
+                // The hit children are sorted first: c1 .. cn are pushed.
+                BVH_SPILL(uint(d1 < BVH_MISS) + uint(d2 < BVH_MISS) + uint(d3 < BVH_MISS));
                 if (d3 < BVH_MISS) BVH_PUSH(c3);
                 if (d2 < BVH_MISS) BVH_PUSH(c2);
                 if (d1 < BVH_MISS) BVH_PUSH(c1);
