@@ -17,6 +17,7 @@
 #include <cmath>
 #include <filesystem>
 #include <functional>
+#include <random>
 
 using namespace vkmech;
 
@@ -44,11 +45,27 @@ double cpu_plane_hit(const SceneArrays& a, size_t prim, const gpu::GpuRay& r, do
 // Float traversal may accept hits this close outside an edge (barycentrics).
 constexpr double kEdgeSlack = 1e-5;
 
+// The edge slack where triangles are tiny against the ray's coordinates (the
+// deep-tree test): float rounding of the ray and the vertices, about
+// FLT_EPSILON x (|origin| + |vertex| + t), over the triangle's smallest
+// altitude, times a safety factor of 16. kEdgeSlack where that is smaller.
+double scaled_edge_slack(const SceneArrays& a, size_t prim, const gpu::GpuRay& r, double t) {
+    glm::dvec3 v0(a.tri_positions[3 * prim]), v1(a.tri_positions[3 * prim + 1]), v2(a.tri_positions[3 * prim + 2]);
+    const double twice_area = glm::length(glm::cross(v1 - v0, v2 - v0));
+    const double longest = std::max({glm::length(v1 - v0), glm::length(v2 - v1), glm::length(v0 - v2)});
+    if (!(twice_area > 0.0)) return kEdgeSlack;
+    const double altitude = twice_area / longest;
+    auto max_abs = [](glm::dvec3 v) { return std::max({std::abs(v.x), std::abs(v.y), std::abs(v.z)}); };
+    const double reach = max_abs(glm::dvec3(r.origin)) + max_abs(v0) + std::abs(t);
+    return std::max(kEdgeSlack, 16.0 * 1.1920929e-7 * reach / altitude);
+}
+
 // The distance to `prim`, -1 on a miss: the independent judge of ties.
-double cpu_hit(const SceneArrays& a, uint32_t prim, const gpu::GpuRay& r) {
+double cpu_hit(const SceneArrays& a, uint32_t prim, const gpu::GpuRay& r, bool scaled_slack = false) {
     double margin;
     double t = cpu_plane_hit(a, prim, r, margin);
-    return std::isnan(t) || margin < -kEdgeSlack ? -1.0 : t;
+    const double slack = scaled_slack && !std::isnan(t) ? scaled_edge_slack(a, prim, r, t) : kEdgeSlack;
+    return std::isnan(t) || margin < -slack ? -1.0 : t;
 }
 
 // Every project scene, loaded and flattened.
@@ -103,16 +120,57 @@ struct BruteForce {
     double possible = -1.0;  // nearest possible hit, -1: none
 };
 
-BruteForce brute_force(const SceneArrays& a, const gpu::GpuRay& r) {
+BruteForce brute_force(const SceneArrays& a, const gpu::GpuRay& r, bool scaled_slack = false) {
     BruteForce b;
     for (size_t prim = 0; prim < a.tri_positions.size() / 3; ++prim) {
         double margin;
         double t = cpu_plane_hit(a, prim, r, margin);
         if (!(t > r.origin.w && t < r.direction.w)) continue;  // also NaN
-        if (margin >= -kEdgeSlack && (b.possible < 0.0 || t < b.possible)) b.possible = t;
-        if (margin >= kEdgeSlack && (b.clear < 0.0 || t < b.clear)) b.clear = t;
+        const double slack = scaled_slack ? scaled_edge_slack(a, prim, r, t) : kEdgeSlack;
+        if (margin >= -slack && (b.possible < 0.0 || t < b.possible)) b.possible = t;
+        if (margin >= slack && (b.clear < 0.0 || t < b.clear)) b.clear = t;
     }
     return b;
+}
+
+// The software BVH's closest and any hits of `rays` judged against brute
+// force: bad counts the rays where a hit is missed, misreported or not the
+// nearest clear one, or where any-hit disagrees.
+struct Judged {
+    uint32_t clear_hits = 0, bad = 0;
+    std::string first_bad;
+};
+
+// scaled_slack: the edge slack of scaled_edge_slack (tiny triangles).
+Judged judge_bvh(const vkmech::vk::Context& ctx, const SceneArrays& arrays, const std::vector<gpu::GpuRay>& rays,
+                 bool scaled_slack = false) {
+    const size_t tris = arrays.tri_positions.size() / 3;
+    GpuScene bvh(ctx, arrays, Traversal::Bvh);
+    RayCaster caster(ctx, bvh);
+    auto closest = caster.trace(rays, false);
+    auto any = caster.trace(rays, true);
+    double extent = glm::length(arrays.bbox_hi - arrays.bbox_lo);
+    auto tol = [&](double t) { return 1e-4 * std::max(t, extent * 0.01); };
+    Judged j;
+    for (size_t i = 0; i < rays.size(); ++i) {
+        BruteForce b = brute_force(arrays, rays[i], scaled_slack);
+        const double t = closest[i].hit.x;
+        const uint32_t prim = std::bit_cast<uint32_t>(closest[i].hit.w);
+        std::string why;
+        if (t < 0.0) {
+            if (b.clear >= 0.0) why = "missed a clear hit at t=" + std::to_string(b.clear);
+        } else if (prim >= tris || std::abs(cpu_hit(arrays, prim, rays[i], scaled_slack) - t) > tol(t)) {
+            why = "reported prim " + std::to_string(prim) + " at t=" + std::to_string(t) + ", which it does not hit there";
+        } else if (b.clear >= 0.0 && b.clear < t - tol(t)) {
+            why = "reported t=" + std::to_string(t) + " past a clear hit at t=" + std::to_string(b.clear);
+        }
+        const bool any_hit = any[i].hit.x > 0.0f;
+        if (why.empty() && b.clear >= 0.0 && !any_hit) why = "any-hit missed a clear hit";
+        if (why.empty() && b.possible < 0.0 && any_hit) why = "any-hit reported a hit where there is none";
+        j.clear_hits += b.clear >= 0.0;
+        if (!why.empty() && j.bad++ == 0) j.first_bad = "ray " + std::to_string(i) + ": " + why;
+    }
+    return j;
 }
 
 }  // namespace
@@ -128,40 +186,61 @@ TEST_SUITE("gpu") {
             // About 5e7 ray-triangle tests a scene: 500 to 4000 rays.
             const uint32_t count = static_cast<uint32_t>(std::clamp<size_t>(50000000 / std::max<size_t>(tris, 1), 500, 4000));
             auto rays = random_rays(arrays, count, 7);
-            GpuScene bvh(*ctx, arrays, Traversal::Bvh);
-            RayCaster caster(*ctx, bvh);
-            auto closest = caster.trace(rays, false);
-            auto any = caster.trace(rays, true);
-            double extent = glm::length(arrays.bbox_hi - arrays.bbox_lo);
-            auto tol = [&](double t) { return 1e-4 * std::max(t, extent * 0.01); };
-            uint32_t clear_hits = 0, bad = 0;
-            std::string first_bad;
-            for (size_t i = 0; i < rays.size(); ++i) {
-                BruteForce b = brute_force(arrays, rays[i]);
-                const double t = closest[i].hit.x;
-                const uint32_t prim = std::bit_cast<uint32_t>(closest[i].hit.w);
-                std::string why;
-                if (t < 0.0) {
-                    if (b.clear >= 0.0) why = "missed a clear hit at t=" + std::to_string(b.clear);
-                } else if (prim >= tris || std::abs(cpu_hit(arrays, prim, rays[i]) - t) > tol(t)) {
-                    why = "reported prim " + std::to_string(prim) + " at t=" + std::to_string(t) + ", which it does not hit there";
-                } else if (b.clear >= 0.0 && b.clear < t - tol(t)) {
-                    why = "reported t=" + std::to_string(t) + " past a clear hit at t=" + std::to_string(b.clear);
-                }
-                const bool any_hit = any[i].hit.x > 0.0f;
-                if (why.empty() && b.clear >= 0.0 && !any_hit) why = "any-hit missed a clear hit";
-                if (why.empty() && b.possible < 0.0 && any_hit) why = "any-hit reported a hit where there is none";
-                clear_hits += b.clear >= 0.0;
-                if (!why.empty() && bad++ == 0) first_bad = "ray " + std::to_string(i) + ": " + why;
-            }
-            INFO(first_bad);
-            CHECK(bad == 0);
-            CHECK(clear_hits > count / 10);  // the rays really hit the scene
-            MESSAGE(path << ": " << count << " rays, " << clear_hits << " clear hits, all agree with brute force");
+            const Judged j = judge_bvh(*ctx, arrays, rays);
+            INFO(j.first_bad);
+            CHECK(j.bad == 0);
+            CHECK(j.clear_hits > count / 10);  // the rays really hit the scene
+            MESSAGE(path << ": " << count << " rays, " << j.clear_hits << " clear hits, all agree with brute force");
         });
         CHECK(ctx->validation_messages() == 0);
     }
 
+
+    TEST_CASE("traversal: a tree deeper than the stack's registers agrees with brute force (the stack's memory part)") {
+        // Triangles shrinking geometrically towards a point: the builder's deepest trees (tests/test_bvh.cpp),
+        // and rays aimed into the cluster descend through them deferring siblings level after level, so the
+        // traversal stack grows past its eight registers into memory (spills of one, two and three children
+        // at once, refills on pop).
+        VKMECH_REQUIRE_GPU(ctx);
+        Scene scene = testing::quad_scene();
+        Mesh& m = scene.meshes[0];
+        m.kind = ShapeKind::Mesh;
+        m.positions.clear();
+        m.indices.clear();
+        float s = 1.0f;
+        for (uint32_t i = 0; i < 3000; ++i, s *= 0.995f) {
+            const glm::vec3 c(s, 0.3f * s, 0.1f * s);
+            for (glm::vec3 v : {glm::vec3(0, 0, 0), glm::vec3(0.1f, 0, 0), glm::vec3(0, 0.1f, 0.05f)}) m.positions.push_back(c + s * v);
+            m.indices.push_back({3 * i, 3 * i + 1, 3 * i + 2});
+        }
+        SceneArrays arrays = flatten_scene(scene);
+        // Rays from around the cluster (unit distance) towards points near it, concentrated towards its small
+        // end: they pass through level after level of boxes. The triangles they meet may be tiny against
+        // their coordinates (down to 3e-7), so hits are judged with an edge slack scaled to float rounding.
+        std::mt19937 rng(11);
+        std::uniform_real_distribution<float> u(0.0f, 1.0f);
+        std::vector<gpu::GpuRay> rays;
+        for (int k = 0; k < 3000; ++k) {
+            const glm::vec3 target = glm::vec3(u(rng), 0.3f * u(rng), 0.1f * u(rng)) * std::pow(u(rng), 4.0f);
+            const glm::vec3 from = target + glm::vec3(2.0f * u(rng) - 1.0f, 2.0f * u(rng) - 1.0f, 2.0f * u(rng) - 1.0f);
+            rays.push_back({glm::vec4(from, 0.0f), glm::vec4(glm::normalize(target - from), 1e30f)});
+        }
+        GpuScene g(*ctx, arrays, Traversal::Bvh);
+        RayCaster caster(*ctx, g);
+        uint32_t deepest = 0, past_registers = 0;
+        for (const auto& w : caster.trace_work(rays)) {
+            deepest = std::max(deepest, w.stack);
+            past_registers += w.stack > 8;
+        }
+        MESSAGE("deepest stack " << deepest << ", " << past_registers << " of " << rays.size() << " rays past the eight registers");
+        CHECK(deepest > 16);  // twice the registers: spills of up to three at once, many levels into memory
+        CHECK(past_registers >= 20);
+        const Judged j = judge_bvh(*ctx, arrays, rays, true);
+        INFO(j.first_bad);
+        CHECK(j.bad == 0);
+        CHECK(j.clear_hits > rays.size() / 10);
+        CHECK(ctx->validation_messages() == 0);
+    }
 
     TEST_CASE("traversal: ray query and BVH agree on every scene (100k random rays)") {
         VKMECH_REQUIRE_GPU(ctx);
