@@ -15,4 +15,12 @@ std::vector<std::string> project_scene_paths();
 // no emitter.
 Scene quad_scene();
 
+// Triangles whose sizes and positions shrink geometrically towards the
+// origin (a fractal, or a scene mixing kilometres and millimetres): triangle
+// i has scale s = ratio^i and vertices c + s (0,0,0), c + s (0.1,0,0),
+// c + s (0,0.1,0.05) with c = s (1, 0.3, z_slope); at most max_count of
+// them, and none below scale 1e-30. Three positions per triangle. Binned SAH
+// peels a few off per level, so these make the builder's deepest trees.
+std::vector<glm::vec3> graded_triangles(uint32_t max_count, float ratio, float z_slope = 0.0f);
+
 }  // namespace vkmech::testing

@@ -165,12 +165,7 @@ TEST_CASE("bvh: geometrically graded triangles do not make a tree deeper than th
     // as deep as there are scales, and the traversal stack (then 64 entries; BVH4_STACK_SIZE since) would drop
     // subtrees silently.
     for (float ratio : {0.5f, 0.9f, 0.98f, 0.99f}) {
-        std::vector<glm::vec3> pos;
-        float s = 1.0f;
-        for (int i = 0; i < 20000 && s > 1e-30f; ++i, s *= ratio) {
-            const glm::vec3 c(s, 0.3f * s, 0.0f);
-            for (glm::vec3 v : {glm::vec3(0, 0, 0), glm::vec3(0.1f, 0, 0), glm::vec3(0, 0.1f, 0.05f)}) pos.push_back(c + s * v);
-        }
+        const std::vector<glm::vec3> pos = testing::graded_triangles(20000, ratio);
         Bvh bvh = build_bvh(pos);
         CHECK(validate_bvh(bvh, in_bvh_order(bvh, pos)) == "");
         const BvhStats st = bvh_stats(bvh);
@@ -324,12 +319,7 @@ TEST_CASE("bvh: the 4-wide tree of every project scene and of a graded deep tree
         CHECK(check_bvh4(a.bvh4, pos) == "");
     }
     // The deepest binary trees the builder makes (kBvhMaxDepth) still fit the traversal stack.
-    std::vector<glm::vec3> pos;
-    float s = 1.0f;
-    for (int i = 0; i < 20000 && s > 1e-30f; ++i, s *= 0.99f) {
-        const glm::vec3 c(s, 0.3f * s, 0.0f);
-        for (glm::vec3 v : {glm::vec3(0, 0, 0), glm::vec3(0.1f, 0, 0), glm::vec3(0, 0.1f, 0.05f)}) pos.push_back(c + s * v);
-    }
+    const std::vector<glm::vec3> pos = testing::graded_triangles(20000, 0.99f);
     Bvh bvh = build_bvh(pos);
     uint32_t depth = 0;
     auto nodes = collapse_bvh4(bvh);

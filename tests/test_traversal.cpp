@@ -60,12 +60,16 @@ double scaled_edge_slack(const SceneArrays& a, size_t prim, const gpu::GpuRay& r
     return std::max(kEdgeSlack, 16.0 * 1.1920929e-7 * reach / altitude);
 }
 
+// The edge slack a judge allows: kEdgeSlack, or scaled_edge_slack for tiny triangles.
+double edge_slack(bool scaled, const SceneArrays& a, size_t prim, const gpu::GpuRay& r, double t) {
+    return scaled ? scaled_edge_slack(a, prim, r, t) : kEdgeSlack;
+}
+
 // The distance to `prim`, -1 on a miss: the independent judge of ties.
 double cpu_hit(const SceneArrays& a, uint32_t prim, const gpu::GpuRay& r, bool scaled_slack = false) {
     double margin;
     double t = cpu_plane_hit(a, prim, r, margin);
-    const double slack = scaled_slack && !std::isnan(t) ? scaled_edge_slack(a, prim, r, t) : kEdgeSlack;
-    return std::isnan(t) || margin < -slack ? -1.0 : t;
+    return std::isnan(t) || margin < -edge_slack(scaled_slack, a, prim, r, t) ? -1.0 : t;
 }
 
 // Every project scene, loaded and flattened.
@@ -126,7 +130,7 @@ BruteForce brute_force(const SceneArrays& a, const gpu::GpuRay& r, bool scaled_s
         double margin;
         double t = cpu_plane_hit(a, prim, r, margin);
         if (!(t > r.origin.w && t < r.direction.w)) continue;  // also NaN
-        const double slack = scaled_slack ? scaled_edge_slack(a, prim, r, t) : kEdgeSlack;
+        const double slack = edge_slack(scaled_slack, a, prim, r, t);
         if (margin >= -slack && (b.possible < 0.0 || t < b.possible)) b.possible = t;
         if (margin >= slack && (b.clear < 0.0 || t < b.clear)) b.clear = t;
     }
@@ -141,12 +145,11 @@ struct Judged {
     std::string first_bad;
 };
 
+// caster: a RayCaster on the software-BVH GpuScene of `arrays`.
 // scaled_slack: the edge slack of scaled_edge_slack (tiny triangles).
-Judged judge_bvh(const vkmech::vk::Context& ctx, const SceneArrays& arrays, const std::vector<gpu::GpuRay>& rays,
+Judged judge_bvh(RayCaster& caster, const SceneArrays& arrays, const std::vector<gpu::GpuRay>& rays,
                  bool scaled_slack = false) {
     const size_t tris = arrays.tri_positions.size() / 3;
-    GpuScene bvh(ctx, arrays, Traversal::Bvh);
-    RayCaster caster(ctx, bvh);
     auto closest = caster.trace(rays, false);
     auto any = caster.trace(rays, true);
     double extent = glm::length(arrays.bbox_hi - arrays.bbox_lo);
@@ -186,7 +189,9 @@ TEST_SUITE("gpu") {
             // About 5e7 ray-triangle tests a scene: 500 to 4000 rays.
             const uint32_t count = static_cast<uint32_t>(std::clamp<size_t>(50000000 / std::max<size_t>(tris, 1), 500, 4000));
             auto rays = random_rays(arrays, count, 7);
-            const Judged j = judge_bvh(*ctx, arrays, rays);
+            GpuScene bvh(*ctx, arrays, Traversal::Bvh);
+            RayCaster caster(*ctx, bvh);
+            const Judged j = judge_bvh(caster, arrays, rays);
             INFO(j.first_bad);
             CHECK(j.bad == 0);
             CHECK(j.clear_hits > count / 10);  // the rays really hit the scene
@@ -205,14 +210,9 @@ TEST_SUITE("gpu") {
         Scene scene = testing::quad_scene();
         Mesh& m = scene.meshes[0];
         m.kind = ShapeKind::Mesh;
-        m.positions.clear();
         m.indices.clear();
-        float s = 1.0f;
-        for (uint32_t i = 0; i < 3000; ++i, s *= 0.995f) {
-            const glm::vec3 c(s, 0.3f * s, 0.1f * s);
-            for (glm::vec3 v : {glm::vec3(0, 0, 0), glm::vec3(0.1f, 0, 0), glm::vec3(0, 0.1f, 0.05f)}) m.positions.push_back(c + s * v);
-            m.indices.push_back({3 * i, 3 * i + 1, 3 * i + 2});
-        }
+        m.positions = testing::graded_triangles(3000, 0.995f, 0.1f);
+        for (uint32_t i = 0; 3 * i < m.positions.size(); ++i) m.indices.push_back({3 * i, 3 * i + 1, 3 * i + 2});
         SceneArrays arrays = flatten_scene(scene);
         // Rays from around the cluster (unit distance) towards points near it, concentrated towards its small
         // end: they pass through level after level of boxes. The triangles they meet may be tiny against
@@ -235,7 +235,7 @@ TEST_SUITE("gpu") {
         MESSAGE("deepest stack " << deepest << ", " << past_registers << " of " << rays.size() << " rays past the eight registers");
         CHECK(deepest > 16);  // twice the registers: spills of up to three at once, many levels into memory
         CHECK(past_registers >= 20);
-        const Judged j = judge_bvh(*ctx, arrays, rays, true);
+        const Judged j = judge_bvh(caster, arrays, rays, true);
         INFO(j.first_bad);
         CHECK(j.bad == 0);
         CHECK(j.clear_hits > rays.size() / 10);
