@@ -3,6 +3,7 @@
 #include "cli_run.hpp"
 #include "gpu_fixture.hpp"
 #include "io/exr.hpp"
+#include "temp_dir.hpp"
 
 #include <doctest/doctest.h>
 
@@ -66,6 +67,43 @@ TEST_CASE("cli: a malformed scene file is reported with file and line - exit 2")
 }
 
 TEST_SUITE("gpu") {
+    TEST_CASE("cli: bench traversal --bvh-only measures the software BVH and not ray query") {
+        VKMECH_REQUIRE_GPU(ctx);
+        vkmech::testing::TempDir dir("cli_bench_trav");
+        // The scene's row: name, triangles, ray query Mray/s (or a word), BVH Mray/s.
+        auto row = [](const std::string& output) {
+            std::istringstream lines(output);
+            std::string line;
+            while (std::getline(lines, line))
+                if (line.rfind("cubes_dof ", 0) == 0) {
+                    std::istringstream cells(line);
+                    std::vector<std::string> c;
+                    for (std::string x; cells >> x;) c.push_back(x);
+                    return c;
+                }
+            return std::vector<std::string>{};
+        };
+        auto r = run_cli("bench traversal --scenes cubes_dof --rays 1000 --bvh-only --dump " + (dir.path / "a").string());
+        INFO(r.output);
+        REQUIRE(r.code == 0);
+        std::vector<std::string> c = row(r.output);
+        REQUIRE(c.size() == 4);
+        CHECK(c[2] == "skipped");
+        CHECK(std::stod(c[3]) > 0.0);
+        const std::string json = vkmech::testing::read_text(dir.path / "a" / "cubes_dof.json");
+        CHECK(json.find("\"rayquery_rays_per_second\": null") != std::string::npos);
+        CHECK(json.find("\"bvh_rays_per_second\": null") == std::string::npos);
+
+        // Without the flag a device with ray query measures both.
+        if (ctx->ray_query_enabled()) {
+            r = run_cli("bench traversal --scenes cubes_dof --rays 1000");
+            REQUIRE(r.code == 0);
+            c = row(r.output);
+            REQUIRE(c.size() == 4);
+            CHECK(std::stod(c[2]) > 0.0);
+        }
+    }
+
     TEST_CASE("cli: vkmech --scene ring_caustic writes an EXR and a PNG") {
         VKMECH_REQUIRE_GPU(ctx);
         fs::path out = fs::temp_directory_path() / ("vkmech_cli_out_" + std::to_string(::getpid()));

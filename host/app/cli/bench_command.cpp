@@ -117,9 +117,9 @@ int cmd_bench_traversal(const BenchOptions& o) {
             return rays.size() / s[1];
         };
         std::optional<double> rq;
-        if (ctx.ray_query_enabled()) rq = measure(Traversal::RayQuery);
+        if (ctx.ray_query_enabled() && !o.bvh_only) rq = measure(Traversal::RayQuery);
         const double bvh = measure(Traversal::Bvh);
-        std::string rq_text = rq ? std::to_string(*rq / 1e6).substr(0, 6) : "n/a";
+        std::string rq_text = rq ? std::to_string(*rq / 1e6).substr(0, 6) : o.bvh_only ? "skipped" : "n/a";
         std::string bvh_text = std::to_string(bvh / 1e6).substr(0, 6);
         std::printf("%-22s %10zu %16s %16s\n", scene_stem(n).c_str(), arrays.triangles.size(), rq_text.c_str(),
                     bvh_text.c_str());

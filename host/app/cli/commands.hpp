@@ -92,6 +92,7 @@ struct BenchOptions {
     std::optional<std::string> pipeline_cache;
     std::optional<std::string> dump_dir;  // bench traversal --dump DIR
     bool counters = false;                // bench traversal --counters: the software BVH's work per ray
+    bool bvh_only = false;                // bench traversal --bvh-only: no ray-query measurement
 };
 
 // `vkmech bench traversal` traces random_rays(arrays, rays, kBenchTraversalSeed)

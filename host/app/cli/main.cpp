@@ -110,6 +110,9 @@ int main(int argc, char** argv) {
                          "Also trace the rays once with the instrumented software-BVH shader and print its work per "
                          "ray: interior nodes, leaves, triangles tested (mean, and mean of the maximum over groups of "
                          "8 and 32 consecutive rays: one SIMD vector on lavapipe, one warp on NVIDIA), deepest stack");
+    bench_trav->add_flag("--bvh-only", bench_opts.bvh_only,
+                         "Measure the software BVH alone, not ray query (shorter; a profiler attached to the process "
+                         "then samples only the software BVH)");
     add_pipeline_cache_option(bench_trav, bench_opts.pipeline_cache);
 
     auto* bench_render = bench->add_subcommand(
