@@ -129,6 +129,27 @@ void bvh_order(inout float da, inout uint ca, inout float db, inout uint cb) {
 // children are visited near to far (the nearest next, the others pushed far
 // first). Slab test robust to rounding at grazing slabs (Ize 2013: the far
 // bound is scaled up).
+//
+// With BVH_STREAM (tracerays.comp on CPU devices) the same traversal is
+// bvh_trace_stream instead, which traces the rays [begin, end) of a buffer
+// with the invocations of one subgroup: an invocation whose ray is done
+// waits until BVH_STREAM_REFILL of them are, then they write their hits
+// (bvh_stream_hit) and take the next rays (bvh_stream_ray) together, so that
+// a SIMD vector no longer runs as long as the slowest of a fixed group of
+// rays. It relies on the subgroup's invocations meeting at the loop's head
+// (lavapipe runs them as one masked vector).
+#ifdef BVH_STREAM
+void bvh_trace_stream(uint begin, uint end, bool any_hit) {
+    uint next = begin;  // the slice's first ray not yet taken (the same in every invocation)
+    uint id = 0xFFFFFFFFu;
+    vec3 o = vec3(0.0), d = vec3(0.0), inv_d = vec3(0.0);
+    bvec3 neg = bvec3(false);
+    float tmin = 0.0;
+    Hit hit;
+    hit.t = 0.0;
+    hit.prim = 0xFFFFFFFFu;
+    hit.bary = vec2(0.0);
+#else
 bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit) {
     hit.t = tmax;
     hit.prim = 0xFFFFFFFFu;
@@ -136,6 +157,7 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
     BVH_COUNT(bvh_count_rays += 1u);
     vec3 inv_d = safe_inverse(d);
     bvec3 neg = lessThan(inv_d, vec3(0.0));  // the far plane is a box's lower bound on these axes
+#endif
     // The stack's top eight entries live in registers (s0 the top), the rest
     // in memory: a push or pop is eight vector selects, and only a stack
     // deeper than eight touches memory (per invocation on lavapipe).
@@ -143,8 +165,40 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
     uint sp = 0u;
     uint s0 = 0u, s1 = 0u, s2 = 0u, s3 = 0u, s4 = 0u, s5 = 0u, s6 = 0u, s7 = 0u;
     const uint DONE = 0xFFFFFFFFu;
+#ifdef BVH_STREAM
+    uint ref = DONE;
+    const uint lanes = subgroupBallotBitCount(subgroupBallot(true));
+    const uint refill_at = clamp(BVH_STREAM_REFILL, 1u, lanes);
+    for (;;) {
+        uvec4 idle = subgroupBallot(ref == DONE);
+        uint n = subgroupBallotBitCount(idle);
+        if (n >= (next < end ? refill_at : lanes)) {
+            if (ref == DONE) {
+                if (id != DONE) bvh_stream_hit(id, hit.t, hit.prim, hit.bary);
+                id = next + subgroupBallotExclusiveBitCount(idle);
+                if (id < end) {
+                    GpuRay r = bvh_stream_ray(id);
+                    o = r.origin.xyz;
+                    d = r.direction.xyz;
+                    tmin = r.origin.w;
+                    hit.t = r.direction.w;
+                    hit.prim = DONE;
+                    hit.bary = vec2(0.0);
+                    inv_d = safe_inverse(d);
+                    neg = lessThan(inv_d, vec3(0.0));
+                    sp = 0u;
+                    ref = 0u;
+                } else {
+                    id = DONE;
+                }
+            }
+            if (next >= end) break;
+            next += n;
+        }
+#else
     uint ref = 0u;  // the root: interior node 0
     while (ref != DONE) {
+#endif
         while (ref != DONE && (ref >> BVH4_COUNT_SHIFT) == 0u) {
             BVH_COUNT(bvh_count_nodes += 1u);
             uvec4 head = texelFetch(bvh_nodes, int(3u * ref));
@@ -199,7 +253,11 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
                 BVH_POP(ref);
             }
         }
+#ifdef BVH_STREAM
+        if (ref == DONE) continue;
+#else
         if (ref == DONE) break;
+#endif
         uint offset = ref & BVH4_INDEX_MASK;
         uint count = ref >> BVH4_COUNT_SHIFT;
         BVH_COUNT(bvh_count_leaves += 1u; bvh_count_tris += count);
@@ -226,16 +284,26 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
             }
             k += quad ? 2u : 1u;
         }
+#ifdef BVH_STREAM
+        if (any_hit && hit.prim != DONE) {
+            ref = DONE;
+            continue;
+        }
+#else
         if (any_hit && hit.prim != 0xFFFFFFFFu) return true;
+#endif
         if (sp == 0u) {
             ref = DONE;
         } else {
             BVH_POP(ref);
         }
     }
+#ifndef BVH_STREAM
     return hit.prim != 0xFFFFFFFFu;
+#endif
 }
 
+#ifndef BVH_STREAM
 bool trace_closest(vec3 o, vec3 d, float tmin, float tmax, out Hit hit) {
     return bvh_trace(o, d, tmin, tmax, false, hit);
 }
@@ -244,5 +312,6 @@ bool trace_any(vec3 o, vec3 d, float tmin, float tmax) {
     Hit h;
     return bvh_trace(o, d, tmin, tmax, true, h);
 }
+#endif
 
 #endif

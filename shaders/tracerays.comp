@@ -3,7 +3,10 @@
 // agreement test and `vkmech bench traversal`. With VKMECH_COUNTERS (software
 // BVH only) it records instead the traversal's work per ray, as uint bits:
 // interior nodes, leaves, triangles tested, deepest stack
-// (`bench traversal --counters`).
+// (`bench traversal --counters`). On the software BVH it traces, unless
+// VKMECH_ONE_RAY_PER_INVOCATION, a slice of pc.rays_per_group rays per
+// workgroup, an invocation taking the slice's next ray when its own is done
+// (bvh_trace_stream; host RaySchedule).
 #extension GL_GOOGLE_include_directive : require
 #include "shared/types.h"
 #include "shared/bindings.h"
@@ -12,11 +15,35 @@ layout(local_size_x = 64) in;
 
 layout(std430, set = 0, binding = BINDING_RAYS) readonly buffer Rays { GpuRay rays[]; };
 layout(std430, set = 0, binding = BINDING_HITS) writeonly buffer Hits { GpuHit hits[]; };
-layout(push_constant) uniform Push { uint ray_count; uint any_hit; } pc;
+layout(push_constant) uniform Push { uint ray_count; uint any_hit; uint rays_per_group; } pc;
+
+#if defined(TRAVERSAL_BVH) && !defined(VKMECH_COUNTERS) && !defined(VKMECH_ONE_RAY_PER_INVOCATION)
+#extension GL_KHR_shader_subgroup_ballot : require
+#define BVH_STREAM
+#ifndef BVH_STREAM_REFILL
+#define BVH_STREAM_REFILL (gl_SubgroupSize / 2u)
+#endif
+GpuRay bvh_stream_ray(uint id) { return rays[id]; }
+void bvh_stream_hit(uint id, float t, uint prim, vec2 bary) {
+    const bool found = prim != 0xFFFFFFFFu;
+    if (pc.any_hit != 0u) {
+        hits[id].hit = vec4(found ? 1.0 : -1.0, 0.0, 0.0, 0.0);
+    } else {
+        hits[id].hit = found ? vec4(t, bary, uintBitsToFloat(prim)) : vec4(-1.0, 0.0, 0.0, uintBitsToFloat(0xFFFFFFFFu));
+    }
+}
+#endif
 
 #include "traversal.glsl"
 
 void main() {
+#ifdef BVH_STREAM
+    // This subgroup's share of the workgroup's slice of rays.
+    uint first = gl_WorkGroupID.x * pc.rays_per_group;
+    uint begin = min(first + gl_SubgroupID * pc.rays_per_group / gl_NumSubgroups, pc.ray_count);
+    uint end = min(first + (gl_SubgroupID + 1u) * pc.rays_per_group / gl_NumSubgroups, pc.ray_count);
+    bvh_trace_stream(begin, end, pc.any_hit != 0u);
+#else
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.ray_count) return;
     GpuRay r = rays[i];
@@ -36,4 +63,5 @@ void main() {
     } else {
         hits[i].hit = vec4(-1.0, 0.0, 0.0, uintBitsToFloat(0xFFFFFFFFu));
     }
+#endif
 }

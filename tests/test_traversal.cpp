@@ -14,6 +14,7 @@
 
 #include <bit>
 #include <algorithm>
+#include <cstring>
 #include <cmath>
 #include <filesystem>
 #include <functional>
@@ -336,6 +337,43 @@ TEST_SUITE("gpu") {
         // Counts add up over renders.
         rb.render(spec);
         CHECK(rb.counters().rays == 2.0 * c.rays);
+        CHECK(ctx->validation_messages() == 0);
+    }
+
+    TEST_CASE("traversal: a ray's hit does not depend on the other rays of its batch, and every ray gets one") {
+        // The software BVH's ray kernel hands each subgroup a slice of the rays and
+        // an invocation whose ray is done the slice's next one (tracerays.comp): a ray's
+        // hit must be the same bits whichever invocation traces it, at any batch size
+        // (one ray, a slice and one, a partial last slice), and no ray may be skipped.
+        VKMECH_REQUIRE_GPU(ctx);
+        std::string path;
+        for (const auto& p : testing::project_scene_paths())
+            if (p.find("glass_caustic") != std::string::npos) path = p;
+        REQUIRE(!path.empty());
+        SceneArrays arrays = flatten_scene(load_scene(path));
+        auto rays = random_rays(arrays, 6000, 11);
+        GpuScene g(*ctx, arrays, Traversal::Bvh);
+        RayCaster caster(*ctx, g);
+        for (bool any_hit : {false, true}) {
+            CAPTURE(any_hit);
+            const auto all = caster.trace(rays, any_hit);
+            uint32_t hits = 0;
+            for (const auto& h : all) {
+                CHECK(h.hit.x != 0.0f);  // written: a hit's t is positive, a miss -1 (the buffer starts as zeros)
+                hits += h.hit.x > 0.0f;
+            }
+            CHECK(hits > rays.size() / 10);
+            const std::pair<size_t, size_t> batches[] = {{0, 1}, {4321, 1}, {5, 7}, {3, 2049}, {100, 4099}, {1, 5999}};
+            for (const auto& [first, count] : batches) {
+                CAPTURE(first);
+                CAPTURE(count);
+                std::vector<gpu::GpuRay> part(rays.begin() + first, rays.begin() + first + count);
+                const auto got = caster.trace(part, any_hit);
+                uint32_t differ = 0;
+                for (size_t i = 0; i < count; ++i) differ += std::memcmp(&got[i], &all[first + i], sizeof(gpu::GpuHit)) != 0;
+                CHECK(differ == 0);
+            }
+        }
         CHECK(ctx->validation_messages() == 0);
     }
 

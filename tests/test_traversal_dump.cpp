@@ -45,6 +45,7 @@ TEST_CASE("traversal dump: triangles rays and hits read back bit for bit") {
     info.device = "llvmpipe \"test\"";
     info.seed = 1;
     info.bvh_rays_per_second = 1.5e6;
+    info.bvh_per_invocation_rays_per_second = 1.25e6;
     write_traversal_dump(dir.path / "sub", "two", d, info);
 
     TraversalDump back = read_traversal_dump(dir.path / "sub", "two");
@@ -64,6 +65,7 @@ TEST_CASE("traversal dump: triangles rays and hits read back bit for bit") {
     CHECK(json.find("\"triangles\": 2,") != std::string::npos);
     CHECK(json.find("\"rays\": 2,") != std::string::npos);
     CHECK(json.find("\"bvh_rays_per_second\": 1.5e+06,") != std::string::npos);
+    CHECK(json.find("\"bvh_per_invocation_rays_per_second\": 1.25e+06,") != std::string::npos);
     CHECK(json.find("\"rayquery_rays_per_second\": null") != std::string::npos);
     CHECK(json.find("llvmpipe \\\"test\\\"") != std::string::npos);
 }

@@ -100,35 +100,38 @@ int cmd_bench_traversal(const BenchOptions& o) {
     vk::Context ctx(bench_context_options(o));
     std::printf("device: %s (%s), %u random rays per measurement (closest hit; median of 3; seed %u)\n",
                 ctx.info().name.c_str(), ctx.info().type.c_str(), o.rays, kBenchTraversalSeed);
-    std::printf("%-22s %10s %16s %16s\n", "scene", "triangles", "rayquery Mray/s", "bvh Mray/s");
+    std::printf("%-22s %10s %16s %16s %20s\n", "scene", "triangles", "rayquery Mray/s", "bvh Mray/s",
+                "bvh 1 ray/inv Mray/s");
     for (const auto& n : names) {
         Scene scene = load_scene(resolve_scene_path(n));
         SceneArrays arrays = flatten_scene(scene);
         auto rays = random_rays(arrays, o.rays, kBenchTraversalSeed);
         std::vector<gpu::GpuHit> bvh_hits;
-        auto measure = [&](Traversal t) -> double {
+        auto measure = [&](Traversal t, RaySchedule schedule) -> double {
             GpuScene g(ctx, arrays, t);
             RayCaster caster(ctx, g);
-            auto hits = caster.trace(rays, false);  // warm-up
-            if (t == Traversal::Bvh) bvh_hits = std::move(hits);
+            auto hits = caster.trace(rays, false, nullptr, schedule);  // warm-up
+            if (t == Traversal::Bvh && schedule == RaySchedule::Auto) bvh_hits = std::move(hits);
             std::vector<double> s(3);
-            for (auto& x : s) caster.trace(rays, false, &x);
+            for (auto& x : s) caster.trace(rays, false, &x, schedule);
             std::sort(s.begin(), s.end());
             return rays.size() / s[1];
         };
         std::optional<double> rq;
-        if (ctx.ray_query_enabled() && !o.bvh_only) rq = measure(Traversal::RayQuery);
-        const double bvh = measure(Traversal::Bvh);
-        std::string rq_text = rq ? std::to_string(*rq / 1e6).substr(0, 6) : o.bvh_only ? "skipped" : "n/a";
-        std::string bvh_text = std::to_string(bvh / 1e6).substr(0, 6);
-        std::printf("%-22s %10zu %16s %16s\n", scene_stem(n).c_str(), arrays.triangles.size(), rq_text.c_str(),
-                    bvh_text.c_str());
+        if (ctx.ray_query_enabled() && !o.bvh_only) rq = measure(Traversal::RayQuery, RaySchedule::Auto);
+        const double bvh = measure(Traversal::Bvh, RaySchedule::Auto);
+        const double bvh_per_invocation = measure(Traversal::Bvh, RaySchedule::PerInvocation);
+        auto mray = [](double r) { return std::to_string(r / 1e6).substr(0, 6); };
+        std::string rq_text = rq ? mray(*rq) : o.bvh_only ? "skipped" : "n/a";
+        std::printf("%-22s %10zu %16s %16s %20s\n", scene_stem(n).c_str(), arrays.triangles.size(), rq_text.c_str(),
+                    mray(bvh).c_str(), mray(bvh_per_invocation).c_str());
         if (o.counters) print_traversal_work(ctx, arrays, rays);
         if (o.dump_dir) {
             TraversalDumpInfo info;
             info.device = ctx.info().name;
             info.seed = kBenchTraversalSeed;
             info.bvh_rays_per_second = bvh;
+            info.bvh_per_invocation_rays_per_second = bvh_per_invocation;
             info.rayquery_rays_per_second = rq;
             write_traversal_dump(*o.dump_dir, scene_stem(n), make_traversal_dump(arrays, rays, bvh_hits), info);
         }

@@ -13,14 +13,17 @@ namespace vkmech {
 
 RayCaster::RayCaster(const vk::Context& ctx, const GpuScene& scene) : ctx_(ctx), scene_(scene) {}
 
-std::vector<gpu::GpuHit> RayCaster::trace(const std::vector<gpu::GpuRay>& rays, bool any_hit, double* seconds) {
-    return dispatch(rays, any_hit, false, seconds);
+std::vector<gpu::GpuHit> RayCaster::trace(const std::vector<gpu::GpuRay>& rays, bool any_hit, double* seconds,
+                                          RaySchedule schedule) {
+    const bool slices = schedule == RaySchedule::Auto && scene_.traversal() == Traversal::Bvh &&
+                        ctx_.info().type == "cpu" && ctx_.info().compute_subgroup_ballot;
+    return dispatch(rays, any_hit, false, slices, seconds);
 }
 
 std::vector<RayCaster::Work> RayCaster::trace_work(const std::vector<gpu::GpuRay>& rays) {
     if (scene_.traversal() == Traversal::RayQuery)
         throw std::invalid_argument("traversal counters exist for the software BVH only");
-    std::vector<gpu::GpuHit> raw = dispatch(rays, false, true, nullptr);
+    std::vector<gpu::GpuHit> raw = dispatch(rays, false, true, false, nullptr);
     std::vector<Work> work(raw.size());
     for (size_t i = 0; i < raw.size(); ++i) {
         const glm::vec4& h = raw[i].hit;
@@ -31,12 +34,12 @@ std::vector<RayCaster::Work> RayCaster::trace_work(const std::vector<gpu::GpuRay
 }
 
 std::vector<gpu::GpuHit> RayCaster::dispatch(const std::vector<gpu::GpuRay>& rays, bool any_hit, bool counters,
-                                             double* seconds) {
+                                             bool slices, double* seconds) {
     using DT = ::vk::DescriptorType;
     using namespace gpu;
     std::vector<vk::BindingDesc> bindings = {{BINDING_RAYS, DT::eStorageBuffer}, {BINDING_HITS, DT::eStorageBuffer}};
     for (const auto& b : traversal_bindings(scene_.traversal())) bindings.push_back(b);
-    vk::ComputePipeline pipe(ctx_, tracerays_spirv(scene_.traversal(), counters), bindings, 8);
+    vk::ComputePipeline pipe(ctx_, tracerays_spirv(scene_.traversal(), counters, slices), bindings, 12);
     vk::Buffer in = vk::Buffer::from_vector(ctx_, rays, ::vk::BufferUsageFlagBits::eStorageBuffer);
     vk::Buffer out(ctx_, std::max<size_t>(16, rays.size() * sizeof(gpu::GpuHit)), ::vk::BufferUsageFlagBits::eStorageBuffer,
                    vk::MemoryUse::Readback);
@@ -44,10 +47,14 @@ std::vector<gpu::GpuHit> RayCaster::dispatch(const std::vector<gpu::GpuRay>& ray
     pipe.bind_buffer(BINDING_HITS, out.handle());
     scene_.bind_traversal(pipe);
     pipe.warm_up();  // a lazy driver compiles here, outside the timed dispatch
-    uint32_t push[2] = {static_cast<uint32_t>(rays.size()), any_hit ? 1u : 0u};
+    // Rays per workgroup of 64 invocations: slices (tracerays.comp) of 2048 rays, 256
+    // for each SIMD vector of 8 on lavapipe, long enough that the wait for a slice's
+    // last ray is short and few enough that both threads stay busy.
+    const uint32_t per_group = slices ? 2048u : 64u;
+    uint32_t push[3] = {static_cast<uint32_t>(rays.size()), any_hit ? 1u : 0u, per_group};
     auto t0 = std::chrono::steady_clock::now();
     ctx_.submit_and_wait([&](::vk::CommandBuffer cmd) {
-        pipe.record(cmd, static_cast<uint32_t>((rays.size() + 63) / 64), 1, 1, push, sizeof(push));
+        pipe.record(cmd, static_cast<uint32_t>((rays.size() + per_group - 1) / per_group), 1, 1, push, sizeof(push));
     });
     if (seconds) *seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::vector<gpu::GpuHit> hits(rays.size());

@@ -7,11 +7,26 @@
 
 namespace vkmech {
 
+// How the rays are handed to the invocations.
+enum class RaySchedule {
+    // The software BVH on a CPU device (lavapipe): each workgroup traces a slice
+    // of the rays, and an invocation whose ray is done takes the slice's next
+    // one, so that a SIMD vector does not wait for the slowest ray of a fixed
+    // group of eight. Otherwise (ray query; GPUs, where it has not been
+    // measured, and where it relies on the warp reconverging at the loop's
+    // head) one ray per invocation.
+    Auto,
+    // One ray per invocation, as the path tracer traces: a SIMD vector or warp
+    // runs as long as its slowest ray.
+    PerInvocation,
+};
+
 class RayCaster {
 public:
     RayCaster(const vk::Context& ctx, const GpuScene& scene);
     // Returns one hit per ray and the seconds the device spent on the dispatch.
-    std::vector<gpu::GpuHit> trace(const std::vector<gpu::GpuRay>& rays, bool any_hit, double* seconds = nullptr);
+    std::vector<gpu::GpuHit> trace(const std::vector<gpu::GpuRay>& rays, bool any_hit, double* seconds = nullptr,
+                                   RaySchedule schedule = RaySchedule::Auto);
 
     // The software BVH's work per ray for a closest-hit trace (the
     // instrumented shader variant): interior nodes fetched, leaves visited,
@@ -23,7 +38,8 @@ public:
     std::vector<Work> trace_work(const std::vector<gpu::GpuRay>& rays);
 
 private:
-    std::vector<gpu::GpuHit> dispatch(const std::vector<gpu::GpuRay>& rays, bool any_hit, bool counters, double* seconds);
+    std::vector<gpu::GpuHit> dispatch(const std::vector<gpu::GpuRay>& rays, bool any_hit, bool counters, bool slices,
+                                      double* seconds);
     const vk::Context& ctx_;
     const GpuScene& scene_;
 };

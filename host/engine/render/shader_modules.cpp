@@ -10,6 +10,7 @@
 #include "shaders/spv_pathtrace_rayquery.h"
 #include "shaders/spv_tracerays_bvh.h"
 #include "shaders/spv_tracerays_counters_bvh.h"
+#include "shaders/spv_tracerays_per_invocation_bvh.h"
 #include "shaders/spv_tracerays_rayquery.h"
 
 namespace vkmech {
@@ -30,13 +31,14 @@ std::span<const uint32_t> pathtrace_spirv(Traversal t, bool direct_glossy, bool 
     return spv_pathtrace_direct_glossy_bvh;
 }
 
-std::span<const uint32_t> tracerays_spirv(Traversal t, bool counters) {
+std::span<const uint32_t> tracerays_spirv(Traversal t, bool counters, bool slices) {
     if (t == Traversal::RayQuery) {
         if (counters) throw std::invalid_argument("traversal counters exist for the software BVH only");
         return spv_tracerays_rayquery;
     }
     if (counters) return spv_tracerays_counters_bvh;
-    return spv_tracerays_bvh;
+    if (slices) return spv_tracerays_bvh;
+    return spv_tracerays_per_invocation_bvh;
 }
 
 }  // namespace vkmech

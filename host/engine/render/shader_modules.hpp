@@ -15,6 +15,8 @@ std::span<const uint32_t> pathtrace_spirv(Traversal t);
 std::span<const uint32_t> pathtrace_spirv(Traversal t, bool direct_glossy, bool counters = false);
 // The ray tracer of tests and benchmarks; `counters`: the instrumented variant
 // (VKMECH_COUNTERS, software BVH only; throws std::invalid_argument for ray query).
-std::span<const uint32_t> tracerays_spirv(Traversal t, bool counters = false);
+// `slices` (software BVH, not counters): the kernel that gives each workgroup a slice
+// of the rays (needs subgroup ballot); else one ray per invocation.
+std::span<const uint32_t> tracerays_spirv(Traversal t, bool counters = false, bool slices = true);
 
 }  // namespace vkmech

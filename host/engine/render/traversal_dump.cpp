@@ -104,6 +104,8 @@ void write_traversal_dump(const std::filesystem::path& dir, const std::string& s
     j += std::to_string(info.seed);
     j += ",\n  \"bvh_rays_per_second\": ";
     j += number(info.bvh_rays_per_second);
+    j += ",\n  \"bvh_per_invocation_rays_per_second\": ";
+    j += number(info.bvh_per_invocation_rays_per_second);
     j += ",\n  \"rayquery_rays_per_second\": ";
     j += info.rayquery_rays_per_second ? number(*info.rayquery_rays_per_second) : std::string("null");
     j += ",\n  \"files\": {\"triangles\": \"";

@@ -38,7 +38,8 @@ struct TraversalDump {
 struct TraversalDumpInfo {
     std::string device;
     uint32_t seed = 0;
-    double bvh_rays_per_second = 0.0;
+    double bvh_rays_per_second = 0.0;                 // the ray kernel's default schedule (RaySchedule::Auto)
+    double bvh_per_invocation_rays_per_second = 0.0;  // one ray per invocation
     std::optional<double> rayquery_rays_per_second;
 };
 

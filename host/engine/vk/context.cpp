@@ -68,9 +68,14 @@ DeviceInfo describe(const ::vk::raii::PhysicalDevice& pd, uint32_t index) {
     }
     info.ray_query = rq;
     if (props.apiVersion >= VK_API_VERSION_1_2) {
-        auto chain = pd.getProperties2<::vk::PhysicalDeviceProperties2, ::vk::PhysicalDeviceDriverProperties>();
+        auto chain = pd.getProperties2<::vk::PhysicalDeviceProperties2, ::vk::PhysicalDeviceDriverProperties,
+                                       ::vk::PhysicalDeviceSubgroupProperties>();
         const auto& drv = chain.get<::vk::PhysicalDeviceDriverProperties>();
         info.driver = std::string(drv.driverName.data()) + " " + drv.driverInfo.data();
+        const auto& sg = chain.get<::vk::PhysicalDeviceSubgroupProperties>();
+        info.subgroup_size = sg.subgroupSize;
+        info.compute_subgroup_ballot = (sg.supportedStages & ::vk::ShaderStageFlagBits::eCompute) &&
+                                       (sg.supportedOperations & ::vk::SubgroupFeatureFlagBits::eBallot);
     }
     auto mem = pd.getMemoryProperties();
     for (uint32_t i = 0; i < mem.memoryHeapCount; ++i)
