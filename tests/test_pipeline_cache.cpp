@@ -90,7 +90,8 @@ std::unique_ptr<vkc::ComputePipeline> tracerays_pipeline(const vkc::Context& ctx
     using namespace gpu;
     std::vector<vkc::BindingDesc> bindings = {{BINDING_RAYS, DT::eStorageBuffer}, {BINDING_HITS, DT::eStorageBuffer}};
     for (const auto& b : traversal_bindings(Traversal::Bvh)) bindings.push_back(b);
-    return std::make_unique<vkc::ComputePipeline>(ctx, tracerays_spirv(Traversal::Bvh), bindings, 8);
+    return std::make_unique<vkc::ComputePipeline>(ctx, tracerays_spirv(Traversal::Bvh), bindings,
+                                                  kTraceraysPushBytes);
 }
 
 bool renders_finite_image(vkc::Context& ctx) {

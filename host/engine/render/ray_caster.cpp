@@ -39,7 +39,8 @@ std::vector<gpu::GpuHit> RayCaster::dispatch(const std::vector<gpu::GpuRay>& ray
     using namespace gpu;
     std::vector<vk::BindingDesc> bindings = {{BINDING_RAYS, DT::eStorageBuffer}, {BINDING_HITS, DT::eStorageBuffer}};
     for (const auto& b : traversal_bindings(scene_.traversal())) bindings.push_back(b);
-    vk::ComputePipeline pipe(ctx_, tracerays_spirv(scene_.traversal(), counters, slices), bindings, 12);
+    vk::ComputePipeline pipe(ctx_, tracerays_spirv(scene_.traversal(), counters, slices), bindings,
+                             kTraceraysPushBytes);
     vk::Buffer in = vk::Buffer::from_vector(ctx_, rays, ::vk::BufferUsageFlagBits::eStorageBuffer);
     vk::Buffer out(ctx_, std::max<size_t>(16, rays.size() * sizeof(gpu::GpuHit)), ::vk::BufferUsageFlagBits::eStorageBuffer,
                    vk::MemoryUse::Readback);
@@ -51,7 +52,7 @@ std::vector<gpu::GpuHit> RayCaster::dispatch(const std::vector<gpu::GpuRay>& ray
     // for each SIMD vector of 8 on lavapipe, long enough that the wait for a slice's
     // last ray is short and few enough that both threads stay busy.
     const uint32_t per_group = slices ? 2048u : 64u;
-    uint32_t push[3] = {static_cast<uint32_t>(rays.size()), any_hit ? 1u : 0u, per_group};
+    uint32_t push[kTraceraysPushBytes / 4] = {static_cast<uint32_t>(rays.size()), any_hit ? 1u : 0u, per_group};
     auto t0 = std::chrono::steady_clock::now();
     ctx_.submit_and_wait([&](::vk::CommandBuffer cmd) {
         pipe.record(cmd, static_cast<uint32_t>((rays.size() + per_group - 1) / per_group), 1, 1, push, sizeof(push));

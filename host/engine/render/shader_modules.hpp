@@ -18,5 +18,7 @@ std::span<const uint32_t> pathtrace_spirv(Traversal t, bool direct_glossy, bool 
 // `slices` (software BVH, not counters): the kernel that gives each workgroup a slice
 // of the rays (needs subgroup ballot); else one ray per invocation.
 std::span<const uint32_t> tracerays_spirv(Traversal t, bool counters = false, bool slices = true);
+// The size of tracerays.comp's push constants (ray_count, any_hit, rays_per_group).
+inline constexpr uint32_t kTraceraysPushBytes = 12;
 
 }  // namespace vkmech
