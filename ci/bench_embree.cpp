@@ -387,10 +387,10 @@ int run(int argc, char** argv) {
 
     struct Row {
         std::string name;
-        size_t tris, rays;
-        double vk, vk_inv, build_ms, e1, en, p1, pn;
-        Agreement agr;
-        size_t packet_diff;
+        size_t tris = 0, rays = 0;
+        double vk = 0, vk_inv = 0, build_ms = 0, e1 = 0, en = 0, p1 = 0, pn = 0;
+        Agreement agr{};
+        size_t packet_diff = 0;
     };
     std::vector<Row> rows;
     bool loud = false;
@@ -421,7 +421,12 @@ int run(int argc, char** argv) {
             if (width == 16) traceN<16>(e, scene, r, o, n);
             else traceN<8>(e, scene, r, o, n);
         };
-        Row row{name, nt, s.rays.size(), s.vk_rays_per_second, s.vk_per_invocation_rays_per_second, build_ms, 0, 0, 0, 0, {}, 0};
+        Row row{.name = name,
+                .tris = nt,
+                .rays = s.rays.size(),
+                .vk = s.vk_rays_per_second,
+                .vk_inv = s.vk_per_invocation_rays_per_second,
+                .build_ms = build_ms};
         row.e1 = measure(f1, s.rays, one, 1, repeats);
         row.en = measure(f1, s.rays, many, threads, repeats);
         if (width) {
@@ -459,14 +464,14 @@ int run(int argc, char** argv) {
                 "rtcIntersect1 and rtcIntersect%d, 1 thread and %u threads\n",
                 width, threads);
     std::printf("%-20s %9s %9s %9s %9s %9s %9s %9s %9s %10s %9s %9s\n", "scene", "triangles", "vkmech", "vk 1/inv",
-                "emb 1T", "emb NT",
-                (pk_name + " 1T").c_str(), (pk_name + " NT").c_str(), "best/vk", "vk/embNT", "agree %", "build ms");
+                "emb 1T", "emb NT", (pk_name + " 1T").c_str(), (pk_name + " NT").c_str(), "best/vk", "vk/embNT",
+                "agree %", "build ms");
     for (const auto& r : rows) {
         double best = std::max(r.en, r.pn);
         double agree = 100.0 * (1.0 - r.agr.mismatch_rate());
         std::printf("%-20s %9zu %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %8.2fx %9.3f %9.3f %9.1f\n", r.name.c_str(),
-                    r.tris, r.vk / 1e6, r.vk_inv / 1e6, r.e1 / 1e6, r.en / 1e6, r.p1 / 1e6, r.pn / 1e6, r.vk > 0 ? best / r.vk : 0.0,
-                    r.en > 0 ? r.vk / r.en : 0.0, agree, r.build_ms);
+                    r.tris, r.vk / 1e6, r.vk_inv / 1e6, r.e1 / 1e6, r.en / 1e6, r.p1 / 1e6, r.pn / 1e6,
+                    r.vk > 0 ? best / r.vk : 0.0, r.en > 0 ? r.vk / r.en : 0.0, agree, r.build_ms);
     }
     if (loud) {
         std::printf("\n!!!!!!!! at least one scene's closest hits disagree on more than 0.1%% of the rays !!!!!!!!\n");

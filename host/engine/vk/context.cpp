@@ -73,7 +73,6 @@ DeviceInfo describe(const ::vk::raii::PhysicalDevice& pd, uint32_t index) {
         const auto& drv = chain.get<::vk::PhysicalDeviceDriverProperties>();
         info.driver = std::string(drv.driverName.data()) + " " + drv.driverInfo.data();
         const auto& sg = chain.get<::vk::PhysicalDeviceSubgroupProperties>();
-        info.subgroup_size = sg.subgroupSize;
         info.compute_subgroup_ballot = (sg.supportedStages & ::vk::ShaderStageFlagBits::eCompute) &&
                                        (sg.supportedOperations & ::vk::SubgroupFeatureFlagBits::eBallot);
     }

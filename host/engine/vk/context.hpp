@@ -31,7 +31,6 @@ struct DeviceInfo {
     uint32_t api_version = 0;
     bool ray_query = false;  // VK_KHR_ray_query + VK_KHR_acceleration_structure
     uint32_t max_workgroup_invocations = 0;
-    uint32_t subgroup_size = 0;
     bool compute_subgroup_ballot = false;  // subgroupBallot and friends in compute shaders
     uint64_t max_storage_buffer_range = 0;
     uint64_t device_local_bytes = 0;
