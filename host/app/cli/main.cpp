@@ -95,7 +95,10 @@ int main(int argc, char** argv) {
 
     BenchOptions bench_opts;
     auto* bench = app.add_subcommand("bench", "Benchmarks (not tests)");
-    auto* bench_trav = bench->add_subcommand("traversal", "Rays/s of ray query and of the software BVH on each scene");
+    auto* bench_trav = bench->add_subcommand("traversal", "Rays/s of ray query and of the software BVH on each scene (the BVH twice: "
+                                             "its ray kernel's default, which on CPU devices hands each invocation "
+                                             "the next ray of its workgroup's slice when its own is done, and one "
+                                             "ray per invocation, as the path tracer traces)");
     bench->require_subcommand(1);
     bench_trav->add_option("--scenes", bench_opts.scenes, "Comma-separated scene names or paths (default: all in scenes/)")
         ->delimiter(',');
