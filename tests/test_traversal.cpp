@@ -364,7 +364,8 @@ TEST_SUITE("gpu") {
             }
             CHECK(hits > rays.size() / 10);
             const std::pair<size_t, size_t> batches[] = {{0, 1}, {4321, 1}, {5, 7}, {3, 2049}, {100, 4099}, {1, 5999}};
-            for (const auto& [first, count] : batches) {
+            for (const auto& batch : batches) {
+                const size_t first = batch.first, count = batch.second;  // not a structured binding: CAPTURE takes it in a lambda
                 CAPTURE(first);
                 CAPTURE(count);
                 std::vector<gpu::GpuRay> part(rays.begin() + first, rays.begin() + first + count);
