@@ -119,6 +119,10 @@ run() {
             timed "bench traversal" "$vk" bench traversal
             section "vkmech bench traversal --rays 4194304"
             timed "bench traversal 4M" "$vk" bench traversal --rays 4194304
+            # The ray kernel's slices, off on GPUs by default until measured on one:
+            # the bvh column with them, against the one-ray-per-invocation column.
+            section "vkmech bench traversal --bvh-only --slices --rays 4194304"
+            timed "bench traversal slices" "$vk" bench traversal --bvh-only --slices --rays 4194304
             section "vkmech bench render (defaults: 128^2, 8 spp)"
             timed "bench render" "$vk" bench render
             section "vkmech bench render --res 512 --spp 64"

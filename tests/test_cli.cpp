@@ -95,6 +95,21 @@ TEST_SUITE("gpu") {
         CHECK(json.find("\"rayquery_rays_per_second\": null") != std::string::npos);
         CHECK(json.find("\"bvh_rays_per_second\": null") == std::string::npos);
 
+        // --slices measures the bvh column with slices on any device with subgroup ballot, and
+        // says so; a device without ballot is refused with a message.
+        r = run_cli("bench traversal --scenes cubes_dof --rays 1000 --bvh-only --slices");
+        INFO(r.output);
+        if (ctx->info().compute_subgroup_ballot) {
+            REQUIRE(r.code == 0);
+            CHECK(r.output.find("bvh column: slices (--slices)") != std::string::npos);
+            c = row(r.output);
+            REQUIRE(c.size() == 5);
+            CHECK(std::stod(c[3]) > 0.0);
+        } else {
+            CHECK(r.code != 0);
+            CHECK(r.output.find("subgroup ballot") != std::string::npos);
+        }
+
         // Without the flag a device with ray query measures both.
         if (ctx->ray_query_enabled()) {
             r = run_cli("bench traversal --scenes cubes_dof --rays 1000");

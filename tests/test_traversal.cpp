@@ -345,6 +345,9 @@ TEST_SUITE("gpu") {
         // an invocation whose ray is done the slice's next one (tracerays.comp): a ray's
         // hit must be the same bits whichever invocation traces it, at any batch size
         // (one ray, a slice and one, a partial last slice), and no ray may be skipped.
+        // RaySchedule::Slices runs them on a GPU too (by default only CPU devices use
+        // them), so that the GPU check tests them there. The per-invocation kernel,
+        // another compilation of the same traversal, must find the same hits.
         VKMECH_REQUIRE_GPU(ctx);
         std::string path;
         for (const auto& p : testing::project_scene_paths())
@@ -354,9 +357,19 @@ TEST_SUITE("gpu") {
         auto rays = random_rays(arrays, 6000, 11);
         GpuScene g(*ctx, arrays, Traversal::Bvh);
         RayCaster caster(*ctx, g);
+        const RaySchedule schedule = caster.slices_supported() ? RaySchedule::Slices : RaySchedule::Auto;
+        if (!caster.slices_supported()) MESSAGE("no subgroup ballot on " << ctx->info().name << ": one ray per invocation");
         for (bool any_hit : {false, true}) {
             CAPTURE(any_hit);
-            const auto all = caster.trace(rays, any_hit);
+            const auto all = caster.trace(rays, any_hit, nullptr, schedule);
+            const auto per_invocation = caster.trace(rays, any_hit, nullptr, RaySchedule::PerInvocation);
+            uint32_t prim_differ = 0;
+            for (size_t i = 0; i < rays.size(); ++i) {
+                CAPTURE(i);
+                prim_differ += std::bit_cast<uint32_t>(all[i].hit.w) != std::bit_cast<uint32_t>(per_invocation[i].hit.w);
+                CHECK(all[i].hit.x == doctest::Approx(per_invocation[i].hit.x).epsilon(1e-6));
+            }
+            CHECK(prim_differ == 0);
             uint32_t hits = 0;
             for (const auto& h : all) {
                 CHECK(h.hit.x != 0.0f);  // written: a hit's t is positive, a miss -1 (the buffer starts as zeros)
@@ -369,11 +382,17 @@ TEST_SUITE("gpu") {
                 CAPTURE(first);
                 CAPTURE(count);
                 std::vector<gpu::GpuRay> part(rays.begin() + first, rays.begin() + first + count);
-                const auto got = caster.trace(part, any_hit);
+                const auto got = caster.trace(part, any_hit, nullptr, schedule);
                 uint32_t differ = 0;
                 for (size_t i = 0; i < count; ++i) differ += std::memcmp(&got[i], &all[first + i], sizeof(gpu::GpuHit)) != 0;
                 CHECK(differ == 0);
             }
+        }
+        if (ctx->ray_query_enabled()) {  // slices are a software-BVH kernel: asking for them on ray query is an error
+            GpuScene rq(*ctx, arrays, Traversal::RayQuery);
+            RayCaster rq_caster(*ctx, rq);
+            CHECK_FALSE(rq_caster.slices_supported());
+            CHECK_THROWS_AS(rq_caster.trace(rays, false, nullptr, RaySchedule::Slices), std::invalid_argument);
         }
         CHECK(ctx->validation_messages() == 0);
     }

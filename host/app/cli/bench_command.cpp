@@ -98,8 +98,13 @@ void print_traversal_work(const vk::Context& ctx, const SceneArrays& arrays, con
 int cmd_bench_traversal(const BenchOptions& o) {
     const std::vector<std::string> names = bench_scenes(o);
     vk::Context ctx(bench_context_options(o));
-    std::printf("device: %s (%s), %u random rays per measurement (closest hit; median of 3; seed %u)\n",
-                ctx.info().name.c_str(), ctx.info().type.c_str(), o.rays, kBenchTraversalSeed);
+    if (o.slices && !ctx.info().compute_subgroup_ballot)
+        throw UsageError("--slices: " + ctx.info().name +
+                         " does not report subgroup ballot in compute shaders, which the slices kernel needs");
+    const RaySchedule bvh_schedule = o.slices ? RaySchedule::Slices : RaySchedule::Auto;
+    std::printf("device: %s (%s), %u random rays per measurement (closest hit; median of 3; seed %u)%s\n",
+                ctx.info().name.c_str(), ctx.info().type.c_str(), o.rays, kBenchTraversalSeed,
+                o.slices ? "; bvh column: slices (--slices)" : "");
     std::printf("%-22s %10s %16s %16s %20s\n", "scene", "triangles", "rayquery Mray/s", "bvh Mray/s",
                 "bvh 1 ray/inv Mray/s");
     for (const auto& n : names) {
@@ -111,7 +116,7 @@ int cmd_bench_traversal(const BenchOptions& o) {
             GpuScene g(ctx, arrays, t);
             RayCaster caster(ctx, g);
             auto hits = caster.trace(rays, false, nullptr, schedule);  // warm-up
-            if (t == Traversal::Bvh && schedule == RaySchedule::Auto) bvh_hits = std::move(hits);
+            if (t == Traversal::Bvh && schedule == bvh_schedule) bvh_hits = std::move(hits);
             std::vector<double> s(3);
             for (auto& x : s) caster.trace(rays, false, &x, schedule);
             std::sort(s.begin(), s.end());
@@ -119,7 +124,7 @@ int cmd_bench_traversal(const BenchOptions& o) {
         };
         std::optional<double> rq;
         if (ctx.ray_query_enabled() && !o.bvh_only) rq = measure(Traversal::RayQuery, RaySchedule::Auto);
-        const double bvh = measure(Traversal::Bvh, RaySchedule::Auto);
+        const double bvh = measure(Traversal::Bvh, bvh_schedule);
         const double bvh_per_invocation = measure(Traversal::Bvh, RaySchedule::PerInvocation);
         auto mray = [](double r) { return std::to_string(r / 1e6).substr(0, 6); };
         std::string rq_text = rq ? mray(*rq) : o.bvh_only ? "skipped" : "n/a";

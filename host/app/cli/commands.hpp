@@ -93,6 +93,7 @@ struct BenchOptions {
     std::optional<std::string> dump_dir;  // bench traversal --dump DIR
     bool counters = false;                // bench traversal --counters: the software BVH's work per ray
     bool bvh_only = false;                // bench traversal --bvh-only: no ray-query measurement
+    bool slices = false;                  // bench traversal --slices: the bvh column with slices on any device
 };
 
 // `vkmech bench traversal` traces random_rays(arrays, rays, kBenchTraversalSeed)

@@ -116,6 +116,9 @@ int main(int argc, char** argv) {
     bench_trav->add_flag("--bvh-only", bench_opts.bvh_only,
                          "Measure the software BVH alone, not ray query (shorter; a profiler attached to the process "
                          "then samples only the software BVH)");
+    bench_trav->add_flag("--slices", bench_opts.slices,
+                         "Measure the `bvh` column with slices on any device that has subgroup ballot, GPUs included "
+                         "(by default only CPU devices use them: they have not been measured on a GPU)");
     add_pipeline_cache_option(bench_trav, bench_opts.pipeline_cache);
 
     auto* bench_render = bench->add_subcommand(

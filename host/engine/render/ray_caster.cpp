@@ -15,9 +15,18 @@ RayCaster::RayCaster(const vk::Context& ctx, const GpuScene& scene) : ctx_(ctx),
 
 std::vector<gpu::GpuHit> RayCaster::trace(const std::vector<gpu::GpuRay>& rays, bool any_hit, double* seconds,
                                           RaySchedule schedule) {
-    const bool slices = schedule == RaySchedule::Auto && scene_.traversal() == Traversal::Bvh &&
-                        ctx_.info().type == "cpu" && ctx_.info().compute_subgroup_ballot;
+    if (schedule == RaySchedule::Slices && !slices_supported())
+        throw std::invalid_argument(scene_.traversal() != Traversal::Bvh
+                                        ? "the ray kernel's slices exist for the software BVH only"
+                                        : "the ray kernel's slices need subgroup ballot in compute shaders, which " +
+                                              ctx_.info().name + " does not report");
+    const bool slices = schedule == RaySchedule::Slices ||
+                        (schedule == RaySchedule::Auto && ctx_.info().type == "cpu" && slices_supported());
     return dispatch(rays, any_hit, false, slices, seconds);
+}
+
+bool RayCaster::slices_supported() const {
+    return scene_.traversal() == Traversal::Bvh && ctx_.info().compute_subgroup_ballot;
 }
 
 std::vector<RayCaster::Work> RayCaster::trace_work(const std::vector<gpu::GpuRay>& rays) {

@@ -19,12 +19,17 @@ enum class RaySchedule {
     // One ray per invocation, as the path tracer traces: a SIMD vector or warp
     // runs as long as its slowest ray.
     PerInvocation,
+    // Slices on any device with subgroup ballot (software BVH only), so that
+    // a GPU can be measured and tested with them (`bench traversal --slices`);
+    // trace throws std::invalid_argument where they cannot run.
+    Slices,
 };
 
 class RayCaster {
 public:
     RayCaster(const vk::Context& ctx, const GpuScene& scene);
     // Returns one hit per ray and the seconds the device spent on the dispatch.
+    // Throws std::invalid_argument for RaySchedule::Slices where slices_supported() is false.
     std::vector<gpu::GpuHit> trace(const std::vector<gpu::GpuRay>& rays, bool any_hit, double* seconds = nullptr,
                                    RaySchedule schedule = RaySchedule::Auto);
 
@@ -36,6 +41,9 @@ public:
         uint32_t nodes, leaves, triangles, stack;
     };
     std::vector<Work> trace_work(const std::vector<gpu::GpuRay>& rays);
+
+    // Whether RaySchedule::Slices can run: the software BVH on a device with subgroup ballot.
+    bool slices_supported() const;
 
 private:
     std::vector<gpu::GpuHit> dispatch(const std::vector<gpu::GpuRay>& rays, bool any_hit, bool counters, bool slices,
