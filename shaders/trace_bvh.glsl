@@ -167,12 +167,16 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
     const uint DONE = 0xFFFFFFFFu;
 #ifdef BVH_STREAM
     uint ref = DONE;
-    const uint lanes = subgroupBallotBitCount(subgroupBallot(true));
-    const uint refill_at = clamp(BVH_STREAM_REFILL, 1u, lanes);
     for (;;) {
+        // The invocations here: the whole subgroup, where it meets again at the
+        // loop's head (lavapipe). Where a device did not reconverge, the test
+        // against those present, not against the subgroup's size, keeps a part
+        // whose invocations are all idle from waiting forever for the others
+        // (its rays would then be wrong, which the batch test shows, not hung).
+        const uint present = subgroupBallotBitCount(subgroupBallot(true));
         uvec4 idle = subgroupBallot(ref == DONE);
         uint n = subgroupBallotBitCount(idle);
-        if (n >= (next < end ? refill_at : lanes)) {
+        if (n >= (next < end ? clamp(BVH_STREAM_REFILL, 1u, present) : present)) {
             if (ref == DONE) {
                 if (id != DONE) bvh_stream_hit(id, hit.t, hit.prim, hit.bary);
                 id = next + subgroupBallotExclusiveBitCount(idle);
