@@ -127,6 +127,9 @@ run() {
             timed "bench render" "$vk" bench render
             section "vkmech bench render --res 512 --spp 64"
             timed "bench render 512" "$vk" bench render --res 512 --spp 64
+            # Where the path tracer's time goes on this device, by the shader's clock.
+            section "vkmech bench render --profile --counters --res 512 --spp 16 --batches 16"
+            timed "bench render phases" "$vk" bench render --profile --counters --res 512 --spp 16 --batches 16
         fi
         if has main; then
             section "main job: vkmech --scene ring_caustic --spp 64"

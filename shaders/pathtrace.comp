@@ -28,12 +28,44 @@ layout(std430, set = 0, binding = BINDING_ACCUM) writeonly buffer Accum { GpuPix
 // The next pixel slot to claim (params.adaptive.w: claimed pixels), zeroed before each batch.
 layout(std430, set = 0, binding = BINDING_WORK) buffer Work { uint next_slot; };
 #ifdef VKMECH_COUNTERS
-layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint counters[8]; };
+#extension GL_ARB_shader_clock : require
+layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint counters[COUNTER_CLOCK + 2u * PHASE_COUNT]; };
 // Adds v to counters[k]; true when the 32-bit total wrapped.
 bool counter_add(uint k, uint v) {
     uint before = atomicAdd(counters[k], v);
     return before + v < before;
 }
+// This invocation's clock ticks per phase (shared/types.h), 64-bit as (low, high).
+uvec2 g_clock[PHASE_COUNT];
+uint g_clock_backwards = 0u;  // intervals whose end read an earlier clock than their start
+// Adds the ticks since `since` (clock2x32ARB, the subgroup's clock) to phase p.
+// The subgroup clock is not promised to be monotonic: on lavapipe it is the CPU's
+// time-stamp counter, and a thread the OS moves to another core can read an earlier
+// value there. Such an interval is counted and left out, not added as 2^64 - x.
+void clock_add(uint p, uvec2 since) {
+    uvec2 now = clock2x32ARB();
+    uint borrow, carry;
+    uint lo = usubBorrow(now.x, since.x, borrow);
+    uint hi = now.y - since.y - borrow;
+    if (hi >= 0x80000000u) {
+        g_clock_backwards += 1u;
+        return;
+    }
+    g_clock[p].x = uaddCarry(g_clock[p].x, lo, carry);
+    g_clock[p].y += hi + carry;
+}
+#define CLOCK_START(v) uvec2 v = clock2x32ARB()
+#define CLOCK_ADD(p, v) clock_add(p, v)
+// Leaves path_sample's loop: the path has ended (busy until here).
+#define PATH_BREAK              \
+    {                           \
+        CLOCK_ADD(PHASE_BUSY, c_busy); \
+        break;                  \
+    }
+#else
+#define CLOCK_START(v)
+#define CLOCK_ADD(p, v)
+#define PATH_BREAK break
 #endif
 
 const float PI = 3.14159265358979;
@@ -152,9 +184,17 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
     uint prev_last_nondelta = LOBE_NONE;  // the same among V1..V(k-2)
     float eta_path = 1.0;  // product of the relative IORs crossed (docs/descriptor.md §1 Russian roulette)
     vec3 prev_p = o;
+    CLOCK_START(c_busy);
     for (uint k = 1u; k <= max_depth; ++k) {
         Hit h;
-        if (!trace_closest(o, d, 0.0, RAY_TMAX, h)) break;
+#ifdef VKMECH_COUNTERS
+        CLOCK_START(c_trace);
+        bool found = trace_closest(o, d, 0.0, RAY_TMAX, h);
+        CLOCK_ADD(k == 1u ? PHASE_PRIMARY : PHASE_BOUNCE, c_trace);
+        if (!found) PATH_BREAK;
+#else
+        if (!trace_closest(o, d, 0.0, RAY_TMAX, h)) PATH_BREAK;
+#endif
         SurfaceHit s = surface_hit(h.prim, h.bary);
 
         // ---- emission seen by this segment ----
@@ -178,14 +218,14 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
                 add_event(tally, throughput * Le * w, k - 1u, prev_lobe, prev_delta_before, prev_glossy_before);
             }
         }
-        if (k >= max_depth) break;  // no segment left for NEE or a bounce
+        if (k >= max_depth) PATH_BREAK;  // no segment left for NEE or a bounce
 
         GpuMaterial m = material_at(s.material);
         Frame3 fr = frame_from_normal(s.ns);
         vec3 wo_world = -d;
         vec3 wo = to_local(fr, wo_world);
         // Shading-normal consistency: wo must lie on the same side of both normals.
-        if (wo.z * dot(wo_world, s.ng) <= 0.0) break;
+        if (wo.z * dot(wo_world, s.ng) <= 0.0) PATH_BREAK;
         vec3 albedo = m.reflectance.rgb;
         if (FEATURE_TEXTURES) {
             uint t_refl = m.header.z & MAT_TEX_MASK;
@@ -211,6 +251,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
             }
         }
         if (nee_lobe != LOBE_NONE && params.scene.x > 0u) {
+            CLOCK_START(c_nee);
             vec3 lu = vec3(rng_next(rng), rng_next(rng), rng_next(rng));
             LightSample ls = sample_light(lu);
             vec3 to_light = ls.p - s.p;
@@ -227,7 +268,14 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
                     vec3 pl = offset_ray_origin(ls.p, ls.n, ls.scale);
                     vec3 seg = pl - po;
                     float seg_len = length(seg);
+#ifdef VKMECH_COUNTERS
+                    CLOCK_START(c_shadow);
+                    bool occluded = trace_any(po, seg / seg_len, 0.0, seg_len);
+                    CLOCK_ADD(PHASE_SHADOW, c_shadow);
+                    if (!occluded) {
+#else
                     if (!trace_any(po, seg / seg_len, 0.0, seg_len)) {
+#endif
                         float p_light = ls.pdf_area * dist2 / cos_l;
                         float w = 1.0;
                         if (vertex_mis) w = power_heuristic(p_light, bsdf_pdf(m, albedo, wo, wi));
@@ -236,6 +284,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
                     }
                 }
             }
+            CLOCK_ADD(PHASE_NEE, c_nee);
         } else {
             // Keep the dimension count independent of the branch taken.
             rng.dim += 3u;
@@ -245,9 +294,9 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
         float u_lobe = rng_next(rng);
         vec2 u2 = rng_next2(rng);
         BsdfSample bs = bsdf_sample(m, albedo, wo, u_lobe, u2);
-        if (!bs.ok) break;
+        if (!bs.ok) PATH_BREAK;
         vec3 wi_world = to_world(fr, bs.wi);
-        if (bs.wi.z * dot(wi_world, s.ng) <= 0.0) break;
+        if (bs.wi.z * dot(wi_world, s.ng) <= 0.0) PATH_BREAK;
         throughput *= bs.weight;
 
         prev_delta_before = delta_before;
@@ -268,10 +317,10 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
         float u_rr = rng_next(rng);
         if (k >= rr_depth) {
             float q = min(max(throughput.x, max(throughput.y, throughput.z)) * eta_path * eta_path, 0.95);
-            if (!(u_rr < q)) break;
+            if (!(u_rr < q)) PATH_BREAK;
             throughput /= q;
         }
-        if (!(max(throughput.x, max(throughput.y, throughput.z)) > 0.0)) break;
+        if (!(max(throughput.x, max(throughput.y, throughput.z)) > 0.0)) PATH_BREAK;
 
         vec3 ng_side = dot(wi_world, s.ng) > 0.0 ? s.ng : -s.ng;
         o = offset_ray_origin(s.p, ng_side, s.scale);
@@ -341,6 +390,7 @@ void render_slot(uint slot) {
 #endif
     g_debug_pixel = DEBUG_EVENTS && params.debug.y > 0u && pixel == params.debug.x;
     for (uint i = 0u; i < count; ++i) {
+        CLOCK_START(c_camera);
         g_sample_index = first + i;
         Rng rng = rng_init(params.film.z, pixel, first + i);
         vec2 jitter = rng_next2(rng);  // box filter: uniform inside the pixel
@@ -357,8 +407,11 @@ void render_slot(uint slot) {
 #ifdef VKMECH_DIRECT_GLOSSY
         t.direct_glossy = 0.0;
 #endif
+        CLOCK_ADD(PHASE_CAMERA, c_camera);
         if (params.scene.w == MODE_PATH) {
+            CLOCK_START(c_path);
             path_sample(rng, o, d, t);
+            CLOCK_ADD(PHASE_PATH, c_path);
         } else {
             t.L = preview_radiance(rng, o, d);
         }
@@ -419,6 +472,9 @@ void main() {
     // (params.adaptive.z, coprime with n: a permutation), an order spread
     // over the image (docs/performance.md, "Balancing lavapipe's threads").
     // One call site: the path tracer is inlined once.
+#ifdef VKMECH_COUNTERS
+    for (uint p = 0u; p < PHASE_COUNT; ++p) g_clock[p] = uvec2(0u);
+#endif
     bool claimed = params.adaptive.w != 0u;
     uint slot, slots;
     if (claimed) {
@@ -431,7 +487,9 @@ void main() {
         slots = slot + 1u;
     }
     while (slot < slots) {
+        CLOCK_START(c_slot);
         render_slot(slot);
+        CLOCK_ADD(PHASE_SLOT, c_slot);
         slot = claimed ? atomicAdd(next_slot, 1u) : slots;
     }
 #ifdef VKMECH_COUNTERS
@@ -441,6 +499,12 @@ void main() {
     wrapped = counter_add(2u, bvh_count_leaves) || wrapped;
     wrapped = counter_add(3u, bvh_count_tris) || wrapped;
     atomicMax(counters[4], bvh_count_stack);
+    for (uint p = 0u; p < PHASE_COUNT; ++p) {  // 64-bit sums: the low word's carry goes into the high word
+        uint lo = COUNTER_CLOCK + 2u * p;
+        uint before = atomicAdd(counters[lo], g_clock[p].x);
+        atomicAdd(counters[lo + 1u], g_clock[p].y + (before + g_clock[p].x < before ? 1u : 0u));
+    }
+    atomicAdd(counters[6], g_clock_backwards);
     if (wrapped) atomicOr(counters[5], 1u);
 #endif
 }

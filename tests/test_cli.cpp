@@ -120,6 +120,34 @@ TEST_SUITE("gpu") {
         }
     }
 
+    TEST_CASE("cli: bench render --profile --counters prints the traversal's work and the phases' shares") {
+        VKMECH_REQUIRE_GPU(ctx);
+        auto r = run_cli("bench render --profile --counters --scenes cubes_dof --res 32 --spp 2 --batches 1");
+        INFO(r.output);
+        REQUIRE(r.code == 0);
+        CHECK(r.output.find("cubes_dof, software BVH, 2 spp:") != std::string::npos);
+        const size_t at = r.output.find("phases, % of the invocations' clock ticks: setup ");
+        REQUIRE(at != std::string::npos);
+        std::istringstream line(r.output.substr(at, r.output.find('\n', at) - at));
+        std::vector<double> shares;  // the eight exclusive phases and the traces' sum
+        for (std::string word; line >> word;) {
+            if (!word.empty() && word.back() == ',') word.pop_back();
+            if (!word.empty() && word.back() == ';') word.pop_back();
+            char* end = nullptr;
+            const double v = std::strtod(word.c_str(), &end);
+            if (end != word.c_str() && *end == '\0') shares.push_back(v);
+        }
+        REQUIRE(shares.size() == 9);
+        double sum = 0.0;
+        for (size_t i = 0; i < 8; ++i) {
+            CHECK(shares[i] >= 0.0);
+            sum += shares[i];
+        }
+        // The exclusive phases cover the whole; each share is printed to 0.05.
+        CHECK(std::abs(sum - 100.0) <= 8 * 0.05 + 1e-9);
+        CHECK(std::abs(shares[8] - (shares[1] + shares[2] + shares[3])) <= 4 * 0.05 + 1e-9);
+    }
+
     TEST_CASE("cli: vkmech --scene ring_caustic writes an EXR and a PNG") {
         VKMECH_REQUIRE_GPU(ctx);
         fs::path out = fs::temp_directory_path() / ("vkmech_cli_out_" + std::to_string(::getpid()));

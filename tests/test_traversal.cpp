@@ -337,6 +337,35 @@ TEST_SUITE("gpu") {
         // Counts add up over renders.
         rb.render(spec);
         CHECK(rb.counters().rays == 2.0 * c.rays);
+
+        // The phases' clock ticks nest as the shader's intervals do in every invocation
+        // (shared/types.h), whatever the clock's rate. A render large enough that the
+        // batch's sums pass 2^32 on a CPU device (ticks at the CPU's GHz rate, times every
+        // invocation) checks that the 32-bit halves carry. The intervals left out because
+        // the clock went backwards (a thread moved to another core) are rare; the sums'
+        // margins (NEE's shading, the wait for longer paths, accumulation) are far larger.
+        scene.camera.set_film_width(256);
+        RenderSession big_session(*ctx, scene, Traversal::Bvh);
+        Renderer rc = big_session.renderer(counted);
+        RenderSpec big;
+        big.spp = 32;
+        big.batch_spp = 32;
+        rc.render(big);
+        for (const TraversalCounters& t : {c, rc.counters()}) {
+            using namespace gpu;
+            const auto& k = t.clock;
+            for (uint32_t p = 0; p < PHASE_COUNT; ++p) {
+                CAPTURE(p);
+                CHECK(k[p] > 0.0);
+            }
+            CHECK(k[PHASE_SHADOW] <= k[PHASE_NEE]);
+            CHECK(k[PHASE_PRIMARY] + k[PHASE_BOUNCE] + k[PHASE_NEE] <= k[PHASE_BUSY]);
+            CHECK(k[PHASE_BUSY] <= k[PHASE_PATH]);
+            CHECK(k[PHASE_CAMERA] + k[PHASE_PATH] <= k[PHASE_SLOT]);
+        }
+        MESSAGE("clock ticks, whole slots: " << rc.counters().clock[gpu::PHASE_SLOT] << " (" << ctx->info().type << ")");
+        if (ctx->info().type == "cpu") CHECK(rc.counters().clock[gpu::PHASE_SLOT] > 0x1p32);
+        CHECK(rc.counters().clock_backwards < 0.01 * rc.counters().rays);
         CHECK(ctx->validation_messages() == 0);
     }
 

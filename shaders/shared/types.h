@@ -160,6 +160,23 @@ VKM_CONST BVH4_CODE_EMPTY = 0u;
 VKM_CONST BVH4_CODE_INTERIOR = 1u;
 VKM_CONST BVH4_MAX_LEAF = 14u;
 VKM_CONST BVH4_STACK_SIZE = 96u;  // >= 3 x the deepest chain of interior nodes (collapse_bvh4 checks)
+
+// The path tracer's counters (pathtrace.comp with VKMECH_COUNTERS; `bench
+// render --profile --counters`): uints 0..5 the traversal's work, 6 the
+// intervals left out because the clock went backwards, then for
+// each phase below its clock ticks summed over the invocations, 64-bit as
+// (low, high) at COUNTER_CLOCK + 2 * phase. The phases nest: a trace lies
+// inside PHASE_PATH, the shadow trace inside PHASE_NEE, all inside PHASE_SLOT.
+VKM_CONST PHASE_CAMERA = 0u;   // sample setup: random numbers, camera ray, tallies zeroed
+VKM_CONST PHASE_PRIMARY = 1u;  // the camera ray's closest-hit trace
+VKM_CONST PHASE_BOUNCE = 2u;   // the closest-hit traces of later segments
+VKM_CONST PHASE_SHADOW = 3u;   // NEE's shadow traces
+VKM_CONST PHASE_NEE = 4u;      // NEE whole: light sample, BSDF evaluation, shadow trace, event
+VKM_CONST PHASE_BUSY = 5u;     // path_sample until this invocation's path ends
+VKM_CONST PHASE_PATH = 6u;     // path_sample whole: BUSY, then waiting for the longer paths of the SIMD vector or warp
+VKM_CONST PHASE_SLOT = 7u;     // render_slot whole: every sample of the pixel and its write
+VKM_CONST PHASE_COUNT = 8u;
+VKM_CONST COUNTER_CLOCK = 8u;  // the buffer holds COUNTER_CLOCK + 2 * PHASE_COUNT uints
 struct GpuBvh4Node {
     vec4 origin;  // xyz: the node box's lower corner; w: uintBitsToFloat(e_x | e_y << 8 | e_z << 16 | code0 << 24 | code1 << 28)
     uvec4 q0;     // lo_x, lo_y, lo_z, hi_x

@@ -199,6 +199,20 @@ int bench_render_profile(const BenchOptions& o, const std::vector<std::string>& 
                         "leaves %.2f, triangles %.2f; deepest stack %u\n",
                         scene_stem(n).c_str(), o.spp, c.rays, c.rays / paths, c.nodes / rays, c.leaves / rays,
                         c.triangles / rays, c.deepest_stack);
+            // The phases nest (shared/types.h): the exclusive shares of the whole.
+            using namespace gpu;
+            const auto& k = c.clock;
+            const double whole = std::max(k[PHASE_SLOT], 1.0);
+            auto pct = [&](double ticks) { return 100.0 * ticks / whole; };
+            std::printf("  phases, %% of the invocations' clock ticks: setup %.1f, camera-ray trace %.1f, later "
+                        "traces %.1f, shadow traces %.1f, NEE without its trace %.1f, other shading %.1f, "
+                        "path ended, waiting for the vector's longer paths %.1f, accumulation and write %.1f; all "
+                        "traces %.1f (%.0f intervals left out: the clock went backwards)\n",
+                        pct(k[PHASE_CAMERA]), pct(k[PHASE_PRIMARY]), pct(k[PHASE_BOUNCE]), pct(k[PHASE_SHADOW]),
+                        pct(k[PHASE_NEE] - k[PHASE_SHADOW]),
+                        pct(k[PHASE_BUSY] - k[PHASE_PRIMARY] - k[PHASE_BOUNCE] - k[PHASE_NEE]),
+                        pct(k[PHASE_PATH] - k[PHASE_BUSY]), pct(k[PHASE_SLOT] - k[PHASE_CAMERA] - k[PHASE_PATH]),
+                        pct(k[PHASE_PRIMARY] + k[PHASE_BOUNCE] + k[PHASE_SHADOW]), c.clock_backwards);
             std::fflush(stdout);
         }
     }

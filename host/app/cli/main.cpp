@@ -136,8 +136,10 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(1u, 4096u));
     bench_render->add_flag("--counters", bench_opts.counters,
                            "--profile: also render each scene once with the instrumented software-BVH shader and "
-                           "print the traversal's work: traces per path, interior nodes, leaves and triangles per "
-                           "trace, deepest stack");
+                           "print the traversal's work (traces per path, interior nodes, leaves and triangles per "
+                           "trace, deepest stack) and where the invocations' time goes, by the shader's own clock "
+                           "(VK_KHR_shader_clock): camera-ray, later and shadow traces, NEE, other shading, waiting "
+                           "for the longer paths of the SIMD vector or warp, accumulation");
     add_pipeline_cache_option(bench_render, bench_opts.pipeline_cache);
 
     StudyOptions study_opts;

@@ -16,6 +16,9 @@ namespace vkmech {
 
 namespace {
 
+// The counters buffer: the traversal's work, then 64-bit clock ticks per phase (shared/types.h).
+constexpr uint32_t kCounterWords = gpu::COUNTER_CLOCK + 2 * gpu::PHASE_COUNT;
+
 // The pipeline specialization of one Features value.
 std::vector<vk::SpecConstant> spec_constants(const Features& f) {
     using namespace gpu;
@@ -96,6 +99,9 @@ Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Feature
     for (const auto& b : scene_bindings(gpu_.traversal())) bindings.push_back(b);
     if (features_.direct_glossy && !features_.capture)
         throw std::invalid_argument("the direct_glossy output needs the mechanism capture on");
+    if (features_.counters && !ctx.shader_clock_enabled())
+        throw std::invalid_argument("the path tracer's counters time its phases with VK_KHR_shader_clock's subgroup "
+                                    "clock, which " + ctx.info().name + " does not have");
     // The direct-glossy variant is another SPIR-V module, so another pipeline (and pipeline-cache entry).
     pipeline_ = std::make_unique<vk::ComputePipeline>(ctx, pathtrace_spirv(gpu_.traversal(), features_.direct_glossy, features_.counters),
                                                       bindings, 0, spec_constants(features_));
@@ -121,8 +127,9 @@ Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Feature
                         ::vk::BufferUsageFlagBits::eStorageBuffer, vk::MemoryUse::Readback);
     pipeline_->bind_buffer(BINDING_DEBUG, debug_.handle());
     pipeline_->bind_buffer(BINDING_SAMPLE_COUNTS, sample_counts_.handle());
-    // The counters variant's totals (8 uints, zeroed before each batch); bound always, written by it only.
-    counter_buffer_ = vk::Buffer(ctx, 8 * sizeof(uint32_t), ::vk::BufferUsageFlagBits::eStorageBuffer, vk::MemoryUse::Readback);
+    // The counters variant's totals (kCounterWords uints, zeroed before each batch); bound always, written by it only.
+    counter_buffer_ = vk::Buffer(ctx, kCounterWords * sizeof(uint32_t), ::vk::BufferUsageFlagBits::eStorageBuffer,
+                                 vk::MemoryUse::Readback);
     pipeline_->bind_buffer(BINDING_COUNTERS, counter_buffer_.handle());
     // Claimed pixels' slot counter (zeroed before each batch that uses it).
     work_ = vk::Buffer(ctx, 16, ::vk::BufferUsageFlagBits::eStorageBuffer, vk::MemoryUse::Upload);
@@ -221,7 +228,7 @@ Frame Renderer::render(const RenderSpec& spec) {
         }
         params_.upload(ctx_, &p, sizeof(p));
         if (features_.counters) {
-            const uint32_t zeros[8] = {};
+            const uint32_t zeros[kCounterWords] = {};
             counter_buffer_.upload(ctx_, zeros, sizeof(zeros));
         }
         lap(&RenderProfile::upload);
@@ -230,7 +237,7 @@ Frame Renderer::render(const RenderSpec& spec) {
         });
         lap(&RenderProfile::dispatch);
         if (features_.counters) {
-            uint32_t c[8];
+            uint32_t c[kCounterWords];
             counter_buffer_.download(ctx_, c, sizeof(c));
             if (c[5] != 0)
                 throw std::runtime_error("traversal counters: a 32-bit total overflowed in one batch; render the "
@@ -240,6 +247,10 @@ Frame Renderer::render(const RenderSpec& spec) {
             counters_.leaves += c[2];
             counters_.triangles += c[3];
             counters_.deepest_stack = std::max(counters_.deepest_stack, c[4]);
+            counters_.clock_backwards += c[6];
+            for (uint32_t p = 0; p < gpu::PHASE_COUNT; ++p)
+                counters_.clock[p] += static_cast<double>(c[gpu::COUNTER_CLOCK + 2 * p]) +
+                                      static_cast<double>(c[gpu::COUNTER_CLOCK + 2 * p + 1]) * 0x1p32;
         }
         accum_.download(ctx_, batch.data(), batch.size() * sizeof(gpu::GpuPixelAccum));
         lap(&RenderProfile::readback);

@@ -7,6 +7,7 @@
 #include "render/gpu_scene.hpp"
 #include "vk/pipeline.hpp"
 
+#include <array>
 #include <functional>
 #include <memory>
 
@@ -29,6 +30,11 @@ struct RenderProfile {
 struct TraversalCounters {
     double rays = 0, nodes = 0, leaves = 0, triangles = 0;  // traces; interior nodes, leaves, triangles per trace summed
     uint32_t deepest_stack = 0;
+    // Subgroup-clock ticks per phase (gpu::PHASE_*), summed over the invocations: an
+    // invocation's ticks include the time its SIMD vector or warp spends on the other
+    // invocations' work, so the shares, not the absolute ticks, are what compare.
+    std::array<double, gpu::PHASE_COUNT> clock{};
+    double clock_backwards = 0;  // intervals left out: their end read an earlier clock than their start
 };
 
 // How a dispatch's invocations find their pixels. Tiles: each workgroup

@@ -205,6 +205,11 @@ Context::Context(const ContextOptions& options) : messages_(std::make_unique<Mes
         auto available = physical_->enumerateDeviceExtensionProperties();
         creation_feedback_ = has_extension(available, VK_EXT_PIPELINE_CREATION_FEEDBACK_EXTENSION_NAME);
         if (creation_feedback_) exts.push_back(VK_EXT_PIPELINE_CREATION_FEEDBACK_EXTENSION_NAME);
+        if (has_extension(available, VK_KHR_SHADER_CLOCK_EXTENSION_NAME)) {
+            auto chain = physical_->getFeatures2<::vk::PhysicalDeviceFeatures2, ::vk::PhysicalDeviceShaderClockFeaturesKHR>();
+            shader_clock_enabled_ = chain.get<::vk::PhysicalDeviceShaderClockFeaturesKHR>().shaderSubgroupClock;
+            if (shader_clock_enabled_) exts.push_back(VK_KHR_SHADER_CLOCK_EXTENSION_NAME);
+        }
     }
     float priority = 1.0f;
     ::vk::DeviceQueueCreateInfo qci{.queueFamilyIndex = queue_family_, .queueCount = 1, .pQueuePriorities = &priority};
@@ -216,7 +221,8 @@ Context::Context(const ContextOptions& options) : messages_(std::make_unique<Mes
     ::vk::PhysicalDeviceVulkan12Features f12{.pNext = ray_query_enabled_ ? &as_features : nullptr,
                                              .bufferDeviceAddress = ray_query_enabled_ ? VK_TRUE : VK_FALSE};
     (void)sup12;
-    ::vk::PhysicalDeviceFeatures2 f2{.pNext = &f12};
+    ::vk::PhysicalDeviceShaderClockFeaturesKHR clock_features{.pNext = &f12, .shaderSubgroupClock = VK_TRUE};
+    ::vk::PhysicalDeviceFeatures2 f2{.pNext = shader_clock_enabled_ ? static_cast<void*>(&clock_features) : &f12};
     ::vk::DeviceCreateInfo dci{.pNext = &f2,
                                .queueCreateInfoCount = 1,
                                .pQueueCreateInfos = &qci,

@@ -59,6 +59,9 @@ public:
     uint32_t queue_family() const { return queue_family_; }
     const DeviceInfo& info() const { return info_; }
     bool ray_query_enabled() const { return ray_query_enabled_; }
+    // VK_KHR_shader_clock's subgroup clock, enabled where the device has it: the
+    // path tracer's counters variant times its phases with it.
+    bool shader_clock_enabled() const { return shader_clock_enabled_; }
     bool validation_enabled() const { return validation_enabled_; }
     // Number of validation messages of severity warning or error seen so far.
     uint32_t validation_messages() const;
@@ -98,6 +101,7 @@ private:
     uint32_t queue_family_ = 0;
     DeviceInfo info_;
     bool ray_query_enabled_ = false;
+    bool shader_clock_enabled_ = false;
     bool validation_enabled_ = false;
     bool creation_feedback_ = false;  // VK_EXT_pipeline_creation_feedback enabled
     struct Messages;
