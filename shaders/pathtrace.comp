@@ -56,7 +56,8 @@ void clock_add(uint p, uvec2 since) {
 }
 #define CLOCK_START(v) uvec2 v = clock2x32ARB()
 #define CLOCK_ADD(p, v) clock_add(p, v)
-// Leaves path_sample's loop: the path has ended (busy until here).
+// Leaves path_sample's loop: the path has ended (busy until here). A block, not
+// do { } while (false), whose own loop the `break` would leave instead.
 #define PATH_BREAK              \
     {                           \
         CLOCK_ADD(PHASE_BUSY, c_busy); \
@@ -326,6 +327,9 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
         o = offset_ray_origin(s.p, ng_side, s.scale);
         d = wi_world;
     }
+#ifdef VKMECH_COUNTERS
+    if (max_depth == 0u) CLOCK_ADD(PHASE_BUSY, c_busy);  // the loop did not run: no PATH_BREAK
+#endif
 }
 
 // (a * b) mod n for n <= 2^24 without 64-bit integers: b a byte at a time

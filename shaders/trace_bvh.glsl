@@ -171,8 +171,10 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
         // The invocations here: the whole subgroup, where it meets again at the
         // loop's head (lavapipe). Where a device did not reconverge, the test
         // against those present, not against the subgroup's size, keeps a part
-        // whose invocations are all idle from waiting forever for the others
-        // (its rays would then be wrong, which the batch test shows, not hung).
+        // whose invocations are all idle from waiting forever for the others.
+        // The parts would then number rays each from its own `next`: rays
+        // traced twice (same hits, lower throughput) or, should the parts meet
+        // again out of step, skipped (the batch test's every-ray check).
         const uint present = subgroupBallotBitCount(subgroupBallot(true));
         uvec4 idle = subgroupBallot(ref == DONE);
         uint n = subgroupBallotBitCount(idle);

@@ -304,6 +304,12 @@ TEST_SUITE("gpu") {
             CHECK_THROWS_AS(c.trace_work(rays), std::invalid_argument);
         }
 
+        // The path tracer's variant times its phases with the shader clock.
+        if (!ctx->shader_clock_enabled()) {
+            MESSAGE("no VK_KHR_shader_clock on " << ctx->info().name << ": the path tracer's counters are not tested");
+            CHECK(ctx->validation_messages() == 0);
+            return;
+        }
         // The path tracer's variant: the same samples give the same image, and the totals are
         // consistent: every path traces its camera ray, at most two traces per vertex
         // (closest hit and shadow ray), every trace fetches the root.
@@ -351,13 +357,14 @@ TEST_SUITE("gpu") {
         big.spp = 32;
         big.batch_spp = 32;
         rc.render(big);
-        for (const TraversalCounters& t : {c, rc.counters()}) {
-            using namespace gpu;
-            const auto& k = t.clock;
-            for (uint32_t p = 0; p < PHASE_COUNT; ++p) {
+        for (const TraversalCounters& t : {c, rc.counters()})
+            for (uint32_t p = 0; p < gpu::PHASE_COUNT; ++p) {
                 CAPTURE(p);
-                CHECK(k[p] > 0.0);
+                CHECK(t.clock[p] > 0.0);
             }
+        {  // on the large render only, whose margins dwarf an interval left out
+            using namespace gpu;
+            const auto& k = rc.counters().clock;
             CHECK(k[PHASE_SHADOW] <= k[PHASE_NEE]);
             CHECK(k[PHASE_PRIMARY] + k[PHASE_BOUNCE] + k[PHASE_NEE] <= k[PHASE_BUSY]);
             CHECK(k[PHASE_BUSY] <= k[PHASE_PATH]);
@@ -398,7 +405,10 @@ TEST_SUITE("gpu") {
                 prim_differ += std::bit_cast<uint32_t>(all[i].hit.w) != std::bit_cast<uint32_t>(per_invocation[i].hit.w);
                 CHECK(all[i].hit.x == doctest::Approx(per_invocation[i].hit.x).epsilon(1e-6));
             }
-            CHECK(prim_differ == 0);
+            // lavapipe compiles both alike (the same bits); a GPU compiler may contract the
+            // two modules' arithmetic differently, flipping a rare tie at a shared edge.
+            if (ctx->info().type == "cpu") CHECK(prim_differ == 0);
+            else CHECK(prim_differ <= rays.size() / 1000);
             uint32_t hits = 0;
             for (const auto& h : all) {
                 CHECK(h.hit.x != 0.0f);  // written: a hit's t is positive, a miss -1 (the buffer starts as zeros)

@@ -165,8 +165,9 @@ VKM_CONST BVH4_STACK_SIZE = 96u;  // >= 3 x the deepest chain of interior nodes 
 // render --profile --counters`): uints 0..5 the traversal's work, 6 the
 // intervals left out because the clock went backwards, then for
 // each phase below its clock ticks summed over the invocations, 64-bit as
-// (low, high) at COUNTER_CLOCK + 2 * phase. The phases nest: a trace lies
-// inside PHASE_PATH, the shadow trace inside PHASE_NEE, all inside PHASE_SLOT.
+// (low, high) at COUNTER_CLOCK + 2 * phase. The phases nest: the traces and
+// NEE lie inside PHASE_BUSY, the shadow trace inside PHASE_NEE, BUSY inside
+// PHASE_PATH; CAMERA and PATH are separate intervals inside PHASE_SLOT.
 VKM_CONST PHASE_CAMERA = 0u;   // sample setup: random numbers, camera ray, tallies zeroed
 VKM_CONST PHASE_PRIMARY = 1u;  // the camera ray's closest-hit trace
 VKM_CONST PHASE_BOUNCE = 2u;   // the closest-hit traces of later segments

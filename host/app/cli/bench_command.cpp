@@ -213,6 +213,10 @@ int bench_render_profile(const BenchOptions& o, const std::vector<std::string>& 
                         pct(k[PHASE_BUSY] - k[PHASE_PRIMARY] - k[PHASE_BOUNCE] - k[PHASE_NEE]),
                         pct(k[PHASE_PATH] - k[PHASE_BUSY]), pct(k[PHASE_SLOT] - k[PHASE_CAMERA] - k[PHASE_PATH]),
                         pct(k[PHASE_PRIMARY] + k[PHASE_BOUNCE] + k[PHASE_SHADOW]), c.clock_backwards);
+            if (c.clock_backwards > 0.01 * rays)
+                std::printf("  warning: the shader clock went backwards in %.0f intervals (over 1%% of the traces): "
+                            "it wraps or is not steady on this device, and the phases' shares are not reliable\n",
+                            c.clock_backwards);
             std::fflush(stdout);
         }
     }

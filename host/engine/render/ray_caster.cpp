@@ -59,8 +59,9 @@ std::vector<gpu::GpuHit> RayCaster::dispatch(const std::vector<gpu::GpuRay>& ray
     pipe.warm_up();  // a lazy driver compiles here, outside the timed dispatch
     // Rays per workgroup of 64 invocations: slices (tracerays.comp) of 2048 rays, 256
     // for each SIMD vector of 8 on lavapipe, long enough that the wait for a slice's
-    // last ray is short and few enough that both threads stay busy.
-    const uint32_t per_group = slices ? 2048u : 64u;
+    // last ray is short and few enough that both threads stay busy. A GPU needs far
+    // more workgroups to fill its cores: slices of 256 there (not yet measured).
+    const uint32_t per_group = !slices ? 64u : ctx_.info().type == "cpu" ? 2048u : 256u;
     uint32_t push[kTraceraysPushBytes / 4] = {static_cast<uint32_t>(rays.size()), any_hit ? 1u : 0u, per_group};
     auto t0 = std::chrono::steady_clock::now();
     ctx_.submit_and_wait([&](::vk::CommandBuffer cmd) {
