@@ -17,6 +17,16 @@ layout(std430, set = 0, binding = BINDING_RAYS) readonly buffer Rays { GpuRay ra
 layout(std430, set = 0, binding = BINDING_HITS) writeonly buffer Hits { GpuHit hits[]; };
 layout(push_constant) uniform Push { uint ray_count; uint any_hit; uint rays_per_group; } pc;
 
+// Ray i's result: any hit, +1 or -1; closest hit, (t, barycentrics, triangle) or
+// (-1, 0, 0, no triangle).
+void write_hit(uint i, bool found, float t, vec2 bary, uint prim) {
+    if (pc.any_hit != 0u) {
+        hits[i].hit = vec4(found ? 1.0 : -1.0, 0.0, 0.0, 0.0);
+    } else {
+        hits[i].hit = found ? vec4(t, bary, uintBitsToFloat(prim)) : vec4(-1.0, 0.0, 0.0, uintBitsToFloat(0xFFFFFFFFu));
+    }
+}
+
 #if defined(TRAVERSAL_BVH) && !defined(VKMECH_COUNTERS) && !defined(VKMECH_ONE_RAY_PER_INVOCATION)
 #extension GL_KHR_shader_subgroup_ballot : require
 #define BVH_STREAM
@@ -24,14 +34,7 @@ layout(push_constant) uniform Push { uint ray_count; uint any_hit; uint rays_per
 #define BVH_STREAM_REFILL (gl_SubgroupSize / 2u)
 #endif
 GpuRay bvh_stream_ray(uint id) { return rays[id]; }
-void bvh_stream_hit(uint id, float t, uint prim, vec2 bary) {
-    const bool found = prim != 0xFFFFFFFFu;
-    if (pc.any_hit != 0u) {
-        hits[id].hit = vec4(found ? 1.0 : -1.0, 0.0, 0.0, 0.0);
-    } else {
-        hits[id].hit = found ? vec4(t, bary, uintBitsToFloat(prim)) : vec4(-1.0, 0.0, 0.0, uintBitsToFloat(0xFFFFFFFFu));
-    }
-}
+void bvh_stream_hit(uint id, float t, uint prim, vec2 bary) { write_hit(id, prim != 0xFFFFFFFFu, t, bary, prim); }
 #endif
 
 #include "traversal.glsl"
@@ -48,8 +51,7 @@ void main() {
     if (i >= pc.ray_count) return;
     GpuRay r = rays[i];
     if (pc.any_hit != 0u) {
-        bool occluded = trace_any(r.origin.xyz, r.direction.xyz, r.origin.w, r.direction.w);
-        hits[i].hit = vec4(occluded ? 1.0 : -1.0, 0.0, 0.0, 0.0);
+        write_hit(i, trace_any(r.origin.xyz, r.direction.xyz, r.origin.w, r.direction.w), 0.0, vec2(0.0), 0u);
         return;
     }
     Hit h;
@@ -58,10 +60,7 @@ void main() {
     hits[i].hit = uintBitsToFloat(uvec4(bvh_count_nodes, bvh_count_leaves, bvh_count_tris, bvh_count_stack));
     return;
 #endif
-    if (trace_closest(r.origin.xyz, r.direction.xyz, r.origin.w, r.direction.w, h)) {
-        hits[i].hit = vec4(h.t, h.bary, uintBitsToFloat(h.prim));
-    } else {
-        hits[i].hit = vec4(-1.0, 0.0, 0.0, uintBitsToFloat(0xFFFFFFFFu));
-    }
+    const bool found = trace_closest(r.origin.xyz, r.direction.xyz, r.origin.w, r.direction.w, h);
+    write_hit(i, found, h.t, h.bary, h.prim);
 #endif
 }
