@@ -7,8 +7,20 @@
 #                                     # the validation layer into .gpu/ (git-ignored)
 #   bash ci/gpu-check.sh run [WHAT]   # there, from the repository root: runs
 #                                     # WHAT (default: all) and writes logs to $OUT
+#   bash ci/gpu-check.sh bisect-stage [COMMIT...]
+#                                     # here: builds vkmech at each commit (default:
+#                                     # 3631bde, every later commit that changed shaders/,
+#                                     # HEAD; `worktree`: the current build; `bin:NAME`: a
+#                                     # variant in build-bisect/bin/NAME/) and packs the binaries with their scenes
+#                                     # into .gpu/bisect.tar.xz (run `stage` too)
+#   bash ci/gpu-check.sh run bisect [--plan]
+#                                     # there: `bench render --res 512 --spp 64` of every
+#                                     # staged binary, rounds alternating, one table;
+#                                     # --plan (here too) prints what it would run and
+#                                     # its estimated time
 #
 # WHAT is a comma-separated list of: devices, tests, bench, main, pipeline-cache, study-quick,
+# cornell (the Cornell box of ci/scenes at 1024^2 x 64 spp, each kernel), profile, ablation, bisect,
 # paper (the paper preset of every study, as far as PAPER_BUDGET_S allows).
 # Results go to docs/gpu.md by hand, with the device, driver and date.
 set -uo pipefail
@@ -18,7 +30,9 @@ root=$PWD
 stage() {
     local build=${BUILD_DIR:-build}
     [[ -x $build/vkmech && -x $build/vkmech_tests ]] || { echo "gpu-check: build first ($build/vkmech)"; exit 2; }
-    rm -rf .gpu && mkdir -p .gpu/bin .gpu/lib .gpu/lib-fallback .gpu/layers
+    # .gpu/bisect.tar.xz (bisect-stage) stays.
+    rm -rf .gpu/bin .gpu/lib .gpu/lib-fallback .gpu/layers .gpu/source_dir
+    mkdir -p .gpu/bin .gpu/lib .gpu/lib-fallback .gpu/layers
     cp "$build/vkmech" "$build/vkmech_tests" .gpu/bin/
     # Every shared library the binaries need except the C runtime, which the
     # target machine has (a newer glibc runs binaries built against 2.36). The
@@ -69,10 +83,9 @@ timed() {  # timed LABEL CMD...: runs CMD, prints its wall time and exit code
     return $rc
 }
 
-run() {
-    local what=${1:-all}
-    local out=${OUT:-$root/out/gpu-check}
-    mkdir -p "$out"
+# The device machine's environment: Debian's loader and GL dispatch unpacked,
+# the staged libraries first on the path, the NVIDIA ICD and the validation layer.
+device_env() {
     [[ -d .gpu/bin ]] || { echo "gpu-check: no .gpu/ here: run 'bash ci/gpu-check.sh stage' and carry .gpu and .gl"; exit 2; }
     local f
     for f in .gl/*.deb; do dpkg -x "$f" /; done
@@ -94,6 +107,37 @@ run() {
     src=$(cat .gpu/source_dir)
     if [[ -n $src && $src != "$root" && ! -e $src ]]; then mkdir -p "$(dirname "$src")" && ln -s "$root" "$src"; fi
     mkdir -p build && cp .gpu/bin/vkmech .gpu/bin/vkmech_tests build/
+}
+
+# The GPU suite in $1 processes at once, each bounded by $2 seconds; each
+# shard's log in $3/gpu-tests-<k>.log, printed after the summary; fails if any shard fails.
+gpu_suite_sharded() {
+    local shards=$1 limit=$2 dir=$3 n per k rc=0
+    n=$("$root/build/vkmech_tests" -ts=gpu -ltc | grep -cv '^\[doctest\]\|^=\|^$')
+    per=$(((n + shards - 1) / shards))
+    echo "gpu-check: $n GPU test cases in $shards shards of up to $per"
+    for ((k = 0; k < shards; ++k)); do
+        timeout -s INT "$limit" "$root/build/vkmech_tests" -ts=gpu -ob=name -d \
+            --first=$((k * per + 1)) --last=$(((k + 1) * per)) >"$dir/gpu-tests-$k.log" 2>&1 &
+    done
+    for ((k = 0; k < shards; ++k)); do wait -n || rc=1; done
+    # (doctest counts the cases outside --first..--last as passed: count the timed ones.)
+    echo "gpu-check: $(cat "$dir"/gpu-tests-*.log | grep -c -E '^[0-9]+\.[0-9]+ s: ') cases ran;" \
+        "$(grep -l 'Status: SUCCESS' "$dir"/gpu-tests-*.log | wc -l) of $shards shards succeeded"
+    grep -h -E 'ERROR|FATAL' -A4 "$dir"/gpu-tests-*.log | head -60
+    # The slowest cases (doctest -d prints each case's seconds before its name).
+    grep -h -E '^[0-9]+\.[0-9]+ s: ' "$dir"/gpu-tests-*.log | sort -rn | head -12
+    echo "gpu-check: the shards' whole logs:"
+    cat "$dir"/gpu-tests-*.log
+    return $rc
+}
+
+run() {
+    local what=${1:-all}
+    if [[ ,$what, == *,bisect,* && ${2:-} == --plan ]]; then bisect_plan; return; fi
+    local out=${OUT:-$root/out/gpu-check}
+    mkdir -p "$out"
+    device_env
     local vk=$root/build/vkmech
 
     {
@@ -110,7 +154,12 @@ run() {
         fi
         if has tests; then
             section "GPU test suites (vkmech_tests -ts=gpu)"
-            timed "gpu tests" stdbuf -oL "$root/build/vkmech_tests" -ts=gpu
+            # Bounded, so that a case that runs away on a large device cannot eat the lease;
+            # in GPU_TEST_SHARDS processes at once (doctest --first/--last over the suite's
+            # cases by name): a fresh machine's time goes to the driver compiling
+            # pipelines, on the CPU, one core per process. Each case's time (-d) is logged.
+            rm -rf out/gpu-tests && mkdir -p out/gpu-tests
+            timed "gpu tests" gpu_suite_sharded "${GPU_TEST_SHARDS:-8}" "${GPU_TESTS_TIMEOUT_S:-240}" out/gpu-tests
             section "CPU test suites"
             timed "cpu tests" "$root/build/vkmech_tests" -tse=gpu
         fi
@@ -121,8 +170,8 @@ run() {
             timed "bench traversal 4M" "$vk" bench traversal --rays 4194304
             # The ray kernel's slices, off on GPUs by default until measured on one:
             # the bvh column with them, against the one-ray-per-invocation column.
-            section "vkmech bench traversal --bvh-only --slices --rays 4194304"
-            timed "bench traversal slices" "$vk" bench traversal --bvh-only --slices --rays 4194304
+            section "vkmech bench traversal --kernel cpu --bvh-only --slices --rays 4194304"
+            timed "bench traversal slices" "$vk" bench traversal --kernel cpu --bvh-only --slices --rays 4194304
             section "vkmech bench render (defaults: 128^2, 8 spp)"
             timed "bench render" "$vk" bench render
             section "vkmech bench render --res 512 --spp 64"
@@ -168,11 +217,203 @@ run() {
             timed "study paper" timeout -s INT "${PAPER_BUDGET_S:-540}" "$vk" study all --preset paper --out out/paper
             tar czf "$out/paper-results.tar.gz" --exclude=cache -C out paper 2>/dev/null
         fi
+        if has cornell; then
+            # The GPU speed check's Cornell box (1024^2, 64 spp, MIS, capture on), each kernel twice.
+            local k
+            for k in gpu cpu; do
+                section "cornell box: vkmech --scene ci/scenes/cornell_box.xml --res 1024 --spp 64 --batch 64 --kernel $k"
+                "$vk" --scene ci/scenes/cornell_box.xml --res 1024 --spp 64 --batch 64 --kernel $k --out out/cornell-$k >/dev/null 2>&1
+                timed "cornell $k" "$vk" --scene ci/scenes/cornell_box.xml --res 1024 --spp 64 --batch 64 --kernel $k \
+                    --out out/cornell-$k >out/cornell-$k.log 2>&1
+                grep -E "paths/s|pipeline creation" out/cornell-$k.log
+            done
+            cp out/cornell-gpu/cornell_box.png "$out/" 2>/dev/null
+        fi
+        if has profile; then
+            # Where the path tracer's time goes on this device, by the shader's clock, with this device's kernel.
+            section "vkmech bench render --profile --counters --res 512 --spp 16 --batches 16 (${PROFILE_SCENES:-all scenes})"
+            timed "bench render phases" "$vk" bench render --profile --counters --res 512 --spp 16 --batches 16 \
+                ${PROFILE_SCENES:+--scenes $PROFILE_SCENES}
+        fi
+        if has ablation; then
+            section "vkmech bench render --ablation --res 512 --spp 64 (what each specialization is worth)"
+            timed "bench ablation" "$vk" bench render --ablation --res 512 --spp 64 --scenes ${ABLATION_SCENES:-glass_caustic,kitchen_counter,snooker}
+        fi
+        if [[ ,$what, == *,bisect,* ]]; then
+            section "bisect: bench render --res 512 --spp 64 of each staged binary"
+            bisect_run "$out"
+        fi
     } 2>&1 | tee "$out/gpu-check.log"
+}
+
+# ---- the GPU bisect (docs/gpu.md, "Bisecting a GPU regression") ----
+# Staged binaries: .gpu/bisect.tar.xz holds bisect/list (one line per commit:
+# short hash, date, subject) and bisect/<hash>/{vkmech,scenes/}. Each binary
+# renders the scenes of its own commit, by path.
+BISECT_BASE=3631bde
+bisect_commits() {  # the default list: the base, each later commit that changed shaders/, HEAD
+    { git rev-parse --short=10 "$BISECT_BASE"; git rev-list --reverse --abbrev-commit --abbrev=10 "$BISECT_BASE"..HEAD -- shaders/;
+      git rev-parse --short=10 HEAD; } | awk '!seen[$0]++'
+}
+
+bisect_stage() {
+    local commits=("$@") c
+    ((${#commits[@]})) || mapfile -t commits < <(bisect_commits)
+    local work=${BISECT_WORK:-$root/build-bisect} stage_dir
+    stage_dir=$(mktemp -d)
+    mkdir -p "$work" "$stage_dir/bisect"
+    [[ -d $work/src/.git || -f $work/src/.git ]] || git worktree add --detach -f "$work/src" HEAD >/dev/null
+    : >"$stage_dir/bisect/list"
+    local n=0 t0 short
+    for c in "${commits[@]}"; do
+        n=$((n + 1)); t0=$SECONDS
+        if [[ $c == worktree ]]; then
+            # The working tree's own build (BUILD_DIR, default build/), uncommitted changes included.
+            local build=${BUILD_DIR:-build}
+            [[ -x $build/vkmech ]] || { echo "gpu-check: bisect-stage: worktree: build first ($build/vkmech)"; exit 2; }
+            mkdir -p "$stage_dir/bisect/worktree"
+            cp "$build/vkmech" "$stage_dir/bisect/worktree/vkmech" && strip "$stage_dir/bisect/worktree/vkmech"
+            cp -r scenes "$stage_dir/bisect/worktree/"
+            printf 'worktree %s %s\n' "$(date -u +%F)" "the working tree (on $(git rev-parse --short=10 HEAD), uncommitted changes included)" \
+                >>"$stage_dir/bisect/list"
+            printf 'gpu-check: bisect-stage: %2d/%d worktree staged\n' "$n" "${#commits[@]}"
+            continue
+        fi
+        if [[ $c == bin:* ]]; then
+            # A variant built by hand from the working tree: $work/bin/NAME/vkmech, with a
+            # one-line description in $work/bin/NAME/what (an experiment to measure).
+            local name=${c#bin:}
+            [[ -x $work/bin/$name/vkmech ]] || { echo "gpu-check: bisect-stage: no $work/bin/$name/vkmech"; exit 2; }
+            mkdir -p "$stage_dir/bisect/$name"
+            cp "$work/bin/$name/vkmech" "$stage_dir/bisect/$name/vkmech"
+            cp -r scenes "$stage_dir/bisect/$name/"
+            printf '%s %s %s\n' "$name" "$(date -u +%F)" "$(cat "$work/bin/$name/what" 2>/dev/null || echo "variant $name")" \
+                >>"$stage_dir/bisect/list"
+            printf 'gpu-check: bisect-stage: %2d/%d %s staged\n' "$n" "${#commits[@]}" "$name"
+            continue
+        fi
+        short=$(git rev-parse --short=10 "$c^{commit}") || { echo "gpu-check: bisect-stage: no commit '$c'"; exit 2; }
+        mkdir -p "$stage_dir/bisect/$short"
+        if [[ -x $work/bin/$short/vkmech ]]; then
+            # Built by an earlier bisect-stage: a commit's binary does not change.
+            cp "$work/bin/$short/vkmech" "$stage_dir/bisect/$short/vkmech"
+        else
+            # One worktree and one build directory for every commit: checking a
+            # commit out touches only the files it changes, so each build is incremental.
+            git -C "$work/src" checkout -q --detach "$short"
+            if ! { cmake -S "$work/src" -B "$work/build" -DCMAKE_BUILD_TYPE=Release >"$work/cmake.log" 2>&1 &&
+                   cmake --build "$work/build" --target vkmech -j"$(nproc)" >"$work/build.log" 2>&1; }; then
+                echo "gpu-check: bisect-stage: $short does not build (log: $work/build.log); left out"
+                rm -rf "${stage_dir:?}/bisect/$short"
+                continue
+            fi
+            mkdir -p "$work/bin/$short"
+            cp "$work/build/vkmech" "$work/bin/$short/vkmech" && strip "$work/bin/$short/vkmech"
+            cp "$work/bin/$short/vkmech" "$stage_dir/bisect/$short/vkmech"
+        fi
+        git archive "$short" scenes | tar -x -C "$stage_dir/bisect/$short"
+        printf '%s %s %s\n' "$short" "$(git log -1 --format=%cs "$short")" "$(git log -1 --format=%s "$short" | cut -c1-70)" \
+            >>"$stage_dir/bisect/list"
+        printf 'gpu-check: bisect-stage: %2d/%d %s built in %d s\n' "$n" "${#commits[@]}" "$short" $((SECONDS - t0))
+    done
+    mkdir -p .gpu
+    # One solid archive: the binaries differ little, so it compresses to a few of them.
+    tar -C "$stage_dir" -cf - bisect | xz -T0 -9 --lzma2=dict=192MiB >.gpu/bisect.tar.xz
+    rm -rf "$stage_dir"
+    du -h .gpu/bisect.tar.xz
+    echo "gpu-check: bisect staged ($(tar -xJOf .gpu/bisect.tar.xz bisect/list | wc -l) binaries); stage the current build too ('stage'), then there: bash ci/gpu-check.sh run bisect"
+}
+
+bisect_scenes() { echo "${BISECT_SCENES:-glass_caustic,kitchen_counter,ring_caustic,snooker,cubes_dof}"; }
+
+# What `run bisect` would do and its estimated time, from the staged list (or,
+# before staging, the default commits). The estimate's figures are the H200's
+# (docs/gpu.md): a process start with its Vulkan device 0.6 s, a scene 1.3 s
+# (load, three pipelines from the warm shader cache, 12 renders of 512^2 x 64
+# paths), and the parallel warm-up's compiles 3 s per pipeline over 16 cores.
+bisect_plan() {
+    local list
+    if [[ -f .gpu/bisect.tar.xz ]]; then list=$(tar -xJOf .gpu/bisect.tar.xz bisect/list)
+    else list=$(bisect_commits | while read -r c; do printf '%s %s %s\n' "$c" "$(git log -1 --format=%cs "$c")" "$(git log -1 --format=%s "$c" | cut -c1-70)"; done)
+         echo "(not staged yet: the default commits of bisect-stage)"; fi
+    local n scenes nscenes rounds budget est
+    n=$(printf '%s\n' "$list" | grep -c .)
+    scenes=$(bisect_scenes); nscenes=$(tr ',' '\n' <<<"$scenes" | grep -c .)
+    rounds=${BISECT_ROUNDS:-2}; budget=${BISECT_BUDGET_S:-230}
+    est=$(awk -v n="$n" -v s="$nscenes" -v r="$rounds" 'BEGIN { printf "%d", n * r * (0.6 + 1.3 * s) + (n * s * 3 * 3) / 16 + n * 0.6 }')
+    echo "bisect plan: $n binaries x $nscenes scenes ($scenes) x $rounds rounds, alternating;"
+    echo "  each: vkmech bench render --res 512 --spp 64 --scenes <its commit's scene files>"
+    echo "  first, every binary renders each scene once at 32^2 (in parallel) to fill the driver's shader cache"
+    echo "  estimated ${est} s on an H200; the run stops at ${budget} s (BISECT_BUDGET_S) and reports the rounds it finished"
+    ((est > 240)) && echo "  over 4 minutes: set BISECT_SCENES to fewer scenes, BISECT_ROUNDS=1, or stage fewer commits"
+    printf '%s\n' "$list" | awk '{ printf "  %2d  %s\n", NR, $0 }'
+}
+
+bisect_run() {
+    local out=$1
+    [[ -f .gpu/bisect.tar.xz ]] || { echo "gpu-check: no .gpu/bisect.tar.xz: run 'bash ci/gpu-check.sh bisect-stage' here"; return 2; }
+    bisect_plan
+    local dir=$root/out/bisect
+    rm -rf "$dir" && mkdir -p "$dir" && tar -xJf .gpu/bisect.tar.xz -C "$dir"
+    local scenes rounds budget t0=$SECONDS
+    scenes=$(bisect_scenes); rounds=${BISECT_ROUNDS:-2}; budget=${BISECT_BUDGET_S:-230}
+    mapfile -t hashes < <(awk '{print $1}' "$dir/bisect/list")
+    # The driver's shader cache in one place for every binary, large enough for all.
+    export __GL_SHADER_DISK_CACHE=1 __GL_SHADER_DISK_CACHE_PATH=$dir/glcache __GL_SHADER_DISK_CACHE_SIZE=4000000000 \
+        __GL_SHADER_DISK_CACHE_SKIP_CLEANUP=1
+    mkdir -p "$dir/glcache"
+    paths_of() { tr ',' '\n' <<<"$scenes" | sed "s#^#$dir/bisect/$1/scenes/#; s#\$#.xml#" | paste -sd, -; }
+    local h
+    for h in "${hashes[@]}"; do echo "$h $(paths_of "$h")"; done |
+        xargs -P "$(nproc)" -L1 sh -c '"$0"/bisect/"$1"/vkmech bench render --res 32 --spp 1 --scenes "$2" >/dev/null 2>&1 || echo "warm-up failed: $1"' "$dir"
+    printf 'bisect: warm-up %d s\n' $((SECONDS - t0))
+    : >"$dir/results"
+    local r i order
+    for ((r = 1; r <= rounds; ++r)); do
+        order=("${hashes[@]}")
+        if ((r % 2 == 0)); then mapfile -t order < <(printf '%s\n' "${hashes[@]}" | tac); fi
+        for h in "${order[@]}"; do
+            if ((SECONDS - t0 > budget)); then echo "bisect: budget of ${budget} s reached in round $r"; break 2; fi
+            "$dir/bisect/$h/vkmech" bench render --res "${BISECT_RES:-512}" --spp "${BISECT_SPP:-64}" --scenes "$(paths_of "$h")" \
+                >"$dir/$h.$r.log" 2>&1 ||
+                echo "bisect: $h round $r failed: $(tail -1 "$dir/$h.$r.log")"
+            # The specialized column of the software-BVH rows.
+            awk -v h="$h" -v r="$r" '$2 == "bvh" && $3 ~ /^[0-9.]+$/ { print h, r, $1, $3 }' "$dir/$h.$r.log" >>"$dir/results"
+        done
+        printf 'bisect: round %d done at %d s\n' "$r" $((SECONDS - t0))
+    done
+    cp "$dir/results" "$out/bisect-results.txt"
+    echo "bisect: each binary's first-round output (all columns: specialized, generic, capture off):"
+    for h in "${hashes[@]}"; do echo "--- $h"; grep -E '^[a-z_]+ +bvh ' "$dir/$h.1.log"; done
+    /usr/bin/env python3 - "$dir/bisect/list" "$dir/results" "$scenes" <<'PY' | tee "$out/bisect-table.md"
+import collections, os, sys
+lst = [l.split(" ", 2) for l in open(sys.argv[1]).read().splitlines() if l.strip()]
+res = collections.defaultdict(list)
+for l in open(sys.argv[2]):
+    h, r, scene, v = l.split()
+    res[(h, scene)].append(float(v))
+scenes = sys.argv[3].split(",")
+base = {s: (sum(res[(lst[0][0], s)]) / len(res[(lst[0][0], s)]) if res[(lst[0][0], s)] else None) for s in scenes}
+print(f"bench render --res {os.environ.get('BISECT_RES', '512')} --spp {os.environ.get('BISECT_SPP', '64')}, specialized pipeline, software BVH: millions of paths/s, mean of the rounds "
+      "(each a median of 3); in brackets, the ratio to the first row")
+print("| commit | date | " + " | ".join(scenes) + " | subject |")
+print("|---|---|" + "---:|" * len(scenes) + "---|")
+for h, date, subj in lst:
+    cells = []
+    for s in scenes:
+        v = res[(h, s)]
+        if not v: cells.append("-"); continue
+        m = sum(v) / len(v)
+        spread = f" ±{(max(v) - min(v)) / 2 / m * 100:.0f}%" if len(v) > 1 else ""
+        ratio = f" ({m / base[s]:.2f})" if base[s] else ""
+        cells.append(f"{m:.3g}{spread}{ratio}")
+    print(f"| {h} | {date} | " + " | ".join(cells) + f" | {subj.replace('|', '/')} |")
+PY
 }
 
 case ${1:-} in
     stage) stage ;;
-    run) run "${2:-all}" ;;
-    *) echo "usage: bash ci/gpu-check.sh stage | run [devices,tests,bench,main,study-quick,paper|all]"; exit 2 ;;
+    run) run "${2:-all}" "${3:-}" ;;
+    bisect-stage) shift; bisect_stage "$@" ;;
+    *) echo "usage: bash ci/gpu-check.sh stage | bisect-stage [COMMIT...] | run [devices,tests,bench,main,pipeline-cache,study-quick,paper,cornell,profile,ablation,bisect|all] [--plan]"; exit 2 ;;
 esac

@@ -10,6 +10,9 @@
 // it also adds the traversal's work of each invocation to BINDING_COUNTERS:
 // traces, interior nodes, leaves, triangles tested, and the deepest stack.
 #extension GL_GOOGLE_include_directive : require
+#ifdef KERNEL_GPU
+#extension GL_EXT_control_flow_attributes : require
+#endif
 #include "shared/types.h"
 #include "shared/bindings.h"
 
@@ -148,7 +151,13 @@ void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_be
     if (!FEATURE_CAPTURE) return;
     float e = luminance(contrib);
     uint b = classify_event(n, end_lobe, delta_before);
+#ifdef KERNEL_GPU
+    // Constant indices: a GPU keeps the tally in registers, where an index
+    // known only at run time puts the whole array in local memory.
+    [[unroll]] for (uint k = 0u; k < BUCKET_COUNT; ++k) t.bucket[k] += k == b ? e : 0.0;
+#else
     t.bucket[b] += e;
+#endif
 #ifdef VKMECH_DIRECT_GLOSSY
     if (b == BUCKET_DIRECT && end_lobe == LOBE_G) t.direct_glossy += e;
 #endif

@@ -2,14 +2,29 @@
 #ifndef VKMECH_SCENE_DATA_GLSL
 #define VKMECH_SCENE_DATA_GLSL
 
+#ifndef KERNEL_GPU
 #extension GL_EXT_samplerless_texture_functions : require
+#endif
 #include "features.glsl"
 
 layout(std140, set = 0, binding = BINDING_PARAMS) uniform ParamsBlock { GpuParams params; };
-// The scene arrays are uniform texel buffers of RGBA32 uint texels, one
-// texel per vec4 of the host structs (shared/types.h): a texel fetch loads a
-// whole vec4 per invocation, where on lavapipe a storage-buffer load at a
-// divergent address loops over the invocations (host GpuScene).
+// The scene arrays hold RGBA32 uint texels, one per vec4 of the host structs
+// (shared/types.h). The CPU kernel reads them as uniform texel buffers: a
+// texel fetch loads a whole vec4 per invocation, where on lavapipe a
+// storage-buffer load at a divergent address loops over the invocations. The
+// GPU kernel (KERNEL_GPU) reads the same words as storage buffers of uvec4,
+// plain global loads on a GPU (host GpuScene, docs/gpu.md).
+#ifdef KERNEL_GPU
+layout(std430, set = 0, binding = BINDING_VERTICES) readonly buffer VertexBuf { uvec4 vertex_buf[]; };        // GpuVertex: 2
+layout(std430, set = 0, binding = BINDING_TRIANGLES) readonly buffer TriangleBuf { uvec4 triangle_buf[]; };   // 1
+layout(std430, set = 0, binding = BINDING_MATERIALS) readonly buffer MaterialBuf { uvec4 material_buf[]; };   // GpuMaterial: 9
+layout(std430, set = 0, binding = BINDING_LIGHT_TRIS) readonly buffer LightTriBuf { uvec4 light_tri_buf[]; }; // GpuLightTriangle: 2
+layout(std430, set = 0, binding = BINDING_EMITTERS) readonly buffer EmitterBuf { uvec4 emitter_buf[]; };      // GpuEmitter: 2
+layout(std430, set = 0, binding = BINDING_TEXELS) readonly buffer TexelBuf { uvec4 texel_buf[]; };            // linear RGB
+layout(std430, set = 0, binding = BINDING_TEXTURES) readonly buffer TextureBuf { uvec4 texture_buf[]; };      // TEX_WORDS each
+#define SCENE_FETCH(b, i) b[i]
+#define SCENE_FETCH_F(b, i) uintBitsToFloat(b[i])
+#else
 layout(set = 0, binding = BINDING_VERTICES) uniform utextureBuffer vertex_buf;      // GpuVertex: 2 texels
 layout(set = 0, binding = BINDING_TRIANGLES) uniform utextureBuffer triangle_buf;   // uvec4
 layout(set = 0, binding = BINDING_MATERIALS) uniform utextureBuffer material_buf;   // GpuMaterial: 9 texels
@@ -17,12 +32,15 @@ layout(set = 0, binding = BINDING_LIGHT_TRIS) uniform utextureBuffer light_tri_b
 layout(set = 0, binding = BINDING_EMITTERS) uniform utextureBuffer emitter_buf;     // GpuEmitter: 2 texels
 layout(set = 0, binding = BINDING_TEXELS) uniform utextureBuffer texel_buf;         // vec4 (linear RGB)
 layout(set = 0, binding = BINDING_TEXTURES) uniform utextureBuffer texture_buf;     // uvec4, TEX_WORDS per texture
-
 vec4 fetch_vec4(utextureBuffer b, uint i) { return uintBitsToFloat(texelFetch(b, int(i))); }
+#define SCENE_FETCH(b, i) texelFetch(b, int(i))
+#define SCENE_FETCH_F(b, i) fetch_vec4(b, i)
+#endif
+// SCENE_FETCH(b, i), SCENE_FETCH_F(b, i): word i of scene array b, as uvec4 and as vec4.
 
-vec3 vertex_position(uint i) { return fetch_vec4(vertex_buf, 2u * i).xyz; }
-vec3 vertex_normal(uint i) { return fetch_vec4(vertex_buf, 2u * i + 1u).xyz; }
-uvec4 triangle_at(uint i) { return texelFetch(triangle_buf, int(i)); }
+vec3 vertex_position(uint i) { return SCENE_FETCH_F(vertex_buf, 2u * i).xyz; }
+vec3 vertex_normal(uint i) { return SCENE_FETCH_F(vertex_buf, 2u * i + 1u).xyz; }
+uvec4 triangle_at(uint i) { return SCENE_FETCH(triangle_buf, i); }
 // Fetches only what the material's BSDF reads (the fields left out read 0):
 // a diffuse material reads its header and reflectance, two texels of nine;
 // `k` only conductors and plastics read, the last three only principled and
@@ -32,43 +50,43 @@ uvec4 triangle_at(uint i) { return texelFetch(triangle_buf, int(i)); }
 GpuMaterial material_at(uint i) {
     uint b = 9u * i;
     const vec4 zero = vec4(0.0);
-    GpuMaterial m = GpuMaterial(texelFetch(material_buf, int(b)), fetch_vec4(material_buf, b + 1u), zero, zero, zero, zero, zero,
+    GpuMaterial m = GpuMaterial(SCENE_FETCH(material_buf, b), SCENE_FETCH_F(material_buf, b + 1u), zero, zero, zero, zero, zero,
                                 zero, zero);
     if (m.header.x != MAT_DIFFUSE) {
-        m.specular_reflectance = fetch_vec4(material_buf, b + 2u);
-        m.specular_transmittance = fetch_vec4(material_buf, b + 3u);
-        m.eta = fetch_vec4(material_buf, b + 4u);
-        if (FEATURE_CONDUCTOR || FEATURE_PLASTIC) m.k = fetch_vec4(material_buf, b + 5u);
+        m.specular_reflectance = SCENE_FETCH_F(material_buf, b + 2u);
+        m.specular_transmittance = SCENE_FETCH_F(material_buf, b + 3u);
+        m.eta = SCENE_FETCH_F(material_buf, b + 4u);
+        if (FEATURE_CONDUCTOR || FEATURE_PLASTIC) m.k = SCENE_FETCH_F(material_buf, b + 5u);
         if (FEATURE_PRINCIPLED || (FEATURE_PLASTIC && FEATURE_ROUGH)) {
-            m.principled0 = fetch_vec4(material_buf, b + 6u);
-            m.principled1 = fetch_vec4(material_buf, b + 7u);
-            m.principled2 = fetch_vec4(material_buf, b + 8u);
+            m.principled0 = SCENE_FETCH_F(material_buf, b + 6u);
+            m.principled1 = SCENE_FETCH_F(material_buf, b + 7u);
+            m.principled2 = SCENE_FETCH_F(material_buf, b + 8u);
         }
     }
     return m;
 }
 GpuLightTriangle light_tri_at(uint i) {
-    return GpuLightTriangle(texelFetch(light_tri_buf, int(2u * i)), fetch_vec4(light_tri_buf, 2u * i + 1u));
+    return GpuLightTriangle(SCENE_FETCH(light_tri_buf, 2u * i), SCENE_FETCH_F(light_tri_buf, 2u * i + 1u));
 }
-float light_tri_cdf(uint i) { return fetch_vec4(light_tri_buf, 2u * i + 1u).x; }
-GpuEmitter emitter_at(uint i) { return GpuEmitter(fetch_vec4(emitter_buf, 2u * i), texelFetch(emitter_buf, int(2u * i + 1u))); }
-vec3 emitter_radiance(uint i) { return fetch_vec4(emitter_buf, 2u * i).rgb; }
+float light_tri_cdf(uint i) { return SCENE_FETCH_F(light_tri_buf, 2u * i + 1u).x; }
+GpuEmitter emitter_at(uint i) { return GpuEmitter(SCENE_FETCH_F(emitter_buf, 2u * i), SCENE_FETCH(emitter_buf, 2u * i + 1u)); }
+vec3 emitter_radiance(uint i) { return SCENE_FETCH_F(emitter_buf, 2u * i).rgb; }
 
 vec3 texel_at(uvec4 info, float x, float y) {
     float w = float(info.y);
     float h = float(info.z);
     uint xi = uint(clamp(mod(x, w), 0.0, w - 1.0));
     uint yi = uint(clamp(mod(y, h), 0.0, h - 1.0));
-    return fetch_vec4(texel_buf, info.x + yi * info.y + xi).rgb;
+    return SCENE_FETCH_F(texel_buf, info.x + yi * info.y + xi).rgb;
 }
 
 // Mitsuba's bitmap (bilinear or nearest, repeat wrap) and checkerboard
 // textures after their to_uv transform; uv (0, 0) is the top-left corner of
 // an image (host/scene convention).
 vec3 texture_lookup(uint tex, vec2 uv_in) {
-    uvec4 info = texelFetch(texture_buf, int(TEX_WORDS * tex));
-    uvec4 r0 = texelFetch(texture_buf, int(TEX_WORDS * tex + 1u));
-    uvec4 r1 = texelFetch(texture_buf, int(TEX_WORDS * tex + 2u));
+    uvec4 info = SCENE_FETCH(texture_buf, TEX_WORDS * tex);
+    uvec4 r0 = SCENE_FETCH(texture_buf, TEX_WORDS * tex + 1u);
+    uvec4 r1 = SCENE_FETCH(texture_buf, TEX_WORDS * tex + 2u);
     vec2 uv = vec2(dot(uintBitsToFloat(r0.xyz), vec3(uv_in, 1.0)), dot(uintBitsToFloat(r1.xyz), vec3(uv_in, 1.0)));
     uint kind = info.w & 0xFFu;
     if (kind == TEX_CHECKERBOARD) {
@@ -76,7 +94,7 @@ vec3 texture_lookup(uint tex, vec2 uv_in) {
         vec2 f = uv - floor(uv);
         bool mu = f.x > 0.5;
         bool mv = f.y > 0.5;
-        return fetch_vec4(texel_buf, info.x + (mu != mv ? 0u : 1u)).rgb;
+        return SCENE_FETCH_F(texel_buf, info.x + (mu != mv ? 0u : 1u)).rgb;
     }
     vec2 p = uv * vec2(float(info.y), float(info.z));
     if ((info.w & TEX_NEAREST_BIT) != 0u) return texel_at(info, floor(p.x), floor(p.y));
@@ -124,14 +142,14 @@ struct SurfaceHit {
 SurfaceHit surface_hit(uint prim, vec2 bary) {
     uvec4 tri = triangle_at(prim);
     bool flat_tri = (tri.w & TRI_FLAT_BIT) != 0u;
-    vec4 pa = fetch_vec4(vertex_buf, 2u * tri.x);
-    vec4 pb = fetch_vec4(vertex_buf, 2u * tri.y);
-    vec4 pc = fetch_vec4(vertex_buf, 2u * tri.z);
+    vec4 pa = SCENE_FETCH_F(vertex_buf, 2u * tri.x);
+    vec4 pb = SCENE_FETCH_F(vertex_buf, 2u * tri.y);
+    vec4 pc = SCENE_FETCH_F(vertex_buf, 2u * tri.z);
     vec4 na = vec4(0.0), nb = vec4(0.0), nc = vec4(0.0);
     if (!flat_tri || FEATURE_TEXTURES) {
-        na = fetch_vec4(vertex_buf, 2u * tri.x + 1u);
-        nb = fetch_vec4(vertex_buf, 2u * tri.y + 1u);
-        nc = fetch_vec4(vertex_buf, 2u * tri.z + 1u);
+        na = SCENE_FETCH_F(vertex_buf, 2u * tri.x + 1u);
+        nb = SCENE_FETCH_F(vertex_buf, 2u * tri.y + 1u);
+        nc = SCENE_FETCH_F(vertex_buf, 2u * tri.z + 1u);
     }
     float w0 = 1.0 - bary.x - bary.y;
     SurfaceHit s;

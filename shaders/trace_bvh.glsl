@@ -1,8 +1,12 @@
 // Software traversal of the host-built SAH BVH (host/accel/bvh.cpp), for
 // devices without VK_KHR_ray_query. Same interface as trace_rayquery.glsl.
+// Two kernels (docs/gpu.md, "Two kernels"): the CPU kernel's below, tuned on
+// lavapipe; with KERNEL_GPU, trace_bvh_gpu.glsl's, tuned on a GPU. They share
+// the hit record, the triangle test and the counters.
 #ifndef VKMECH_TRACE_BVH_GLSL
 #define VKMECH_TRACE_BVH_GLSL
 
+#ifndef KERNEL_GPU
 #extension GL_EXT_samplerless_texture_functions : require
 
 // Both are uniform texel buffers of RGBA32 uint texels (a texel fetch loads
@@ -21,6 +25,7 @@ layout(set = 0, binding = BINDING_BVH_TRIS) uniform utextureBuffer bvh_tri_pos;
 
 // Byte k of each component of q, for the four children.
 vec4 bvh_bytes(uint q) { return vec4((uvec4(q) >> uvec4(0u, 8u, 16u, 24u)) & 0xFFu); }
+#endif
 
 struct Hit {
     float t;
@@ -72,6 +77,9 @@ uint bvh_count_stack = 0u;   // deepest stack
 #define BVH_COUNT(stmt)
 #endif
 
+#ifdef KERNEL_GPU
+#include "trace_bvh_gpu.glsl"
+#else
 // Orders two (distance, child) pairs by distance.
 void bvh_order(inout float da, inout uint ca, inout float db, inout uint cb) {
     bool swap = db < da;
@@ -309,6 +317,9 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
 #endif
 }
 
+#endif  // KERNEL_GPU
+
+// The interface of trace_rayquery.glsl, on either kernel's bvh_trace.
 #ifndef BVH_STREAM
 bool trace_closest(vec3 o, vec3 d, float tmin, float tmax, out Hit hit) {
     return bvh_trace(o, d, tmin, tmax, false, hit);

@@ -27,7 +27,7 @@ void write_hit(uint i, bool found, float t, vec2 bary, uint prim) {
     }
 }
 
-#if defined(TRAVERSAL_BVH) && !defined(VKMECH_COUNTERS) && !defined(VKMECH_ONE_RAY_PER_INVOCATION)
+#if defined(TRAVERSAL_BVH) && !defined(VKMECH_COUNTERS) && !defined(VKMECH_ONE_RAY_PER_INVOCATION) && !defined(KERNEL_GPU)
 #extension GL_KHR_shader_subgroup_ballot : require
 #define BVH_STREAM
 #ifndef BVH_STREAM_REFILL

@@ -12,7 +12,7 @@ Frame render_scene(vk::Context& ctx, const std::string& path, const RenderSetup&
 
 Frame render_scene(vk::Context& ctx, Scene scene, const RenderSetup& setup) {
     scene.camera.set_film_width(setup.res);
-    RenderSession session(ctx, std::move(scene), setup.traversal);
+    RenderSession session(ctx, std::move(scene), setup.traversal, LightSelection::Uniform, setup.kernel);
     Features f = setup.generic ? Features::generic(setup.estimator) : session.features(setup.estimator);
     Renderer r = session.renderer(f);
     RenderSpec spec;

@@ -24,6 +24,7 @@ struct RenderSetup {
     std::function<void(const std::vector<gpu::GpuPixelAccum>&)> on_batch;
     std::vector<uint32_t> sample_counts;  // adaptive: n(p) per pixel (docs/descriptor.md §6)
     PixelOrder pixel_order = PixelOrder::Auto;
+    vk::KernelClass kernel = vk::KernelClass::Auto;  // the context's
 };
 
 Frame render_scene(vk::Context& ctx, const std::string& path, const RenderSetup& setup);

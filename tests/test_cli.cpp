@@ -96,8 +96,12 @@ TEST_SUITE("gpu") {
         CHECK(json.find("\"bvh_rays_per_second\": null") == std::string::npos);
 
         // --slices measures the bvh column with slices on any device with subgroup ballot, and
-        // says so; a device without ballot is refused with a message.
-        r = run_cli("bench traversal --scenes cubes_dof --rays 1000 --bvh-only --slices");
+        // says so; a device without ballot is refused with a message. Slices are the CPU
+        // kernel's: with the GPU kernel they are refused.
+        r = run_cli("bench traversal --scenes cubes_dof --rays 1000 --bvh-only --slices --kernel gpu");
+        CHECK(r.code == 2);
+        CHECK(r.output.find("--kernel cpu") != std::string::npos);
+        r = run_cli("bench traversal --scenes cubes_dof --rays 1000 --bvh-only --slices --kernel cpu");
         INFO(r.output);
         if (ctx->info().compute_subgroup_ballot) {
             REQUIRE(r.code == 0);

@@ -143,11 +143,13 @@ TEST_CASE("direct_glossy: merging frames adds the split when both have it and dr
 }
 
 TEST_CASE("direct_glossy: the default path-tracing module is not the variant") {
-    for (Traversal t : {Traversal::Bvh, Traversal::RayQuery}) {
-        auto plain = pathtrace_spirv(t), same = pathtrace_spirv(t, false), variant = pathtrace_spirv(t, true);
-        CHECK(plain.data() == same.data());
-        CHECK(plain.size() == same.size());
-        CHECK(variant.data() != plain.data());
+    for (vkmech::vk::KernelClass k : {vkmech::vk::KernelClass::Cpu, vkmech::vk::KernelClass::Gpu}) {
+        for (Traversal t : {Traversal::Bvh, Traversal::RayQuery}) {
+            auto plain = pathtrace_spirv(t, k), same = pathtrace_spirv(t, k, false), variant = pathtrace_spirv(t, k, true);
+            CHECK(plain.data() == same.data());
+            CHECK(plain.size() == same.size());
+            CHECK(variant.data() != plain.data());
+        }
     }
 }
 

@@ -89,8 +89,8 @@ std::unique_ptr<vkc::ComputePipeline> tracerays_pipeline(const vkc::Context& ctx
     using DT = ::vk::DescriptorType;
     using namespace gpu;
     std::vector<vkc::BindingDesc> bindings = {{BINDING_RAYS, DT::eStorageBuffer}, {BINDING_HITS, DT::eStorageBuffer}};
-    for (const auto& b : traversal_bindings(Traversal::Bvh)) bindings.push_back(b);
-    return std::make_unique<vkc::ComputePipeline>(ctx, tracerays_spirv(Traversal::Bvh), bindings,
+    for (const auto& b : traversal_bindings(Traversal::Bvh, ctx.kernel())) bindings.push_back(b);
+    return std::make_unique<vkc::ComputePipeline>(ctx, tracerays_spirv(Traversal::Bvh, ctx.kernel()), bindings,
                                                   kTraceraysPushBytes);
 }
 

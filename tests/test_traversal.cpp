@@ -226,7 +226,8 @@ TEST_SUITE("gpu") {
             const glm::vec3 from = target + glm::vec3(2.0f * u(rng) - 1.0f, 2.0f * u(rng) - 1.0f, 2.0f * u(rng) - 1.0f);
             rays.push_back({glm::vec4(from, 0.0f), glm::vec4(glm::normalize(target - from), 1e30f)});
         }
-        GpuScene g(*ctx, arrays, Traversal::Bvh);
+        // The CPU kernel's stack (the GPU kernel's is an ordinary array, checked against brute force below).
+        GpuScene g(*ctx, arrays, Traversal::Bvh, vkmech::vk::KernelClass::Cpu);
         RayCaster caster(*ctx, g);
         uint32_t deepest = 0, past_registers = 0;
         for (const auto& w : caster.trace_work(rays)) {
@@ -240,6 +241,17 @@ TEST_SUITE("gpu") {
         INFO(j.first_bad);
         CHECK(j.bad == 0);
         CHECK(j.clear_hits > rays.size() / 10);
+        // The GPU kernel's binary tree on the same deep cluster.
+        GpuScene g2(*ctx, arrays, Traversal::Bvh, vkmech::vk::KernelClass::Gpu);
+        RayCaster caster2(*ctx, g2);
+        uint32_t deepest2 = 0;
+        for (const auto& w : caster2.trace_work(rays)) deepest2 = std::max(deepest2, w.stack);
+        MESSAGE("GPU kernel: deepest stack " << deepest2);
+        CHECK(deepest2 > 16);
+        const Judged j2 = judge_bvh(caster2, arrays, rays, true);
+        INFO(j2.first_bad);
+        CHECK(j2.bad == 0);
+        CHECK(j2.clear_hits > rays.size() / 10);
         CHECK(ctx->validation_messages() == 0);
     }
 
@@ -274,33 +286,69 @@ TEST_SUITE("gpu") {
         CHECK(ctx->validation_messages() == 0);
     }
 
+    TEST_CASE("traversal: the GPU kernel's tree gives the CPU kernel's hits on every scene (100k random rays)") {
+        VKMECH_REQUIRE_GPU(ctx);
+        // The two kernels' software traversals on one device: the 4-wide
+        // quantized tree through texel buffers and the binary tree through
+        // storage buffers. They test triangles with the same function, so a
+        // hit may differ only where two triangles tie (verified in double).
+        for_each_project_scene([&](const std::string& path, const SceneArrays& arrays) {
+            auto rays = random_rays(arrays, 100000, 42);
+            GpuScene cpu(*ctx, arrays, Traversal::Bvh, vkmech::vk::KernelClass::Cpu);
+            GpuScene gpu(*ctx, arrays, Traversal::Bvh, vkmech::vk::KernelClass::Gpu);
+            REQUIRE(gpu.kernel() == vkmech::vk::KernelClass::Gpu);
+            RayCaster ccpu(*ctx, cpu), cgpu(*ctx, gpu);
+            auto hits_cpu = ccpu.trace(rays, false, nullptr, RaySchedule::PerInvocation);
+            auto hits_gpu = cgpu.trace(rays, false);
+            Agreement a = compare(arrays, rays, hits_cpu, hits_gpu);
+            INFO(a.first_mismatch);
+            CHECK(a.mismatches == 0);
+            MESSAGE(path << ": " << a.same << " same hits, " << a.edge_ties << " verified ties, " << a.both_miss << " misses");
+            CHECK(a.same + a.both_miss + a.edge_ties == a.rays);
+            CHECK(a.same > a.rays / 10);
+            auto any_cpu = ccpu.trace(rays, true, nullptr, RaySchedule::PerInvocation);
+            auto any_gpu = cgpu.trace(rays, true);
+            uint32_t any_diff = 0;
+            for (size_t i = 0; i < rays.size(); ++i) any_diff += (any_cpu[i].hit.x > 0.0f) != (any_gpu[i].hit.x > 0.0f);
+            CHECK(any_diff == 0);
+        });
+        CHECK(ctx->validation_messages() == 0);
+    }
+
     TEST_CASE("traversal: the instrumented shaders count the work derived by hand and leave the image unchanged") {
         VKMECH_REQUIRE_GPU(ctx);
         // The quad is two triangles: one binary leaf, so the 4-wide root holds one leaf child.
         // A ray onto the quad fetches the root, visits that leaf and tests both triangles; a
         // ray beside it fetches the root only; a ray pointing away fetches the root only.
+        // The GPU kernel's binary tree is that one leaf: its root box test counts as the one
+        // node step, then the same leaf and triangles.
         SceneArrays arrays = flatten_scene(testing::quad_scene());
         REQUIRE(arrays.bvh4.size() == 1);
-        GpuScene g(*ctx, arrays, Traversal::Bvh);
-        RayCaster caster(*ctx, g);
+        REQUIRE(arrays.bvh.nodes.size() == 1);
         std::vector<gpu::GpuRay> rays = {{glm::vec4(0.3f, 0.2f, 2.0f, 0.0f), glm::vec4(0, 0, -1, 1e30f)},
                                          {glm::vec4(3.0f, 0.2f, 2.0f, 0.0f), glm::vec4(0, 0, -1, 1e30f)},
                                          {glm::vec4(0.3f, 0.2f, 2.0f, 0.0f), glm::vec4(0, 0, 1, 1e30f)}};
-        auto work = caster.trace_work(rays);
-        REQUIRE(work.size() == 3);
-        CHECK(work[0].nodes == 1);
-        CHECK(work[0].leaves == 1);
-        CHECK(work[0].triangles == 2);
-        CHECK(work[0].stack == 0);
-        for (int i : {1, 2}) {
-            CAPTURE(i);
-            CHECK(work[i].nodes == 1);
-            CHECK(work[i].leaves == 0);
-            CHECK(work[i].triangles == 0);
+        for (auto kernel : {vkmech::vk::KernelClass::Cpu, vkmech::vk::KernelClass::Gpu}) {
+            CAPTURE(vkmech::vk::to_string(kernel));
+            GpuScene g(*ctx, arrays, Traversal::Bvh, kernel);
+            RayCaster caster(*ctx, g);
+            auto work = caster.trace_work(rays);
+            REQUIRE(work.size() == 3);
+            CHECK(work[0].nodes == 1);
+            CHECK(work[0].leaves == 1);
+            CHECK(work[0].triangles == 2);
+            CHECK(work[0].stack == 0);
+            for (int i : {1, 2}) {
+                CAPTURE(i);
+                CHECK(work[i].nodes == 1);
+                CHECK(work[i].leaves == 0);
+                CHECK(work[i].triangles == 0);
+            }
         }
         if (ctx->ray_query_enabled()) {
             GpuScene rq(*ctx, arrays, Traversal::RayQuery);
             RayCaster c(*ctx, rq);
+            // (the same rays as above)
             CHECK_THROWS_AS(c.trace_work(rays), std::invalid_argument);
         }
 

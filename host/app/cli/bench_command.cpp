@@ -50,6 +50,7 @@ vk::ContextOptions bench_context_options(const BenchOptions& o) {
     vk::ContextOptions co;
     co.device_index = o.device;
     co.pipeline_cache_dir = o.pipeline_cache;
+    co.kernel = vk::parse_kernel_class(o.kernel);
     return co;
 }
 
@@ -101,9 +102,11 @@ int cmd_bench_traversal(const BenchOptions& o) {
     if (o.slices && !ctx.info().compute_subgroup_ballot)
         throw UsageError("--slices: " + ctx.info().name +
                          " does not report subgroup ballot in compute shaders, which the slices kernel needs");
+    if (o.slices && ctx.kernel() != vk::KernelClass::Cpu)
+        throw UsageError("--slices: the ray kernel's slices are the CPU kernel's; add --kernel cpu");
     const RaySchedule bvh_schedule = o.slices ? RaySchedule::Slices : RaySchedule::Auto;
-    std::printf("device: %s (%s), %u random rays per measurement (closest hit; median of 3; seed %u)%s\n",
-                ctx.info().name.c_str(), ctx.info().type.c_str(), o.rays, kBenchTraversalSeed,
+    std::printf("device: %s (%s), %s kernel, %u random rays per measurement (closest hit; median of 3; seed %u)%s\n",
+                ctx.info().name.c_str(), ctx.info().type.c_str(), vk::to_string(ctx.kernel()), o.rays, kBenchTraversalSeed,
                 o.slices ? "; bvh column: slices (--slices)" : "");
     std::printf("%-22s %10s %16s %16s %20s\n", "scene", "triangles", "rayquery Mray/s", "bvh Mray/s",
                 "bvh 1 ray/inv Mray/s");
@@ -150,9 +153,9 @@ namespace {
 
 // `bench render --profile`: per scene and batch size, the render's wall time split into the batch loop's steps.
 int bench_render_profile(const BenchOptions& o, const std::vector<std::string>& names, const vk::Context& ctx) {
-    std::printf("device: %s (%s); %ux%u film, %u spp per render (the median of 3 renders by wall time); seconds per "
-                "render; dispatch = record + submit + wait (the device's work)\n",
-                ctx.info().name.c_str(), ctx.info().type.c_str(), o.res, o.res, o.spp);
+    std::printf("device: %s (%s), %s kernel; %ux%u film, %u spp per render (the median of 3 renders by wall time); "
+                "seconds per render; dispatch = record + submit + wait (the device's work)\n",
+                ctx.info().name.c_str(), ctx.info().type.c_str(), vk::to_string(ctx.kernel()), o.res, o.res, o.spp);
     std::printf("%-20s %-9s %6s %8s %9s %9s %9s %9s %9s %7s %9s\n", "scene", "traversal", "batch", "batches", "total",
                 "upload", "dispatch", "readback", "accum.", "other", "Mpaths/s");
     for (const auto& n : names) {
@@ -223,14 +226,67 @@ int bench_render_profile(const BenchOptions& o, const std::vector<std::string>& 
     return 0;
 }
 
+// Paths/s in millions of one pipeline: the median of 3 renders after a warm-up.
+double measure_paths_per_second(const RenderSession& session, const Features& f, const BenchOptions& o) {
+    Renderer r = session.renderer(f);
+    RenderSpec spec;
+    spec.spp = o.spp;
+    spec.batch_spp = o.spp;
+    r.render(spec);  // warm-up (pipeline caches, page faults)
+    std::vector<double> mps;
+    for (int i = 0; i < 3; ++i) {
+        Frame fr = r.render(spec);
+        mps.push_back(static_cast<double>(fr.samples) / fr.seconds / 1e6);
+    }
+    std::sort(mps.begin(), mps.end());
+    return mps[1];
+}
+
+// `bench render --ablation`: what each effect's specialization constant is
+// worth on this device. The specialized pipeline compiles out every effect the
+// scene does not call for; each row compiles one of them back in.
+int bench_render_ablation(const BenchOptions& o, const std::vector<std::string>& names, const vk::Context& ctx) {
+    std::printf("device: %s (%s), %s kernel; %ux%u film, %u spp per measurement, median of 3; paths/s in millions; "
+                "each effect row: the specialized pipeline with that effect compiled in\n",
+                ctx.info().name.c_str(), ctx.info().type.c_str(), vk::to_string(ctx.kernel()), o.res, o.res, o.spp);
+    std::printf("%-20s %-22s %12s %9s\n", "scene", "pipeline", "Mpaths/s", "vs spec.");
+    for (const auto& n : names) {
+        Scene scene = load_scene(resolve_scene_path(n));
+        scene.camera.set_film_width(static_cast<int>(o.res));
+        RenderSession session(ctx, scene, resolve_traversal(ctx, Traversal::Auto));
+        const Features spec = Features::from_scene(scene);
+        const double base = measure_paths_per_second(session, spec, o);
+        auto row = [&](const char* what, double mps) {
+            std::printf("%-20s %-22s %12.2f %8.1f%%\n", scene_stem(n).c_str(), what, mps, 100.0 * (mps / base - 1.0));
+            std::fflush(stdout);
+        };
+        row("specialized", base);
+        const std::pair<const char*, bool Features::*> effects[] = {
+            {"+thin-lens", &Features::thin_lens}, {"+dielectric", &Features::dielectric}, {"+rough", &Features::rough},
+            {"+plastic", &Features::plastic},     {"+principled", &Features::principled}, {"+conductor", &Features::conductor},
+            {"+textures", &Features::textures}};
+        for (const auto& [what, member] : effects) {
+            if (spec.*member) continue;
+            Features f = spec;
+            f.*member = true;
+            row(what, measure_paths_per_second(session, f, o));
+        }
+        Features generic = Features::generic();
+        generic.orthographic = spec.orthographic;
+        row("generic", measure_paths_per_second(session, generic, o));
+    }
+    return 0;
+}
+
 }  // namespace
 
 int cmd_bench_render(const BenchOptions& o) {
     const std::vector<std::string> names = bench_scenes(o);
     vk::Context ctx(bench_context_options(o));
     if (o.profile) return bench_render_profile(o, names, ctx);
-    std::printf("device: %s (%s); %ux%u film, %u spp per measurement, median of 3; paths/s in millions\n",
-                ctx.info().name.c_str(), ctx.info().type.c_str(), o.res, o.res, o.spp);
+    if (o.ablation) return bench_render_ablation(o, names, ctx);
+    std::printf("device: %s (%s), %s kernel; %ux%u film, %u spp per measurement, median of 3; paths/s in millions\n",
+                ctx.info().name.c_str(), ctx.info().type.c_str(), vk::to_string(ctx.kernel()), o.res, o.res, o.spp);
     std::printf("%-20s %-9s %12s %12s %12s %12s\n", "scene", "traversal", "specialized", "generic", "capture off",
                 "spec. gain");
     for (const auto& n : names) {
@@ -240,20 +296,7 @@ int cmd_bench_render(const BenchOptions& o) {
         if (ctx.ray_query_enabled()) travs.insert(travs.begin(), Traversal::RayQuery);
         for (Traversal t : travs) {
             RenderSession session(ctx, scene, t);
-            auto measure = [&](const Features& f) {
-                Renderer r = session.renderer(f);
-                RenderSpec spec;
-                spec.spp = o.spp;
-                spec.batch_spp = o.spp;
-                r.render(spec);  // warm-up (pipeline caches, page faults)
-                std::vector<double> mps;
-                for (int i = 0; i < 3; ++i) {
-                    Frame fr = r.render(spec);
-                    mps.push_back(fr.samples / fr.seconds / 1e6);
-                }
-                std::sort(mps.begin(), mps.end());
-                return mps[1];
-            };
+            auto measure = [&](const Features& f) { return measure_paths_per_second(session, f, o); };
             double spec_on = measure(Features::from_scene(scene));
             double generic = measure(Features::generic());
             double cap_off = measure(Features::from_scene(scene, Estimator::Nee, false));

@@ -33,6 +33,14 @@ void add_common_options(CLI::App* app, CommonOptions& o) {
         ->check(CLI::PositiveNumber);
     app->add_flag("--validation", o.validation, "Enable the Vulkan validation layers when installed");
     add_pipeline_cache_option(app, o.pipeline_cache);
+    add_kernel_option(app, o.kernel);
+}
+
+void add_kernel_option(CLI::App* app, std::string& kernel) {
+    app->add_option("--kernel", kernel,
+                    "Device-class kernel: auto (cpu on CPU devices such as lavapipe, gpu on every other; "
+                    "$VKMECH_KERNEL overrides auto), cpu or gpu. Both give the same images to float rounding")
+        ->check(CLI::IsMember({"auto", "cpu", "gpu"}));
 }
 
 void add_pipeline_cache_option(CLI::App* app, std::optional<std::string>& dir) {
@@ -97,6 +105,7 @@ vk::ContextOptions context_options(const CommonOptions& o) {
     co.device_index = o.device;
     co.validation = o.validation;
     co.pipeline_cache_dir = o.pipeline_cache;
+    co.kernel = vk::parse_kernel_class(o.kernel);
     return co;
 }
 

@@ -31,6 +31,7 @@ struct CommonOptions {
     size_t max_triangles = 0;           // --max-triangles N (0: $VKMECH_MAX_TRIANGLES or the default)
     bool validation = false;            // Vulkan validation layers
     std::optional<std::string> pipeline_cache;  // --pipeline-cache DIR|off (vk::ContextOptions)
+    std::string kernel = "auto";        // --kernel auto|cpu|gpu (vk::KernelClass)
 };
 
 struct RenderOptions {
@@ -77,6 +78,7 @@ struct SentinelEvaluateOptions {
     std::string cache;  // default: <out>/cache
     std::optional<uint32_t> device;
     std::optional<std::string> pipeline_cache;
+    std::string kernel = "auto";     // --kernel (vk::KernelClass)
     bool allow_code_change = false;  // evaluate with code other than the registered code
     bool force = false;              // overwrite an existing evaluation
 };
@@ -90,10 +92,12 @@ struct BenchOptions {
     std::vector<uint32_t> batches{1, 8, 64};  // bench render --profile: samples per dispatch tried
     std::optional<uint32_t> device;
     std::optional<std::string> pipeline_cache;
+    std::string kernel = "auto";          // --kernel (vk::KernelClass)
     std::optional<std::string> dump_dir;  // bench traversal --dump DIR
     bool counters = false;                // bench traversal --counters: the software BVH's work per ray
     bool bvh_only = false;                // bench traversal --bvh-only: no ray-query measurement
     bool slices = false;                  // bench traversal --slices: the bvh column with slices on any device
+    bool ablation = false;                // bench render --ablation: each effect the scene does not need, kept in alone
 };
 
 // `vkmech bench traversal` traces random_rays(arrays, rays, kBenchTraversalSeed)
@@ -108,6 +112,8 @@ int cmd_study(StudyOptions o);
 void add_common_options(CLI::App* app, CommonOptions& o);
 // --pipeline-cache DIR|off (render, bench, study).
 void add_pipeline_cache_option(CLI::App* app, std::optional<std::string>& dir);
+// --kernel auto|cpu|gpu: the device-class kernel (vk::KernelClass).
+void add_kernel_option(CLI::App* app, std::string& kernel);
 
 // Finds scenes/NAME.xml for a bare name, else treats the argument as a path.
 std::string resolve_scene_path(const std::string& name_or_path);

@@ -120,6 +120,7 @@ int main(int argc, char** argv) {
                          "Measure the `bvh` column with slices on any device that has subgroup ballot, GPUs included "
                          "(by default only CPU devices use them: they have not been measured on a GPU)");
     add_pipeline_cache_option(bench_trav, bench_opts.pipeline_cache);
+    add_kernel_option(bench_trav, bench_opts.kernel);
 
     auto* bench_render = bench->add_subcommand(
         "render", "Paths/s per scene: specialized vs generic pipeline, capture on vs off, ray query vs BVH");
@@ -140,7 +141,12 @@ int main(int argc, char** argv) {
                            "trace, deepest stack) and where the invocations' time goes, by the shader's own clock "
                            "(VK_KHR_shader_clock): camera-ray, later and shadow traces, NEE, other shading, waiting "
                            "for the longer paths of the SIMD vector or warp, accumulation");
+    bench_render->add_flag("--ablation", bench_opts.ablation,
+                           "What each specialization is worth: per scene, the specialized pipeline, then the same with "
+                           "one effect the scene does not call for compiled in (as the generic pipeline has it), one "
+                           "effect at a time, then the generic pipeline; instead of the specialization table");
     add_pipeline_cache_option(bench_render, bench_opts.pipeline_cache);
+    add_kernel_option(bench_render, bench_opts.kernel);
 
     StudyOptions study_opts;
     auto* study = app.add_subcommand(
@@ -210,6 +216,7 @@ int main(int argc, char** argv) {
     sentinel_evaluate->add_option("--cache", evaluate_opts.cache, "Render cache (default: <out>/cache)");
     sentinel_evaluate->add_option("--device", evaluate_opts.device, "Vulkan device index (see `vkmech devices`)");
     add_pipeline_cache_option(sentinel_evaluate, evaluate_opts.pipeline_cache);
+    add_kernel_option(sentinel_evaluate, evaluate_opts.kernel);
     sentinel_evaluate->add_flag("--allow-code-change", evaluate_opts.allow_code_change,
                                 "Evaluate with code other than the registered code (stated in the report)");
     sentinel_evaluate->add_flag("--force", evaluate_opts.force, "Overwrite an existing evaluation");

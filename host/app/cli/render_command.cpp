@@ -84,6 +84,7 @@ RenderInfo render_info(const std::string& name, const RenderOptions& o, const vk
                        bool capture) {
     RenderInfo info{name, resolve_scene_path(o.common.scene), ctx.info().name, to_string(trav), to_string(estimator),
                     features.describe(), spp, seed, capture};
+    info.kernel = vk::to_string(ctx.kernel());
     info.light_selection = o.light_selection;
     info.end_vertex = o.end_vertex;
     info.exposure_ev = o.exposure;
@@ -239,10 +240,11 @@ int cmd_render(const RenderOptions& o) {
     Renderer renderer = session.renderer(features);
     const vk::PipelineStats pipes = ctx.pipeline_cache().stats() - before;
 
-    std::fprintf(stderr, "vkmech: %s: %dx%d, %zu triangles, %zu emitters, %u spp on '%s' (%s traversal; %s; %s light "
-                 "selection)\n",
+    std::fprintf(stderr, "vkmech: %s: %dx%d, %zu triangles, %zu emitters, %u spp on '%s' (%s traversal, %s kernel; %s; %s "
+                 "light selection)\n",
                  name.c_str(), scene.camera.width, scene.camera.height, arrays.triangles.size(), scene.emitters.size(),
-                 o.spp, ctx.info().name.c_str(), to_string(trav), features.describe().c_str(), o.light_selection.c_str());
+                 o.spp, ctx.info().name.c_str(), to_string(trav), vk::to_string(ctx.kernel()), features.describe().c_str(),
+                 o.light_selection.c_str());
     RenderSpec spec;
     spec.spp = o.spp;
     spec.seed = o.seed;

@@ -120,10 +120,10 @@ int cmd_sentinel_register(const SentinelOptions& o) {
     r.end_vertex = to_string(features.end_vertex);
     r.light_selection = to_string(lights);
     r.traversal = to_string(trav);
-    const auto spirv = pathtrace_spirv(trav);
+    const auto spirv = pathtrace_spirv(trav, ctx.kernel());
     r.version = VKMECH_VERSION;
     // The studies' code digest (study_runner.hpp) and a SHA-256 of the same SPIR-V.
-    r.code_digest = render_code_digest(trav);
+    r.code_digest = render_code_digest(trav, ctx.kernel());
     r.spirv_sha256 = Sha256().update(spirv.data(), spirv.size_bytes()).hex();
     r.registered_utc = utc_now();
     r.device = ctx.info().name;
@@ -213,6 +213,7 @@ int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o) {
     vk::ContextOptions co;
     co.device_index = o.device;
     co.pipeline_cache_dir = o.pipeline_cache;
+    co.kernel = vk::parse_kernel_class(o.kernel);
     vk::Context ctx(co);
     Traversal trav;
     try {
@@ -220,13 +221,14 @@ int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o) {
     } catch (const std::exception& e) {
         throw UsageError("the record's traversal '" + r.traversal + "' is not available here: " + e.what());
     }
-    const std::string digest = render_code_digest(trav);
+    const std::string digest = render_code_digest(trav, ctx.kernel());
     std::vector<std::string> notes;
     if (digest != r.code_digest) {
         if (!o.allow_code_change)
             throw UsageError("the code differs from the registered code (digest " + digest.substr(0, 16) + "..., registered " +
                              r.code_digest.substr(0, 16) + "..., version " + r.version +
-                             "); evaluate with the registered build, or pass --allow-code-change (the report says so)");
+                             "); evaluate with the registered build and kernel (this run's: --kernel " + std::string(vk::to_string(ctx.kernel())) +
+                             "), or pass --allow-code-change (the report says so)");
         notes.push_back("evaluated with code other than the registered code (digest " + digest.substr(0, 16) +
                         "..., registered " + r.code_digest.substr(0, 16) + "...), --allow-code-change");
     }

@@ -65,6 +65,7 @@ void add_study_options(CLI::App* app, StudyOptions& o) {
                     "predictor: a frozen predictor_curve.json; predicts each scene's label reliability from its pilot only");
     app->add_option("--device", o.device, "Vulkan device index (see `vkmech devices`)");
     add_pipeline_cache_option(app, o.pipeline_cache);
+    add_kernel_option(app, o.kernel);
     app->add_option("--traversal", o.traversal, "Ray traversal: auto, rayquery or bvh")
         ->check(CLI::IsMember({"auto", "rayquery", "bvh"}));
     app->add_flag("--no-plots", o.no_plots, "Write the figure specs (JSON) but do not run matplotlib");

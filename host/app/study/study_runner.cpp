@@ -86,8 +86,8 @@ LoadedScene load_variant(const SceneVariant& v, int res) {
     return ls;
 }
 
-std::string render_code_digest(Traversal t) {
-    const auto spirv = pathtrace_spirv(t);
+std::string render_code_digest(Traversal t, vk::KernelClass k) {
+    const auto spirv = pathtrace_spirv(t, k);
     return Digest().str(VKMECH_VERSION).bytes(spirv.data(), spirv.size_bytes()).str("frame-merge-v1").hex();
 }
 
@@ -115,12 +115,13 @@ struct StudyPlan {
 struct StudyDevice {
     explicit StudyDevice(const StudyOptions& o) : ctx(context_options(o)) {
         trav = resolve_traversal(ctx, parse_traversal(o.traversal));
-        code_digest = render_code_digest(trav);
+        code_digest = render_code_digest(trav, ctx.kernel());
     }
     static vk::ContextOptions context_options(const StudyOptions& o) {
         vk::ContextOptions co;
         co.device_index = o.device;
         co.pipeline_cache_dir = o.pipeline_cache;
+        co.kernel = vk::parse_kernel_class(o.kernel);
         return co;
     }
     vk::Context ctx;

@@ -31,6 +31,7 @@ struct StudyOptions {
     std::string curve;                    // predictor: frozen curve for new scenes
     std::optional<uint32_t> device;
     std::optional<std::string> pipeline_cache;  // vk::ContextOptions::pipeline_cache_dir
+    std::string kernel = "auto";                // vk::ContextOptions::kernel
     std::string traversal = "auto";
     bool no_plots = false;
     std::string plot_script;              // analysis/plot_figures.py as the CLI found it; empty: not found
@@ -70,7 +71,7 @@ LoadedScene load_variant(const SceneVariant& v, int res);
 
 // The digest of the code that renders with traversal t (version and
 // path-tracing SPIR-V): part of every render-cache key and of a sentinel record.
-std::string render_code_digest(Traversal t);
+std::string render_code_digest(Traversal t, vk::KernelClass k);
 
 // True once SIGINT arrived during a study (the handler is installed while rendering).
 bool study_interrupted();

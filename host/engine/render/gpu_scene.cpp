@@ -231,17 +231,21 @@ SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
     return a;
 }
 
-std::vector<vk::BindingDesc> traversal_bindings(Traversal t) {
+std::vector<vk::BindingDesc> traversal_bindings(Traversal t, vk::KernelClass k) {
     using DT = ::vk::DescriptorType;
+    if (k == vk::KernelClass::Auto) throw std::invalid_argument("traversal_bindings: the kernel is not resolved");
     if (t == Traversal::RayQuery) return {{gpu::BINDING_TLAS, DT::eAccelerationStructureKHR}};
-    if (t == Traversal::Bvh)
-        return {{gpu::BINDING_BVH_NODES, DT::eUniformTexelBuffer}, {gpu::BINDING_BVH_TRIS, DT::eUniformTexelBuffer}};
+    const DT type = k == vk::KernelClass::Gpu ? DT::eStorageBuffer : DT::eUniformTexelBuffer;
+    if (t == Traversal::Bvh) return {{gpu::BINDING_BVH_NODES, type}, {gpu::BINDING_BVH_TRIS, type}};
     throw std::invalid_argument("traversal_bindings: the traversal is not resolved");
 }
 
 void GpuScene::bind_traversal(vk::ComputePipeline& pipeline) const {
     if (traversal_ == Traversal::RayQuery) {
         pipeline.bind_acceleration_structure(gpu::BINDING_TLAS, accel_->tlas());
+    } else if (kernel_ == vk::KernelClass::Gpu) {
+        pipeline.bind_buffer(gpu::BINDING_BVH_NODES, bvh_nodes.handle());
+        pipeline.bind_buffer(gpu::BINDING_BVH_TRIS, gpu_tree_positions.handle());
     } else {
         for (const auto& [binding, view] : traversal_views_) pipeline.bind_texel_buffer(binding, **view);
     }
@@ -278,50 +282,120 @@ size_t texels_of(const std::vector<T>& v) {
 
 }  // namespace
 
-std::vector<vk::BindingDesc> scene_bindings(Traversal t) {
+std::vector<vk::BindingDesc> scene_bindings(Traversal t, vk::KernelClass k) {
     using DT = ::vk::DescriptorType;
-    std::vector<vk::BindingDesc> b = {
-        {gpu::BINDING_VERTICES, DT::eUniformTexelBuffer},   {gpu::BINDING_TRIANGLES, DT::eUniformTexelBuffer},
-        {gpu::BINDING_MATERIALS, DT::eUniformTexelBuffer},  {gpu::BINDING_LIGHT_TRIS, DT::eUniformTexelBuffer},
-        {gpu::BINDING_EMITTERS, DT::eUniformTexelBuffer},   {gpu::BINDING_TEXELS, DT::eUniformTexelBuffer},
-        {gpu::BINDING_TEXTURES, DT::eUniformTexelBuffer}};
-    for (const auto& x : traversal_bindings(t)) b.push_back(x);
+    const DT type = k == vk::KernelClass::Gpu ? DT::eStorageBuffer : DT::eUniformTexelBuffer;
+    std::vector<vk::BindingDesc> b = {{gpu::BINDING_VERTICES, type},   {gpu::BINDING_TRIANGLES, type},
+                                      {gpu::BINDING_MATERIALS, type},  {gpu::BINDING_LIGHT_TRIS, type},
+                                      {gpu::BINDING_EMITTERS, type},   {gpu::BINDING_TEXELS, type},
+                                      {gpu::BINDING_TEXTURES, type}};
+    for (const auto& x : traversal_bindings(t, k)) b.push_back(x);
     return b;
 }
 
 void GpuScene::bind_scene(vk::ComputePipeline& pipeline) const {
-    for (const auto& [binding, view] : views_) pipeline.bind_texel_buffer(binding, **view);
+    if (kernel_ == vk::KernelClass::Gpu) {
+        for (const auto& [binding, buffer] : storage_) pipeline.bind_buffer(binding, buffer);
+    } else {
+        for (const auto& [binding, view] : views_) pipeline.bind_texel_buffer(binding, **view);
+    }
     bind_traversal(pipeline);
 }
 
-GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal traversal)
-    : traversal_(resolve_traversal(ctx, traversal)) {
+// Measured on an H200 (docs/gpu.md, 2026-11-26): leaves of at most 2, 32 bins
+// and a node visit costing one triangle test (the CPU tree's options) against
+// 3631bde's leaves of 4, 16 bins and free node visits: faster on 6 of the 9
+// bench scenes (ring_caustic +14%, kitchen_counter +8%), slower on
+// glass_caustic (-8%). Kept a separate tree so a GPU can be tuned alone.
+BvhBuildOptions gpu_kernel_bvh_options() {
+    BvhBuildOptions o;
+    o.max_leaf_size = 2;
+    o.bins = 32;
+    o.traversal_cost = 1.0f;
+    return o;
+}
+
+GpuKernelTree build_gpu_kernel_tree(const SceneArrays& a) {
+    const size_t n = a.tri_positions.size() / 3;
+    std::vector<glm::vec3> pos3(3 * n);
+    for (size_t i = 0; i < 3 * n; ++i) pos3[i] = glm::vec3(a.tri_positions[i]);
+    Bvh tree = build_bvh(pos3, gpu_kernel_bvh_options());
+    GpuKernelTree t;
+    t.nodes = std::move(tree.nodes);
+    t.positions.resize(3 * n);
+    for (size_t i = 0; i < n; ++i) {
+        const uint32_t src = tree.order[i];
+        for (int k = 0; k < 3; ++k) t.positions[3 * i + k] = glm::vec4(pos3[3 * size_t{src} + k], 0.0f);
+        t.positions[3 * i].w = std::bit_cast<float>(src);  // the scene arrays' index of the triangle
+    }
+    return t;
+}
+
+namespace {
+
+// The GPU kernel reads each array as a storage buffer: refused, as a texel
+// buffer's count is, where the device cannot address it.
+void check_storage_range(const vk::Context& ctx, const vk::Buffer& b, const char* what) {
+    const uint64_t limit = ctx.info().max_storage_buffer_range;
+    if (limit > 0 && b.size() > limit)
+        throw SceneError("", 0, std::string("the scene needs ") + vk::byte_size_text(b.size()) + " of " + what +
+                                    ", more than this device's limit of " + vk::byte_size_text(limit) +
+                                    " (maxStorageBufferRange); make the scene smaller (fewer triangles, smaller textures)");
+}
+
+}  // namespace
+
+GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal traversal, vk::KernelClass kernel)
+    : traversal_(resolve_traversal(ctx, traversal)), kernel_(kernel == vk::KernelClass::Auto ? ctx.kernel() : kernel) {
     using BU = ::vk::BufferUsageFlagBits;
-    const ::vk::BufferUsageFlags texel = BU::eUniformTexelBuffer;
-    vertices = vk::Buffer::from_vector(ctx, a.vertices, texel);
-    triangles = vk::Buffer::from_vector(ctx, a.triangles, texel);
-    materials = vk::Buffer::from_vector(ctx, a.materials, texel);
-    emitters = vk::Buffer::from_vector(ctx, a.emitters, texel);
-    light_triangles = vk::Buffer::from_vector(ctx, a.light_triangles, texel);
-    texels = vk::Buffer::from_vector(ctx, a.texels, texel);
-    textures = vk::Buffer::from_vector(ctx, a.textures, texel);
-    views_.emplace_back(gpu::BINDING_VERTICES, texel_view(ctx, vertices, texels_of(a.vertices), "vertices"));
-    views_.emplace_back(gpu::BINDING_TRIANGLES, texel_view(ctx, triangles, texels_of(a.triangles), "triangles"));
-    views_.emplace_back(gpu::BINDING_MATERIALS, texel_view(ctx, materials, texels_of(a.materials), "materials"));
-    views_.emplace_back(gpu::BINDING_LIGHT_TRIS,
-                        texel_view(ctx, light_triangles, texels_of(a.light_triangles), "emissive triangles"));
-    views_.emplace_back(gpu::BINDING_EMITTERS, texel_view(ctx, emitters, texels_of(a.emitters), "emitters"));
-    views_.emplace_back(gpu::BINDING_TEXELS, texel_view(ctx, texels, texels_of(a.texels), "texture texels"));
-    views_.emplace_back(gpu::BINDING_TEXTURES, texel_view(ctx, textures, texels_of(a.textures), "texture records"));
-    ::vk::BufferUsageFlags pos_usage = texel;
+    const bool gpu_kernel = kernel_ == vk::KernelClass::Gpu;
+    const ::vk::BufferUsageFlags usage = gpu_kernel ? ::vk::BufferUsageFlags(BU::eStorageBuffer)
+                                                    : ::vk::BufferUsageFlags(BU::eUniformTexelBuffer);
+    vertices = vk::Buffer::from_vector(ctx, a.vertices, usage);
+    triangles = vk::Buffer::from_vector(ctx, a.triangles, usage);
+    materials = vk::Buffer::from_vector(ctx, a.materials, usage);
+    emitters = vk::Buffer::from_vector(ctx, a.emitters, usage);
+    light_triangles = vk::Buffer::from_vector(ctx, a.light_triangles, usage);
+    texels = vk::Buffer::from_vector(ctx, a.texels, usage);
+    textures = vk::Buffer::from_vector(ctx, a.textures, usage);
+    ::vk::BufferUsageFlags pos_usage = usage;
     if (traversal_ == Traversal::RayQuery)
         pos_usage = pos_usage | BU::eStorageBuffer | BU::eAccelerationStructureBuildInputReadOnlyKHR |
                     BU::eShaderDeviceAddress;
     tri_positions = vk::Buffer::from_vector(ctx, a.tri_positions, pos_usage);
+    if (gpu_kernel) {
+        const std::pair<uint32_t, const vk::Buffer*> arrays[] = {
+            {gpu::BINDING_VERTICES, &vertices},   {gpu::BINDING_TRIANGLES, &triangles},
+            {gpu::BINDING_MATERIALS, &materials}, {gpu::BINDING_LIGHT_TRIS, &light_triangles},
+            {gpu::BINDING_EMITTERS, &emitters},   {gpu::BINDING_TEXELS, &texels},
+            {gpu::BINDING_TEXTURES, &textures}};
+        const char* what[] = {"vertices", "triangles", "materials", "emissive triangles", "emitters",
+                              "texture texels", "texture records"};
+        for (size_t i = 0; i < std::size(arrays); ++i) {
+            check_storage_range(ctx, *arrays[i].second, what[i]);
+            storage_.emplace_back(arrays[i].first, arrays[i].second->handle());
+        }
+    } else {
+        views_.emplace_back(gpu::BINDING_VERTICES, texel_view(ctx, vertices, texels_of(a.vertices), "vertices"));
+        views_.emplace_back(gpu::BINDING_TRIANGLES, texel_view(ctx, triangles, texels_of(a.triangles), "triangles"));
+        views_.emplace_back(gpu::BINDING_MATERIALS, texel_view(ctx, materials, texels_of(a.materials), "materials"));
+        views_.emplace_back(gpu::BINDING_LIGHT_TRIS,
+                            texel_view(ctx, light_triangles, texels_of(a.light_triangles), "emissive triangles"));
+        views_.emplace_back(gpu::BINDING_EMITTERS, texel_view(ctx, emitters, texels_of(a.emitters), "emitters"));
+        views_.emplace_back(gpu::BINDING_TEXELS, texel_view(ctx, texels, texels_of(a.texels), "texture texels"));
+        views_.emplace_back(gpu::BINDING_TEXTURES, texel_view(ctx, textures, texels_of(a.textures), "texture records"));
+    }
     if (traversal_ == Traversal::RayQuery) {
         accel_ = std::make_unique<RayTracingAccel>(ctx, tri_positions, static_cast<uint32_t>(a.triangles.size()));
+    } else if (gpu_kernel) {
+        // The GPU kernel's traversal runs its own binary tree (shaders/trace_bvh_gpu.glsl).
+        const GpuKernelTree tree = build_gpu_kernel_tree(a);
+        bvh_nodes = vk::Buffer::from_vector(ctx, tree.nodes, usage);
+        gpu_tree_positions = vk::Buffer::from_vector(ctx, tree.positions, usage);
+        check_storage_range(ctx, bvh_nodes, "BVH nodes");
+        check_storage_range(ctx, gpu_tree_positions, "triangle positions");
     } else {
-        bvh_nodes = vk::Buffer::from_vector(ctx, a.bvh4, texel);
+        bvh_nodes = vk::Buffer::from_vector(ctx, a.bvh4, usage);
         traversal_views_.emplace_back(gpu::BINDING_BVH_NODES, texel_view(ctx, bvh_nodes, texels_of(a.bvh4), "BVH nodes"));
         traversal_views_.emplace_back(gpu::BINDING_BVH_TRIS,
                                       texel_view(ctx, tri_positions, texels_of(a.tri_positions), "triangle positions"));

@@ -49,17 +49,24 @@ SceneArrays flatten_scene(const Scene& scene, LightSelection selection = LightSe
 
 class GpuScene {
 public:
-    GpuScene(const vk::Context& ctx, const SceneArrays& arrays, Traversal traversal);
+    // `kernel`: the device-class kernel the arrays are laid out for; Auto = the
+    // context's (vk::Context::kernel). Tests compare the two on one device.
+    GpuScene(const vk::Context& ctx, const SceneArrays& arrays, Traversal traversal,
+             vk::KernelClass kernel = vk::KernelClass::Auto);
     Traversal traversal() const { return traversal_; }
+    // The kernel the arrays were laid out for (the context's, vk::Context::kernel).
+    vk::KernelClass kernel() const { return kernel_; }
     const RayTracingAccel* accel() const { return accel_.get(); }
 
     vk::Buffer vertices, triangles, materials, emitters, light_triangles, bvh_nodes, tri_positions, texels, textures;
-    // The shaders read every scene array (and the software traversal its BVH
-    // nodes and triangle positions) as uniform texel buffers of RGBA32 uint
-    // texels (shaders/scene_data.glsl, trace_bvh.glsl): on lavapipe a texel
-    // fetch loads a whole texel per invocation with vector loads, where a
-    // storage-buffer load at a divergent address loops over the invocations
-    // and bounds-checks every component (docs/performance.md).
+    vk::Buffer gpu_tree_positions;  // the GPU kernel's software BVH: GpuKernelTree::positions
+    // The CPU kernel reads every scene array (and the software traversal its
+    // 4-wide BVH nodes and triangle positions) as uniform texel buffers of
+    // RGBA32 uint texels (shaders/scene_data.glsl, trace_bvh.glsl): on lavapipe
+    // a texel fetch loads a whole texel per invocation with vector loads, where
+    // a storage-buffer load at a divergent address loops over the invocations
+    // and bounds-checks every component (docs/performance.md). The GPU kernel
+    // reads the same arrays, and the binary BVH's nodes, as storage buffers.
     // Binds this scene's traversal data (traversal_bindings(traversal())).
     void bind_traversal(vk::ComputePipeline& pipeline) const;
     // Binds every scene array and the traversal data (scene_bindings(traversal())).
@@ -67,17 +74,34 @@ public:
 
 private:
     Traversal traversal_;
+    vk::KernelClass kernel_;
     std::unique_ptr<RayTracingAccel> accel_;
+    // (binding, buffer): the GPU kernel's scene arrays.
+    std::vector<std::pair<uint32_t, ::vk::Buffer>> storage_;
     // (binding, view): the scene arrays; the software BVH's nodes and triangle positions.
     std::vector<std::pair<uint32_t, std::unique_ptr<::vk::raii::BufferView>>> views_, traversal_views_;
 };
 
+// The GPU kernel's software BVH (shaders/trace_bvh_gpu.glsl): a binary tree
+// of its own over the scene's triangles, built with gpu_kernel_bvh_options()
+// (measured on a GPU: docs/gpu.md), and the triangles' positions in that
+// tree's order, 3 vec4 each, the first w holding the bits of the triangle's
+// index in the scene arrays (what a hit reports). The scene arrays keep the
+// order of their own tree (SceneArrays::bvh), which the CPU kernel runs.
+struct GpuKernelTree {
+    std::vector<gpu::GpuBvhNode> nodes;
+    std::vector<glm::vec4> positions;
+};
+BvhBuildOptions gpu_kernel_bvh_options();
+GpuKernelTree build_gpu_kernel_tree(const SceneArrays& arrays);
+
 // The descriptor bindings of a traversal's data (shaders/traversal.glsl): the
-// TLAS for ray query; the 4-wide BVH and the triangle positions as uniform
-// texel buffers for the software BVH. t must be resolved (not Auto).
-std::vector<vk::BindingDesc> traversal_bindings(Traversal t);
-// The scene arrays' bindings (uniform texel buffers) and the traversal's.
-std::vector<vk::BindingDesc> scene_bindings(Traversal t);
+// TLAS for ray query; for the software BVH, the BVH and the triangle positions
+// as uniform texel buffers (CPU kernel) or storage buffers (GPU kernel). t and
+// k must be resolved (not Auto).
+std::vector<vk::BindingDesc> traversal_bindings(Traversal t, vk::KernelClass k);
+// The scene arrays' bindings (texel or storage buffers, by kernel) and the traversal's.
+std::vector<vk::BindingDesc> scene_bindings(Traversal t, vk::KernelClass k);
 
 // Auto: ray query on GPUs that have it; the BVH on CPU devices (faster there,
 // measured) and on devices without ray query.

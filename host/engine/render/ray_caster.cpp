@@ -18,15 +18,19 @@ std::vector<gpu::GpuHit> RayCaster::trace(const std::vector<gpu::GpuRay>& rays, 
     if (schedule == RaySchedule::Slices && !slices_supported())
         throw std::invalid_argument(scene_.traversal() != Traversal::Bvh
                                         ? "the ray kernel's slices exist for the software BVH only"
+                                        : scene_.kernel() != vk::KernelClass::Cpu
+                                        ? "the ray kernel's slices are the CPU kernel's (--kernel cpu)"
                                         : "the ray kernel's slices need subgroup ballot in compute shaders, which " +
                                               ctx_.info().name + " does not report");
     const bool slices = schedule == RaySchedule::Slices ||
-                        (schedule == RaySchedule::Auto && ctx_.info().type == "cpu" && slices_supported());
+                        (schedule == RaySchedule::Auto && scene_.kernel() == vk::KernelClass::Cpu && slices_supported());
     return dispatch(rays, any_hit, false, slices, seconds);
 }
 
 bool RayCaster::slices_supported() const {
-    return scene_.traversal() == Traversal::Bvh && ctx_.info().compute_subgroup_ballot;
+    // Slices are the CPU kernel's (the GPU kernel's traversal traces one ray per invocation).
+    return scene_.traversal() == Traversal::Bvh && scene_.kernel() == vk::KernelClass::Cpu &&
+           ctx_.info().compute_subgroup_ballot;
 }
 
 std::vector<RayCaster::Work> RayCaster::trace_work(const std::vector<gpu::GpuRay>& rays) {
@@ -47,8 +51,8 @@ std::vector<gpu::GpuHit> RayCaster::dispatch(const std::vector<gpu::GpuRay>& ray
     using DT = ::vk::DescriptorType;
     using namespace gpu;
     std::vector<vk::BindingDesc> bindings = {{BINDING_RAYS, DT::eStorageBuffer}, {BINDING_HITS, DT::eStorageBuffer}};
-    for (const auto& b : traversal_bindings(scene_.traversal())) bindings.push_back(b);
-    vk::ComputePipeline pipe(ctx_, tracerays_spirv(scene_.traversal(), counters, slices), bindings,
+    for (const auto& b : traversal_bindings(scene_.traversal(), scene_.kernel())) bindings.push_back(b);
+    vk::ComputePipeline pipe(ctx_, tracerays_spirv(scene_.traversal(), scene_.kernel(), counters, slices), bindings,
                              kTraceraysPushBytes);
     vk::Buffer in = vk::Buffer::from_vector(ctx_, rays, ::vk::BufferUsageFlagBits::eStorageBuffer);
     vk::Buffer out(ctx_, std::max<size_t>(16, rays.size() * sizeof(gpu::GpuHit)), ::vk::BufferUsageFlagBits::eStorageBuffer,

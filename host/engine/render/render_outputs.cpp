@@ -144,6 +144,7 @@ std::string summary_json(const RenderInfo& info, const Frame& frame, const Descr
     o << "  \"light_selection\": \"" << info.light_selection << "\",\n";
     o << "  \"end_vertex\": \"" << info.end_vertex << "\",\n";
     o << "  \"traversal\": \"" << info.traversal << "\",\n";
+    if (!info.kernel.empty()) o << "  \"kernel\": \"" << info.kernel << "\",\n";
     o << "  \"features\": \"" << json_escape(info.features) << "\",\n";
     o << "  \"device\": \"" << json_escape(info.device) << "\",\n";
     o << "  \"wall_seconds\": " << frame.seconds << ",\n";

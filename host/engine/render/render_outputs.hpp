@@ -35,6 +35,7 @@ struct RenderInfo {
     // Further top-level members of the JSON summary, each a key and its value
     // as JSON text, written after "substitutions" (render --adaptive: "adaptive").
     std::vector<std::pair<std::string, std::string>> extra_json;
+    std::string kernel;  // the device-class kernel (vk::KernelClass): cpu or gpu; empty: not recorded
 };
 
 struct WrittenFiles {

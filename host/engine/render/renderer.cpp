@@ -7,7 +7,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cerrno>
+#include <cstdlib>
 #include <numeric>
+#include <optional>
 #include <stdexcept>
 
 #include <unistd.h>
@@ -49,6 +52,31 @@ uint64_t film_host_bytes(uint64_t pixels) { return pixels * (sizeof(PixelStats) 
                                    vk::byte_size_text(film_host_bytes(px)) + " of host memory (the frame and its "
                                    "readback); " + why + "; lower --res",
                                film_device_bytes(px));
+}
+
+// VKMECH_MEMORY_LIMIT: a cap on the film's device and host memory, in bytes
+// or with a K/M/G/T(i)B suffix, so that a refusal does not depend on the
+// machine's size (the tests set it). Unset or empty: no cap.
+std::optional<uint64_t> memory_limit_bytes() {
+    const char* env = std::getenv("VKMECH_MEMORY_LIMIT");
+    if (!env || !*env) return std::nullopt;
+    const std::string text(env);
+    char* end = nullptr;
+    errno = 0;
+    const double value = std::strtod(env, &end);
+    std::string unit(end);
+    unit.erase(0, unit.find_first_not_of(' '));
+    for (auto& c : unit) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    double scale = 0.0;
+    if (unit.empty() || unit == "B") scale = 1.0;
+    if (unit == "K" || unit == "KB" || unit == "KIB") scale = 0x1p10;
+    if (unit == "M" || unit == "MB" || unit == "MIB") scale = 0x1p20;
+    if (unit == "G" || unit == "GB" || unit == "GIB") scale = 0x1p30;
+    if (unit == "T" || unit == "TB" || unit == "TIB") scale = 0x1p40;
+    if (end == env || errno != 0 || scale == 0.0 || !(value > 0.0) || value * scale > 0x1p63)
+        throw std::invalid_argument("VKMECH_MEMORY_LIMIT='" + text +
+                                    "': expected a positive size such as 4GiB, 512MiB or 1073741824 (bytes)");
+    return static_cast<uint64_t>(value * scale);
 }
 
 uint64_t physical_ram_bytes() {
@@ -96,16 +124,20 @@ Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Feature
                                              {BINDING_SAMPLE_COUNTS, DT::eStorageBuffer},
                                              {BINDING_COUNTERS, DT::eStorageBuffer},
                                              {BINDING_WORK, DT::eStorageBuffer}};
-    for (const auto& b : scene_bindings(gpu_.traversal())) bindings.push_back(b);
+    for (const auto& b : scene_bindings(gpu_.traversal(), gpu_.kernel())) bindings.push_back(b);
     if (features_.direct_glossy && !features_.capture)
         throw std::invalid_argument("the direct_glossy output needs the mechanism capture on");
     if (features_.counters && !ctx.shader_clock_enabled())
         throw std::invalid_argument("the path tracer's counters time its phases with VK_KHR_shader_clock's subgroup "
                                     "clock, which " + ctx.info().name + " does not have");
     // The direct-glossy variant is another SPIR-V module, so another pipeline (and pipeline-cache entry).
-    pipeline_ = std::make_unique<vk::ComputePipeline>(ctx, pathtrace_spirv(gpu_.traversal(), features_.direct_glossy, features_.counters),
+    pipeline_ = std::make_unique<vk::ComputePipeline>(ctx, pathtrace_spirv(gpu_.traversal(), gpu_.kernel(), features_.direct_glossy, features_.counters),
                                                       bindings, 0, spec_constants(features_));
     size_t pixels = static_cast<size_t>(scene.camera.width) * scene.camera.height;
+    // The limit first: the same refusal on every machine.
+    if (const auto limit = memory_limit_bytes();
+        limit && (film_device_bytes(pixels) > *limit || film_host_bytes(pixels) > *limit))
+        film_out_of_memory(scene.camera, "VKMECH_MEMORY_LIMIT allows " + vk::byte_size_text(*limit));
     if (const uint64_t heap = ctx.info().device_local_bytes; heap > 0 && film_device_bytes(pixels) > heap)
         film_out_of_memory(scene.camera, "the device's largest memory heap has " + vk::byte_size_text(heap));
     if (const uint64_t ram = physical_ram_bytes(); ram > 0 && film_host_bytes(pixels) > ram)
@@ -188,7 +220,10 @@ Frame Renderer::render(const RenderSpec& spec) {
     }
 
     auto t0 = std::chrono::steady_clock::now();
-    const bool claimed = spec.pixel_order == PixelOrder::Claimed || (spec.pixel_order == PixelOrder::Auto && ctx_.info().type == "cpu");
+    // The CPU kernel claims pixels and spreads its tiles (lavapipe's threads);
+    // the GPU kernel dispatches 8 x 8 tiles in image order (docs/gpu.md).
+    const bool cpu_kernel = gpu_.kernel() == vk::KernelClass::Cpu;
+    const bool claimed = spec.pixel_order == PixelOrder::Claimed || (spec.pixel_order == PixelOrder::Auto && cpu_kernel);
     p.adaptive.w = claimed ? 1u : 0u;
     uint32_t batch_spp = std::max(1u, spec.batch_spp);
     for (uint32_t done = 0; done < total_spp;) {
@@ -224,7 +259,7 @@ Frame Renderer::render(const RenderSpec& spec) {
             const uint32_t zero[4] = {};
             work_.upload(ctx_, zero, sizeof(zero));
         } else {
-            p.adaptive.z = workgroup_stride(static_cast<uint64_t>(gx) * gy);
+            p.adaptive.z = cpu_kernel ? workgroup_stride(static_cast<uint64_t>(gx) * gy) : 1u;
         }
         params_.upload(ctx_, &p, sizeof(p));
         if (features_.counters) {

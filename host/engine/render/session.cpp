@@ -5,8 +5,9 @@
 
 namespace vkmech {
 
-SceneOnDevice::SceneOnDevice(const vk::Context& c, Scene s, Traversal traversal, LightSelection selection)
-    : ctx(c), scene(std::move(s)), arrays(flatten_scene(scene, selection)), gpu(c, arrays, traversal) {}
+SceneOnDevice::SceneOnDevice(const vk::Context& c, Scene s, Traversal traversal, LightSelection selection,
+                             vk::KernelClass kernel)
+    : ctx(c), scene(std::move(s)), arrays(flatten_scene(scene, selection)), gpu(c, arrays, traversal, kernel) {}
 
 SceneOnDevice::SceneOnDevice(const vk::Context& c, Scene s, SceneArrays a, Traversal traversal)
     : ctx(c), scene(std::move(s)), arrays(std::move(a)), gpu(c, arrays, traversal) {
@@ -16,8 +17,9 @@ SceneOnDevice::SceneOnDevice(const vk::Context& c, Scene s, SceneArrays a, Trave
                                     " triangles)");
 }
 
-RenderSession::RenderSession(const vk::Context& ctx, Scene scene, Traversal traversal, LightSelection selection)
-    : data_(std::make_shared<const SceneOnDevice>(ctx, std::move(scene), traversal, selection)) {}
+RenderSession::RenderSession(const vk::Context& ctx, Scene scene, Traversal traversal, LightSelection selection,
+                             vk::KernelClass kernel)
+    : data_(std::make_shared<const SceneOnDevice>(ctx, std::move(scene), traversal, selection, kernel)) {}
 
 RenderSession::RenderSession(const vk::Context& ctx, Scene scene, SceneArrays arrays, Traversal traversal)
     : data_(std::make_shared<const SceneOnDevice>(ctx, std::move(scene), std::move(arrays), traversal)) {}

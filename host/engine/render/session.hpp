@@ -21,7 +21,8 @@
 namespace vkmech {
 
 struct SceneOnDevice {
-    SceneOnDevice(const vk::Context& ctx, Scene scene, Traversal traversal, LightSelection selection);
+    SceneOnDevice(const vk::Context& ctx, Scene scene, Traversal traversal, LightSelection selection,
+                  vk::KernelClass kernel = vk::KernelClass::Auto);
     SceneOnDevice(const vk::Context& ctx, Scene scene, SceneArrays arrays, Traversal traversal);
     const vk::Context& ctx;
     const Scene scene;
@@ -33,8 +34,9 @@ class RenderSession {
 public:
     // Flattens the scene (throws SceneError when it cannot be rendered) and
     // uploads it. `traversal` must be resolved (resolve_traversal), not Auto.
+    // `kernel`: the device-class kernel; Auto = the context's (vk::Context::kernel).
     RenderSession(const vk::Context& ctx, Scene scene, Traversal traversal,
-                  LightSelection selection = LightSelection::Uniform);
+                  LightSelection selection = LightSelection::Uniform, vk::KernelClass kernel = vk::KernelClass::Auto);
     // A scene already flattened (flatten_scene(scene), e.g. to digest it first).
     RenderSession(const vk::Context& ctx, Scene scene, SceneArrays arrays, Traversal traversal);
 

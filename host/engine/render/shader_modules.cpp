@@ -4,38 +4,59 @@
 #include <stdexcept>
 
 #include "shaders/spv_pathtrace_bvh.h"
+#include "shaders/spv_pathtrace_bvh_gpu.h"
 #include "shaders/spv_pathtrace_counters_bvh.h"
+#include "shaders/spv_pathtrace_counters_bvh_gpu.h"
 #include "shaders/spv_pathtrace_direct_glossy_bvh.h"
+#include "shaders/spv_pathtrace_direct_glossy_bvh_gpu.h"
 #include "shaders/spv_pathtrace_direct_glossy_rayquery.h"
+#include "shaders/spv_pathtrace_direct_glossy_rayquery_gpu.h"
 #include "shaders/spv_pathtrace_rayquery.h"
+#include "shaders/spv_pathtrace_rayquery_gpu.h"
 #include "shaders/spv_tracerays_bvh.h"
+#include "shaders/spv_tracerays_bvh_gpu.h"
 #include "shaders/spv_tracerays_counters_bvh.h"
+#include "shaders/spv_tracerays_counters_bvh_gpu.h"
 #include "shaders/spv_tracerays_per_invocation_bvh.h"
 #include "shaders/spv_tracerays_rayquery.h"
 
 namespace vkmech {
 
-std::span<const uint32_t> pathtrace_spirv(Traversal t) {
-    if (t == Traversal::RayQuery) return spv_pathtrace_rayquery;
-    return spv_pathtrace_bvh;
+namespace {
+
+bool gpu_kernel(vk::KernelClass k) {
+    if (k == vk::KernelClass::Auto) throw std::invalid_argument("shader modules: the kernel class is not resolved");
+    return k == vk::KernelClass::Gpu;
 }
 
-std::span<const uint32_t> pathtrace_spirv(Traversal t, bool direct_glossy, bool counters) {
+}  // namespace
+
+std::span<const uint32_t> pathtrace_spirv(Traversal t, vk::KernelClass k) {
+    const bool g = gpu_kernel(k);
+    if (t == Traversal::RayQuery) return g ? std::span<const uint32_t>(spv_pathtrace_rayquery_gpu) : spv_pathtrace_rayquery;
+    return g ? std::span<const uint32_t>(spv_pathtrace_bvh_gpu) : spv_pathtrace_bvh;
+}
+
+std::span<const uint32_t> pathtrace_spirv(Traversal t, vk::KernelClass k, bool direct_glossy, bool counters) {
+    const bool g = gpu_kernel(k);
     if (counters) {
         if (t != Traversal::Bvh || direct_glossy)
             throw std::invalid_argument("traversal counters exist for the software BVH's default path tracer only");
-        return spv_pathtrace_counters_bvh;
+        return g ? std::span<const uint32_t>(spv_pathtrace_counters_bvh_gpu) : spv_pathtrace_counters_bvh;
     }
-    if (!direct_glossy) return pathtrace_spirv(t);
-    if (t == Traversal::RayQuery) return spv_pathtrace_direct_glossy_rayquery;
-    return spv_pathtrace_direct_glossy_bvh;
+    if (!direct_glossy) return pathtrace_spirv(t, k);
+    if (t == Traversal::RayQuery)
+        return g ? std::span<const uint32_t>(spv_pathtrace_direct_glossy_rayquery_gpu) : spv_pathtrace_direct_glossy_rayquery;
+    return g ? std::span<const uint32_t>(spv_pathtrace_direct_glossy_bvh_gpu) : spv_pathtrace_direct_glossy_bvh;
 }
 
-std::span<const uint32_t> tracerays_spirv(Traversal t, bool counters, bool slices) {
+std::span<const uint32_t> tracerays_spirv(Traversal t, vk::KernelClass k, bool counters, bool slices) {
+    const bool g = gpu_kernel(k);
     if (t == Traversal::RayQuery) {
         if (counters) throw std::invalid_argument("traversal counters exist for the software BVH only");
-        return spv_tracerays_rayquery;
+        return spv_tracerays_rayquery;  // reads no scene array: one module for both kernels
     }
+    if (g) return counters ? std::span<const uint32_t>(spv_tracerays_counters_bvh_gpu) : spv_tracerays_bvh_gpu;
     if (counters) return spv_tracerays_counters_bvh;
     if (slices) return spv_tracerays_bvh;
     return spv_tracerays_per_invocation_bvh;

@@ -2,22 +2,27 @@
 #pragma once
 
 #include "render/gpu_scene.hpp"
+#include "vk/context.hpp"
 
 #include <span>
 
 namespace vkmech {
 
-// The path tracer: the default module (what the studies' code digest hashes) and, with
-// `direct_glossy`, the variant compiled with VKMECH_DIRECT_GLOSSY (docs/descriptor.md §3.4).
-std::span<const uint32_t> pathtrace_spirv(Traversal t);
+// The path tracer of a traversal and kernel class (vk::KernelClass, resolved:
+// not Auto): the default module (what the studies' code digest hashes) and,
+// with `direct_glossy`, the variant compiled with VKMECH_DIRECT_GLOSSY
+// (docs/descriptor.md §3.4). The Cpu kernel's modules are the ones vkmech had
+// before the split, byte for byte.
+std::span<const uint32_t> pathtrace_spirv(Traversal t, vk::KernelClass k);
 // `counters`: the instrumented variant (VKMECH_COUNTERS; software BVH, not with direct_glossy;
 // throws std::invalid_argument otherwise).
-std::span<const uint32_t> pathtrace_spirv(Traversal t, bool direct_glossy, bool counters = false);
+std::span<const uint32_t> pathtrace_spirv(Traversal t, vk::KernelClass k, bool direct_glossy, bool counters = false);
 // The ray tracer of tests and benchmarks; `counters`: the instrumented variant
 // (VKMECH_COUNTERS, software BVH only; throws std::invalid_argument for ray query).
-// `slices` (software BVH, not counters): the kernel that gives each workgroup a slice
-// of the rays (needs subgroup ballot); else one ray per invocation.
-std::span<const uint32_t> tracerays_spirv(Traversal t, bool counters = false, bool slices = true);
+// `slices` (software BVH, Cpu kernel, not counters): the kernel that gives each
+// workgroup a slice of the rays (needs subgroup ballot); else one ray per
+// invocation. The Gpu kernel traces one ray per invocation.
+std::span<const uint32_t> tracerays_spirv(Traversal t, vk::KernelClass k, bool counters = false, bool slices = true);
 // The size of tracerays.comp's push constants (ray_count, any_hit, rays_per_group).
 inline constexpr uint32_t kTraceraysPushBytes = 12;
 

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <iostream>
 
@@ -13,6 +14,21 @@ void check(::vk::Result r, const char* call) {
     if (r != ::vk::Result::eSuccess) throw VulkanError(std::string(call) + " failed: " + ::vk::to_string(r));
 }
 void check(VkResult r, const char* call) { check(static_cast<::vk::Result>(r), call); }
+
+const char* to_string(KernelClass k) {
+    switch (k) {
+        case KernelClass::Cpu: return "cpu";
+        case KernelClass::Gpu: return "gpu";
+        default: return "auto";
+    }
+}
+
+KernelClass parse_kernel_class(const std::string& s) {
+    if (s == "auto") return KernelClass::Auto;
+    if (s == "cpu") return KernelClass::Cpu;
+    if (s == "gpu") return KernelClass::Gpu;
+    throw std::invalid_argument("kernel '" + s + "': expected auto, cpu or gpu");
+}
 
 struct Context::Messages {
     std::atomic<uint32_t> count{0};
@@ -177,6 +193,18 @@ Context::Context(const ContextOptions& options) : messages_(std::make_unique<Mes
     }
     physical_ = std::make_unique<::vk::raii::PhysicalDevice>(std::move(devices[chosen]));
     info_ = describe(*physical_, chosen);
+    kernel_ = options.kernel;
+    if (kernel_ == KernelClass::Auto) {
+        const char* env = std::getenv("VKMECH_KERNEL");
+        if (env && *env) {
+            try {
+                kernel_ = parse_kernel_class(env);
+            } catch (const std::invalid_argument& e) {
+                throw std::invalid_argument(std::string("VKMECH_KERNEL: ") + e.what());
+            }
+        }
+    }
+    if (kernel_ == KernelClass::Auto) kernel_ = info_.type == "cpu" ? KernelClass::Cpu : KernelClass::Gpu;
     if (info_.api_version < VK_API_VERSION_1_2)
         throw VulkanError("device '" + info_.name + "' supports only Vulkan " +
                           std::to_string(VK_API_VERSION_MAJOR(info_.api_version)) + "." +

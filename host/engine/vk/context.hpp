@@ -36,6 +36,17 @@ struct DeviceInfo {
     uint64_t device_local_bytes = 0;
 };
 
+// Which kernel the device runs (docs/gpu.md, "Two kernels"): the software
+// traversal's tree and reads, and how work is scheduled. `Cpu`, tuned on
+// lavapipe: the 4-wide quantized tree read through texel buffers, the stack's
+// top in registers, claimed pixels, ray slices. `Gpu`, measured on NVIDIA: the
+// binary tree and the scene arrays in storage buffers, a plain stack, 8 x 8
+// tiles in image order. `Auto` picks by the device's type (a CPU device gets
+// `Cpu`, every other `Gpu`); the environment's VKMECH_KERNEL overrides Auto.
+enum class KernelClass { Auto, Cpu, Gpu };
+const char* to_string(KernelClass k);
+KernelClass parse_kernel_class(const std::string& s);  // "auto", "cpu", "gpu"; throws std::invalid_argument
+
 struct ContextOptions {
     std::optional<uint32_t> device_index;  // --device N
     bool validation = false;               // enable VK_LAYER_KHRONOS_validation when present
@@ -43,6 +54,7 @@ struct ContextOptions {
     // The on-disk pipeline cache directory (vk/pipeline_cache.hpp): unset =
     // the default from the environment, "off" or "" = no cache.
     std::optional<std::string> pipeline_cache_dir;
+    KernelClass kernel = KernelClass::Auto;  // --kernel
 };
 
 
@@ -58,6 +70,8 @@ public:
     const ::vk::raii::Queue& queue() const { return *queue_; }
     uint32_t queue_family() const { return queue_family_; }
     const DeviceInfo& info() const { return info_; }
+    // The kernel this device runs: Cpu or Gpu, never Auto (ContextOptions::kernel).
+    KernelClass kernel() const { return kernel_; }
     bool ray_query_enabled() const { return ray_query_enabled_; }
     // VK_KHR_shader_clock's subgroup clock, enabled where the device has it: the
     // path tracer's counters variant times its phases with it.
@@ -100,6 +114,7 @@ private:
     std::unique_ptr<PipelineCache> pipeline_cache_;  // destroyed before device_
     uint32_t queue_family_ = 0;
     DeviceInfo info_;
+    KernelClass kernel_ = KernelClass::Cpu;
     bool ray_query_enabled_ = false;
     bool shader_clock_enabled_ = false;
     bool validation_enabled_ = false;
