@@ -113,17 +113,21 @@ device_env() {
 # shard's log in $3/gpu-tests-<k>.log, printed after the summary; fails if any shard fails.
 gpu_suite_sharded() {
     local shards=$1 limit=$2 dir=$3 n per k rc=0
-    n=$("$root/build/vkmech_tests" -ts=gpu -ltc | grep -cv '^\[doctest\]\|^=\|^$')
+    # The slowest case (GPU_TEST_SOLO; 93 s of the 111 s on the H200 on 2026-11-26) runs
+    # alone in one more process, the rest in ranges by name.
+    local solo=${GPU_TEST_SOLO:-study: vkmech study all --preset quick*}
+    n=$("$root/build/vkmech_tests" -ts=gpu -tce="$solo" -ltc | grep -cv '^\[doctest\]\|^=\|^$')
     per=$(((n + shards - 1) / shards))
-    echo "gpu-check: $n GPU test cases in $shards shards of up to $per"
+    echo "gpu-check: $n GPU test cases in $shards shards of up to $per, and '$solo' alone"
+    timeout -s INT "$limit" "$root/build/vkmech_tests" -ts=gpu -tc="$solo" -d >"$dir/gpu-tests-solo.log" 2>&1 &
     for ((k = 0; k < shards; ++k)); do
-        timeout -s INT "$limit" "$root/build/vkmech_tests" -ts=gpu -ob=name -d \
+        timeout -s INT "$limit" "$root/build/vkmech_tests" -ts=gpu -tce="$solo" -ob=name -d \
             --first=$((k * per + 1)) --last=$(((k + 1) * per)) >"$dir/gpu-tests-$k.log" 2>&1 &
     done
-    for ((k = 0; k < shards; ++k)); do wait -n || rc=1; done
+    for ((k = 0; k <= shards; ++k)); do wait -n || rc=1; done
     # (doctest counts the cases outside --first..--last as passed: count the timed ones.)
     echo "gpu-check: $(cat "$dir"/gpu-tests-*.log | grep -c -E '^[0-9]+\.[0-9]+ s: ') cases ran;" \
-        "$(grep -l 'Status: SUCCESS' "$dir"/gpu-tests-*.log | wc -l) of $shards shards succeeded"
+        "$(grep -l 'Status: SUCCESS' "$dir"/gpu-tests-*.log | wc -l) of $((shards + 1)) processes succeeded"
     grep -h -E 'ERROR|FATAL' -A4 "$dir"/gpu-tests-*.log | head -60
     # The slowest cases (doctest -d prints each case's seconds before its name).
     grep -h -E '^[0-9]+\.[0-9]+ s: ' "$dir"/gpu-tests-*.log | sort -rn | head -12
@@ -256,8 +260,22 @@ bisect_commits() {  # the default list: the base, each later commit that changed
       git rev-parse --short=10 HEAD; } | awk '!seen[$0]++'
 }
 
+# What decides a binary's render speed: the path tracer's SPIR-V (the generated
+# header, right after the build of $1 in $2) and the render host code of commit
+# $1. Empty when the header is missing (then nothing is left out as a duplicate).
+kernel_key() {
+    local f spv=$2/generated/shaders/spv_pathtrace_bvh.h
+    [[ -f $spv ]] || return 0
+    { cat "$spv"
+      for f in host/engine/render/renderer.cpp host/engine/render/gpu_scene.cpp host/engine/accel/bvh.cpp \
+               host/render/renderer.cpp host/render/gpu_scene.cpp host/accel/bvh.cpp; do
+          git show "$1:$f" 2>/dev/null
+      done; } | sha256sum | cut -c1-16
+}
+
 bisect_stage() {
-    local commits=("$@") c
+    git rev-parse --git-dir >/dev/null 2>&1 || { echo "gpu-check: bisect-stage: run it from vkmech's git checkout"; exit 2; }
+    local commits=("$@") c key prev_key="" prev=""
     ((${#commits[@]})) || mapfile -t commits < <(bisect_commits)
     local work=${BISECT_WORK:-$root/build-bisect} stage_dir
     stage_dir=$(mktemp -d)
@@ -309,8 +327,18 @@ bisect_stage() {
             fi
             mkdir -p "$work/bin/$short"
             cp "$work/build/vkmech" "$work/bin/$short/vkmech" && strip "$work/bin/$short/vkmech"
+            kernel_key "$short" "$work/build" >"$work/bin/$short/key"
             cp "$work/bin/$short/vkmech" "$stage_dir/bisect/$short/vkmech"
         fi
+        # A commit that changed neither the path tracer's SPIR-V nor the render host
+        # code renders as fast as the one before it: not worth GPU time.
+        key=$(cat "$work/bin/$short/key" 2>/dev/null)
+        if [[ -n $key && $key == "$prev_key" ]]; then
+            echo "gpu-check: bisect-stage: $short left out: the same path tracer and render code as $prev"
+            rm -rf "${stage_dir:?}/bisect/$short"
+            continue
+        fi
+        prev_key=$key prev=$short
         git archive "$short" scenes | tar -x -C "$stage_dir/bisect/$short"
         printf '%s %s %s\n' "$short" "$(git log -1 --format=%cs "$short")" "$(git log -1 --format=%s "$short" | cut -c1-70)" \
             >>"$stage_dir/bisect/list"
@@ -324,13 +352,17 @@ bisect_stage() {
     echo "gpu-check: bisect staged ($(tar -xJOf .gpu/bisect.tar.xz bisect/list | wc -l) binaries); stage the current build too ('stage'), then there: bash ci/gpu-check.sh run bisect"
 }
 
-bisect_scenes() { echo "${BISECT_SCENES:-glass_caustic,kitchen_counter,ring_caustic,snooker,cubes_dof}"; }
+# The default: the three scenes the kernel rounds moved most apart on the H200
+# (glass_caustic: the register stack; kitchen_counter: the texel-buffer tree;
+# cubes_dof: 40 triangles, shading alone).
+bisect_scenes() { echo "${BISECT_SCENES:-glass_caustic,kitchen_counter,cubes_dof}"; }
 
 # What `run bisect` would do and its estimated time, from the staged list (or,
-# before staging, the default commits). The estimate's figures are the H200's
-# (docs/gpu.md): a process start with its Vulkan device 0.6 s, a scene 1.3 s
-# (load, three pipelines from the warm shader cache, 12 renders of 512^2 x 64
-# paths), and the parallel warm-up's compiles 3 s per pipeline over 16 cores.
+# before staging, the default commits). The estimate's figures were measured
+# on the H200 on 2026-11-26 (docs/gpu.md): a process start with its Vulkan
+# device 0.6 s, a scene 1.4 s (load, three pipelines from the warm shader
+# cache, 12 renders of 512^2 x 64 paths), and the parallel warm-up 0.36 s per
+# binary and scene.
 bisect_plan() {
     local list
     if [[ -f .gpu/bisect.tar.xz ]]; then list=$(tar -xJOf .gpu/bisect.tar.xz bisect/list)
@@ -340,7 +372,7 @@ bisect_plan() {
     n=$(printf '%s\n' "$list" | grep -c .)
     scenes=$(bisect_scenes); nscenes=$(tr ',' '\n' <<<"$scenes" | grep -c .)
     rounds=${BISECT_ROUNDS:-2}; budget=${BISECT_BUDGET_S:-230}
-    est=$(awk -v n="$n" -v s="$nscenes" -v r="$rounds" 'BEGIN { printf "%d", n * r * (0.6 + 1.3 * s) + (n * s * 3 * 3) / 16 + n * 0.6 }')
+    est=$(awk -v n="$n" -v s="$nscenes" -v r="$rounds" 'BEGIN { printf "%d", n * r * (0.6 + 1.4 * s) + n * s * 0.36 }')
     echo "bisect plan: $n binaries x $nscenes scenes ($scenes) x $rounds rounds, alternating;"
     echo "  each: vkmech bench render --res 512 --spp 64 --scenes <its commit's scene files>"
     echo "  first, every binary renders each scene once at 32^2 (in parallel) to fill the driver's shader cache"
