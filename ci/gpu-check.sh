@@ -255,22 +255,25 @@ run() {
 # short hash, date, subject) and bisect/<hash>/{vkmech,scenes/}. Each binary
 # renders the scenes of its own commit, by path.
 BISECT_BASE=3631bde
-bisect_commits() {  # the default list: the base, each later commit that changed shaders/, HEAD
-    { git rev-parse --short=10 "$BISECT_BASE"; git rev-list --reverse --abbrev-commit --abbrev=10 "$BISECT_BASE"..HEAD -- shaders/;
+# Besides shaders/, the host code that decides what the GPU runs (kernel_key's files).
+KERNEL_HOST_FILES=(host/engine/render/renderer.cpp host/engine/render/gpu_scene.cpp host/engine/accel/bvh.cpp
+                   host/engine/render/shader_modules.cpp host/engine/vk/context.cpp
+                   host/render/renderer.cpp host/render/gpu_scene.cpp host/accel/bvh.cpp)
+bisect_commits() {  # the default list: the base, each later commit that changed shaders/ or those files, HEAD
+    { git rev-parse --short=10 "$BISECT_BASE"
+      git rev-list --reverse --abbrev-commit --abbrev=10 "$BISECT_BASE"..HEAD -- shaders/ "${KERNEL_HOST_FILES[@]}"
       git rev-parse --short=10 HEAD; } | awk '!seen[$0]++'
 }
 
-# What decides a binary's render speed: the path tracer's SPIR-V (the generated
-# header, right after the build of $1 in $2) and the render host code of commit
-# $1. Empty when the header is missing (then nothing is left out as a duplicate).
+# What decides a binary's render speed: the path tracer's SPIR-V modules (the
+# generated headers, both kernels', right after the build of $1 in $2) and the
+# render host code of commit $1. Empty when no header is there (then nothing is
+# left out as a duplicate).
 kernel_key() {
-    local f spv=$2/generated/shaders/spv_pathtrace_bvh.h
-    [[ -f $spv ]] || return 0
-    { cat "$spv"
-      for f in host/engine/render/renderer.cpp host/engine/render/gpu_scene.cpp host/engine/accel/bvh.cpp \
-               host/render/renderer.cpp host/render/gpu_scene.cpp host/accel/bvh.cpp; do
-          git show "$1:$f" 2>/dev/null
-      done; } | sha256sum | cut -c1-16
+    local f
+    compgen -G "$2/generated/shaders/spv_pathtrace_*.h" >/dev/null || return 0
+    { cat "$2"/generated/shaders/spv_pathtrace_*.h
+      for f in "${KERNEL_HOST_FILES[@]}"; do git show "$1:$f" 2>/dev/null; done; } | sha256sum | cut -c1-16
 }
 
 bisect_stage() {
@@ -318,7 +321,11 @@ bisect_stage() {
         else
             # One worktree and one build directory for every commit: checking a
             # commit out touches only the files it changes, so each build is incremental.
-            git -C "$work/src" checkout -q --detach "$short"
+            if ! git -C "$work/src" checkout -q -f --detach "$short"; then
+                echo "gpu-check: bisect-stage: cannot check $short out in $work/src; left out"
+                rm -rf "${stage_dir:?}/bisect/$short"
+                continue
+            fi
             if ! { cmake -S "$work/src" -B "$work/build" -DCMAKE_BUILD_TYPE=Release >"$work/cmake.log" 2>&1 &&
                    cmake --build "$work/build" --target vkmech -j"$(nproc)" >"$work/build.log" 2>&1; }; then
                 echo "gpu-check: bisect-stage: $short does not build (log: $work/build.log); left out"
@@ -357,6 +364,21 @@ bisect_stage() {
 # cubes_dof: 40 triangles, shading alone).
 bisect_scenes() { echo "${BISECT_SCENES:-glass_caustic,kitchen_counter,cubes_dof}"; }
 
+# bisect_fit N: sets B_SCENES, B_ROUNDS and B_EST (seconds) for N binaries. What
+# BISECT_SCENES / BISECT_ROUNDS do not fix is fitted under the budget: two
+# rounds, then one, then fewer of the default scenes (at least one).
+bisect_est() { awk -v n="$1" -v s="$2" -v r="$3" 'BEGIN { printf "%d", n * r * (0.6 + 1.4 * s) + n * s * 0.36 }'; }
+bisect_fit() {
+    local n=$1 budget=${BISECT_BUDGET_S:-230} ns
+    B_SCENES=$(bisect_scenes); B_ROUNDS=${BISECT_ROUNDS:-2}
+    ns=$(tr ',' '\n' <<<"$B_SCENES" | grep -c .)
+    B_EST=$(bisect_est "$n" "$ns" "$B_ROUNDS")
+    if ((B_EST > budget)) && [[ -z ${BISECT_ROUNDS:-} ]]; then B_ROUNDS=1; B_EST=$(bisect_est "$n" "$ns" 1); fi
+    while ((B_EST > budget && ns > 1)) && [[ -z ${BISECT_SCENES:-} ]]; do
+        B_SCENES=${B_SCENES%,*}; ns=$((ns - 1)); B_EST=$(bisect_est "$n" "$ns" "$B_ROUNDS")
+    done
+}
+
 # What `run bisect` would do and its estimated time, from the staged list (or,
 # before staging, the default commits). The estimate's figures were measured
 # on the H200 on 2026-11-26 (docs/gpu.md): a process start with its Vulkan
@@ -368,11 +390,11 @@ bisect_plan() {
     if [[ -f .gpu/bisect.tar.xz ]]; then list=$(tar -xJOf .gpu/bisect.tar.xz bisect/list)
     else list=$(bisect_commits | while read -r c; do printf '%s %s %s\n' "$c" "$(git log -1 --format=%cs "$c")" "$(git log -1 --format=%s "$c" | cut -c1-70)"; done)
          echo "(not staged yet: the default commits of bisect-stage)"; fi
-    local n scenes nscenes rounds budget est
+    local n nscenes budget=${BISECT_BUDGET_S:-230}
     n=$(printf '%s\n' "$list" | grep -c .)
-    scenes=$(bisect_scenes); nscenes=$(tr ',' '\n' <<<"$scenes" | grep -c .)
-    rounds=${BISECT_ROUNDS:-2}; budget=${BISECT_BUDGET_S:-230}
-    est=$(awk -v n="$n" -v s="$nscenes" -v r="$rounds" 'BEGIN { printf "%d", n * r * (0.6 + 1.4 * s) + n * s * 0.36 }')
+    bisect_fit "$n"
+    local scenes=$B_SCENES rounds=$B_ROUNDS est=$B_EST
+    nscenes=$(tr ',' '\n' <<<"$scenes" | grep -c .)
     echo "bisect plan: $n binaries x $nscenes scenes ($scenes) x $rounds rounds, alternating;"
     echo "  each: vkmech bench render --res 512 --spp 64 --scenes <its commit's scene files>"
     echo "  first, every binary renders each scene once at 32^2 (in parallel) to fill the driver's shader cache"
@@ -387,9 +409,10 @@ bisect_run() {
     bisect_plan
     local dir=$root/out/bisect
     rm -rf "$dir" && mkdir -p "$dir" && tar -xJf .gpu/bisect.tar.xz -C "$dir"
-    local scenes rounds budget t0=$SECONDS
-    scenes=$(bisect_scenes); rounds=${BISECT_ROUNDS:-2}; budget=${BISECT_BUDGET_S:-230}
+    local scenes rounds budget=${BISECT_BUDGET_S:-230} t0=$SECONDS
     mapfile -t hashes < <(awk '{print $1}' "$dir/bisect/list")
+    bisect_fit "${#hashes[@]}"
+    scenes=$B_SCENES; rounds=$B_ROUNDS
     # The driver's shader cache in one place for every binary, large enough for all.
     export __GL_SHADER_DISK_CACHE=1 __GL_SHADER_DISK_CACHE_PATH=$dir/glcache __GL_SHADER_DISK_CACHE_SIZE=4000000000 \
         __GL_SHADER_DISK_CACHE_SKIP_CLEANUP=1

@@ -99,6 +99,7 @@ TEST_SUITE("gpu") {
         // says so; a device without ballot is refused with a message. Slices are the CPU
         // kernel's: with the GPU kernel they are refused.
         r = run_cli("bench traversal --scenes cubes_dof --rays 1000 --bvh-only --slices --kernel gpu");
+        INFO(r.output);
         CHECK(r.code == 2);
         CHECK(r.output.find("--kernel cpu") != std::string::npos);
         r = run_cli("bench traversal --scenes cubes_dof --rays 1000 --bvh-only --slices --kernel cpu");

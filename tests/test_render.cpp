@@ -255,8 +255,9 @@ TEST_SUITE("gpu") {
                          << " differ by more than 1e-5");
             CAPTURE(identical);
             CAPTURE(differing);
+            // (Bit-identical on lavapipe and on the H200; another GPU compiler may
+            // contract the two modules' arithmetic differently: float tolerance.)
             CHECK(differing <= a.pixels.size() / 100);
-            CHECK(identical >= a.pixels.size() * 9 / 10);
             CHECK(sum_a == doctest::Approx(sum_b).epsilon(0.005));
         }
         CHECK(ctx->validation_messages() == 0);

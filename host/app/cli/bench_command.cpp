@@ -99,11 +99,11 @@ void print_traversal_work(const vk::Context& ctx, const SceneArrays& arrays, con
 int cmd_bench_traversal(const BenchOptions& o) {
     const std::vector<std::string> names = bench_scenes(o);
     vk::Context ctx(bench_context_options(o));
+    if (o.slices && ctx.kernel() != vk::KernelClass::Cpu)
+        throw UsageError("--slices: the ray kernel's slices are the CPU kernel's; add --kernel cpu");
     if (o.slices && !ctx.info().compute_subgroup_ballot)
         throw UsageError("--slices: " + ctx.info().name +
                          " does not report subgroup ballot in compute shaders, which the slices kernel needs");
-    if (o.slices && ctx.kernel() != vk::KernelClass::Cpu)
-        throw UsageError("--slices: the ray kernel's slices are the CPU kernel's; add --kernel cpu");
     const RaySchedule bvh_schedule = o.slices ? RaySchedule::Slices : RaySchedule::Auto;
     std::printf("device: %s (%s), %s kernel, %u random rays per measurement (closest hit; median of 3; seed %u)%s\n",
                 ctx.info().name.c_str(), ctx.info().type.c_str(), vk::to_string(ctx.kernel()), o.rays, kBenchTraversalSeed,

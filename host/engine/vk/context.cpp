@@ -204,7 +204,14 @@ Context::Context(const ContextOptions& options) : messages_(std::make_unique<Mes
             }
         }
     }
-    if (kernel_ == KernelClass::Auto) kernel_ = info_.type == "cpu" ? KernelClass::Cpu : KernelClass::Gpu;
+    if (kernel_ == KernelClass::Auto) {
+        // The GPU kernel reads every scene array as a storage buffer: 14 of them in one
+        // stage. A device that allows fewer (Vulkan guarantees 4) runs the CPU kernel,
+        // whose arrays are texel buffers (sampled-image limit, at least 16).
+        const auto& limits = physical_->getProperties().limits;
+        kernel_ = info_.type != "cpu" && limits.maxPerStageDescriptorStorageBuffers >= 16 ? KernelClass::Gpu
+                                                                                          : KernelClass::Cpu;
+    }
     if (info_.api_version < VK_API_VERSION_1_2)
         throw VulkanError("device '" + info_.name + "' supports only Vulkan " +
                           std::to_string(VK_API_VERSION_MAJOR(info_.api_version)) + "." +
