@@ -3,6 +3,9 @@
 #include "cli_run.hpp"
 #include "gpu_fixture.hpp"
 #include "io/exr.hpp"
+#include "io/sha256.hpp"
+#include "render/gpu_scene.hpp"
+#include "study/study_runner.hpp"
 #include "temp_dir.hpp"
 
 #include <doctest/doctest.h>
@@ -10,6 +13,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -235,5 +239,59 @@ TEST_SUITE("gpu") {
         CHECK(ss.str().find("\"preview_clipped_pixel_share\"") != std::string::npos);
         CHECK(exr.attributes["vkmech.endVertex"] == std::vector<std::string>{"literal"});
         fs::remove_all(out);
+    }
+}
+
+TEST_SUITE("gpu") {
+    TEST_CASE("cli: render records its provenance in the EXR header and the JSON, and verify outputs checks it") {
+        VKMECH_REQUIRE_GPU(ctx);
+        vkmech::testing::TempDir dir("cli_provenance");
+        const std::string scene = std::string(VKMECH_SOURCE_DIR) + "/scenes/sweep_roughness.xml";
+        const std::string out = (dir.path / "r").string();
+        const std::time_t before = std::time(nullptr);
+        auto r = run_cli("render --scene " + scene + " -D alpha=0.1 --res 16 --spp 3 --kernel cpu --out " + out);
+        INFO(r.output);
+        REQUIRE(r.code == 0);
+        const auto a = vkmech::read_exr_attributes(out + "/sweep_roughness.exr");
+        auto one = [&](const char* k) {
+            CAPTURE(k);
+            REQUIRE(a.count(k) == 1);
+            REQUIRE(a.at(k).size() == 1);
+            return a.at(k)[0];
+        };
+        // Computed here, independently of the renderer: the scene file's SHA-256, the
+        // path tracer's digest (the study cache's), the -D values, the samples.
+        CHECK(one("vkmech.sceneSha256") == vkmech::sha256_file(scene));
+        CHECK(one("vkmech.codeDigest") == vkmech::render_code_digest(vkmech::Traversal::Bvh, vkmech::vk::KernelClass::Cpu));
+        CHECK(a.at("vkmech.defines") == std::vector<std::string>{"alpha=0.1"});
+        CHECK(one("vkmech.sampleRange") == "0:3");
+        CHECK(one("vkmech.kernel") == "cpu");
+        CHECK(one("vkmech.version").rfind("0.", 0) == 0);
+        // The includes (the box and the light) with their digests.
+        const auto& files = a.at("vkmech.sceneFiles");
+        REQUIRE(files.size() == 2);
+        for (const std::string& f : files) {
+            CAPTURE(f);
+            const auto space = f.find(' ');
+            REQUIRE(space == 64);
+            CHECK(f.substr(0, 64) == vkmech::sha256_file(f.substr(65)));
+        }
+        // capDate: OpenEXR's "YYYY:MM:DD HH:MM:SS", UTC, the time of the render.
+        const std::string date = one("capDate");
+        std::tm tm{};
+        REQUIRE(strptime(date.c_str(), "%Y:%m:%d %H:%M:%S", &tm) != nullptr);
+        const std::time_t t = timegm(&tm);
+        CHECK(t >= before - 1);
+        CHECK(t <= std::time(nullptr) + 1);
+        // The JSON says the same, and verify outputs checks that it does.
+        std::ifstream in(out + "/sweep_roughness.json");
+        std::stringstream json;
+        json << in.rdbuf();
+        CHECK(json.str().find("\"scene_sha256\": \"" + vkmech::sha256_file(scene) + "\"") != std::string::npos);
+        CHECK(json.str().find("\"date_utc\": \"" + date + "\"") != std::string::npos);
+        r = run_cli("verify outputs " + out);
+        INFO(r.output);
+        CHECK(r.code == 0);
+        CHECK(r.output.find("provenance: vkmech 0.") != std::string::npos);
     }
 }

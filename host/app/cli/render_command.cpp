@@ -1,5 +1,6 @@
 // `vkmech render` and `vkmech render --adaptive`.
 #include "cli/commands.hpp"
+#include "cli/provenance.hpp"
 #include "cli/resources.hpp"
 
 #include "adaptive/adaptive.hpp"
@@ -85,6 +86,7 @@ RenderInfo render_info(const std::string& name, const RenderOptions& o, const vk
     RenderInfo info{name, resolve_scene_path(o.common.scene), ctx.info().name, to_string(trav), to_string(estimator),
                     features.describe(), spp, seed, capture};
     info.kernel = vk::to_string(ctx.kernel());
+    info.provenance = make_provenance(resolve_scene_path(o.common.scene), scene, o.common.defines, ctx, trav, spp);
     info.light_selection = o.light_selection;
     info.end_vertex = o.end_vertex;
     info.exposure_ev = o.exposure;
@@ -423,6 +425,7 @@ int cmd_render_adaptive(const RenderOptions& o) {
     RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene,
                                   static_cast<uint32_t>(plan.total / pixels), downstream_seeds::kPool, true);
     info.features += std::string(" adaptive=") + alloc::to_string(strategy);
+    info.provenance.sample_range = "0:" + std::to_string(max_n) + " (adaptive: samples 0:n(p) at pixel p, n(p) in the spp channel)";
     info.pipeline_seconds = pipes.seconds;
     info.pipeline_cache = pipe_outcome;
     info.extra_json.emplace_back("adaptive", adaptive_json(strategy, o, diag, pred, plan, untrusted_n));

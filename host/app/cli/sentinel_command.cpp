@@ -1,5 +1,6 @@
 // `vkmech sentinel register` and `vkmech sentinel verify` (docs/descriptor.md §9).
 #include "cli/commands.hpp"
+#include "cli/provenance.hpp"
 #include "cli/resources.hpp"
 
 #include "adaptive/adaptive.hpp"
@@ -41,11 +42,7 @@ std::string utc_now() {
     return b;
 }
 
-std::string absolute(const std::string& p) {
-    std::error_code ec;
-    fs::path a = fs::weakly_canonical(fs::absolute(p), ec);
-    return ec ? p : a.string();
-}
+std::string absolute(const std::string& p) { return canonical_path(p); }
 
 }  // namespace
 
@@ -83,12 +80,7 @@ int cmd_sentinel_register(const SentinelOptions& o) {
     rec.protocol = {o.reference_spp, o.draws, o.extra, o.floor};
     try {
         rec.scene_sha256 = sha256_file(scene_path);
-        std::set<std::string> files;
-        for (const Texture& t : loaded.textures)
-            if (fs::is_regular_file(t.path)) files.insert(absolute(t.path));
-        for (const std::string& f : loaded.files)
-            if (fs::is_regular_file(f)) files.insert(absolute(f));
-        for (const auto& f : files) rec.scene_files.push_back({f, sha256_file(f)});
+        for (const auto& [path, sha] : scene_input_files(loaded)) rec.scene_files.push_back({path, sha});
         rec.curve_sha256 = sha256_file(curve_path);
     } catch (const std::runtime_error& e) {
         throw UsageError(e.what());

@@ -2,23 +2,96 @@
 #include "cli/commands.hpp"
 #include "cli/resources.hpp"
 
+#include "io/exr.hpp"
+#include "io/json_value.hpp"
 #include "io/output_set.hpp"
 #include "study/render_cache.hpp"
 #include "study/study_runner.hpp"
 
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
 #include <string>
 
 namespace fs = std::filesystem;
 
 namespace vkmech {
 
-// `vkmech verify outputs DIR`: every output set in DIR checked against its manifest.
+namespace {
+
+// A render set's provenance (render/render_outputs.hpp): the EXR header's
+// attributes against the JSON's "provenance". Empty when they agree; appends
+// a note to `detail` for a set written before provenance was recorded.
+std::string check_provenance(const fs::path& dir, const std::string& name, std::string& detail) {
+    const fs::path exr = dir / (name + ".exr"), json = dir / (name + ".json");
+    if (!fs::is_regular_file(exr) || !fs::is_regular_file(json)) return "";
+    std::map<std::string, std::vector<std::string>> a;
+    try {
+        a = read_exr_attributes(exr.string());
+    } catch (const std::exception& e) {
+        return e.what();
+    }
+    std::ifstream in(json);
+    std::stringstream text;
+    text << in.rdbuf();
+    std::string why;
+    const auto j = parse_json(text.str(), &why);
+    if (!j) return json.string() + ": not JSON (" + why + ")";
+    const JsonValue* p = j->find("provenance");
+    if (a.count("vkmech.version") == 0 && !p) {
+        detail += "; no provenance (written by a vkmech before 2026-11-26)";
+        return "";
+    }
+    if (!p) return json.string() + " has no provenance but the EXR has";
+    auto str = [&](const char* key) {
+        const JsonValue* v = p->find(key);
+        return v ? v->string : std::string("(missing)");
+    };
+    auto strs = [&](const char* key) {
+        std::vector<std::string> out;
+        if (const JsonValue* v = p->find(key))
+            for (const JsonValue& e : v->array) out.push_back(e.string);
+        return out;
+    };
+    auto one = [&](const char* attr) {
+        auto it = a.find(attr);
+        return it == a.end() || it->second.size() != 1 ? std::string("(missing)") : it->second[0];
+    };
+    const std::pair<const char*, std::pair<std::string, std::string>> pairs[] = {
+        {"version", {one("vkmech.version"), str("version")}},
+        {"code digest", {one("vkmech.codeDigest"), str("code_digest")}},
+        {"scene SHA-256", {one("vkmech.sceneSha256"), str("scene_sha256")}},
+        {"sample range", {one("vkmech.sampleRange"), str("sample_range")}},
+        {"driver", {one("vkmech.driver"), str("driver")}},
+        {"date", {one("capDate"), str("date_utc")}}};
+    for (const auto& [what, v] : pairs)
+        if (v.first != v.second || v.first == "(missing)")
+            return "provenance: the EXR's " + std::string(what) + " '" + v.first + "' differs from the JSON's '" +
+                   v.second + "'";
+    if (a["vkmech.defines"] != strs("defines")) return "provenance: the EXR's -D values differ from the JSON's";
+    if (a["vkmech.sceneFiles"] != strs("scene_files")) return "provenance: the EXR's scene files differ from the JSON's";
+    detail += "; provenance: vkmech " + str("version") + ", code " + str("code_digest").substr(0, 12) + ", scene " +
+              str("scene_sha256").substr(0, 12) + ", samples " + str("sample_range");
+    return "";
+}
+
+}  // namespace
+
+// `vkmech verify outputs DIR`: every output set in DIR checked against its
+// manifest, and a render set's provenance in its EXR against its JSON.
 int cmd_verify_outputs(const std::string& dir) {
     if (!fs::is_directory(dir)) throw UsageError("'" + dir + "' is not a directory");
     std::vector<std::string> stale;
     auto sets = verify_output_dir(dir, &stale);
+    for (auto& s : sets) {
+        if (s.kind != SetStatus::Complete) continue;
+        if (std::string bad = check_provenance(dir, s.name, s.detail); !bad.empty()) {
+            s.kind = SetStatus::Bad;
+            s.detail = bad;
+        }
+    }
     int bad = 0;
     for (const auto& s : sets) {
         const char* kind = s.kind == SetStatus::Complete ? "complete" : s.kind == SetStatus::Pending ? "pending" : "BAD";

@@ -8,6 +8,7 @@
 #include <OpenEXR/ImfIO.h>
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfStandardAttributes.h>
 #include <OpenEXR/ImfStringAttribute.h>
 #include <OpenEXR/ImfStringVectorAttribute.h>
 #include <OpenEXR/ImfThreading.h>
@@ -112,6 +113,14 @@ void write_exr_layers(const std::string& path, int width, int height, const std:
     header.insert(kOrderAttribute, Imf::StringVectorAttribute(order));
     for (const auto& [name, values] : attributes) {
         if (name.empty() || name == kOrderAttribute) fail(path, "invalid header attribute name '" + name + "'");
+        if (name == kCapDateAttribute) {
+            // OpenEXR's standard capture date (a string "YYYY:MM:DD HH:MM:SS")
+            // with its utcOffset: the date is UTC.
+            if (values.size() != 1 || values[0].size() != 19) fail(path, "capDate must be one 'YYYY:MM:DD HH:MM:SS'");
+            Imf::addCapDate(header, values[0]);
+            Imf::addUtcOffset(header, 0.0f);
+            continue;
+        }
         header.insert(name, Imf::StringVectorAttribute(values));
     }
 
@@ -139,6 +148,30 @@ void write_exr_layers(const std::string& path, int width, int height, const std:
         }  // the destructor writes the line-offset table
         os.throw_if_failed();
     });
+}
+
+namespace {
+
+std::map<std::string, std::vector<std::string>> string_attributes(const Imf::Header& header) {
+    std::map<std::string, std::vector<std::string>> out;
+    for (auto it = header.begin(); it != header.end(); ++it) {
+        if (const auto* sv = dynamic_cast<const Imf::StringVectorAttribute*>(&it.attribute()))
+            out[it.name()] = sv->value();
+        else if (const auto* st = dynamic_cast<const Imf::StringAttribute*>(&it.attribute()))
+            out[it.name()] = {st->value()};
+    }
+    return out;
+}
+
+}  // namespace
+
+std::map<std::string, std::vector<std::string>> read_exr_attributes(const std::string& path) {
+    try {
+        Imf::InputFile file(path.c_str(), exr_threads());
+        return string_attributes(file.header());
+    } catch (const std::exception& e) {
+        throw std::runtime_error("cannot read EXR '" + path + "': " + e.what());
+    }
 }
 
 // Limits on what read_exr_channels allocates from a header's claims.
@@ -191,12 +224,7 @@ ExrImage read_exr_channels(const std::string& path) {
             for (const std::string& s : rec) valid = valid && img.channels.count(s) == 1 && seen.insert(s).second;
             if (valid) img.order = rec;
         }
-        for (auto it = header.begin(); it != header.end(); ++it) {
-            if (const auto* sv = dynamic_cast<const Imf::StringVectorAttribute*>(&it.attribute()))
-                img.attributes[it.name()] = sv->value();
-            else if (const auto* st = dynamic_cast<const Imf::StringAttribute*>(&it.attribute()))
-                img.attributes[it.name()] = {st->value()};
-        }
+        img.attributes = string_attributes(header);
         return img;
     } catch (const std::exception& e) {
         throw std::runtime_error("cannot read EXR '" + path + "': " + e.what());

@@ -29,9 +29,13 @@ struct ExrChannel {
 // not width*height, a name is empty or repeated, or any I/O step fails; no
 // temporary file is left behind.
 // `attributes` become string-vector header attributes (e.g. "vkmech.estimator"),
-// so a viewer's header panel and `exrheader` show how the image was made.
+// so a viewer's header panel and `exrheader` show how the image was made;
+// "capDate" (kCapDateAttribute, one "YYYY:MM:DD HH:MM:SS" in UTC) becomes
+// OpenEXR's standard capDate with utcOffset 0.
 void write_exr_layers(const std::string& path, int width, int height, const std::vector<ExrChannel>& channels,
                       const std::map<std::string, std::vector<std::string>>& attributes = {});
+
+inline constexpr const char* kCapDateAttribute = "capDate";
 
 struct ExrImage {
     int width = 0, height = 0;
@@ -44,5 +48,7 @@ struct ExrImage {
 // Reads every channel of a single-part scanline or tiled EXR as float.
 // Throws std::runtime_error with the path and the reason on failure.
 ExrImage read_exr_channels(const std::string& path);
+// The header's string and string-vector attributes only (no pixels).
+std::map<std::string, std::vector<std::string>> read_exr_attributes(const std::string& path);
 
 }  // namespace vkmech

@@ -166,6 +166,18 @@ std::string summary_json(const RenderInfo& info, const Frame& frame, const Descr
     list("warnings", info.warnings);
     o << ",\n";
     list("substitutions", info.substitutions);
+    if (const Provenance& p = info.provenance; !p.version.empty()) {
+        auto strings = [&](const std::vector<std::string>& v) {
+            std::string out = "[";
+            for (size_t i = 0; i < v.size(); ++i) out += (i ? ", \"" : "\"") + json_escape(v[i]) + "\"";
+            return out + "]";
+        };
+        o << ",\n  \"provenance\": {\"version\": \"" << json_escape(p.version) << "\", \"code_digest\": \""
+          << p.code_digest << "\", \"scene_sha256\": \"" << p.scene_sha256 << "\", \"scene_files\": "
+          << strings(p.scene_files) << ", \"defines\": " << strings(p.defines) << ", \"sample_range\": \""
+          << p.sample_range << "\", \"driver\": \"" << json_escape(p.driver) << "\", \"date_utc\": \"" << p.date_utc
+          << "\"}";
+    }
     for (const auto& [key, value] : info.extra_json) o << ",\n  \"" << json_escape(key) << "\": " << value;
     if (s) {
         o << ",\n  \"labelled_pixels\": " << s->labelled_pixels << ",\n";
@@ -251,6 +263,18 @@ WrittenFiles write_render_outputs(OutputSet& set, const RenderInfo& info, const 
         {"vkmech.device", {info.device}},              {"vkmech.features", {info.features}},
         {"vkmech.warnings", reported.warnings},        {"vkmech.substitutions", info.substitutions},
         {"vkmech.runId", {set.run_id()}}};
+    if (const Provenance& p = info.provenance; !p.version.empty()) {
+        attrs["vkmech.version"] = {p.version};
+        attrs["vkmech.codeDigest"] = {p.code_digest};
+        attrs["vkmech.sceneSha256"] = {p.scene_sha256};
+        attrs["vkmech.sceneFiles"] = p.scene_files;
+        attrs["vkmech.defines"] = p.defines;
+        attrs["vkmech.sampleRange"] = {p.sample_range};
+        attrs["vkmech.driver"] = {p.driver};
+        attrs["vkmech.traversal"] = {info.traversal};
+        attrs["vkmech.kernel"] = {info.kernel};
+        attrs[kCapDateAttribute] = {p.date_utc};
+    }
     stage(out.exr, name + ".exr", [&](const std::string& p) { write_exr_layers(p, w, h, ch, attrs); });
     stage(out.png, name + ".png", [&](const std::string& p) {
         write_png_rgb8(p, w, h, tonemap_srgb(rgb, static_cast<float>(std::exp2(static_cast<double>(info.exposure_ev)))));

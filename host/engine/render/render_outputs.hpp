@@ -14,6 +14,20 @@
 
 namespace vkmech {
 
+// Where an output came from: in the EXR header (vkmech.* attributes and
+// OpenEXR's capDate/utcOffset) and the JSON's "provenance"; `vkmech verify
+// outputs` checks that the two agree.
+struct Provenance {
+    std::string version;                   // vkmech's version and `git describe` when it was built
+    std::string code_digest;               // the path tracer's code digest (the studies' render cache key)
+    std::string scene_sha256;              // the scene file's SHA-256
+    std::vector<std::string> scene_files;  // "<sha256> <path>" of every other file the scene read
+    std::vector<std::string> defines;      // every -D name=value
+    std::string sample_range;              // "A:B": samples [A, B) of the seed's stream (per pixel)
+    std::string driver;                    // the Vulkan driver's name and version
+    std::string date_utc;                  // "YYYY:MM:DD HH:MM:SS" (EXR capDate), UTC
+};
+
 struct RenderInfo {
     std::string scene_name;
     std::string scene_path;
@@ -36,6 +50,7 @@ struct RenderInfo {
     // as JSON text, written after "substitutions" (render --adaptive: "adaptive").
     std::vector<std::pair<std::string, std::string>> extra_json;
     std::string kernel;  // the device-class kernel (vk::KernelClass): cpu or gpu; empty: not recorded
+    Provenance provenance;  // empty version: not recorded
 };
 
 struct WrittenFiles {
