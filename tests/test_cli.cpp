@@ -243,7 +243,7 @@ TEST_SUITE("gpu") {
 }
 
 TEST_SUITE("gpu") {
-    TEST_CASE("cli: render records its provenance in the EXR header and the JSON, and verify outputs checks it") {
+    TEST_CASE("cli: render records its provenance and the dominant legend in the EXR header and the JSON, and verify outputs checks it") {
         VKMECH_REQUIRE_GPU(ctx);
         vkmech::testing::TempDir dir("cli_provenance");
         const std::string scene = std::string(VKMECH_SOURCE_DIR) + "/scenes/sweep_roughness.xml";
@@ -283,6 +283,10 @@ TEST_SUITE("gpu") {
         const std::time_t t = timegm(&tm);
         CHECK(t >= before - 1);
         CHECK(t <= std::time(nullptr) + 1);
+        // The dominant channel's legend, by the descriptor's seven names in index order.
+        CHECK(one("vkmech.dominantLegend") ==
+              "{\"0\": \"emitter_direct\", \"1\": \"direct\", \"2\": \"diffuse_indirect\", \"3\": \"glossy\", "
+              "\"4\": \"delta_mediated\", \"5\": \"specular_direct\", \"6\": \"other\", \"255\": \"unlabelled\"}");
         // The JSON says the same, and verify outputs checks that it does.
         std::ifstream in(out + "/sweep_roughness.json");
         std::stringstream json;

@@ -188,13 +188,20 @@ std::string summary_json(const RenderInfo& info, const Frame& frame, const Descr
             o << "    \"" << kBucketNames[b] << "\": {\"pixel_share\": " << s->pixel_share[b]
               << ", \"energy_share\": " << s->energy_share[b] << "}" << (b + 1 < kBucketCount ? "," : "") << "\n";
         }
-        o << "  }";
+        o << "  },\n  \"dominant_legend\": " << dominant_legend_json();
         if (s->has_direct_glossy)
             o << ",\n  \"direct_glossy\": {\"energy_share\": " << s->direct_glossy_energy_share
               << ", \"share_of_direct\": " << s->direct_glossy_share_of_direct << "}";
     }
     o << "\n}\n";
     return o.str();
+}
+
+std::string dominant_legend_json() {
+    std::string s = "{";
+    for (uint32_t b = 0; b < kBucketCount; ++b)
+        s += (b ? ", \"" : "\"") + std::to_string(b) + "\": \"" + kBucketNames[b] + "\"";
+    return s + ", \"" + std::to_string(kNoLabel) + "\": \"unlabelled\"}";
 }
 
 WrittenFiles write_render_outputs(OutputSet& set, const RenderInfo& info, const Frame& frame, const Descriptor* d,
@@ -263,6 +270,7 @@ WrittenFiles write_render_outputs(OutputSet& set, const RenderInfo& info, const 
         {"vkmech.device", {info.device}},              {"vkmech.features", {info.features}},
         {"vkmech.warnings", reported.warnings},        {"vkmech.substitutions", info.substitutions},
         {"vkmech.runId", {set.run_id()}}};
+    if (d) attrs["vkmech.dominantLegend"] = {dominant_legend_json()};
     if (const Provenance& p = info.provenance; !p.version.empty()) {
         attrs["vkmech.version"] = {p.version};
         attrs["vkmech.codeDigest"] = {p.code_digest};

@@ -65,6 +65,10 @@ struct WrittenFiles {
 // `render --extra-output direct_glossy` (bucket.direct_glossy after the seven bucket.* channels).
 std::vector<std::string> exr_channel_names(bool capture, bool direct_glossy = false);
 
+// The `dominant` channel's legend as JSON, {"0": "emitter_direct", ..., "255": "unlabelled"}:
+// in the EXR header (vkmech.dominantLegend) and the JSON (dominant_legend).
+std::string dominant_legend_json();
+
 // Stages the files in `set` (their final paths are returned); checks for
 // SIGINT/SIGTERM between files (throws Interrupted). The caller adds any
 // files of its own and commits.
