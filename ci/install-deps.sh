@@ -22,6 +22,7 @@ PKGS=(
   libcli11-dev
   zlib1g-dev
   python3-matplotlib
+  python3-numpy python3-pytest python3-pybind11 python3-dev
   parallel
   clang libclang-rt-14-dev
 )

@@ -204,9 +204,7 @@ std::string dominant_legend_json() {
     return s + ", \"" + std::to_string(kNoLabel) + "\": \"unlabelled\"}";
 }
 
-WrittenFiles write_render_outputs(OutputSet& set, const RenderInfo& info, const Frame& frame, const Descriptor* d,
-                                  const DescriptorSummary* s) {
-    const int w = frame.width, h = frame.height;
+std::vector<ExrChannel> render_channels(const Frame& frame, const Descriptor* d) {
     const size_t n = frame.pixels.size();
     std::vector<float> rgb = frame.rgb_mean();
     std::vector<ExrChannel> ch;
@@ -234,6 +232,40 @@ WrittenFiles write_render_outputs(OutputSet& set, const RenderInfo& info, const 
     channel("lum_var", [&](size_t i) { return frame.pixels[i].lum_var(); });
     channel("spp", [&](size_t i) { return frame.pixels[i].count + frame.pixels[i].nonfinite; });
     channel("nonfinite", [&](size_t i) { return frame.pixels[i].nonfinite; });
+    return ch;
+}
+
+std::map<std::string, std::vector<std::string>> render_attributes(const RenderInfo& info,
+                                                                  const std::vector<std::string>& warnings,
+                                                                  const std::string& run_id, bool capture) {
+    std::map<std::string, std::vector<std::string>> attrs = {
+        {"vkmech.scene", {info.scene_path}},          {"vkmech.estimator", {info.estimator}},
+        {"vkmech.lightSelection", {info.light_selection}}, {"vkmech.endVertex", {info.end_vertex}},
+        {"vkmech.spp", {std::to_string(info.spp)}},   {"vkmech.seed", {std::to_string(info.seed)}},
+        {"vkmech.device", {info.device}},              {"vkmech.features", {info.features}},
+        {"vkmech.warnings", warnings},                 {"vkmech.substitutions", info.substitutions}};
+    if (!run_id.empty()) attrs["vkmech.runId"] = {run_id};
+    if (capture) attrs["vkmech.dominantLegend"] = {dominant_legend_json()};
+    if (const Provenance& p = info.provenance; !p.version.empty()) {
+        attrs["vkmech.version"] = {p.version};
+        attrs["vkmech.codeDigest"] = {p.code_digest};
+        attrs["vkmech.sceneSha256"] = {p.scene_sha256};
+        attrs["vkmech.sceneFiles"] = p.scene_files;
+        attrs["vkmech.defines"] = p.defines;
+        attrs["vkmech.sampleRange"] = {p.sample_range};
+        attrs["vkmech.driver"] = {p.driver};
+        attrs["vkmech.traversal"] = {info.traversal};
+        attrs["vkmech.kernel"] = {info.kernel};
+        attrs[kCapDateAttribute] = {p.date_utc};
+    }
+    return attrs;
+}
+
+WrittenFiles write_render_outputs(OutputSet& set, const RenderInfo& info, const Frame& frame, const Descriptor* d,
+                                  const DescriptorSummary* s) {
+    const int w = frame.width, h = frame.height;
+    const std::vector<float> rgb = frame.rgb_mean();
+    const std::vector<ExrChannel> ch = render_channels(frame, d);
 
     // Nothing non-finite reaches a file unreported: a value beyond float's
     // range (lum_var of radiance ~1e30 is ~1e60) is counted and warned of.
@@ -263,26 +295,7 @@ WrittenFiles write_render_outputs(OutputSet& set, const RenderInfo& info, const 
         final_path = set.final_path(file);
         fault_point(("staged-" + file.substr(name.size())).c_str());
     };
-    std::map<std::string, std::vector<std::string>> attrs = {
-        {"vkmech.scene", {info.scene_path}},          {"vkmech.estimator", {info.estimator}},
-        {"vkmech.lightSelection", {info.light_selection}}, {"vkmech.endVertex", {info.end_vertex}},
-        {"vkmech.spp", {std::to_string(info.spp)}},   {"vkmech.seed", {std::to_string(info.seed)}},
-        {"vkmech.device", {info.device}},              {"vkmech.features", {info.features}},
-        {"vkmech.warnings", reported.warnings},        {"vkmech.substitutions", info.substitutions},
-        {"vkmech.runId", {set.run_id()}}};
-    if (d) attrs["vkmech.dominantLegend"] = {dominant_legend_json()};
-    if (const Provenance& p = info.provenance; !p.version.empty()) {
-        attrs["vkmech.version"] = {p.version};
-        attrs["vkmech.codeDigest"] = {p.code_digest};
-        attrs["vkmech.sceneSha256"] = {p.scene_sha256};
-        attrs["vkmech.sceneFiles"] = p.scene_files;
-        attrs["vkmech.defines"] = p.defines;
-        attrs["vkmech.sampleRange"] = {p.sample_range};
-        attrs["vkmech.driver"] = {p.driver};
-        attrs["vkmech.traversal"] = {info.traversal};
-        attrs["vkmech.kernel"] = {info.kernel};
-        attrs[kCapDateAttribute] = {p.date_utc};
-    }
+    const auto attrs = render_attributes(info, reported.warnings, set.run_id(), d != nullptr);
     stage(out.exr, name + ".exr", [&](const std::string& p) { write_exr_layers(p, w, h, ch, attrs); });
     stage(out.png, name + ".png", [&](const std::string& p) {
         write_png_rgb8(p, w, h, tonemap_srgb(rgb, static_cast<float>(std::exp2(static_cast<double>(info.exposure_ev)))));

@@ -6,8 +6,10 @@
 
 #include "render/descriptor.hpp"
 #include "render/frame.hpp"
+#include "io/exr.hpp"
 #include "io/output_set.hpp"
 
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -64,6 +66,14 @@ struct WrittenFiles {
 // The EXR channel names, in file order (documented in README.md); `direct_glossy`: with
 // `render --extra-output direct_glossy` (bucket.direct_glossy after the seven bucket.* channels).
 std::vector<std::string> exr_channel_names(bool capture, bool direct_glossy = false);
+
+// The EXR's channels, in the file's order (R G B, the descriptor's when `d`, the moments).
+std::vector<ExrChannel> render_channels(const Frame& frame, const Descriptor* d);
+// The EXR's header attributes (io/exr.hpp): how the image was made, its
+// warnings, provenance, run id (when not empty), the dominant legend (`capture`).
+std::map<std::string, std::vector<std::string>> render_attributes(const RenderInfo& info,
+                                                                  const std::vector<std::string>& warnings,
+                                                                  const std::string& run_id, bool capture);
 
 // The `dominant` channel's legend as JSON, {"0": "emitter_direct", ..., "255": "unlabelled"}:
 // in the EXR header (vkmech.dominantLegend) and the JSON (dominant_legend).

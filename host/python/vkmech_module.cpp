@@ -1,0 +1,276 @@
+// `import vkmech`: load a scene, render it, and read every output channel as
+// a numpy array by name (docs/python.md). The module is a thin layer over the
+// same code the CLI runs: a render from Python and `vkmech render` with the
+// same settings give the same pixels and the same files.
+#include "cli/commands.hpp"
+#include "cli/provenance.hpp"
+#include "io/exr.hpp"
+#include "io/output_set.hpp"
+#include "render/descriptor.hpp"
+#include "render/features.hpp"
+#include "render/render_outputs.hpp"
+#include "render/session.hpp"
+#include "scene/scene.hpp"
+#include "vk/context.hpp"
+
+#include <pybind11/functional.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace py = pybind11;
+using namespace vkmech;
+
+namespace {
+
+// The Python exception for a scene vkmech cannot load; its message starts with file:line.
+PyObject* g_scene_error = nullptr;
+
+struct PyScene {
+    std::string name, path;
+    std::vector<std::string> defines;  // -D name=value
+    bool substitute = false;
+    Scene scene;
+};
+
+// A rendered (or read) frame: every channel in the EXR's order, the header,
+// and what writing it again needs.
+struct PyFrame {
+    int width = 0, height = 0;
+    std::vector<std::string> names;
+    std::vector<std::vector<float>> data;     // one per name, row-major, top row first
+    std::vector<float> rgb;                   // interleaved R, G, B
+    std::map<std::string, std::vector<std::string>> header;
+    // Set for frames rendered here (write() needs them); empty for frames read from a file.
+    std::string scene_name;
+    std::optional<RenderInfo> info;
+    std::optional<Frame> frame;
+    std::optional<Descriptor> descriptor;
+    std::optional<DescriptorSummary> summary;
+
+    void set_channels(std::vector<ExrChannel> ch) {
+        names.clear();
+        data.clear();
+        for (auto& c : ch) {
+            names.push_back(c.name);
+            data.push_back(std::move(c.data));
+        }
+        const size_t n = static_cast<size_t>(width) * height;
+        rgb.assign(3 * n, 0.0f);
+        for (int k = 0; k < 3; ++k) {
+            const std::string want(1, "RGB"[k]);
+            for (size_t c = 0; c < names.size(); ++c)
+                if (names[c] == want)
+                    for (size_t i = 0; i < n; ++i) rgb[3 * i + k] = data[c][i];
+        }
+    }
+    size_t index(const std::string& name) const {
+        for (size_t i = 0; i < names.size(); ++i)
+            if (names[i] == name) return i;
+        throw py::key_error("no channel '" + name + "' (Frame.channels lists them)");
+    }
+};
+
+std::string lowered(std::string s) {
+    for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return s;
+}
+
+PyScene load(const std::string& path_or_name, const std::map<std::string, std::string>& defines, bool substitute) {
+    PyScene s;
+    try {
+        s.path = resolve_scene_path(path_or_name);
+    } catch (const std::exception& e) {
+        PyErr_SetString(PyExc_FileNotFoundError, e.what());
+        throw py::error_already_set();
+    }
+    s.name = scene_stem(path_or_name);
+    s.substitute = substitute;
+    LoadOptions lo;
+    lo.params = defines;
+    lo.substitute_unsupported = substitute;
+    for (const auto& [k, v] : defines) s.defines.push_back(k + "=" + v);
+    try {
+        s.scene = load_scene(s.path, lo);
+    } catch (const SceneError& e) {
+        PyErr_SetString(g_scene_error, e.what());
+        throw py::error_already_set();
+    }
+    return s;
+}
+
+py::dict scene_info(const PyScene& s) {
+    py::dict d;
+    const Scene& sc = s.scene;
+    d["name"] = s.name;
+    d["path"] = s.path;
+    d["width"] = sc.camera.width;
+    d["height"] = sc.camera.height;
+    d["triangles"] = sc.triangle_count();
+    d["emitters"] = sc.emitters.size();
+    d["materials"] = sc.materials.size();
+    d["meshes"] = sc.meshes.size();
+    d["max_depth"] = sc.integrator.max_depth;
+    d["rr_depth"] = sc.integrator.rr_depth;
+    d["features"] = Features::from_scene(sc).describe();
+    d["defines"] = s.defines;
+    d["warnings"] = sc.warnings;
+    d["substitutions"] = sc.substitutions;
+    return d;
+}
+
+PyFrame render(const PyScene& s, uint32_t spp, uint32_t seed, std::optional<uint32_t> res, const std::string& estimator,
+               const std::string& light_selection, const std::string& end_vertex, bool capture,
+               std::optional<uint32_t> device, const std::string& kernel, uint32_t batch,
+               std::optional<std::function<void(uint32_t, uint32_t)>> progress) {
+    if (spp == 0) throw py::value_error("spp must be at least 1");
+    if (batch == 0) throw py::value_error("batch must be at least 1");
+    Scene scene = s.scene;
+    if (res) {
+        if (*res < 4 || *res > 16384) throw py::value_error("res must be 4..16384");
+        scene.camera.set_film_width(static_cast<int>(*res));
+    }
+    vkmech::vk::ContextOptions co;
+    co.device_index = device;
+    co.kernel = vkmech::vk::parse_kernel_class(kernel);
+    auto ctx = std::make_shared<vkmech::vk::Context>(co);
+    const Traversal trav = resolve_traversal(*ctx, Traversal::Auto);
+    RenderSession session(*ctx, scene, trav, parse_light_selection(light_selection));
+    Features f = session.features(parse_estimator(estimator), capture);
+    f.end_vertex = parse_end_vertex(end_vertex);
+    Renderer renderer = session.renderer(f);
+    RenderSpec spec;
+    spec.spp = spp;
+    spec.seed = seed;
+    spec.batch_spp = batch;
+    // Between batches: the progress callback, and Ctrl-C (KeyboardInterrupt).
+    spec.progress = [&](uint32_t done, uint32_t total) {
+        py::gil_scoped_acquire gil;
+        if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+        if (progress) (*progress)(done, total);
+    };
+    Frame frame;
+    {
+        py::gil_scoped_release nogil;
+        frame = renderer.render(spec);
+    }
+    PyFrame out;
+    out.width = frame.width;
+    out.height = frame.height;
+    out.scene_name = s.name;
+    RenderInfo info{s.name, s.path, ctx->info().name, to_string(trav), to_string(f.estimator), f.describe(), spp, seed,
+                    capture};
+    info.light_selection = light_selection;
+    info.end_vertex = end_vertex;
+    info.warnings = scene.warnings;
+    info.substitutions = scene.substitutions;
+    info.kernel = vkmech::vk::to_string(ctx->kernel());
+    info.provenance = make_provenance(s.path, scene, s.defines, *ctx, trav, spp);
+    if (capture) {
+        out.descriptor = derive_descriptor(frame);
+        out.summary = summarize(frame, *out.descriptor);
+    }
+    out.set_channels(render_channels(frame, out.descriptor ? &*out.descriptor : nullptr));
+    out.header = render_attributes(info, info.warnings, "", capture);
+    out.info = std::move(info);
+    out.frame = std::move(frame);
+    return out;
+}
+
+py::array channel_view(py::object self, const std::string& name) {
+    PyFrame& f = self.cast<PyFrame&>();
+    std::vector<float>& v = f.data[f.index(name)];
+    // A view of the frame's memory: the array keeps the frame alive (its base).
+    return py::array_t<float>({f.height, f.width}, {sizeof(float) * f.width, sizeof(float)}, v.data(), self);
+}
+
+py::array rgb_view(py::object self) {
+    PyFrame& f = self.cast<PyFrame&>();
+    return py::array_t<float>({f.height, f.width, 3}, {sizeof(float) * 3 * f.width, sizeof(float) * 3, sizeof(float)},
+                              f.rgb.data(), self);
+}
+
+py::dict header_dict(const PyFrame& f) {
+    py::dict d;
+    for (const auto& [k, v] : f.header) {
+        if (v.size() == 1)
+            d[py::str(k)] = v[0];
+        else
+            d[py::str(k)] = v;
+    }
+    return d;
+}
+
+std::vector<std::string> frame_write(const PyFrame& f, const std::string& dir) {
+    if (!f.info || !f.frame)
+        throw std::invalid_argument("this frame was read from a file: only a frame rendered here can be written");
+    require_writable_dir(dir, "dir");
+    OutputSet set(dir, f.scene_name);
+    WrittenFiles w = write_render_outputs(set, *f.info, *f.frame, f.descriptor ? &*f.descriptor : nullptr,
+                                          f.summary ? &*f.summary : nullptr);
+    set.commit();
+    std::vector<std::string> files = {w.exr, w.png, w.json};
+    if (!w.dominant_png.empty()) files.push_back(w.dominant_png);
+    if (!w.purity_png.empty()) files.push_back(w.purity_png);
+    return files;
+}
+
+PyFrame frame_read(const std::string& path) {
+    ExrImage img = read_exr_channels(path);
+    PyFrame f;
+    f.width = img.width;
+    f.height = img.height;
+    std::vector<ExrChannel> ch;
+    for (const auto& name : img.order) ch.push_back({name, std::move(img.channels.at(name)), false});
+    f.set_channels(std::move(ch));
+    f.header = std::move(img.attributes);
+    return f;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(vkmech, m) {
+    m.doc() = "vkmech: a Vulkan path tracer that labels every pixel's light by its transport mechanism";
+    g_scene_error = PyErr_NewException("vkmech.SceneError", PyExc_ValueError, nullptr);
+    m.attr("SceneError") = py::handle(g_scene_error);
+    py::register_exception<vkmech::vk::VulkanError>(m, "VulkanError", PyExc_RuntimeError);
+    m.attr("__version__") = build_version();
+
+    py::class_<PyScene>(m, "Scene", "A scene loaded from Mitsuba XML or glTF (vkmech.load)")
+        .def_readonly("name", &PyScene::name)
+        .def_readonly("path", &PyScene::path)
+        .def("info", &scene_info, "What `vkmech check` reports, as a dict");
+
+    py::class_<PyFrame>(m, "Frame", "A rendered frame: every EXR channel as a float32 (H, W) numpy view")
+        .def_readonly("width", &PyFrame::width)
+        .def_readonly("height", &PyFrame::height)
+        .def_property_readonly("channels", [](const PyFrame& f) { return f.names; }, "Channel names, in the EXR's order")
+        .def("__getitem__", &channel_view, py::arg("name"), "A channel as a float32 (H, W) view of the frame's memory")
+        .def("__contains__", [](const PyFrame& f, const std::string& n) {
+            for (const auto& x : f.names)
+                if (x == n) return true;
+            return false;
+        })
+        .def_property_readonly("rgb", &rgb_view, "The image, float32 (H, W, 3), linear RGB")
+        .def_property_readonly("header", &header_dict, "The EXR header's attributes (provenance included)")
+        .def("write", &frame_write, py::arg("dir"),
+             "Writes the CLI's output set (EXR, PNGs, JSON, manifest) into dir; returns the files");
+
+    m.def("load", &load, py::arg("path_or_name"), py::arg("defines") = std::map<std::string, std::string>{},
+          py::arg("substitute") = false,
+          "Loads a scene file or a project scene by name; raises vkmech.SceneError (file:line: reason)");
+    m.def("render", &render, py::arg("scene"), py::kw_only(), py::arg("spp") = 64, py::arg("seed") = 0,
+          py::arg("res") = py::none(), py::arg("estimator") = "mis", py::arg("light_selection") = "uniform",
+          py::arg("end_vertex") = "last-nondelta", py::arg("capture") = true, py::arg("device") = py::none(),
+          py::arg("kernel") = "auto", py::arg("batch") = 8, py::arg("progress") = py::none(),
+          "Renders the scene; releases the GIL, calls progress(done, total) between batches, and raises "
+          "KeyboardInterrupt at the next batch on Ctrl-C");
+    m.def("read", &frame_read, py::arg("path"), "Reads a vkmech EXR back as a Frame");
+}
