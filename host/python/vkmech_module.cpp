@@ -78,11 +78,6 @@ struct PyFrame {
     }
 };
 
-std::string lowered(std::string s) {
-    for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    return s;
-}
-
 PyScene load(const std::string& path_or_name, const std::map<std::string, std::string>& defines, bool substitute) {
     PyScene s;
     try {
