@@ -4,6 +4,7 @@
 
 #include <bit>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 namespace vkmech {
@@ -245,7 +246,7 @@ void GpuScene::bind_traversal(vk::ComputePipeline& pipeline) const {
         pipeline.bind_acceleration_structure(gpu::BINDING_TLAS, accel_->tlas());
     } else if (kernel_ == vk::KernelClass::Gpu) {
         pipeline.bind_buffer(gpu::BINDING_BVH_NODES, bvh_nodes.handle());
-        pipeline.bind_buffer(gpu::BINDING_BVH_TRIS, gpu_tree_positions.handle());
+        pipeline.bind_buffer(gpu::BINDING_BVH_TRIS, tri_positions.handle());
     } else {
         for (const auto& [binding, view] : traversal_views_) pipeline.bind_texel_buffer(binding, **view);
     }
@@ -362,7 +363,11 @@ GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal trave
     if (traversal_ == Traversal::RayQuery)
         pos_usage = pos_usage | BU::eStorageBuffer | BU::eAccelerationStructureBuildInputReadOnlyKHR |
                     BU::eShaderDeviceAddress;
-    tri_positions = vk::Buffer::from_vector(ctx, a.tri_positions, pos_usage);
+    // The GPU kernel's software BVH reads the positions in its own tree's order
+    // (shaders/trace_bvh_gpu.glsl); everything else in the scene arrays' order.
+    std::optional<GpuKernelTree> gpu_tree;
+    if (gpu_kernel && traversal_ == Traversal::Bvh) gpu_tree = build_gpu_kernel_tree(a);
+    tri_positions = vk::Buffer::from_vector(ctx, gpu_tree ? gpu_tree->positions : a.tri_positions, pos_usage);
     if (gpu_kernel) {
         const std::pair<uint32_t, const vk::Buffer*> arrays[] = {
             {gpu::BINDING_VERTICES, &vertices},   {gpu::BINDING_TRIANGLES, &triangles},
@@ -387,13 +392,10 @@ GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal trave
     }
     if (traversal_ == Traversal::RayQuery) {
         accel_ = std::make_unique<RayTracingAccel>(ctx, tri_positions, static_cast<uint32_t>(a.triangles.size()));
-    } else if (gpu_kernel) {
-        // The GPU kernel's traversal runs its own binary tree (shaders/trace_bvh_gpu.glsl).
-        const GpuKernelTree tree = build_gpu_kernel_tree(a);
-        bvh_nodes = vk::Buffer::from_vector(ctx, tree.nodes, usage);
-        gpu_tree_positions = vk::Buffer::from_vector(ctx, tree.positions, usage);
+    } else if (gpu_tree) {
+        bvh_nodes = vk::Buffer::from_vector(ctx, gpu_tree->nodes, usage);
         check_storage_range(ctx, bvh_nodes, "BVH nodes");
-        check_storage_range(ctx, gpu_tree_positions, "triangle positions");
+        check_storage_range(ctx, tri_positions, "triangle positions");
     } else {
         bvh_nodes = vk::Buffer::from_vector(ctx, a.bvh4, usage);
         traversal_views_.emplace_back(gpu::BINDING_BVH_NODES, texel_view(ctx, bvh_nodes, texels_of(a.bvh4), "BVH nodes"));

@@ -58,8 +58,9 @@ public:
     vk::KernelClass kernel() const { return kernel_; }
     const RayTracingAccel* accel() const { return accel_.get(); }
 
+    // tri_positions: SceneArrays::tri_positions, or with the GPU kernel's software
+    // BVH GpuKernelTree::positions (its tree's order).
     vk::Buffer vertices, triangles, materials, emitters, light_triangles, bvh_nodes, tri_positions, texels, textures;
-    vk::Buffer gpu_tree_positions;  // the GPU kernel's software BVH: GpuKernelTree::positions
     // The CPU kernel reads every scene array (and the software traversal its
     // 4-wide BVH nodes and triangle positions) as uniform texel buffers of
     // RGBA32 uint texels (shaders/scene_data.glsl, trace_bvh.glsl): on lavapipe
