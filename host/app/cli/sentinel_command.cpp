@@ -42,7 +42,6 @@ std::string utc_now() {
     return b;
 }
 
-std::string absolute(const std::string& p) { return canonical_path(p); }
 
 }  // namespace
 
@@ -66,12 +65,12 @@ int cmd_sentinel_register(const SentinelOptions& o) {
     const std::string out = o.out.empty() ? "sentinel_" + name + ".json" : o.out;
     if (fs::exists(out) && !o.force)
         throw UsageError("'" + out + "' exists: a registration is never overwritten (remove it, or --force)");
-    require_writable_dir(fs::path(absolute(out)).parent_path().string(), "--out");
+    require_writable_dir(fs::path(canonical_path(out)).parent_path().string(), "--out");
     Scene loaded = load_for_cli(o.common);
 
     sentinel::Record rec;
     rec.scene_name = name;
-    rec.scene_path = absolute(scene_path);
+    rec.scene_path = canonical_path(scene_path);
     rec.params = parse_defines(o.common.defines);
     if (o.reference_spp % 64 != 0)
         throw UsageError("--reference-spp " + std::to_string(o.reference_spp) + " is not a multiple of 64");
@@ -119,7 +118,7 @@ int cmd_sentinel_register(const SentinelOptions& o) {
     r.spirv_sha256 = Sha256().update(spirv.data(), spirv.size_bytes()).hex();
     r.registered_utc = utc_now();
     r.device = ctx.info().name;
-    r.curve_path = absolute(curve_path);
+    r.curve_path = canonical_path(curve_path);
     r.curve_sha256 = rec.curve_sha256;
     r.curve_pilot_spp = curve.pilot_spp;
     r.curve_reference_spp = curve.reference_spp;

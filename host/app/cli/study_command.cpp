@@ -5,14 +5,13 @@
 #include "io/exr.hpp"
 #include "io/json_value.hpp"
 #include "io/output_set.hpp"
+#include "scene/file_read.hpp"
 #include "study/render_cache.hpp"
 #include "study/study_runner.hpp"
 
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <map>
-#include <sstream>
 #include <string>
 
 namespace fs = std::filesystem;
@@ -33,11 +32,13 @@ std::string check_provenance(const fs::path& dir, const std::string& name, std::
     } catch (const std::exception& e) {
         return e.what();
     }
-    std::ifstream in(json);
-    std::stringstream text;
-    text << in.rdbuf();
-    std::string why;
-    const auto j = parse_json(text.str(), &why);
+    std::string text, why;
+    try {
+        text = read_regular_file(json.string(), "render summary", kMaxIncludedXmlBytes);
+    } catch (const std::exception& e) {
+        return e.what();
+    }
+    const auto j = parse_json(text, &why);
     if (!j) return json.string() + ": not JSON (" + why + ")";
     const JsonValue* p = j->find("provenance");
     if (a.count("vkmech.version") == 0 && !p) {
