@@ -116,6 +116,28 @@ Agreement compare(const SceneArrays& arrays, const std::vector<gpu::GpuRay>& ray
     return r;
 }
 
+// Two ray casters of one scene agree on 100k random rays: the same closest
+// hits except verified ties (both primitives hit at the same distance, checked
+// in double precision, so any number of them is correct), and the same
+// any-hit answers. `a` traces with `schedule_a`, `b` with its default.
+void check_casters_agree(const std::string& path, const SceneArrays& arrays, RayCaster& a, RaySchedule schedule_a,
+                         RayCaster& b) {
+    auto rays = random_rays(arrays, 100000, 42);
+    auto hits_a = a.trace(rays, false, nullptr, schedule_a);
+    auto hits_b = b.trace(rays, false);
+    Agreement g = compare(arrays, rays, hits_a, hits_b);
+    INFO(g.first_mismatch);
+    CHECK(g.mismatches == 0);
+    MESSAGE(path << ": " << g.same << " same hits, " << g.edge_ties << " verified ties, " << g.both_miss << " misses");
+    CHECK(g.same + g.both_miss + g.edge_ties == g.rays);
+    CHECK(g.same > g.rays / 10);  // the rays really hit the scene
+    auto any_a = a.trace(rays, true, nullptr, schedule_a);
+    auto any_b = b.trace(rays, true);
+    uint32_t any_diff = 0;
+    for (size_t i = 0; i < rays.size(); ++i) any_diff += (any_a[i].hit.x > 0.0f) != (any_b[i].hit.x > 0.0f);
+    CHECK(any_diff == 0);
+}
+
 // The brute-force judge of one ray: every triangle tested in double. A hit
 // is *clear* when the point lies inside the triangle by kEdgeSlack (float
 // traversal must find it) and *possible* when it lies at most kEdgeSlack
@@ -262,26 +284,10 @@ TEST_SUITE("gpu") {
             return;
         }
         for_each_project_scene([&](const std::string& path, const SceneArrays& arrays) {
-            auto rays = random_rays(arrays, 100000, 42);
             GpuScene rq(*ctx, arrays, Traversal::RayQuery);
             GpuScene bvh(*ctx, arrays, Traversal::Bvh);
             RayCaster crq(*ctx, rq), cbvh(*ctx, bvh);
-            auto hits_rq = crq.trace(rays, false);
-            auto hits_bvh = cbvh.trace(rays, false);
-            Agreement a = compare(arrays, rays, hits_rq, hits_bvh);
-            INFO(a.first_mismatch);
-            CHECK(a.mismatches == 0);
-            // Ties are verified hits of both primitives at the same distance
-            // (checked in double precision), so any number of them is correct.
-            MESSAGE(path << ": " << a.same << " same hits, " << a.edge_ties << " verified ties, " << a.both_miss << " misses");
-            CHECK(a.same + a.both_miss + a.edge_ties == a.rays);
-            CHECK(a.same > a.rays / 10);  // the rays really hit the scene
-
-            auto any_rq = crq.trace(rays, true);
-            auto any_bvh = cbvh.trace(rays, true);
-            uint32_t any_diff = 0;
-            for (size_t i = 0; i < rays.size(); ++i) any_diff += (any_rq[i].hit.x > 0.0f) != (any_bvh[i].hit.x > 0.0f);
-            CHECK(any_diff == 0);
+            check_casters_agree(path, arrays, crq, RaySchedule::Auto, cbvh);
         });
         CHECK(ctx->validation_messages() == 0);
     }
@@ -293,23 +299,10 @@ TEST_SUITE("gpu") {
         // storage buffers. They test triangles with the same function, so a
         // hit may differ only where two triangles tie (verified in double).
         for_each_project_scene([&](const std::string& path, const SceneArrays& arrays) {
-            auto rays = random_rays(arrays, 100000, 42);
             GpuScene cpu(*ctx, arrays, Traversal::Bvh, vkmech::vk::KernelClass::Cpu);
             GpuScene gpu(*ctx, arrays, Traversal::Bvh, vkmech::vk::KernelClass::Gpu);
             RayCaster ccpu(*ctx, cpu), cgpu(*ctx, gpu);
-            auto hits_cpu = ccpu.trace(rays, false, nullptr, RaySchedule::PerInvocation);
-            auto hits_gpu = cgpu.trace(rays, false);
-            Agreement a = compare(arrays, rays, hits_cpu, hits_gpu);
-            INFO(a.first_mismatch);
-            CHECK(a.mismatches == 0);
-            MESSAGE(path << ": " << a.same << " same hits, " << a.edge_ties << " verified ties, " << a.both_miss << " misses");
-            CHECK(a.same + a.both_miss + a.edge_ties == a.rays);
-            CHECK(a.same > a.rays / 10);
-            auto any_cpu = ccpu.trace(rays, true, nullptr, RaySchedule::PerInvocation);
-            auto any_gpu = cgpu.trace(rays, true);
-            uint32_t any_diff = 0;
-            for (size_t i = 0; i < rays.size(); ++i) any_diff += (any_cpu[i].hit.x > 0.0f) != (any_gpu[i].hit.x > 0.0f);
-            CHECK(any_diff == 0);
+            check_casters_agree(path, arrays, ccpu, RaySchedule::PerInvocation, cgpu);
         });
         CHECK(ctx->validation_messages() == 0);
     }
