@@ -3,9 +3,9 @@
 // writes the pixel's batch moments (GpuPixelAccum). The host merges batches.
 // Compiled twice per traversal (CMakeLists.txt): the default module, and with
 // VKMECH_DIRECT_GLOSSY defined the variant for `render --extra-output
-// direct_glossy` (docs/descriptor.md §3.4), which also writes into side.z the
-// energy of `direct` events whose end vertex is glossy. The #ifdef keeps the
-// default module's SPIR-V (the studies' code digest) unchanged. With
+// direct_glossy` (docs/descriptor.md §3.4), which also writes into floats
+// 21..23 of bucket_rgb the RGB of `direct` events whose end vertex is glossy.
+// The #ifdef keeps that work out of the default module. With
 // VKMECH_COUNTERS (software BVH only; `bench render --profile --counters`)
 // it also adds the traversal's work of each invocation to BINDING_COUNTERS:
 // traces, interior nodes, leaves, triangles tested, and the deepest stack.
@@ -137,12 +137,12 @@ uint g_sample_index = 0u;
 // if it turns out non-finite.
 struct Tally {
     vec3 L;
-    float bucket[BUCKET_COUNT];
+    vec3 bucket[BUCKET_COUNT];  // linear RGB of each bucket's events
     float glossy;       // energy of events whose V1..Vn has a glossy lobe
     float depth_sum;    // sum of energy * n over events with n >= 1
     float depth_w;      // sum of energy over events with n >= 1
 #ifdef VKMECH_DIRECT_GLOSSY
-    float direct_glossy;  // energy of `direct` events whose end vertex is glossy (l = G)
+    vec3 direct_glossy;  // RGB of `direct` events whose end vertex is glossy (l = G)
 #endif
 };
 
@@ -154,12 +154,12 @@ void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_be
 #ifdef KERNEL_GPU
     // Constant indices: a GPU keeps the tally in registers, where an index
     // known only at run time puts the whole array in local memory.
-    [[unroll]] for (uint k = 0u; k < BUCKET_COUNT; ++k) t.bucket[k] += k == b ? e : 0.0;
+    [[unroll]] for (uint k = 0u; k < BUCKET_COUNT; ++k) t.bucket[k] += k == b ? contrib : vec3(0.0);
 #else
-    t.bucket[b] += e;
+    t.bucket[b] += contrib;
 #endif
 #ifdef VKMECH_DIRECT_GLOSSY
-    if (b == BUCKET_DIRECT && end_lobe == LOBE_G) t.direct_glossy += e;
+    if (b == BUCKET_DIRECT && end_lobe == LOBE_G) t.direct_glossy += contrib;
 #endif
     if (DEBUG_EVENTS && g_debug_pixel) {
         uint slot = atomicAdd(debug_count, 1u);
@@ -393,13 +393,13 @@ void render_slot(uint slot) {
     float mean_s = 0.0;
     float m2_s = 0.0;
     float nonfinite = 0.0;
-    float bucket_sum[BUCKET_COUNT];
-    for (uint b = 0u; b < BUCKET_COUNT; ++b) bucket_sum[b] = 0.0;
+    vec3 bucket_sum[BUCKET_COUNT];
+    for (uint b = 0u; b < BUCKET_COUNT; ++b) bucket_sum[b] = vec3(0.0);
     float glossy_sum = 0.0;
     float depth_sum = 0.0;
     float depth_w = 0.0;
 #ifdef VKMECH_DIRECT_GLOSSY
-    float direct_glossy_sum = 0.0;
+    vec3 direct_glossy_sum = vec3(0.0);
 #endif
     g_debug_pixel = DEBUG_EVENTS && params.debug.y > 0u && pixel == params.debug.x;
     for (uint i = 0u; i < count; ++i) {
@@ -413,12 +413,12 @@ void render_slot(uint slot) {
         camera_ray(film_uv, lens, o, d);
         Tally t;
         t.L = vec3(0.0);
-        for (uint b = 0u; b < BUCKET_COUNT; ++b) t.bucket[b] = 0.0;
+        for (uint b = 0u; b < BUCKET_COUNT; ++b) t.bucket[b] = vec3(0.0);
         t.glossy = 0.0;
         t.depth_sum = 0.0;
         t.depth_w = 0.0;
 #ifdef VKMECH_DIRECT_GLOSSY
-        t.direct_glossy = 0.0;
+        t.direct_glossy = vec3(0.0);
 #endif
         CLOCK_ADD(PHASE_CAMERA, c_camera);
         if (params.scene.w == MODE_PATH) {
@@ -465,12 +465,17 @@ void render_slot(uint slot) {
     // x: the mean itself (at most the largest sample: finite); y, w: M2 as
     // m2_s * 4^w (host/render/frame.hpp, batch_lum_m2).
     a.lum = vec4(ldexp(mean_s, lum_exp), m2_s, nonfinite, float(lum_exp));
-    a.bucket0 = vec4(bucket_sum[0], bucket_sum[1], bucket_sum[2], bucket_sum[3]);
-    a.bucket1 = vec4(bucket_sum[4], bucket_sum[5], bucket_sum[6], glossy_sum);
+    a.side = vec4(glossy_sum, depth_sum, depth_w, 0.0);
+    // Seven RGB sums packed into six vec4s (GpuPixelAccum::bucket_rgb, float 3b + c).
+    a.bucket_rgb[0] = vec4(bucket_sum[0], bucket_sum[1].x);
+    a.bucket_rgb[1] = vec4(bucket_sum[1].yz, bucket_sum[2].xy);
+    a.bucket_rgb[2] = vec4(bucket_sum[2].z, bucket_sum[3]);
+    a.bucket_rgb[3] = vec4(bucket_sum[4], bucket_sum[5].x);
+    a.bucket_rgb[4] = vec4(bucket_sum[5].yz, bucket_sum[6].xy);
 #ifdef VKMECH_DIRECT_GLOSSY
-    a.side = vec4(depth_sum, depth_w, direct_glossy_sum, 0.0);
+    a.bucket_rgb[5] = vec4(bucket_sum[6].z, direct_glossy_sum);
 #else
-    a.side = vec4(depth_sum, depth_w, 0.0, 0.0);
+    a.bucket_rgb[5] = vec4(bucket_sum[6].z, 0.0, 0.0, 0.0);
 #endif
     accum[pixel] = a;
 }

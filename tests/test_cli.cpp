@@ -10,12 +10,17 @@
 
 #include <doctest/doctest.h>
 
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputFile.h>
+
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <sys/wait.h>
 
@@ -297,5 +302,33 @@ TEST_SUITE("gpu") {
         INFO(r.output);
         CHECK(r.code == 0);
         CHECK(r.output.find("provenance: vkmech 0.") != std::string::npos);
+    }
+
+    TEST_CASE("cli: each bucket is an R, G, B layer of the EXR, by OpenEXR's layer convention (tev's and Blender's)") {
+        VKMECH_REQUIRE_GPU(ctx);
+        vkmech::testing::TempDir dir("cli_layers");
+        const std::string out = (dir.path / "r").string();
+        auto r = run_cli("render --scene ring_caustic --res 16 --spp 2 --out " + out);
+        INFO(r.output);
+        REQUIRE(r.code == 0);
+        Imf::InputFile file((out + "/ring_caustic.exr").c_str());
+        const Imf::ChannelList& ch = file.header().channels();
+        std::set<std::string> layers;
+        ch.layers(layers);
+        const char* names[] = {"emitter_direct", "direct", "diffuse_indirect", "glossy", "delta_mediated",
+                               "specular_direct", "other"};
+        for (const char* b : names) {
+            const std::string layer = std::string("bucket.") + b;
+            CAPTURE(layer);
+            CHECK(layers.count(layer) == 1);
+            Imf::ChannelList::ConstIterator first, last;
+            ch.channelsInLayer(layer, first, last);
+            std::vector<std::string> in_layer;
+            for (auto it = first; it != last; ++it) in_layer.push_back(it.name());
+            CHECK(in_layer == std::vector<std::string>{layer + ".B", layer + ".G", layer + ".R"});  // OpenEXR sorts
+            CHECK(ch.findChannel(std::string("lum.") + b) != nullptr);  // the luminance energy, its own layer
+        }
+        CHECK(layers.count("lum") == 1);
+        CHECK(ch.findChannel("bucket.glossy") == nullptr);  // no luminance channel left under the RGB layer's name
     }
 }

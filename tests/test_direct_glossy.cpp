@@ -109,9 +109,9 @@ TEST_CASE("direct_glossy: the descriptor and the summary carry the split only wh
     CHECK(summary_json(info, f, &s).find("\"direct_glossy\": {\"energy_share\": 0.1875, \"share_of_direct\": 0.25}") !=
           std::string::npos);
     auto names = exr_channel_names(true, true);
-    auto at = std::find(names.begin(), names.end(), "bucket.direct_glossy");
+    auto at = std::find(names.begin(), names.end(), "lum.direct_glossy");
     REQUIRE(at != names.end());
-    CHECK(*(at - 1) == "bucket.other");
+    CHECK(*(at - 1) == "lum.other");
     CHECK(names.size() == exr_channel_names(true).size() + 1);
 
     // Without the split: no field, and the JSON is that of the frame with the split but for it.
@@ -134,12 +134,15 @@ TEST_CASE("direct_glossy: merging frames adds the split when both have it and dr
     Frame b = two_pixel_frame(false);
     b.merge(two_pixel_frame(true));
     CHECK(b.direct_glossy_sum.empty());
-    // A batch's side.z is added only to a frame that carries the split.
+    // A batch's direct-glossy RGB (floats 21..23 of bucket_rgb) is added, as its luminance, only
+    // to a frame that carries the split.
     std::vector<gpu::GpuPixelAccum> batch(2, gpu::GpuPixelAccum{});
-    batch[0].side.z = 0.25f;
+    batch[0].bucket_rgb[5] = glm::vec4(0.0f, 0.25f, 0.25f, 0.25f);
     Frame c = two_pixel_frame(true);
     c.merge(batch);
-    CHECK(c.direct_glossy_sum == std::vector<double>{1.75, 0.0});
+    REQUIRE(c.direct_glossy_sum.size() == 2);
+    CHECK(c.direct_glossy_sum[0] == doctest::Approx(1.75).epsilon(1e-12));  // grey: luminance 0.25
+    CHECK(c.direct_glossy_sum[1] == 0.0);
 }
 
 TEST_CASE("direct_glossy: the default path-tracing module is not the variant") {
@@ -227,7 +230,7 @@ TEST_SUITE("gpu") {
         }
     }
 
-    TEST_CASE("direct_glossy: render --extra-output direct_glossy adds bucket.direct_glossy and the JSON share") {
+    TEST_CASE("direct_glossy: render --extra-output direct_glossy adds lum.direct_glossy and the JSON share") {
         VKMECH_REQUIRE_GPU(ctx);
         testing::TempDir dir("direct_glossy_cli");
         std::ofstream(dir.file("planes.xml")) << kTwoPlanes;
@@ -240,8 +243,8 @@ TEST_SUITE("gpu") {
         REQUIRE(split.code == 0);
         CHECK(split.output.find("direct energy ending at a glossy vertex:") != std::string::npos);
         ExrImage a = read_exr_channels(dir.file("plain/planes.exr")), b = read_exr_channels(dir.file("split/planes.exr"));
-        CHECK(a.channels.count("bucket.direct_glossy") == 0);
-        REQUIRE(b.channels.count("bucket.direct_glossy") == 1);
+        CHECK(a.channels.count("lum.direct_glossy") == 0);
+        REQUIRE(b.channels.count("lum.direct_glossy") == 1);
         CHECK(b.channels.size() == a.channels.size() + 1);
         for (const auto& channel : a.channels) {
             const std::string& name = channel.first;
@@ -249,8 +252,8 @@ TEST_SUITE("gpu") {
             REQUIRE(b.channels.count(name) == 1);
             CHECK(b.channels.at(name) == channel.second);  // every other channel identical
         }
-        const auto& dg = b.channels.at("bucket.direct_glossy");
-        const auto& direct = b.channels.at("bucket.direct");
+        const auto& dg = b.channels.at("lum.direct_glossy");
+        const auto& direct = b.channels.at("lum.direct");
         for (size_t i = 0; i < dg.size(); ++i) CHECK(dg[i] <= direct[i]);
         CHECK(b.attributes["vkmech.features"].at(0).find("direct-glossy") != std::string::npos);
         CHECK(a.attributes["vkmech.features"].at(0).find("direct-glossy") == std::string::npos);

@@ -62,6 +62,10 @@ Frame flat_frame(int w, double lum, double count) {
         p.lum_mean = lum;
         p.bucket_sum[gpu::BUCKET_DIRECT] = lum * count;
     }
+    // Grey, all of it direct: the direct bucket's RGB is the pixel's.
+    f.bucket_rgb_sum.assign(f.pixels.size() * Frame::kBucketRgb, 0.0);
+    for (size_t i = 0; i < f.pixels.size(); ++i)
+        for (int c = 0; c < 3; ++c) f.bucket_rgb_sum[i * Frame::kBucketRgb + 3 * gpu::BUCKET_DIRECT + c] = lum * count;
     f.samples = static_cast<uint64_t>(w * count);
     return f;
 }
@@ -83,6 +87,40 @@ Written write_outputs(const testing::TempDir& dir, const Frame& f) {
 }
 
 }  // namespace
+
+TEST_CASE("frame: each bucket's RGB comes from its own three floats of a batch, its energy is their luminance, and frames keep the RGB only when both have it") {
+    // The shader packs bucket b's R, G, B at floats 3b..3b+2 of GpuPixelAccum::bucket_rgb
+    // (shared/types.h): give every float its own value and find each where the layout says.
+    std::vector<gpu::GpuPixelAccum> batch(1, gpu::GpuPixelAccum{});
+    for (int k = 0; k < 21; ++k) batch[0].bucket_rgb[k / 4][k % 4] = static_cast<float>(k + 1);
+    batch[0].rgb = glm::vec4(1.0f, 1.0f, 1.0f, 1.0f);
+    Frame f;
+    f.width = f.height = 1;
+    f.pixels.assign(1, PixelStats{});
+    f.bucket_rgb_sum.assign(Frame::kBucketRgb, 0.0);
+    f.merge(batch);
+    f.merge(batch);
+    for (uint32_t b = 0; b < gpu::BUCKET_COUNT; ++b) {
+        CAPTURE(b);
+        const double r = 2.0 * (3 * b + 1), g = 2.0 * (3 * b + 2), bl = 2.0 * (3 * b + 3);
+        CHECK(f.bucket_rgb_sum[3 * b] == r);
+        CHECK(f.bucket_rgb_sum[3 * b + 1] == g);
+        CHECK(f.bucket_rgb_sum[3 * b + 2] == bl);
+        CHECK(f.pixels[0].bucket_sum[b] == doctest::Approx(0.2126 * r + 0.7152 * g + 0.0722 * bl).epsilon(1e-12));
+    }
+    Frame g = f;
+    g.merge(f);
+    CHECK(g.bucket_rgb_sum[20] == 4.0 * 21);
+    Frame without = f;
+    without.bucket_rgb_sum.clear();
+    g.merge(without);
+    CHECK(g.bucket_rgb_sum.empty());
+    CHECK(g.pixels[0].bucket_sum[6] == doctest::Approx(3.0 * f.pixels[0].bucket_sum[6]));
+    // Such a frame (the render cache keeps no RGB) is not written as a render's EXR.
+    const Descriptor d = derive_descriptor(g);
+    CHECK_THROWS_AS(render_channels(g, &d), std::invalid_argument);
+    CHECK(render_channels(f, &d).size() == exr_channel_names(true).size());
+}
 
 TEST_CASE("render outputs: an EXR value beyond float range is counted in the JSON and warned of") {
     testing::TempDir dir("numerics_overflow");

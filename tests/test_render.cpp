@@ -81,7 +81,7 @@ TEST_CASE("render: the workgroup order is a permutation that spreads every threa
 }
 
 TEST_SUITE("gpu") {
-    TEST_CASE("render: bucket energies sum to the pixel luminance and `other` gets nothing - on every scene") {
+    TEST_CASE("render: bucket energies sum to the pixel luminance, their RGB to the pixel's RGB, and `other` gets nothing - on every scene") {
         VKMECH_REQUIRE_GPU(ctx);
         for (const auto& path : testing::project_scene_paths()) {
             CAPTURE(path);
@@ -102,6 +102,32 @@ TEST_SUITE("gpu") {
                     CHECK(sum == doctest::Approx(lum).epsilon(1e-4));
                     break;
                 }
+            }
+            // The seven buckets' RGB add up to the image's R, G, B: over the image within 1e-5
+            // relative (float sums of the same non-negative contributions in two orders), and
+            // every pixel within 1e-4.
+            REQUIRE(f.bucket_rgb_sum.size() == f.pixels.size() * Frame::kBucketRgb);
+            for (int c = 0; c < 3; ++c) {
+                CAPTURE(c);
+                double image = 0.0, deviation = 0.0, channels_used = 0.0;
+                size_t bad_pixels = 0;
+                for (size_t i = 0; i < f.pixels.size(); ++i) {
+                    double sum = 0.0;
+                    for (uint32_t b = 0; b < kBucketCount; ++b) {
+                        const double v = f.bucket_rgb_sum[i * Frame::kBucketRgb + 3 * b + c];
+                        CHECK(v >= 0.0);
+                        sum += v;
+                        channels_used += v > 0.0;
+                    }
+                    const double rgb = f.pixels[i].rgb_sum[c];
+                    image += rgb;
+                    deviation += std::abs(sum - rgb);
+                    bad_pixels += std::abs(sum - rgb) > 1e-4 * std::max(rgb, 1e-6);
+                }
+                CHECK(image > 0.0);
+                CHECK(deviation <= 1e-5 * image);
+                CHECK(bad_pixels == 0);
+                CHECK(channels_used > 0.0);
             }
         }
     }
@@ -242,13 +268,18 @@ TEST_SUITE("gpu") {
             Frame a = testing::render_scene(*ctx, path, setup);
             setup.kernel = vkmech::vk::KernelClass::Gpu;
             Frame b = testing::render_scene(*ctx, path, setup);
+            REQUIRE(a.bucket_rgb_sum.size() == a.pixels.size() * Frame::kBucketRgb);
+            REQUIRE(b.bucket_rgb_sum.size() == a.bucket_rgb_sum.size());
             size_t identical = 0, differing = 0;
             double sum_a = 0.0, sum_b = 0.0;
             for (size_t i = 0; i < a.pixels.size(); ++i) {
                 const PixelStats &pa = a.pixels[i], &pb = b.pixels[i];
                 sum_a += pa.lum_mean;
                 sum_b += pb.lum_mean;
-                identical += pa.rgb_sum == pb.rgb_sum && pa.bucket_sum == pb.bucket_sum && pa.lum_m2 == pb.lum_m2;
+                identical += pa.rgb_sum == pb.rgb_sum && pa.bucket_sum == pb.bucket_sum && pa.lum_m2 == pb.lum_m2 &&
+                             std::equal(a.bucket_rgb_sum.begin() + i * Frame::kBucketRgb,
+                                        a.bucket_rgb_sum.begin() + (i + 1) * Frame::kBucketRgb,
+                                        b.bucket_rgb_sum.begin() + i * Frame::kBucketRgb);
                 if (std::abs(pa.lum_mean - pb.lum_mean) > 1e-5 * std::max({pa.lum_mean, pb.lum_mean, 1e-3})) differing++;
             }
             MESSAGE(path << ": " << identical << " of " << a.pixels.size() << " pixels bit-identical, " << differing

@@ -210,11 +210,12 @@ struct GpuDebugEvent {
 struct GpuPixelAccum {
     vec4 rgb;          // rgb sum, w: samples counted (finite)
     vec4 lum;          // x: mean luminance, y: M2 / 4^w (scaled Welford), z: non-finite samples, w: exponent
-    vec4 bucket0;      // energy sums of buckets 0..3
-    vec4 bucket1;      // energy sums of buckets 4..6, w: glossy-touching energy sum
-    vec4 side;         // x: sum(energy * depth) over n >= 1, y: energy sum over n >= 1,
-                       // z: energy sum of `direct` events with a glossy end vertex (the
-                       // direct-glossy variant only, else 0), w: 0
+    vec4 side;         // luminance energy sums: x: glossy-touching events, y: sum(energy * depth)
+                       // over n >= 1, z: energy over n >= 1, w: 0
+    vec4 bucket_rgb[6];  // linear RGB sums of the buckets: float 3b + c (b < 7, c = R, G, B) of the
+                         // 24, read with accum_bucket_rgb; floats 21..23: the RGB of `direct` events
+                         // with a glossy end vertex (the direct-glossy variant only, else 0). Energies
+                         // (luminance) are derived from these RGB sums on the host, in double.
 };
 
 // Ray-tracing test kernel (tracerays.comp): one ray in, one hit out.

@@ -57,7 +57,7 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"on", "off"}));
     render->add_option("--extra-output", render_opts.extra_outputs,
                        "Optional extra outputs (comma-separated): direct_glossy = the direct bucket's energy whose end "
-                       "vertex is glossy, as EXR channel bucket.direct_glossy and a JSON share (docs/descriptor.md "
+                       "vertex is glossy, as EXR channel lum.direct_glossy and a JSON share (docs/descriptor.md "
                        "§3.4; a second shader variant, needs --capture on)")
         ->delimiter(',')
         ->check(CLI::IsMember({"direct_glossy"}));

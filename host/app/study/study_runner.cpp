@@ -88,7 +88,7 @@ LoadedScene load_variant(const SceneVariant& v, int res) {
 
 std::string render_code_digest(Traversal t, vk::KernelClass k) {
     const auto spirv = pathtrace_spirv(t, k);
-    return Digest().str(VKMECH_VERSION).bytes(spirv.data(), spirv.size_bytes()).str("frame-merge-v1").hex();
+    return Digest().str(VKMECH_VERSION).bytes(spirv.data(), spirv.size_bytes()).str("frame-merge-v2").hex();  // v2: bucket energies from the buckets' RGB sums
 }
 
 bool study_interrupted() { return pending_signal() != 0; }

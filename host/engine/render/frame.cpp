@@ -26,12 +26,21 @@ void Frame::merge(const std::vector<gpu::GpuPixelAccum>& batch) {
         for (int c = 0; c < 3; ++c) p.rgb_sum[c] += a.rgb[c];
         p.merge_moments(a.rgb.w, a.lum.x, batch_lum_m2(a));
         p.nonfinite += a.lum.z;
-        for (int b = 0; b < 4; ++b) p.bucket_sum[b] += a.bucket0[b];
-        for (int b = 0; b < 3; ++b) p.bucket_sum[4 + b] += a.bucket1[b];
-        p.glossy_sum += a.bucket1.w;
-        p.depth_weighted_sum += a.side.x;
-        p.depth_weight += a.side.y;
-        if (!direct_glossy_sum.empty()) direct_glossy_sum[i] += a.side.z;  // the variant's; 0 otherwise
+        double* rgb = bucket_rgb_sum.empty() ? nullptr : &bucket_rgb_sum[i * kBucketRgb];
+        for (uint32_t b = 0; b < gpu::BUCKET_COUNT; ++b) {
+            const double r = accum_bucket_rgb(a, b, 0), g = accum_bucket_rgb(a, b, 1), bl = accum_bucket_rgb(a, b, 2);
+            p.bucket_sum[b] += luminance(r, g, bl);
+            if (rgb) {
+                rgb[3 * b] += r;
+                rgb[3 * b + 1] += g;
+                rgb[3 * b + 2] += bl;
+            }
+        }
+        p.glossy_sum += a.side.x;
+        p.depth_weighted_sum += a.side.y;
+        p.depth_weight += a.side.z;
+        if (!direct_glossy_sum.empty())  // the variant's; 0 otherwise
+            direct_glossy_sum[i] += luminance(a.bucket_rgb[5].y, a.bucket_rgb[5].z, a.bucket_rgb[5].w);
     }
 }
 
@@ -54,6 +63,10 @@ void Frame::merge(const Frame& other) {
         for (size_t i = 0; i < direct_glossy_sum.size(); ++i) direct_glossy_sum[i] += other.direct_glossy_sum[i];
     else
         direct_glossy_sum.clear();  // only one of the two has the split: the sum has none
+    if (other.bucket_rgb_sum.size() == bucket_rgb_sum.size())
+        for (size_t i = 0; i < bucket_rgb_sum.size(); ++i) bucket_rgb_sum[i] += other.bucket_rgb_sum[i];
+    else
+        bucket_rgb_sum.clear();
     samples += other.samples;
     seconds += other.seconds;
 }

@@ -31,6 +31,16 @@ struct PixelStats {
 // overflows nor underflows float.
 double batch_lum_m2(const gpu::GpuPixelAccum& a);
 
+// Channel c (0 = R, 1 = G, 2 = B) of bucket b's RGB sum in a batch's accumulator.
+inline float accum_bucket_rgb(const gpu::GpuPixelAccum& a, uint32_t b, int c) {
+    const uint32_t k = 3 * b + static_cast<uint32_t>(c);
+    return a.bucket_rgb[k / 4][static_cast<int>(k % 4)];
+}
+
+// Rec. 709 luminance, the energy of the descriptor (docs/descriptor.md §3); the shader's
+// luminance() uses the same weights (shared/types.h).
+inline double luminance(double r, double g, double b) { return gpu::LUM_R * r + gpu::LUM_G * g + gpu::LUM_B * b; }
+
 struct Frame {
     int width = 0, height = 0;
     std::vector<PixelStats> pixels;
@@ -41,12 +51,18 @@ struct Frame {
     // Empty unless the renderer ran the direct-glossy variant; kept apart from PixelStats so that
     // the render cache's per-pixel format does not change (the cache does not store it).
     std::vector<double> direct_glossy_sum;
+    // Per pixel, the linear RGB sums of the seven buckets: 3 * BUCKET_COUNT doubles, bucket b's
+    // channel c at 3b + c (docs/descriptor.md §3: they add up to rgb_sum). PixelStats::bucket_sum is
+    // their luminance. Filled whenever the mechanism capture is on; kept apart from PixelStats,
+    // which the render cache stores as it is (studies need the luminance only).
+    std::vector<double> bucket_rgb_sum;
+    static constexpr size_t kBucketRgb = 3 * gpu::BUCKET_COUNT;
 
     void merge(const std::vector<gpu::GpuPixelAccum>& batch);
     // Another render of the same film on disjoint samples (e.g. a chunk of a
     // reference): sums added, moments merged with Chan's update, samples and
     // seconds added. Throws std::invalid_argument when the films differ. The direct-glossy
-    // sums are added when both frames have them and dropped otherwise.
+    // sums and the buckets' RGB sums are each added when both frames have them and dropped otherwise.
     void merge(const Frame& other);
     std::vector<float> rgb_mean() const;  // 3 per pixel
 };

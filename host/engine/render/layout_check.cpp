@@ -16,6 +16,8 @@ static_assert(sizeof(GpuParams) == 64 + 7 * 16);
 static_assert(sizeof(GpuDebugEvent) == 32);
 static_assert(offsetof(GpuParams, camera) == 64);
 static_assert(offsetof(GpuParams, lights) == 128);
-static_assert(sizeof(GpuPixelAccum) == 5 * 16);
+static_assert(sizeof(GpuPixelAccum) == 9 * 16);
+static_assert(offsetof(GpuPixelAccum, bucket_rgb) == 3 * 16);
+static_assert(BUCKET_COUNT == 7, "bucket_rgb packs seven RGB sums into six vec4s (shaders/pathtrace.comp)");
 static_assert(sizeof(GpuRay) == 32 && sizeof(GpuHit) == 16);
 }  // namespace vkmech::gpu

@@ -22,8 +22,10 @@ namespace vkmech {
 std::vector<std::string> exr_channel_names(bool capture, bool direct_glossy) {
     std::vector<std::string> names = {"R", "G", "B"};
     if (capture) {
-        for (const char* b : kBucketNames) names.push_back(std::string("bucket.") + b);
-        if (direct_glossy) names.push_back("bucket.direct_glossy");
+        for (const char* b : kBucketNames)
+            for (const char* c : {".R", ".G", ".B"}) names.push_back(std::string("bucket.") + b + c);
+        for (const char* b : kBucketNames) names.push_back(std::string("lum.") + b);
+        if (direct_glossy) names.push_back("lum.direct_glossy");
         for (const char* c : {"dominant", "purity", "glossy_frac", "caustic_frac", "depth"}) names.push_back(c);
         for (const char* b : kBucketNames) names.push_back(std::string("frac.") + b);
     }
@@ -215,9 +217,21 @@ std::vector<ExrChannel> render_channels(const Frame& frame, const Descriptor* d)
     };
     for (int c = 0; c < 3; ++c) channel(std::string(1, "RGB"[c]), [&](size_t i) { return rgb[3 * i + c]; });
     if (d) {
+        // Each bucket's linear RGB: the seven add up to R, G, B (the same mean over the finite samples).
+        // Every render with the capture has them; a frame without them (the render cache keeps the
+        // luminance only) is not an output to write.
+        if (frame.bucket_rgb_sum.size() != n * Frame::kBucketRgb)
+            throw std::invalid_argument("render_channels: the frame has no per-bucket RGB (a frame from the render "
+                                        "cache, or merged with one) and cannot be written as a render's EXR");
         for (uint32_t b = 0; b < kBucketCount; ++b)
-            channel(std::string("bucket.") + kBucketNames[b], [&](size_t i) { return d->bucket_energy[i][b]; });
-        if (!d->direct_glossy.empty()) channel("bucket.direct_glossy", [&](size_t i) { return d->direct_glossy[i]; });
+            for (int c = 0; c < 3; ++c)
+                channel(std::string("bucket.") + kBucketNames[b] + "." + "RGB"[c], [&](size_t i) {
+                    const double count = frame.pixels[i].count;
+                    return count > 0 ? frame.bucket_rgb_sum[i * Frame::kBucketRgb + 3 * b + c] / count : 0.0;
+                });
+        for (uint32_t b = 0; b < kBucketCount; ++b)
+            channel(std::string("lum.") + kBucketNames[b], [&](size_t i) { return d->bucket_energy[i][b]; });
+        if (!d->direct_glossy.empty()) channel("lum.direct_glossy", [&](size_t i) { return d->direct_glossy[i]; });
         channel("dominant", [&](size_t i) { return static_cast<float>(d->dominant[i]); });
         channel("purity", [&](size_t i) { return d->purity[i]; });
         channel("glossy_frac", [&](size_t i) { return d->glossy_frac[i]; });

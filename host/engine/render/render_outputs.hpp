@@ -64,7 +64,7 @@ struct WrittenFiles {
 };
 
 // The EXR channel names, in file order (documented in README.md); `direct_glossy`: with
-// `render --extra-output direct_glossy` (bucket.direct_glossy after the seven bucket.* channels).
+// `render --extra-output direct_glossy` (lum.direct_glossy after the seven lum.* channels).
 std::vector<std::string> exr_channel_names(bool capture, bool direct_glossy = false);
 
 // The EXR's channels, in the file's order (R G B, the descriptor's when `d`, the moments).

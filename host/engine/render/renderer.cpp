@@ -42,7 +42,9 @@ std::vector<vk::SpecConstant> spec_constants(const Features& f) {
 
 // Issue 10: what a film costs, said before (or instead of) a raw allocation failure.
 uint64_t film_device_bytes(uint64_t pixels) { return pixels * (sizeof(gpu::GpuPixelAccum) + 2 * sizeof(uint32_t)); }
-uint64_t film_host_bytes(uint64_t pixels) { return pixels * (sizeof(PixelStats) + sizeof(gpu::GpuPixelAccum)); }
+uint64_t film_host_bytes(uint64_t pixels) {
+    return pixels * (sizeof(PixelStats) + Frame::kBucketRgb * sizeof(double) + sizeof(gpu::GpuPixelAccum));
+}
 
 [[noreturn]] void film_out_of_memory(const Camera& cam, const std::string& why) {
     const uint64_t px = static_cast<uint64_t>(cam.width) * static_cast<uint64_t>(cam.height);
@@ -181,6 +183,7 @@ Frame Renderer::render(const RenderSpec& spec) {
     try {
         frame.pixels.assign(pixels, PixelStats{});
         if (features_.direct_glossy) frame.direct_glossy_sum.assign(pixels, 0.0);
+        if (features_.capture) frame.bucket_rgb_sum.assign(pixels * Frame::kBucketRgb, 0.0);
         batch.resize(pixels);
     } catch (const std::bad_alloc&) {
         film_out_of_memory(cam, "the host could not allocate it");
