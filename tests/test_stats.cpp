@@ -156,6 +156,16 @@ TEST_CASE("stats: spearman with ties on a hand-ranked example") {
     CHECK(spearman({1, 2, 3, 4}, {9, 7, 3, -5}) == near(-1.0));
 }
 
+TEST_CASE("stats: masked_spearman keeps the masked-in finite pairs only") {
+    // The hand-ranked example above, padded with pairs the mask or a non-finite value leaves out.
+    const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
+    const std::vector<double> x = {1, 2, 100, 3, 4, nan, 5, 7}, y = {10, 20, -50, 20, 40, 1, 30, inf};
+    const std::vector<uint8_t> mask = {1, 1, 0, 1, 1, 1, 1, 1};
+    CHECK(masked_spearman(x, y, mask) == near(0.872081599272381));
+    CHECK(std::isnan(masked_spearman(x, y, mask, 6)));  // five pairs left: fewer than asked
+    CHECK_THROWS_AS(masked_spearman(x, y, {1, 1}), std::invalid_argument);
+}
+
 TEST_CASE("stats: correlation edge cases - constant input - short input - size mismatch") {
     CHECK(std::isnan(pearson({1, 2, 3}, {4, 4, 4})));
     CHECK(std::isnan(pearson({0.1, 0.1, 0.1}, {1, 2, 3})));  // constant, despite rounding in the mean

@@ -34,16 +34,7 @@ std::vector<double> intrinsic_variance(const SeedMeans& m, const std::vector<int
     return v;
 }
 
-double masked_spearman(const std::vector<double>& a, const std::vector<double>& b, const std::vector<uint8_t>& mask) {
-    std::vector<double> x, y;
-    for (size_t i = 0; i < a.size(); ++i)
-        if (mask[i] && std::isfinite(a[i]) && std::isfinite(b[i])) {
-            x.push_back(a[i]);
-            y.push_back(b[i]);
-        }
-    if (x.size() < 3) return NAN;
-    return stats::spearman(x, y);
-}
+constexpr size_t kMinPairs = 3;  // a Spearman over fewer foreground pixels is NaN
 
 // Per-pixel OLS of log10 Var(per-seed mean) on log10 spp (paper App. A: alpha_hat = -slope, 1 for a
 // 1/N convergence); NaN where any level is <= 0 or non-finite.
@@ -160,8 +151,9 @@ void run_variance(StudyContext& ctx) {
                 }
                 std::vector<double> rhos;
                 for (const auto& part : partitions)
-                    rhos.push_back(masked_spearman(intrinsic_variance(m[l], part.a, cfg.variance_spp[l]),
-                                                   intrinsic_variance(m[l], part.b, cfg.variance_spp[l]), mask));
+                    rhos.push_back(stats::masked_spearman(intrinsic_variance(m[l], part.a, cfg.variance_spp[l]),
+                                                          intrinsic_variance(m[l], part.b, cfg.variance_spp[l]), mask,
+                                                          kMinPairs));
                 r.push_back(Cell::num(stats::mean(rhos), "%.2f"));
             }
             return r;
@@ -169,8 +161,9 @@ void run_variance(StudyContext& ctx) {
         for (size_t l = 0; l < L; ++l) {
             std::vector<double> rhos;
             for (const auto& part : partitions)
-                rhos.push_back(masked_spearman(intrinsic_variance(m[l], part.a, cfg.variance_spp[l]),
-                                               intrinsic_variance(m[l], part.b, cfg.variance_spp[l]), fg[l]));
+                rhos.push_back(stats::masked_spearman(intrinsic_variance(m[l], part.a, cfg.variance_spp[l]),
+                                                      intrinsic_variance(m[l], part.b, cfg.variance_spp[l]), fg[l],
+                                                      kMinPairs));
             double mu = stats::mean(rhos);
             double sd = std::sqrt(stats::sample_variance(rhos));
             if (std::isfinite(sd)) max_std = std::max(max_std, sd);
@@ -210,13 +203,13 @@ void run_variance(StudyContext& ctx) {
             std::vector<double> aa, ab, r2a, r2b;
             fit_alpha(va, cfg.variance_spp, aa, r2a);
             fit_alpha(vb, cfg.variance_spp, ab, r2b);
-            rhos.push_back(masked_spearman(aa, ab, fg_all));
+            rhos.push_back(stats::masked_spearman(aa, ab, fg_all, kMinPairs));
         }
         std::vector<uint8_t> both(P);
         for (size_t p = 0; p < P; ++p) both[p] = fg[0][p] && fg[L - 1][p];
         alpha_t.add({Cell::str(scene.name), Cell::integer(static_cast<long long>(a_ok.size())),
                      Cell::num(stats::median(a_ok)), Cell::num(stats::median(r_ok)), Cell::num(stats::mean(rhos)),
-                     Cell::num(masked_spearman(var_all[0], var_all[L - 1], both))});
+                     Cell::num(stats::masked_spearman(var_all[0], var_all[L - 1], both, kMinPairs))});
     }
     fig.panels.push_back(panel);
     if (cfg.scenes.size() > 1)

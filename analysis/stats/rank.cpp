@@ -70,4 +70,18 @@ double spearman(const std::vector<double>& x, const std::vector<double>& y) {
     return pearson(average_ranks(x), average_ranks(y));
 }
 
+double masked_spearman(const std::vector<double>& x, const std::vector<double>& y, const std::vector<uint8_t>& mask,
+                       size_t min_pairs) {
+    if (x.size() != y.size() || mask.size() != x.size())
+        throw std::invalid_argument("masked_spearman: x, y and the mask differ in size");
+    std::vector<double> a, b;
+    for (size_t i = 0; i < x.size(); ++i)
+        if (mask[i] && std::isfinite(x[i]) && std::isfinite(y[i])) {
+            a.push_back(x[i]);
+            b.push_back(y[i]);
+        }
+    if (a.size() < min_pairs) return std::numeric_limits<double>::quiet_NaN();
+    return spearman(a, b);
+}
+
 }  // namespace vkmech::stats

@@ -6,6 +6,9 @@
 // fractions), so ties must get average ranks, as in scipy.stats.spearmanr.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
+
 #include <vector>
 
 namespace vkmech::stats {
@@ -27,5 +30,11 @@ double pearson(const std::vector<double>& x, const std::vector<double>& y);
 // in scipy's default nan_policy rather than ranked arbitrarily).
 // Throws std::invalid_argument if the sizes differ.
 double spearman(const std::vector<double>& x, const std::vector<double>& y);
+
+// spearman() over the pairs where mask[i] is non-zero and both values are finite (the analyses'
+// foreground pixels); NaN with fewer than `min_pairs` such pairs. Throws std::invalid_argument
+// if the sizes differ.
+double masked_spearman(const std::vector<double>& x, const std::vector<double>& y, const std::vector<uint8_t>& mask,
+                       size_t min_pairs = 2);
 
 }  // namespace vkmech::stats

@@ -27,4 +27,23 @@ Pilot render_pilot(Renderer& r, uint32_t n0, uint32_t seed, bool robust) {
     return make_pilot(std::move(frame), robust ? alloc::mom_variance(blocks) : std::vector<double>{});
 }
 
+AdaptivePlan plan_from_pilot(alloc::Strategy s, const Pilot& pilot, const alloc::PilotDiagnosis& diag, uint32_t n0,
+                             uint32_t extra_spp, uint32_t floor, uint32_t pilot_draw) {
+    alloc::ScoreInputs in;
+    in.pilot_var = &pilot.var;
+    in.pilot_labels = &pilot.labels;
+    if (alloc::needs_mom(s)) in.mom_var = &pilot.mom_var;
+    in.untrusted = &diag.untrusted_map;
+    in.pilot_spp = n0;
+    return plan_allocation(s, in, extra_spp, floor, pilot_draw);
+}
+
+RenderSpec adaptive_render_spec(const AdaptivePlan& plan, uint32_t batch_spp) {
+    RenderSpec spec;
+    spec.seed = downstream_seeds::kPool;
+    spec.batch_spp = batch_spp;
+    spec.sample_counts = plan.n;
+    return spec;
+}
+
 }  // namespace vkmech

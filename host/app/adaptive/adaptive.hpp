@@ -7,6 +7,8 @@
 #pragma once
 
 #include "allocation/allocation.hpp"
+#include "allocation/guard.hpp"
+#include "allocation/plan.hpp"
 #include "render/descriptor.hpp"
 #include "render/renderer.hpp"
 
@@ -21,5 +23,14 @@ namespace vkmech {
 // remainder is rendered but left out of the MoM) — throws std::invalid_argument
 // where MoM is not defined (N0 = 4).
 Pilot render_pilot(Renderer& r, uint32_t n0, uint32_t seed, bool robust);
+
+// Strategy `s`'s allocation from a pilot of n0 samples and its diagnosis (allocation/guard.hpp):
+// 1 + extra_spp samples per pixel on average, at least `floor` each; `pilot_draw` seeds the
+// placebo. The robust strategies read the pilot's median-of-means variance.
+AdaptivePlan plan_from_pilot(alloc::Strategy s, const Pilot& pilot, const alloc::PilotDiagnosis& diag, uint32_t n0,
+                             uint32_t extra_spp, uint32_t floor, uint32_t pilot_draw);
+
+// The final render of a plan: pixel p takes exactly samples [0, n(p)) of the pool seed.
+RenderSpec adaptive_render_spec(const AdaptivePlan& plan, uint32_t batch_spp);
 
 }  // namespace vkmech

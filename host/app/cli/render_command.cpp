@@ -396,20 +396,11 @@ int cmd_render_adaptive(const RenderOptions& o) {
     print_diagnosis(strategy, diag);
     if (strategy == alloc::Strategy::RobustAdaptive) print_adaptive_k(pilot.labels, o.pilot);
 
-    alloc::ScoreInputs in;
-    in.pilot_var = &pilot.var;
-    in.pilot_labels = &pilot.labels;
-    if (robust) in.mom_var = &pilot.mom_var;
-    in.untrusted = &diag.untrusted_map;
-    in.pilot_spp = o.pilot;
-    AdaptivePlan plan = plan_allocation(strategy, in, o.budget, o.floor, o.pilot_draw);
+    AdaptivePlan plan = plan_from_pilot(strategy, pilot, diag, o.pilot, o.budget, o.floor, o.pilot_draw);
     const double uniform_share = static_cast<double>(plan.total) / static_cast<double>(pixels);
     const UntrustedAllocation untrusted_n = untrusted_allocation(diag, plan.n, uniform_share);
 
-    RenderSpec spec;
-    spec.seed = downstream_seeds::kPool;
-    spec.batch_spp = o.batch_spp;
-    spec.sample_counts = plan.n;
+    RenderSpec spec = adaptive_render_spec(plan, o.batch_spp);
     Progress progress("render " + name);
     spec.progress = [&](uint32_t d, uint32_t t) {
         throw_if_interrupted();
