@@ -2,6 +2,7 @@
 // a numpy array by name (docs/python.md). The module is a thin layer over the
 // same code the CLI runs: a render from Python and `vkmech render` with the
 // same settings give the same pixels and the same files.
+#include "adaptive/adaptive.hpp"
 #include "cli/commands.hpp"
 #include "cli/provenance.hpp"
 #include "io/exr.hpp"
@@ -18,6 +19,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
+#include <cmath>
 #include <map>
 #include <memory>
 #include <optional>
@@ -27,6 +30,10 @@
 
 namespace py = pybind11;
 using namespace vkmech;
+
+namespace vkmech {
+void bind_stats(py::module_& parent);  // stats_bindings.cpp: vkmech.stats
+}
 
 namespace {
 
@@ -121,53 +128,72 @@ py::dict scene_info(const PyScene& s) {
     return d;
 }
 
-PyFrame render(const PyScene& s, uint32_t spp, uint32_t seed, std::optional<uint32_t> res, const std::string& estimator,
-               const std::string& light_selection, const std::string& end_vertex, bool capture,
-               std::optional<uint32_t> device, const std::string& kernel, uint32_t batch,
-               std::optional<std::function<void(uint32_t, uint32_t)>> progress) {
-    if (spp == 0) throw py::value_error("spp must be at least 1");
-    if (batch == 0) throw py::value_error("batch must be at least 1");
-    Scene scene = s.scene;
+// What one render call sets up: the scene at the asked film size, a device, the pipeline.
+struct PyRender {
+    Scene scene;
+    std::shared_ptr<vkmech::vk::Context> ctx;
+    Traversal trav = Traversal::Bvh;
+    std::unique_ptr<RenderSession> session;
+    Features features;
+    std::optional<Renderer> renderer;
+    std::string light_selection, end_vertex;
+};
+
+PyRender prepare(const PyScene& s, std::optional<uint32_t> res, const std::string& estimator,
+                 const std::string& light_selection, const std::string& end_vertex, bool capture,
+                 std::optional<uint32_t> device, const std::string& kernel) {
+    PyRender r;
+    r.scene = s.scene;
     if (res) {
         if (*res < 4 || *res > 16384) throw py::value_error("res must be 4..16384");
-        scene.camera.set_film_width(static_cast<int>(*res));
+        r.scene.camera.set_film_width(static_cast<int>(*res));
     }
     vkmech::vk::ContextOptions co;
     co.device_index = device;
     co.kernel = vkmech::vk::parse_kernel_class(kernel);
-    auto ctx = std::make_shared<vkmech::vk::Context>(co);
-    const Traversal trav = resolve_traversal(*ctx, Traversal::Auto);
-    RenderSession session(*ctx, scene, trav, parse_light_selection(light_selection));
-    Features f = session.features(parse_estimator(estimator), capture);
-    f.end_vertex = parse_end_vertex(end_vertex);
-    Renderer renderer = session.renderer(f);
-    RenderSpec spec;
-    spec.spp = spp;
-    spec.seed = seed;
-    spec.batch_spp = batch;
-    // Between batches: the progress callback, and Ctrl-C (KeyboardInterrupt).
+    r.ctx = std::make_shared<vkmech::vk::Context>(co);
+    r.trav = resolve_traversal(*r.ctx, Traversal::Auto);
+    r.session = std::make_unique<RenderSession>(*r.ctx, r.scene, r.trav, parse_light_selection(light_selection));
+    r.features = r.session->features(parse_estimator(estimator), capture);
+    r.features.end_vertex = parse_end_vertex(end_vertex);
+    r.renderer.emplace(r.session->renderer(r.features));
+    r.light_selection = light_selection;
+    r.end_vertex = end_vertex;
+    return r;
+}
+
+using ProgressFn = std::optional<std::function<void(uint32_t, uint32_t)>>;
+
+// Renders with the GIL released; between batches: the progress callback, and Ctrl-C
+// (KeyboardInterrupt).
+Frame render_spec(Renderer& renderer, RenderSpec spec, const ProgressFn& progress) {
     spec.progress = [&](uint32_t done, uint32_t total) {
         py::gil_scoped_acquire gil;
         if (PyErr_CheckSignals() != 0) throw py::error_already_set();
         if (progress) (*progress)(done, total);
     };
-    Frame frame;
-    {
-        py::gil_scoped_release nogil;
-        frame = renderer.render(spec);
-    }
+    py::gil_scoped_release nogil;
+    return renderer.render(spec);
+}
+
+// The frame of a render: its channels, header and what writing it needs. `spp`: the samples
+// per pixel recorded (the mean under an adaptive plan), `sample_range` the provenance's.
+PyFrame make_frame(const PyScene& s, const PyRender& r, Frame frame, uint32_t spp, uint32_t seed,
+                   const std::string& sample_range, const std::string& features_note) {
+    const bool capture = r.features.capture;
     PyFrame out;
     out.width = frame.width;
     out.height = frame.height;
     out.scene_name = s.name;
-    RenderInfo info{s.name, s.path, ctx->info().name, to_string(trav), to_string(f.estimator), f.describe(), spp, seed,
-                    capture};
-    info.light_selection = light_selection;
-    info.end_vertex = end_vertex;
-    info.warnings = scene.warnings;
-    info.substitutions = scene.substitutions;
-    info.kernel = vkmech::vk::to_string(ctx->kernel());
-    info.provenance = make_provenance(s.path, scene, s.defines, *ctx, trav, spp);
+    RenderInfo info{s.name, s.path, r.ctx->info().name, to_string(r.trav), to_string(r.features.estimator),
+                    r.features.describe() + features_note, spp, seed, capture};
+    info.light_selection = r.light_selection;
+    info.end_vertex = r.end_vertex;
+    info.warnings = r.scene.warnings;
+    info.substitutions = r.scene.substitutions;
+    info.kernel = vkmech::vk::to_string(r.ctx->kernel());
+    info.provenance = make_provenance(s.path, r.scene, s.defines, *r.ctx, r.trav, spp);
+    if (!sample_range.empty()) info.provenance.sample_range = sample_range;
     if (capture) {
         out.descriptor = derive_descriptor(frame);
         out.summary = summarize(frame, *out.descriptor);
@@ -177,6 +203,102 @@ PyFrame render(const PyScene& s, uint32_t spp, uint32_t seed, std::optional<uint
     out.info = std::move(info);
     out.frame = std::move(frame);
     return out;
+}
+
+std::string adaptive_range(const std::vector<uint32_t>& n) {
+    uint32_t max_n = 0;
+    for (uint32_t v : n) max_n = std::max(max_n, v);
+    return "0:" + std::to_string(max_n) + " (adaptive: samples 0:n(p) at pixel p, n(p) in the spp channel)";
+}
+
+uint32_t mean_spp(const std::vector<uint32_t>& n) {
+    uint64_t total = 0;
+    for (uint32_t v : n) total += v;
+    return n.empty() ? 0u : static_cast<uint32_t>(total / n.size());
+}
+
+constexpr uint32_t kMaxSpp = 1u << 20;  // the CLI's --spp limit
+
+// An (H, W) array of per-pixel sample counts: whole numbers in 0..kMaxSpp, not all 0.
+std::vector<uint32_t> sample_counts_of(const py::array& a, int width, int height) {
+    if (a.ndim() != 2 || a.shape(0) != height || a.shape(1) != width)
+        throw py::value_error("sample_counts must be a (" + std::to_string(height) + ", " + std::to_string(width) +
+                              ") array, one count per pixel of the film");
+    const char kind = a.dtype().kind();
+    if (kind != 'i' && kind != 'u' && kind != 'f')
+        throw py::value_error("sample_counts must hold numbers (an integer or float array)");
+    const auto d = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+    std::vector<uint32_t> n(static_cast<size_t>(d.size()));
+    bool any = false;
+    for (size_t i = 0; i < n.size(); ++i) {
+        const double v = d.data()[i];
+        if (!(v >= 0.0 && v <= kMaxSpp && v == std::floor(v)))
+            throw py::value_error("sample_counts[" + std::to_string(i / width) + ", " + std::to_string(i % width) +
+                                  "] = " + std::to_string(v) + ": a count must be a whole number in 0.." +
+                                  std::to_string(kMaxSpp));
+        n[i] = static_cast<uint32_t>(v);
+        any = any || n[i] > 0;
+    }
+    if (!any) throw py::value_error("sample_counts are all 0: nothing to render");
+    return n;
+}
+
+PyFrame render(const PyScene& s, uint32_t spp, uint32_t seed, std::optional<uint32_t> res, const std::string& estimator,
+               const std::string& light_selection, const std::string& end_vertex, bool capture,
+               std::optional<uint32_t> device, const std::string& kernel, uint32_t batch,
+               const std::optional<py::array>& sample_counts, const ProgressFn& progress) {
+    if (spp == 0 || spp > kMaxSpp) throw py::value_error("spp must be 1.." + std::to_string(kMaxSpp));
+    if (batch == 0 || batch > 4096) throw py::value_error("batch must be 1..4096");
+    if (res && (*res < 4 || *res > 16384)) throw py::value_error("res must be 4..16384");
+    RenderSpec spec;
+    spec.spp = spp;
+    spec.seed = seed;
+    spec.batch_spp = batch;
+    std::string range;
+    if (sample_counts) {
+        // Adaptive rendering: pixel p takes exactly samples [0, n(p)) of the seed. Checked
+        // before any device work, against the film the render will have.
+        Camera cam = s.scene.camera;
+        if (res) cam.set_film_width(static_cast<int>(*res));
+        spec.sample_counts = sample_counts_of(*sample_counts, cam.width, cam.height);
+        range = adaptive_range(spec.sample_counts);
+        spp = mean_spp(spec.sample_counts);
+    }
+    PyRender r = prepare(s, res, estimator, light_selection, end_vertex, capture, device, kernel);
+    Frame frame = render_spec(*r.renderer, std::move(spec), progress);
+    return make_frame(s, r, std::move(frame), spp, seed, range, sample_counts ? " adaptive=sample_counts" : "");
+}
+
+// `vkmech render --adaptive`: a pilot of `pilot` samples, strategy's allocation of 1 + budget
+// samples per pixel on average (at least `floor`), the final render of the pool seed.
+PyFrame adaptive(const PyScene& s, const std::string& strategy_name, uint32_t pilot, uint32_t budget, uint32_t floor,
+                 uint32_t pilot_draw, std::optional<uint32_t> res, const std::string& estimator,
+                 const std::string& light_selection, const std::string& end_vertex, std::optional<uint32_t> device,
+                 const std::string& kernel, uint32_t batch, const ProgressFn& progress) {
+    const alloc::Strategy strategy = alloc::parse_strategy(strategy_name);  // ValueError on an unknown name
+    if (strategy == alloc::Strategy::Oracle || strategy == alloc::Strategy::LabelOracle)
+        throw py::value_error(strategy_name + " needs a converged reference: a control of the allocation study");
+    // The CLI's ranges (render --pilot, --budget, --floor, --pilot-draw, --batch).
+    if (pilot < 2 || pilot > 4096) throw py::value_error("pilot must be 2..4096");
+    if (budget > 255) throw py::value_error("budget must be 0..255");
+    if (floor < 1 || floor > 256) throw py::value_error("floor must be 1..256");
+    if (pilot_draw > 899) throw py::value_error("pilot_draw must be 0..899");
+    if (batch == 0 || batch > 4096) throw py::value_error("batch must be 1..4096");
+    if (floor > 1 + budget) throw py::value_error("floor exceeds the per-pixel average (1 + budget)");
+    const bool robust = alloc::needs_mom(strategy);
+    if (robust) (void)alloc::mom_block_size(static_cast<int>(pilot));  // ValueError where MoM is undefined
+    PyRender r = prepare(s, res, estimator, light_selection, end_vertex, true, device, kernel);
+    Pilot p;
+    {
+        py::gil_scoped_release nogil;
+        p = render_pilot(*r.renderer, pilot, downstream_seeds::pilot(pilot_draw), robust);
+    }
+    if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+    const alloc::PilotDiagnosis diag = alloc::diagnose_pilot(p);
+    const AdaptivePlan plan = plan_from_pilot(strategy, p, diag, pilot, budget, floor, pilot_draw);
+    Frame frame = render_spec(*r.renderer, adaptive_render_spec(plan, batch), progress);
+    return make_frame(s, r, std::move(frame), mean_spp(plan.n), downstream_seeds::kPool, adaptive_range(plan.n),
+                      std::string(" adaptive=") + alloc::to_string(strategy));
 }
 
 py::array channel_view(py::object self, const std::string& name) {
@@ -264,8 +386,18 @@ PYBIND11_MODULE(vkmech, m) {
     m.def("render", &render, py::arg("scene"), py::kw_only(), py::arg("spp") = 64, py::arg("seed") = 0,
           py::arg("res") = py::none(), py::arg("estimator") = "mis", py::arg("light_selection") = "uniform",
           py::arg("end_vertex") = "last-nondelta", py::arg("capture") = true, py::arg("device") = py::none(),
-          py::arg("kernel") = "auto", py::arg("batch") = 8, py::arg("progress") = py::none(),
+          py::arg("kernel") = "auto", py::arg("batch") = 8, py::arg("sample_counts") = py::none(),
+          py::arg("progress") = py::none(),
           "Renders the scene; releases the GIL, calls progress(done, total) between batches, and raises "
-          "KeyboardInterrupt at the next batch on Ctrl-C");
+          "KeyboardInterrupt at the next batch on Ctrl-C. sample_counts: an (H, W) array n(p); pixel p then "
+          "takes exactly samples [0, n(p)) of the seed and spp is ignored");
+    m.def("adaptive", &adaptive, py::arg("scene"), py::arg("strategy") = "bucket-floor", py::kw_only(),
+          py::arg("pilot") = 16, py::arg("budget") = 32, py::arg("floor") = 1, py::arg("pilot_draw") = 0,
+          py::arg("res") = py::none(), py::arg("estimator") = "nee", py::arg("light_selection") = "uniform",
+          py::arg("end_vertex") = "last-nondelta", py::arg("device") = py::none(), py::arg("kernel") = "auto",
+          py::arg("batch") = 8, py::arg("progress") = py::none(),
+          "`vkmech render --adaptive`: a pilot, the strategy's Neyman allocation of 1 + budget samples per pixel "
+          "on average, and the final render; n(p) is the frame's 'spp' channel");
     m.def("read", &frame_read, py::arg("path"), "Reads a vkmech EXR back as a Frame");
+    bind_stats(m);
 }

@@ -23,7 +23,8 @@ def frame():
 def test_channels_are_named_in_the_exr_order(frame, tmp_path):
     names = frame.channels
     assert names[:3] == ["R", "G", "B"]
-    assert ["bucket." + b for b in BUCKETS] == names[3:10]
+    assert ["bucket.%s.%s" % (b, c) for b in BUCKETS for c in "RGB"] == names[3:24]
+    assert ["lum." + b for b in BUCKETS] == names[24:31]
     assert "dominant" in frame and "lum_var" in frame and "spp" in frame
     files = frame.write(str(tmp_path))
     exr = [f for f in files if f.endswith(".exr")][0]
@@ -31,10 +32,10 @@ def test_channels_are_named_in_the_exr_order(frame, tmp_path):
 
 
 def test_a_channel_is_a_view_of_the_frame_not_a_copy(frame):
-    a = frame["bucket.direct"]
+    a = frame["bucket.glossy.R"]
     assert a.dtype == np.float32 and a.shape == (frame.height, frame.width)
     assert a.base is frame  # the array keeps the frame alive, and reads its memory
-    assert np.shares_memory(a, frame["bucket.direct"])
+    assert np.shares_memory(a, frame["bucket.glossy.R"])
     assert not a.flags.owndata
     rgb = frame.rgb
     assert rgb.shape == (frame.height, frame.width, 3)
@@ -42,10 +43,42 @@ def test_a_channel_is_a_view_of_the_frame_not_a_copy(frame):
 
 
 def test_the_buckets_add_up_to_the_luminance(frame):
-    total = sum(frame["bucket." + b].astype(np.float64) for b in BUCKETS)
+    total = sum(frame["lum." + b].astype(np.float64) for b in BUCKETS)
     lum = frame["lum_mean"].astype(np.float64)
     assert lum.sum() > 0
     assert np.allclose(total, lum, rtol=1e-4, atol=1e-7)
+
+
+@pytest.mark.parametrize("name", ["ring_caustic", "kitchen_counter"])
+def test_the_buckets_rgb_add_up_to_the_image(name):
+    # Scenes where light arrives by several mechanisms, in colour: the seven buckets' R, G, B
+    # add up to the image's, relative 1e-5 over the image.
+    f = vkmech.render(vkmech.load(name), spp=8, res=32, seed=1)
+    used = 0
+    for c in "RGB":
+        parts = [f["bucket.%s.%s" % (b, c)].astype(np.float64) for b in BUCKETS]
+        assert all((p >= 0).all() for p in parts)
+        used = max(used, sum(1 for p in parts if p.sum() > 0))
+        image = f[c].astype(np.float64)
+        assert image.sum() > 0
+        assert np.abs(sum(parts) - image).sum() <= 1e-5 * image.sum(), c
+    assert used >= 2
+
+
+def test_a_1024_frame_reaches_numpy_without_a_copy():
+    # Every channel of a 1024^2 frame as numpy arrays: the arrays view the frame (base), and
+    # the process's resident memory grows by far less than one channel's 4 MiB each.
+    def rss_mib():
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+    f = vkmech.render(vkmech.load("cubes_dof"), spp=1, res=1024, seed=0)
+    before = rss_mib()
+    arrays = [f[name] for name in f.channels]
+    grown = rss_mib() - before
+    assert all(a.base is f and a.shape == (1024, 1024) for a in arrays)
+    data_mib = len(arrays) * 4.0
+    assert data_mib > 100
+    assert grown < 0.1 * data_mib, (grown, data_mib)
 
 
 def test_python_and_cli_renders_give_the_same_pixels(frame, tmp_path):
@@ -129,3 +162,75 @@ def test_ctrl_c_raises_keyboard_interrupt_and_writes_nothing(tmp_path):
     assert p.returncode != 0
     assert b"KeyboardInterrupt" in err
     assert not out.exists() or not any(out.iterdir())
+
+
+def test_adaptive_allocates_the_budget_and_matches_the_cli(tmp_path):
+    scene = vkmech.load("kitchen_counter")
+    f = vkmech.adaptive(scene, "bucket-floor", pilot=4, budget=4, res=24)
+    n = f["spp"]
+    assert n.sum() == 24 * 24 * (1 + 4)  # identical totals: 1 + budget per pixel on average
+    assert n.min() >= 1 and n.max() > n.min()
+    assert "adaptive=bucket-floor" in f.header["vkmech.features"]
+    out = tmp_path / "cli"
+    subprocess.run([CLI, "render", "--scene", "kitchen_counter", "--adaptive", "bucket-floor", "--pilot", "4",
+                    "--budget", "4", "--res", "24", "--out", str(out)], check=True, capture_output=True)
+    cli = vkmech.read(str(out / "kitchen_counter.exr"))
+    for name in ("R", "G", "B", "spp", "lum_var", "dominant"):
+        assert np.array_equal(cli[name], f[name]), name
+    # The final render is the pool seed (1000, SPEC §4) at n(p) samples: the same pixels
+    # again through render(sample_counts=...), a researcher's own allocation.
+    again = vkmech.render(scene, seed=1000, res=24, estimator="nee", sample_counts=n.astype(np.uint32))
+    assert np.array_equal(again["R"], f["R"]) and np.array_equal(again["spp"], n)
+    for bad in (np.ones((3, 3), np.uint32), -n, n + 0.5, np.full(n.shape, 2**21), np.zeros(n.shape, np.int64)):
+        with pytest.raises(ValueError):
+            vkmech.render(scene, res=24, sample_counts=bad)
+    with pytest.raises(ValueError):
+        vkmech.adaptive(scene, "bucket-floor", pilot=1, res=24)
+    with pytest.raises(ValueError):
+        vkmech.adaptive(scene, "no-such-strategy", res=24)
+    with pytest.raises(ValueError):
+        vkmech.adaptive(scene, "oracle", res=24)
+
+
+def test_label_agreement_on_hand_made_maps():
+    a = np.array([0, 0, 1, 1, 255, 3], np.float32)
+    b = np.array([0, 1, 1, 1, 0, 3], np.float32)
+    r = vkmech.stats.label_agreement(a, b)
+    assert r["pixels_compared"] == 5 and r["labelled_in_one_only"] == 1
+    assert r["agreement"] == pytest.approx(4 / 5)
+    # Cohen's kappa by hand: p_o = 0.8; marginals a (0: 2, 1: 2, 3: 1), b (0: 1, 1: 3, 3: 1)
+    pe = (2 * 1 + 2 * 3 + 1 * 1) / 25
+    assert r["kappa"] == pytest.approx((0.8 - pe) / (1 - pe))
+    assert r["struct_share"] == 0.0  # the one swap (0 -> 1) stays within the light-tailed family
+    same = vkmech.stats.label_agreement(a, a)
+    assert same["agreement"] == 1.0 and same["max_drift"] == 0.0
+    with pytest.raises(ValueError):
+        vkmech.stats.label_agreement(np.array([7.0]), np.array([0.0]))
+
+
+def test_spearman_split_half_and_neyman_on_known_inputs():
+    assert vkmech.stats.spearman(np.array([1, 2, 3, 4.0]), np.array([1, 3, 2, 4.0])) == pytest.approx(0.8)
+    ties = vkmech.stats.spearman(np.array([10, 20, 20, 30.0]), np.array([1, 2, 3, 4.0]))
+    assert ties == pytest.approx(np.corrcoef([1, 2.5, 2.5, 4], [1, 2, 3, 4])[0, 1])
+    x = np.array([[1, 2], [3, 4.0]])
+    assert vkmech.stats.spearman(x, -x, mask=np.array([[1, 1], [0, 1]])) == pytest.approx(-1.0)
+
+    rng = np.random.default_rng(5)
+    spread = np.exp(np.linspace(-4, 4, 400)).reshape(20, 20)  # per-pixel noise levels far apart
+    means = rng.normal(size=(10, 20, 20)) * spread
+    rho, rhos = vkmech.stats.split_half(means)
+    assert rhos.shape == (20,) and rho == pytest.approx(rhos.mean())
+    assert rho > 0.6
+    flat_rho, _ = vkmech.stats.split_half(rng.normal(size=(10, 20, 20)))
+    assert abs(flat_rho) < 0.2  # one noise level everywhere: the halves' ranks are unrelated
+    for seeds in (9, 0):
+        with pytest.raises(ValueError):
+            vkmech.stats.split_half(rng.normal(size=(seeds, 4, 4)))
+
+    n = vkmech.stats.neyman_allocation(np.array([1, 4, 9, 16.0]), 20)
+    # floor 1 each, 16 more shared 1:2:3:4 -> 2.6, 4.2, 5.8, 7.4, largest remainders first
+    assert n.dtype == np.uint32 and list(n) == [3, 4, 6, 7]
+    grid = vkmech.stats.neyman_allocation(np.ones((4, 8)), 4 * 8 * 3, floor=2)
+    assert grid.shape == (4, 8) and (grid == 3).all()
+    with pytest.raises(ValueError):
+        vkmech.stats.neyman_allocation(np.ones(4), 2)
