@@ -308,4 +308,74 @@ int cmd_bench_render(const BenchOptions& o) {
     return 0;
 }
 
+// `vkmech devices`.
+void register_devices(CLI::App& app, CliCommands& commands) {
+    auto* devices = app.add_subcommand("devices", "List Vulkan devices with their ray-query support and limits");
+    commands.push_back({devices, [](const std::vector<std::string>&) { return cmd_devices(); }});
+}
+
+// `vkmech bench traversal|render`.
+void register_bench(CLI::App& app, CliCommands& commands) {
+    auto o = std::make_shared<BenchOptions>();
+    auto* bench = app.add_subcommand("bench", "Benchmarks (not tests)");
+    auto* bench_trav = bench->add_subcommand("traversal", "Rays/s of ray query and of the software BVH on each scene (the BVH twice: "
+                                             "its ray kernel's default, which on CPU devices hands each invocation "
+                                             "the next ray of its workgroup's slice when its own is done, and one "
+                                             "ray per invocation, as the path tracer traces)");
+    bench->require_subcommand(1);
+    bench_trav->add_option("--scenes", o->scenes, "Comma-separated scene names or paths (default: all in scenes/)")
+        ->delimiter(',');
+    bench_trav->add_option("--rays", o->rays, "Rays per measurement")->check(CLI::Range(1000u, 1u << 26));
+    bench_trav->add_option("--device", o->device, "Vulkan device index (see `vkmech devices`)");
+    bench_trav->add_option("--dump", o->dump_dir,
+                           "Write each scene's triangles, rays, software-BVH closest hits and rays/s to DIR "
+                           "(<scene>.tris.bin, .rays.bin, .hits.bin, .json; layout in docs/performance.md) for "
+                           "ci/bench-embree.sh")
+        ->type_name("DIR");
+    bench_trav->add_flag("--counters", o->counters,
+                         "Also trace the rays once with the instrumented software-BVH shader and print its work per "
+                         "ray: interior nodes, leaves, triangles tested (mean, and mean of the maximum over groups of "
+                         "8 and 32 consecutive rays: one SIMD vector on lavapipe, one warp on NVIDIA), deepest stack");
+    bench_trav->add_flag("--bvh-only", o->bvh_only,
+                         "Measure the software BVH alone, not ray query (shorter; a profiler attached to the process "
+                         "then samples only the software BVH)");
+    bench_trav->add_flag("--slices", o->slices,
+                         "Measure the `bvh` column with slices on any device that has subgroup ballot, GPUs included "
+                         "(by default only CPU devices use them: they have not been measured on a GPU)");
+    add_pipeline_cache_option(bench_trav, o->pipeline_cache);
+    add_kernel_option(bench_trav, o->kernel);
+
+    auto* bench_render = bench->add_subcommand(
+        "render", "Paths/s per scene: specialized vs generic pipeline, capture on vs off, ray query vs BVH");
+    bench_render->add_option("--scenes", o->scenes, "Comma-separated scene names or paths (default: all)")
+        ->delimiter(',');
+    bench_render->add_option("--res", o->res, "Film width")->check(CLI::Range(8u, 4096u));
+    bench_render->add_option("--spp", o->spp, "Samples per pixel per measurement")->check(CLI::Range(1u, 4096u));
+    bench_render->add_option("--device", o->device, "Vulkan device index");
+    bench_render->add_flag("--profile", o->profile,
+                           "Where the render's time goes (parameter upload, dispatch = submit + wait, readback, host "
+                           "accumulation) for each --batches size, instead of the specialization table");
+    bench_render->add_option("--batches", o->batches, "--profile: samples per dispatch to try (default 1,8,64)")
+        ->delimiter(',')
+        ->check(CLI::Range(1u, 4096u));
+    bench_render->add_flag("--counters", o->counters,
+                           "--profile: also render each scene once with the instrumented software-BVH shader and "
+                           "print the traversal's work (traces per path, interior nodes, leaves and triangles per "
+                           "trace, deepest stack) and where the invocations' time goes, by the shader's own clock "
+                           "(VK_KHR_shader_clock): camera-ray, later and shadow traces, NEE, other shading, waiting "
+                           "for the longer paths of the SIMD vector or warp, accumulation");
+    bench_render->add_flag("--ablation", o->ablation,
+                           "What each specialization is worth: per scene, the specialized pipeline, then the same with "
+                           "one effect the scene does not call for compiled in (as the generic pipeline has it), one "
+                           "effect at a time, then the generic pipeline; instead of the specialization table");
+    add_pipeline_cache_option(bench_render, o->pipeline_cache);
+    add_kernel_option(bench_render, o->kernel);
+
+    commands.push_back({bench_trav, [o](const std::vector<std::string>&) { return cmd_bench_traversal(*o); }});
+    commands.push_back({bench_render, [o](const std::vector<std::string>&) {
+                            if (o->counters && !o->profile) throw UsageError("bench render --counters needs --profile");
+                            return cmd_bench_render(*o);
+                        }});
+}
+
 }  // namespace vkmech

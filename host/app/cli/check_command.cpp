@@ -78,4 +78,15 @@ int cmd_check(const CommonOptions& o) {
     return 0;
 }
 
+// `vkmech check`.
+void register_check(CLI::App& app, CliCommands& commands) {
+    auto o = std::make_shared<CommonOptions>();
+    auto* check = app.add_subcommand(
+        "check", "Load a scene without rendering: shapes, materials and their lobes, emitters, camera, the features the "
+                 "renderer specializes on, and every warning and substitution");
+    add_common_options(check, *o);
+
+    commands.push_back({check, [o](const std::vector<std::string>&) { return cmd_check(*o); }});
+}
+
 }  // namespace vkmech

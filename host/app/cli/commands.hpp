@@ -1,4 +1,5 @@
-// The CLI's commands, each a function over parsed options.
+// The CLI's commands: each registers its subcommand, options and action with main
+// (register_*), and shares the helpers below.
 #pragma once
 
 #include "scene/scene.hpp"
@@ -7,6 +8,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <functional>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -104,11 +106,6 @@ struct BenchOptions {
 // on every scene, so that its rays are the same from run to run.
 inline constexpr uint32_t kBenchTraversalSeed = 1;
 
-// `vkmech study`: the options are the study runner's own (study/study_runner.hpp);
-// cmd_study resolves scene names to files and the default --out.
-void add_study_options(CLI::App* app, StudyOptions& o);
-int cmd_study(StudyOptions o);
-
 void add_common_options(CLI::App* app, CommonOptions& o);
 // --pipeline-cache DIR|off (render, bench, study).
 void add_pipeline_cache_option(CLI::App* app, std::optional<std::string>& dir);
@@ -130,28 +127,28 @@ Scene load_for_cli(const CommonOptions& o, bool report = true);
 // "ring_caustic" for "ring_caustic" and for "path/to/ring_caustic.xml".
 std::string scene_stem(const std::string& name_or_path);
 
-int cmd_render(const RenderOptions& o);
 // Usage errors (exit 2) before anything renders: `dir` (the value of `option`,
 // e.g. --out) cannot be created or written; `path` is not a valid frozen
 // reliability curve.
 void require_writable_dir(const std::string& dir, const std::string& option);
 void check_curve_for_cli(const std::string& path);
-int cmd_devices();
-// Renders only the pilot and writes the sealed pre-registration record.
-int cmd_sentinel_register(const SentinelOptions& o);
-// Exit 0 with a one-line summary when the record is intact, 1 when it was
-// edited after registration, 2 when it is unreadable, malformed, lacks a
-// member or has an unknown format version.
-int cmd_sentinel_verify(const std::string& file);
-// Refuses an edited record (exit 1), a changed scene (exit 1) or other code
-// (exit 2, unless allowed); renders the reference, pool and pilot draws and
-// writes PASS/FAIL per prediction (exit 0 whatever the verdicts).
-int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o);
-// Exit 0 when everything checked is sound, 1 when a bad set or file exists.
-int cmd_verify_outputs(const std::string& dir);
-int cmd_verify_cache(const std::string& dir);
-int cmd_check(const CommonOptions& o);
-int cmd_bench_traversal(const BenchOptions& o);
-int cmd_bench_render(const BenchOptions& o);
+
+// One `vkmech` subcommand and its action, which main runs once the command line is parsed;
+// `args` is the command line after `vkmech` (a study records it). Each command file adds its
+// own with a register_* function (docs/architecture.md, "A CLI command").
+struct CliCommand {
+    CLI::App* sub = nullptr;
+    std::function<int(const std::vector<std::string>& args)> run;
+};
+using CliCommands = std::vector<CliCommand>;
+
+void register_render(CLI::App& app, CliCommands& commands);    // render_command.cpp: render, render --adaptive
+void register_devices(CLI::App& app, CliCommands& commands);   // bench_command.cpp: devices
+void register_bench(CLI::App& app, CliCommands& commands);     // bench_command.cpp: bench traversal|render
+void register_paths(CLI::App& app, CliCommands& commands);     // resources.cpp: paths
+void register_check(CLI::App& app, CliCommands& commands);     // check_command.cpp: check
+void register_study(CLI::App& app, CliCommands& commands);     // study_command.cpp: study
+void register_verify(CLI::App& app, CliCommands& commands);    // study_command.cpp: verify outputs|cache
+void register_sentinel(CLI::App& app, CliCommands& commands);  // sentinel_command.cpp: sentinel ...
 
 }  // namespace vkmech

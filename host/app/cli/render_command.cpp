@@ -35,13 +35,13 @@ namespace vkmech {
 
 namespace {
 
-// Issue 10: a black image, an empty label map or a value beyond float's
+// docs/reliability.md: a black image, an empty label map or a value beyond float's
 // range is said on stderr (and in the JSON); the exit code stays 0.
 void report_render_warnings(const WrittenFiles& files) {
     for (const auto& w : files.warnings) std::cerr << "vkmech: warning: " << w << "\n";
 }
 
-// The output set of a render (issue 10): --out must be writable before anything renders (exit 2 otherwise).
+// The output set of a render (docs/reliability.md): --out must be writable before anything renders (exit 2 otherwise).
 std::unique_ptr<OutputSet> open_output_set(const std::string& out_dir, const std::string& name) {
     require_writable_dir(out_dir, "--out");
     return std::make_unique<OutputSet>(out_dir, name);
@@ -442,6 +442,58 @@ int cmd_render_adaptive(const RenderOptions& o) {
                           set->final_path(manifest_file_name(name))})
         if (!f.empty()) std::printf("wrote %s\n", f.c_str());
     return 0;
+}
+
+// `vkmech render` (and `vkmech --scene ...`, which main turns into it).
+void register_render(CLI::App& app, CliCommands& commands) {
+    auto o = std::make_shared<RenderOptions>();
+    auto* render = app.add_subcommand("render", "Render a scene to a multi-layer EXR and PNG previews");
+    add_common_options(render, o->common);
+    render->add_option("--spp", o->spp, "Samples per pixel")->check(CLI::Range(1u, 1u << 20));
+    render->add_option("--seed", o->seed, "Random seed (docs/descriptor.md §4)");
+    render->add_option("--batch", o->batch_spp, "Samples per GPU dispatch")->check(CLI::Range(1u, 4096u));
+    render->add_option("--out", o->out_dir, "Output directory (default: out/<scene>)");
+    render->add_option("--estimator", o->estimator,
+                       "Estimator: mis (default), nee (the paper's; the default with --adaptive) or mis-restricted")
+        ->check(CLI::IsMember({"nee", "mis-restricted", "mis"}));
+    render->add_option("--light-selection", o->light_selection,
+                       "How NEE picks an emitter: uniform (default, as Mitsuba) or power")
+        ->check(CLI::IsMember({"uniform", "power"}));
+    render->add_option("--end-vertex", o->end_vertex,
+                       "Label's end vertex: last-nondelta (default) or literal (the last surface vertex)")
+        ->check(CLI::IsMember({"last-nondelta", "literal"}));
+    render->add_option("--exposure", o->exposure,
+                       "Exposure of the PNG preview in stops (EV; the EXR is never scaled)")
+        ->check(CLI::Range(-30.0f, 30.0f));
+    render->add_option("--capture", o->capture, "Mechanism descriptor capture: on (default) or off")
+        ->check(CLI::IsMember({"on", "off"}));
+    render->add_option("--extra-output", o->extra_outputs,
+                       "Optional extra outputs (comma-separated): direct_glossy = the direct bucket's energy whose end "
+                       "vertex is glossy, as EXR channel lum.direct_glossy and a JSON share (docs/descriptor.md "
+                       "§3.4; a second shader variant, needs --capture on)")
+        ->delimiter(',')
+        ->check(CLI::IsMember({"direct_glossy"}));
+    render->add_flag("--generic", o->generic, "Use the unspecialized pipeline (every effect compiled in)");
+    render->add_flag("--preview", o->preview, "Fast direct-light preview instead of the full estimator");
+    render->add_option("--adaptive", o->adaptive,
+                       "Two-stage adaptive rendering (docs/descriptor.md §6) with this allocation strategy: uniform, observed-var, "
+                       "bucket-floor, robust-var, robust-floor, placebo, robust-placebo, guarded (bucket-floor with at least "
+                       "the uniform share where the pilot cannot be trusted), shrink (the pilot variance shrunk towards its label's "
+                       "empirical-Bayes prior), robust-adaptive (median-of-means with the block count chosen per pixel from its pilot "
+                       "label: the plain variance on delta_mediated and specular_direct pixels, ceil(sqrt(N0)) blocks elsewhere)");
+    render->add_option("--pilot", o->pilot, "Adaptive: pilot samples per pixel N0 (default 16)")
+        ->check(CLI::Range(2u, 4096u));
+    render->add_option("--budget", o->budget,
+                       "Adaptive: extra samples per pixel on average, on top of the baseline of 1 (default 32)")
+        ->check(CLI::Range(0u, 255u));
+    render->add_option("--floor", o->floor, "Adaptive: minimum samples per pixel (default 1)")
+        ->check(CLI::Range(1u, 256u));
+    render->add_option("--pilot-draw", o->pilot_draw, "Adaptive: pilot draw k (pilot seed 100000 + 1000k)")
+        ->check(CLI::Range(0u, 899u));
+    render->add_option("--curve", o->curve,
+                       "Adaptive: frozen label-reliability curve (default: predictor_curve.json, see `vkmech paths`)");
+
+    commands.push_back({render, [o](const std::vector<std::string>&) { return cmd_render(*o); }});
 }
 
 }  // namespace vkmech

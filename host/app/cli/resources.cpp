@@ -1,5 +1,7 @@
 #include "cli/resources.hpp"
 
+#include "cli/commands.hpp"
+
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -129,6 +131,16 @@ int cmd_paths() {
         }
     }
     return rc;
+}
+
+// `vkmech paths`.
+void register_paths(CLI::App& app, CliCommands& commands) {
+    auto* paths = app.add_subcommand(
+        "paths", "Where the scenes, the figure script and the predictor curve are found: $VKMECH_SCENE_DIR, "
+                 "$VKMECH_PLOT_SCRIPT, $VKMECH_DATA_DIR (a data root), ./scenes, <prefix>/share/vkmech next to "
+                 "<prefix>/bin/vkmech, then the source tree; exit 1 when one is missing");
+
+    commands.push_back({paths, [](const std::vector<std::string>&) { return cmd_paths(); }});
 }
 
 }  // namespace vkmech

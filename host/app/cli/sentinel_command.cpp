@@ -45,6 +45,7 @@ std::string utc_now() {
 
 }  // namespace
 
+// Renders only the pilot and writes the sealed pre-registration record.
 int cmd_sentinel_register(const SentinelOptions& o) {
     // Everything that can be refused is refused before the pilot renders (exit 2).
     const Resource found = o.curve.empty() ? find_predictor_curve() : Resource{};
@@ -145,6 +146,9 @@ std::string read_record(const std::string& file) {
 }
 }  // namespace
 
+// Exit 0 with a one-line summary when the record is intact, 1 when it was
+// edited after registration, 2 when it is unreadable, malformed, lacks a
+// member or has an unknown format version.
 int cmd_sentinel_verify(const std::string& file) {
     const sentinel::Verification v = sentinel::verify_record(read_record(file), file);
     if (v.kind == sentinel::Verification::Intact) {
@@ -155,6 +159,9 @@ int cmd_sentinel_verify(const std::string& file) {
     return v.kind == sentinel::Verification::Edited ? 1 : 2;
 }
 
+// Refuses an edited record (exit 1), a changed scene (exit 1) or other code
+// (exit 2, unless allowed); renders the reference, pool and pilot draws and
+// writes PASS/FAIL per prediction (exit 0 whatever the verdicts).
 int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o) {
     const std::string text = read_record(o.record);
     const sentinel::Verification v = sentinel::verify_record(text, o.record);
@@ -273,6 +280,58 @@ int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o) {
                                              x.predicted.c_str(), x.measured.c_str());
     std::printf("wrote %s/evaluation.json and %s/report.md\n", out.c_str(), out.c_str());
     return 0;
+}
+
+// `vkmech sentinel register|evaluate|verify`.
+void register_sentinel(CLI::App& app, CliCommands& commands) {
+    auto o = std::make_shared<SentinelOptions>();
+    auto file = std::make_shared<std::string>();
+    auto* sentinel = app.add_subcommand(
+        "sentinel", "Pre-registered predictions on a scene (docs/descriptor.md §9): register from a pilot alone, verify a record, "
+        "evaluate it against a reference");
+    sentinel->require_subcommand(1);
+    auto* sentinel_register = sentinel->add_subcommand(
+        "register", "Render only the pilot and write a SHA-256-sealed record of every prediction it supports");
+    add_common_options(sentinel_register, o->common);
+    sentinel_register->add_option("--pilot", o->pilot, "Pilot samples per pixel N0 (default 64, the curve's)")
+        ->check(CLI::Range(2u, 4096u));
+    sentinel_register->add_option("--pilot-draw", o->pilot_draw, "Pilot draw k (pilot seed 100000 + 1000k)")
+        ->check(CLI::Range(0u, 899u));
+    sentinel_register->add_option("--out", o->out, "The record (default sentinel_<scene>.json)");
+    sentinel_register->add_option("--curve", o->curve,
+                                  "Frozen label-reliability curve (default: predictor_curve.json, see `vkmech paths`)");
+    sentinel_register->add_flag("--force", o->force, "Overwrite an existing record");
+    sentinel_register->add_option("--name", o->name,
+                                  "The scene's name in the record and reports (default: the file stem)");
+    sentinel_register->add_option("--reference-spp", o->reference_spp,
+                                  "Protocol: the reference's samples per pixel (default 2048, the curve's; a multiple of 64)")
+        ->check(CLI::Range(64u, 1u << 20));
+    sentinel_register->add_option("--draws", o->draws, "Protocol: pilot draws compared (default 10)")
+        ->check(CLI::Range(1u, 100u));
+    sentinel_register->add_option("--extra", o->extra,
+                                  "Protocol: extra samples per pixel of the allocation on top of 1 (default 32)")
+        ->check(CLI::Range(1u, 254u));
+    sentinel_register->add_option("--floor", o->floor, "Protocol: the allocation's per-pixel floor (default 1)")
+        ->check(CLI::Range(1u, 32u));
+    auto eval = std::make_shared<SentinelEvaluateOptions>();
+    auto* sentinel_evaluate = sentinel->add_subcommand(
+        "evaluate", "Refuse an edited record, render the reference and the allocation comparison, and write PASS/FAIL per "
+                    "prediction with the measured values (evaluation.json, report.md)");
+    sentinel_evaluate->add_option("record", eval->record, "The record (JSON)")->required();
+    sentinel_evaluate->add_option("--out", eval->out, "Output directory (default: <record>_evaluation)");
+    sentinel_evaluate->add_option("--cache", eval->cache, "Render cache (default: <out>/cache)");
+    sentinel_evaluate->add_option("--device", eval->device, "Vulkan device index (see `vkmech devices`)");
+    add_pipeline_cache_option(sentinel_evaluate, eval->pipeline_cache);
+    add_kernel_option(sentinel_evaluate, eval->kernel);
+    sentinel_evaluate->add_flag("--allow-code-change", eval->allow_code_change,
+                                "Evaluate with code other than the registered code (stated in the report)");
+    sentinel_evaluate->add_flag("--force", eval->force, "Overwrite an existing evaluation");
+    auto* sentinel_verify = sentinel->add_subcommand(
+        "verify", "Check a record's seal: exit 0 when intact, 1 when edited after registration, 2 when malformed");
+    sentinel_verify->add_option("record", *file, "The record (JSON)")->required();
+    commands.push_back({sentinel_register, [o](const std::vector<std::string>&) { return cmd_sentinel_register(*o); }});
+    commands.push_back({sentinel_evaluate, [eval](const std::vector<std::string>&) { return cmd_sentinel_evaluate(*eval); }});
+    commands.push_back({sentinel_verify, [file](const std::vector<std::string>&) { return cmd_sentinel_verify(*file); }});
 }
 
 }  // namespace vkmech

@@ -81,7 +81,8 @@ std::string check_provenance(const fs::path& dir, const std::string& name, std::
 }  // namespace
 
 // `vkmech verify outputs DIR`: every output set in DIR checked against its
-// manifest, and a render set's provenance in its EXR against its JSON.
+// manifest, and a render set's provenance in its EXR against its JSON. Exit 0 when
+// everything checked is sound, 1 when a bad set or file exists.
 int cmd_verify_outputs(const std::string& dir) {
     if (!fs::is_directory(dir)) throw UsageError("'" + dir + "' is not a directory");
     std::vector<std::string> stale;
@@ -157,6 +158,8 @@ void add_study_options(CLI::App* app, StudyOptions& o) {
                   "allocation study's timing renders still run: they are measurements)");
 }
 
+// `vkmech study`: the options are the study runner's own (study/study_runner.hpp); the
+// CLI resolves scene names to files and the default --out.
 int cmd_study(StudyOptions o) {
     // The CLI's scene names become files; the study runner sees paths only.
     std::vector<std::string> names = o.scenes.empty() ? first_party_scenes() : o.scenes;
@@ -185,6 +188,36 @@ int cmd_study(StudyOptions o) {
     } catch (const std::invalid_argument& e) {
         throw UsageError(e.what());
     }
+}
+
+// `vkmech study NAME`: the study records its command line (args) in its report.
+void register_study(CLI::App& app, CliCommands& commands) {
+    auto o = std::make_shared<StudyOptions>();
+    auto* study = app.add_subcommand(
+        "study", "Regenerate the paper's analyses (docs/descriptor.md §5) on a scene set: tables, figures, maps and report.md");
+    add_study_options(study, *o);
+    commands.push_back({study, [o](const std::vector<std::string>& args) {
+                            StudyOptions run = *o;
+                            run.command_line = "vkmech";
+                            for (const auto& a : args) run.command_line += " " + a;
+                            return cmd_study(std::move(run));
+                        }});
+}
+
+// `vkmech verify outputs|cache DIR`.
+void register_verify(CLI::App& app, CliCommands& commands) {
+    auto dir = std::make_shared<std::string>();
+    auto* verify = app.add_subcommand("verify", "Check written results: output sets against their manifests, or a render cache");
+    verify->require_subcommand(1);
+    auto* verify_outputs = verify->add_subcommand(
+        "outputs", "Check every output set in DIR against its manifest (complete, pending or bad); exit 1 when one is bad");
+    verify_outputs->add_option("dir", *dir, "Output directory (a render's --out)")->required();
+    auto* verify_cache = verify->add_subcommand(
+        "cache", "Check every file of a render cache (key, size, checksum, finite data): good, bad or stale; exit 1 when "
+                 "one is bad");
+    verify_cache->add_option("dir", *dir, "Cache directory (a study's --cache, default <out>/cache)")->required();
+    commands.push_back({verify_outputs, [dir](const std::vector<std::string>&) { return cmd_verify_outputs(*dir); }});
+    commands.push_back({verify_cache, [dir](const std::vector<std::string>&) { return cmd_verify_cache(*dir); }});
 }
 
 }  // namespace vkmech
