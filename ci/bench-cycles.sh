@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# vkmech versus Blender Cycles on the CPU (issue 14; docs/performance.md,
+# vkmech versus Blender Cycles on the CPU (docs/performance.md,
 # "vkmech versus Blender Cycles (CPU)"). Renders the same 256x256 Cornell box
 # with a glass sphere (scenes/glass_caustic.xml) in both, at the same samples
 # per pixel and the same maximum path length, alternating the renderers run

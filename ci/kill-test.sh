@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Kill test (issue 10): SIGKILL a render and a study at random moments and
+# Kill test (docs/reliability.md, "Killing renders and studies"): SIGKILL a render and a study at random moments and
 # check that nothing they leave is ever a mixed or partial result.
 #
 # Renders: a complete output set is written first; then RENDER_KILLS times a

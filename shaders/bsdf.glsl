@@ -1,6 +1,6 @@
 // The materials of docs/descriptor.md §2, following Mitsuba 3's definitions (src/bsdfs/*.cpp)
 // so that renders compare with Mitsuba, written once for GLSL and C++
-// (DESIGN "one code, two compilers").
+// (docs/architecture.md, "One code, two compilers").
 //
 // Local shading frame, z = shading normal. wo points from the surface toward
 // the previous path vertex, wi is the sampled / evaluated direction; both are

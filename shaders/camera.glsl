@@ -3,7 +3,7 @@
 #ifndef VKMECH_CAMERA_GLSL
 #define VKMECH_CAMERA_GLSL
 
-// Specialization: thin lens compiled in only when the scene has one (DESIGN).
+// Specialization: thin lens compiled in only when the scene has one (docs/architecture.md, "Simulate only what the scene calls for").
 layout(constant_id = SPEC_THIN_LENS) const bool HAS_THIN_LENS = false;
 // Specialization: orthographic projection (Mitsuba's `orthographic` sensor):
 // parallel rays along +Z from camera x in [-1, 1] (the film's width) and

@@ -1,4 +1,4 @@
-// Scene features as specialization constants (DESIGN "simulate only what the
+// Scene features as specialization constants (docs/architecture.md, "Simulate only what the
 // scene calls for"): the host sets each from the loaded scene, so dead
 // branches compile out of a scene's pipeline. In C++ (tests) all are on.
 #ifndef VKMECH_FEATURES_GLSL

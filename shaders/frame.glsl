@@ -1,5 +1,5 @@
 // Orthonormal tangent frame around a unit normal, written once for GLSL and
-// C++ (DESIGN "one code, two compilers"): t, b, n right-handed (t x b = n).
+// C++ (docs/architecture.md, "One code, two compilers"): t, b, n right-handed (t x b = n).
 #ifndef VKMECH_FRAME_GLSL
 #define VKMECH_FRAME_GLSL
 

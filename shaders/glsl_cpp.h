@@ -1,4 +1,4 @@
-// "One code, two compilers" (DESIGN): shader modules written in the common
+// "One code, two compilers" (docs/architecture.md): shader modules written in the common
 // subset of GLSL and GLM-based C++, so doctest runs the very functions the GPU
 // runs. Rules for shared code: no swizzle assignment, no swizzle reads beyond
 // what glm offers without GLM_FORCE_SWIZZLE (use .x/.y/.z and vec3(v) casts),

@@ -383,7 +383,7 @@ void render_slot(uint slot) {
 
     vec3 rgb_sum = vec3(0.0);
     float n_ok = 0.0;
-    // Welford in a scaled form (issue 10): luminance is divided by 2^lum_exp,
+    // Welford in a scaled form (docs/descriptor.md §3.1): luminance is divided by 2^lum_exp,
     // the exponent of the largest |luminance| seen, so mean_s stays in [0, 1]
     // and m2_s in [0, n]: M2 = m2_s * 4^lum_exp neither overflows (radiance
     // 1e30: M2 ~ 1e60) nor underflows (1e-30) in float. Power-of-two scaling
@@ -463,7 +463,7 @@ void render_slot(uint slot) {
     GpuPixelAccum a;
     a.rgb = vec4(rgb_sum, n_ok);
     // x: the mean itself (at most the largest sample: finite); y, w: M2 as
-    // m2_s * 4^w (host/render/frame.hpp, batch_lum_m2).
+    // m2_s * 4^w (host/engine/render/frame.hpp, batch_lum_m2).
     a.lum = vec4(ldexp(mean_s, lum_exp), m2_s, nonfinite, float(lum_exp));
     a.side = vec4(glossy_sum, depth_sum, depth_w, 0.0);
     // Seven RGB sums packed into six vec4s (GpuPixelAccum::bucket_rgb, float 3b + c).
@@ -511,18 +511,18 @@ void main() {
         slot = claimed ? atomicAdd(next_slot, 1u) : slots;
     }
 #ifdef VKMECH_COUNTERS
-    // counters[5] != 0: a 32-bit total wrapped in this batch (the host refuses the counts).
-    bool wrapped = counter_add(0u, bvh_count_rays);
-    wrapped = counter_add(1u, bvh_count_nodes) || wrapped;
-    wrapped = counter_add(2u, bvh_count_leaves) || wrapped;
-    wrapped = counter_add(3u, bvh_count_tris) || wrapped;
-    atomicMax(counters[4], bvh_count_stack);
+    // A 32-bit total that wrapped sets COUNTER_WRAPPED (the host refuses the counts).
+    bool wrapped = counter_add(COUNTER_RAYS, bvh_count_rays);
+    wrapped = counter_add(COUNTER_NODES, bvh_count_nodes) || wrapped;
+    wrapped = counter_add(COUNTER_LEAVES, bvh_count_leaves) || wrapped;
+    wrapped = counter_add(COUNTER_TRIANGLES, bvh_count_tris) || wrapped;
+    atomicMax(counters[COUNTER_DEEPEST_STACK], bvh_count_stack);
     for (uint p = 0u; p < PHASE_COUNT; ++p) {  // 64-bit sums: the low word's carry goes into the high word
         uint lo = COUNTER_CLOCK + 2u * p;
         uint before = atomicAdd(counters[lo], g_clock[p].x);
         atomicAdd(counters[lo + 1u], g_clock[p].y + (before + g_clock[p].x < before ? 1u : 0u));
     }
-    atomicAdd(counters[6], g_clock_backwards);
-    if (wrapped) atomicOr(counters[5], 1u);
+    atomicAdd(counters[COUNTER_CLOCK_BACKWARDS], g_clock_backwards);
+    if (wrapped) atomicOr(counters[COUNTER_WRAPPED], 1u);
 #endif
 }

@@ -1,4 +1,4 @@
-// Counter-based random numbers (DESIGN "deterministic sampling"): every value
+// Counter-based random numbers (docs/architecture.md, "Deterministic sampling"): every value
 // is a pure function of (seed, pixel, sample index, dimension), so sample i
 // of seed s is identical whatever the batching or the device (docs/descriptor.md §4).
 // Written once for GLSL and C++ (analysis/experiments/separation.cpp, tests).

@@ -1,4 +1,4 @@
-// Warps from the unit square to directions and points (DESIGN "one code, two
+// Warps from the unit square to directions and points (docs/architecture.md, "One code, two
 // compilers": GLSL include and, unchanged, C++ for the doctest chi-square
 // tests). Each warp has its density beside it, in the measure named there.
 // Conventions: local frame, z up; u in [0, 1)^2.

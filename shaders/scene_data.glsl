@@ -170,7 +170,7 @@ SurfaceHit surface_hit(uint prim, vec2 bary) {
     return s;
 }
 
-// Scale-aware self-intersection avoidance (issue 10): the rounding error of
+// Scale-aware self-intersection avoidance (docs/reliability.md, "Numerics"): the rounding error of
 // a hit point interpolated from its triangle, and of the intersection test
 // that must not find that triangle again from the new origin, is a few ulps
 // of the triangle's largest coordinate (pbrt-v4's error bounds, Wächter &
@@ -191,7 +191,7 @@ const float RAY_TMAX = 3.0e38;
 
 float luminance(vec3 c) { return dot(c, vec3(LUM_R, LUM_G, LUM_B)); }
 
-// Power-proportional light selection (host/render/gpu_scene.cpp builds the cdf).
+// Power-proportional light selection (host/engine/render/gpu_scene.cpp builds the cdf).
 uint select_light_triangle(float u) {
     uint lo = 0u;
     uint hi = params.scene.x - 1u;

@@ -1,4 +1,4 @@
-// Software traversal of the host-built SAH BVH (host/accel/bvh.cpp), for
+// Software traversal of the host-built SAH BVH (host/engine/accel/bvh.cpp), for
 // devices without VK_KHR_ray_query. Same interface as trace_rayquery.glsl.
 // Two kernels (docs/gpu.md, "Two kernels"): the CPU kernel's below, tuned on
 // lavapipe; with KERNEL_GPU, trace_bvh_gpu.glsl's, tuned on a GPU. They share

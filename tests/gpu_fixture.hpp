@@ -1,6 +1,6 @@
 // The Vulkan device shared by the GPU test suite. Tests that need it call
 // test_context() and return early (with a message) when there is none, so the
-// suite skips cleanly on machines without Vulkan (DESIGN).
+// suite skips cleanly on machines without Vulkan (docs/architecture.md, "Tests are specifications").
 #pragma once
 
 #include "vk/context.hpp"

@@ -1,4 +1,4 @@
-// Adaptive rendering (docs/descriptor.md §6, issue 5): the GPU renders exactly n(p) samples
+// Adaptive rendering (docs/descriptor.md §6): the GPU renders exactly n(p) samples
 // at each pixel, and the result is the mean of the first n(p) frames of the
 // same seed's sample stream (the "pool").
 #include "allocation/allocation.hpp"

@@ -1,6 +1,6 @@
 // The BSDF library (shaders/sampling.glsl, fresnel.glsl, microfacet.glsl,
 // bsdf.glsl) compiled as C++: the very functions the path tracer runs.
-// Specifications pinned here (DESIGN "tests are specifications"):
+// Specifications pinned here (docs/architecture.md, "Tests are specifications"):
 //  - special functions, Fresnel, D and G1 against independent double-precision
 //    references and analytic integrals;
 //  - chi-square goodness of fit of bsdf_sample's directions against bsdf_pdf

@@ -1,4 +1,4 @@
-// The pilot's guard rails (docs/descriptor.md §6.5, issue 13 item 2): abstention
+// The pilot's guard rails (docs/descriptor.md §6.5): abstention
 // of the bucket floor, untrusted pixels, and the `guarded` strategy. Expected
 // values are worked out by hand in the comments; the GPU cases check that the
 // guard stays silent on cubes_dof and speaks on a scene lit through a slit.

@@ -7,7 +7,7 @@
 #include <doctest/doctest.h>
 
 // The stb_image implementation is compiled into the core library
-// (host/scene/image_texture.cpp); only the declarations are needed here.
+// (host/engine/scene/image_texture.cpp); only the declarations are needed here.
 #include <stb/stb_image.h>
 
 #include <OpenEXR/ImfChannelList.h>
@@ -272,7 +272,7 @@ TEST_CASE("io: tonemap_srgb and grey_to_rgb8 known values") {
     CHECK(g2 == std::vector<uint8_t>{64, 64, 64, 128, 128, 128});
 }
 
-// Issue 10: the reader allocates what the header claims. A 2x2 file whose
+// docs/reliability.md: the reader allocates what the header claims. A 2x2 file whose
 // dataWindow is patched to claim 100000 x 100000 pixels (or a window whose
 // width overflows int) is refused with a message naming the file, never a
 // 40 GB allocation. (OpenEXR 3.1 itself already refuses both, from the

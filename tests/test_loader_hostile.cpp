@@ -1,4 +1,4 @@
-// Hostile scene files (issue 10): each fixture here once crashed, hung, ate
+// Hostile scene files (docs/reliability.md, "Loader"): each fixture here once crashed, hung, ate
 // memory without bound or loaded as silent garbage. Every one must now be a
 // SceneError naming the file, quickly. The fixtures are written by the tests.
 #include "temp_dir.hpp"

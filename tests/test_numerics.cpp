@@ -1,4 +1,4 @@
-// Issue 10, "never silent garbage" (numerics): scene scale, radiance scale,
+// Never silent garbage (docs/reliability.md, "Numerics"): scene scale, radiance scale,
 // and the warnings a render's outputs carry when they come out empty or
 // beyond float's range.
 #include "gpu_fixture.hpp"

@@ -1,4 +1,4 @@
-// Issue 10, parts 3 and 4: interrupted runs and damaged caches never crash,
+// docs/reliability.md: interrupted runs and damaged caches never crash,
 // hang or give silent garbage. Output sets (manifest written last, recovery
 // of a commit cut short, stale temporaries), SIGINT/SIGTERM/SIGKILL at exact
 // steps (fault injection through $VKMECH_FAULT, no timing), --out/--cache

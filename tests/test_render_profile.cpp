@@ -1,4 +1,4 @@
-// `bench render --profile` (issue 14): the renderer's per-batch time split.
+// `bench render --profile` (docs/performance.md): the renderer's per-batch time split.
 #include "gpu_fixture.hpp"
 #include "render/renderer.hpp"
 #include "render_fixture.hpp"

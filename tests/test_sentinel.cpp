@@ -1,4 +1,4 @@
-// Sentinel pre-registration (issue 13 item 1, docs/descriptor.md §9): SHA-256,
+// Sentinel pre-registration (docs/descriptor.md §9): SHA-256,
 // the record's seal, the prediction rules and that registering renders only
 // the pilot.
 #include "adaptive/adaptive.hpp"

@@ -1,5 +1,5 @@
 // The per-bucket adaptive median-of-means block count: the `robust-adaptive`
-// strategy (docs/descriptor.md §6.7; issue 13 item 3).
+// strategy (docs/descriptor.md §6.7).
 //
 // robust-var uses one block count k = ceil(sqrt(N0)) for every pixel. Median-
 // of-means trades efficiency for robustness: the median of k block variances

@@ -1,6 +1,6 @@
-// Abstention and guard rails of the adaptive renderer (docs/descriptor.md §6.5,
-// issue 13 item 2): what a pilot alone says about where a strategy's
-// assumption fails, and the `guarded` score.
+// Abstention and guard rails of the adaptive renderer (docs/descriptor.md §6.5):
+// what a pilot alone says about where a strategy's assumption fails, and the
+// `guarded` score.
 //
 // Abstention: the bucket floor only acts on pixels whose pilot label is
 // heavy-tailed and whose pilot variance lies below its bucket's median. When

@@ -1,4 +1,4 @@
-// Sentinel pre-registration records (issue 13, paper §8; docs/descriptor.md §9):
+// Sentinel pre-registration records (paper §8; docs/descriptor.md §9):
 // what a pilot alone predicts about a scene, written down and sealed with a
 // SHA-256 before any reference is rendered.
 //

@@ -1,7 +1,7 @@
-// Struct layouts shared by GLSL (std430 / std140) and C++ (DESIGN: one source
-// of truth). Only vec4 / uvec4 / mat4 members: never a bare vec3, whose size
-// differs between glm (12 bytes) and std430 (16-aligned).
-// host/render/layout_check.cpp static_asserts every size.
+// Struct layouts shared by GLSL (std430 / std140) and C++ (docs/architecture.md,
+// "One definition, one place"). Only vec4 / uvec4 / mat4 members and arrays of
+// them: never a bare vec3, whose size differs between glm (12 bytes) and std430
+// (16-aligned). host/engine/render/layout_check.cpp static_asserts every size.
 #ifndef VKMECH_SHARED_TYPES_H
 #define VKMECH_SHARED_TYPES_H
 
@@ -162,10 +162,16 @@ VKM_CONST BVH4_MAX_LEAF = 14u;
 VKM_CONST BVH4_STACK_SIZE = 96u;  // >= 3 x the deepest chain of interior nodes (collapse_bvh4 checks)
 
 // The path tracer's counters (pathtrace.comp with VKMECH_COUNTERS; `bench
-// render --profile --counters`): uints 0..5 the traversal's work, 6 the
-// intervals left out because the clock went backwards, then for
-// each phase below its clock ticks summed over the invocations, 64-bit as
-// (low, high) at COUNTER_CLOCK + 2 * phase. The phases nest: the traces and
+// render --profile --counters`): the uints COUNTER_RAYS .. COUNTER_CLOCK_BACKWARDS
+// below, then for each phase below its clock ticks summed over the
+// invocations, 64-bit as (low, high) at COUNTER_CLOCK + 2 * phase.
+VKM_CONST COUNTER_RAYS = 0u;             // traces
+VKM_CONST COUNTER_NODES = 1u;            // interior nodes visited
+VKM_CONST COUNTER_LEAVES = 2u;           // leaves visited
+VKM_CONST COUNTER_TRIANGLES = 3u;        // triangles tested
+VKM_CONST COUNTER_DEEPEST_STACK = 4u;    // the deepest traversal stack (a maximum, not a sum)
+VKM_CONST COUNTER_WRAPPED = 5u;          // != 0: a 32-bit total wrapped in this batch
+VKM_CONST COUNTER_CLOCK_BACKWARDS = 6u;  // intervals left out because the clock went backwards The phases nest: the traces and
 // NEE lie inside PHASE_BUSY, the shadow trace inside PHASE_NEE, BUSY inside
 // PHASE_PATH; CAMERA and PATH are separate intervals inside PHASE_SLOT.
 VKM_CONST PHASE_CAMERA = 0u;   // sample setup: random numbers, camera ray, tallies zeroed
@@ -206,7 +212,7 @@ struct GpuDebugEvent {
 };
 
 // Per-pixel result of one batch. Welford moments within the batch
-// (DESIGN "stable numerics"); the host merges batches in double.
+// (docs/architecture.md, "Stable numerics"); the host merges batches in double.
 struct GpuPixelAccum {
     vec4 rgb;          // rgb sum, w: samples counted (finite)
     vec4 lum;          // x: mean luminance, y: M2 / 4^w (scaled Welford), z: non-finite samples, w: exponent

@@ -22,7 +22,7 @@ namespace {
 constexpr char kOldFrameMagic[8] = {'V', 'K', 'M', 'F', 'R', 'M', '0', '1'};  // format 1: no key, no checksum
 constexpr char kFileMagic[8] = {'V', 'K', 'M', 'C', 'A', 'C', 'H', 'E'};
 constexpr char kBlobMagic[8] = {'V', 'K', 'M', 'B', 'L', 'O', 'B', '1'};
-// 2: untyped payloads (issue 10); 3: every payload a typed, versioned blob.
+// 2: untyped payloads; 3: every payload a typed, versioned blob.
 constexpr uint32_t kFormatVersion = 3;
 constexpr uint32_t kFrameBlobVersion = 1, kPilotBlobVersion = 1, kPoolBlobVersion = 1, kPilotSamplesBlobVersion = 1;
 static_assert(std::is_trivially_copyable_v<PixelStats>);

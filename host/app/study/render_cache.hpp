@@ -1,4 +1,4 @@
-// On-disk cache of study renders (issue 4): one file per render, named by a
+// On-disk cache of study renders: one file per render, named by a
 // digest of everything that determines it — the flattened scene (geometry,
 // materials, emitters, textures, camera, integrator settings, so -D values and
 // included files count), film size, spp, seed, estimator, batch size,
@@ -6,7 +6,7 @@
 // written atomically, so an interrupted study keeps every finished render and
 // never sees a partial one.
 //
-// Integrity (issue 10; cache format 3 since the payloads became typed,
+// Integrity (docs/reliability.md; cache format 3 since the payloads became typed,
 // versioned blobs): every cache file — a frame
 // `<key>.frame`, and the allocation study's side files `<key>.frame.pool` and
 // `<key>.frame.pilot` and `<key>.frame.pilot-samples` — is a sealed container: magic, format version, kind,

@@ -1,4 +1,4 @@
-// SIGINT and SIGTERM during a run (issue 10): the handler only records the
+// SIGINT and SIGTERM during a run (docs/reliability.md): the handler only records the
 // signal (async-signal-safe); the run checks it at safe points (between
 // batches, between output files), throws Interrupted, and the unwinding
 // removes its temporaries (OutputSet, atomic writes). main() then exits with
@@ -39,7 +39,7 @@ int pending_signal();
 // Throws Interrupted when a signal is pending.
 void throw_if_interrupted();
 
-// Test hook (fault injection, issue 10): when $VKMECH_FAULT is "<point>:<signal>"
+// Test hook (fault injection, docs/reliability.md): when $VKMECH_FAULT is "<point>:<signal>"
 // (signal INT, TERM or KILL) and `point` matches, raises that signal in this
 // process. Used by the tests to interrupt output writing at an exact step.
 void fault_point(const char* point);

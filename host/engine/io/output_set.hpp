@@ -1,4 +1,4 @@
-// A render's files appear as a set (issue 10): never a mixed or partial set.
+// A render's files appear as a set (docs/reliability.md): never a mixed or partial set.
 //
 // An OutputSet stages every file of one run in `<dir>/.vkmech-tmp-<pid>/`,
 // then commits:

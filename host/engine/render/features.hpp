@@ -1,4 +1,4 @@
-// Which effects a scene calls for (DESIGN "simulate only what the scene calls
+// Which effects a scene calls for (docs/architecture.md, "Simulate only what the scene calls
 // for"): each becomes a specialization constant of the render pipeline, so a
 // diffuse-only scene runs code with none of the rest.
 #pragma once

@@ -1,5 +1,5 @@
 // A finished render: per-pixel sums and moments in double, merged across
-// batches with Chan's parallel update (DESIGN "stable numerics").
+// batches with Chan's parallel update (docs/architecture.md, "Stable numerics").
 #pragma once
 
 #include "shared/types.h"

@@ -94,7 +94,7 @@ std::vector<uint8_t> categorical_map_with_legend(int width, int height, const st
                                                  int* out_w, int* out_h);
 std::vector<uint8_t> dominant_map_with_legend(const Descriptor& d, int* out_width, int* out_height);
 
-// Issue 10, "never silent garbage": a black image, a label map without a
+// Never silent garbage (docs/reliability.md): a black image, a label map without a
 // single label, and excluded non-finite samples, each with its likely causes.
 std::vector<std::string> render_warnings(const Frame& frame, const DescriptorSummary* summary);
 

@@ -40,7 +40,7 @@ std::vector<vk::SpecConstant> spec_constants(const Features& f) {
 }
 
 
-// Issue 10: what a film costs, said before (or instead of) a raw allocation failure.
+// docs/reliability.md: what a film costs, said before (or instead of) a raw allocation failure.
 uint64_t film_device_bytes(uint64_t pixels) { return pixels * (sizeof(gpu::GpuPixelAccum) + 2 * sizeof(uint32_t)); }
 uint64_t film_host_bytes(uint64_t pixels) {
     return pixels * (sizeof(PixelStats) + Frame::kBucketRgb * sizeof(double) + sizeof(gpu::GpuPixelAccum));
@@ -277,15 +277,15 @@ Frame Renderer::render(const RenderSpec& spec) {
         if (features_.counters) {
             uint32_t c[kCounterWords];
             counter_buffer_.download(ctx_, c, sizeof(c));
-            if (c[5] != 0)
+            if (c[gpu::COUNTER_WRAPPED] != 0)
                 throw std::runtime_error("traversal counters: a 32-bit total overflowed in one batch; render the "
                                          "counters with fewer samples per batch or a smaller film");
-            counters_.rays += c[0];
-            counters_.nodes += c[1];
-            counters_.leaves += c[2];
-            counters_.triangles += c[3];
-            counters_.deepest_stack = std::max(counters_.deepest_stack, c[4]);
-            counters_.clock_backwards += c[6];
+            counters_.rays += c[gpu::COUNTER_RAYS];
+            counters_.nodes += c[gpu::COUNTER_NODES];
+            counters_.leaves += c[gpu::COUNTER_LEAVES];
+            counters_.triangles += c[gpu::COUNTER_TRIANGLES];
+            counters_.deepest_stack = std::max(counters_.deepest_stack, c[gpu::COUNTER_DEEPEST_STACK]);
+            counters_.clock_backwards += c[gpu::COUNTER_CLOCK_BACKWARDS];
             for (uint32_t p = 0; p < gpu::PHASE_COUNT; ++p)
                 counters_.clock[p] += static_cast<double>(c[gpu::COUNTER_CLOCK + 2 * p]) +
                                       static_cast<double>(c[gpu::COUNTER_CLOCK + 2 * p + 1]) * 0x1p32;

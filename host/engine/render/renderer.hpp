@@ -1,4 +1,4 @@
-// One renderer call: render(scene, RenderSpec) -> Frame (DESIGN). Everything
+// One renderer call: render(scene, RenderSpec) -> Frame (docs/architecture.md, "One render"). Everything
 // that runs many renders is host orchestration over this.
 #pragma once
 

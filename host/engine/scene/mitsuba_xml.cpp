@@ -732,7 +732,7 @@ void MitsubaLoader::add_substituted_point_lights() {
 
 void MitsubaLoader::prune_unused() {
     // Only materials and textures that some shape uses survive: what the
-    // scene "calls for" (DESIGN: Features) must not see unused definitions.
+    // scene "calls for" (render/features.hpp) must not see unused definitions.
     std::vector<int> mat_map(scene_.materials.size(), -1), tex_map(scene_.textures.size(), -1);
     std::vector<Material> mats;
     std::vector<Texture> texs;

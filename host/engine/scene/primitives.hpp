@@ -12,7 +12,7 @@
 namespace vkmech {
 
 // UV-sphere resolution. The default is fine enough that refraction through a
-// glass ball looks smooth with interpolated normals (DESIGN).
+// glass ball looks smooth with interpolated normals.
 struct SphereTessellation {
     int bands = 64;      // latitude bands, pole to pole
     int segments = 128;  // longitude segments

@@ -1,7 +1,7 @@
 // The CPU scene model: what a loader (Mitsuba XML, glTF, procedural) produces
 // and what accel/ and render/ consume. All geometry is triangulated and
 // stored in world space; spheres carry per-vertex shading normals fine enough
-// that refraction through them is smooth (DESIGN: "spheres must render smooth").
+// that refraction through them is smooth (a sphere must render smooth).
 #pragma once
 
 #include "shared/types.h"

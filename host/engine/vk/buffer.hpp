@@ -9,7 +9,7 @@
 
 namespace vkmech::vk {
 
-// An allocation the device or the host cannot satisfy (issue 10): says how
+// An allocation the device or the host cannot satisfy (docs/reliability.md): says how
 // much was asked; callers that know what it was for add that and what to lower.
 class OutOfMemoryError : public VulkanError {
 public:

@@ -13,7 +13,7 @@
 
 namespace vkmech::vk {
 
-// A Vulkan failure: names the call that failed (DESIGN "errors as values").
+// A Vulkan failure: names the call that failed (docs/architecture.md, "Errors say what, where and what to do").
 class VulkanError : public std::runtime_error {
 public:
     using std::runtime_error::runtime_error;
