@@ -24,7 +24,7 @@ PKGS=(
   python3-matplotlib
   python3-numpy python3-pytest python3-pybind11 python3-dev
   parallel
-  clang libclang-rt-14-dev
+  clang libclang-rt-14-dev clang-format
 )
 
 # Enable bookworm-backports once.

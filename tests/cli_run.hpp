@@ -3,8 +3,8 @@
 // of this build's (to run the CLI cases against another build).
 #pragma once
 
-#include <unistd.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -22,7 +22,8 @@ struct CliRun {
 // `env` is prefixed to the command line (e.g. "VKMECH_FAULT=x:TERM").
 inline CliRun run_cli(const std::string& args, const std::string& env = "") {
     const char* bin = std::getenv("VKMECH_TEST_CLI");
-    std::filesystem::path log = std::filesystem::temp_directory_path() / ("vkmech_cli_" + std::to_string(::getpid()) + ".log");
+    std::filesystem::path log =
+        std::filesystem::temp_directory_path() / ("vkmech_cli_" + std::to_string(::getpid()) + ".log");
     std::string cmd = env + " " + (bin ? bin : VKMECH_CLI) + " " + args + " > " + log.string() + " 2>&1";
     int status = std::system(cmd.c_str());
     std::ifstream in(log);

@@ -21,11 +21,10 @@ bool gpu_required();
 
 }  // namespace vkmech::testing
 
-#define VKMECH_REQUIRE_GPU(ctx)                                      \
-    vkmech::vk::Context* ctx = vkmech::testing::test_context();     \
-    if (!ctx) {                                                      \
-        if (vkmech::testing::gpu_required())                         \
-            FAIL("no Vulkan device, and VKMECH_REQUIRE_GPU is set"); \
-        MESSAGE("skipped: no Vulkan device");                        \
-        return;                                                      \
+#define VKMECH_REQUIRE_GPU(ctx)                                                                       \
+    vkmech::vk::Context* ctx = vkmech::testing::test_context();                                       \
+    if (!ctx) {                                                                                       \
+        if (vkmech::testing::gpu_required()) FAIL("no Vulkan device, and VKMECH_REQUIRE_GPU is set"); \
+        MESSAGE("skipped: no Vulkan device");                                                         \
+        return;                                                                                       \
     }

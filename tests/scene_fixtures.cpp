@@ -37,7 +37,8 @@ std::vector<glm::vec3> graded_triangles(uint32_t max_count, float ratio, float z
     float s = 1.0f;
     for (uint32_t i = 0; i < max_count && s > 1e-30f; ++i, s *= ratio) {
         const glm::vec3 c(s, 0.3f * s, z_slope * s);
-        for (glm::vec3 v : {glm::vec3(0, 0, 0), glm::vec3(0.1f, 0, 0), glm::vec3(0, 0.1f, 0.05f)}) pos.push_back(c + s * v);
+        for (glm::vec3 v : {glm::vec3(0, 0, 0), glm::vec3(0.1f, 0, 0), glm::vec3(0, 0.1f, 0.05f)})
+            pos.push_back(c + s * v);
     }
     return pos;
 }

@@ -1,16 +1,18 @@
 // Adaptive rendering (docs/descriptor.md §6): the GPU renders exactly n(p) samples
 // at each pixel, and the result is the mean of the first n(p) frames of the
 // same seed's sample stream (the "pool").
+#include "adaptive/adaptive.hpp"
 #include "allocation/allocation.hpp"
 #include "gpu_fixture.hpp"
 #include "render/gpu_scene.hpp"
 #include "render/session.hpp"
-#include "adaptive/adaptive.hpp"
 #include "render_fixture.hpp"
 #include "scene_fixtures.hpp"
 
 #include <doctest/doctest.h>
 
+#include <sys/wait.h>
+#include <unistd.h>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -19,8 +21,6 @@
 #include <sstream>
 #include <string>
 #include <tuple>
-#include <sys/wait.h>
-#include <unistd.h>
 
 using namespace vkmech;
 using namespace vkmech::testing;
@@ -148,15 +148,16 @@ TEST_SUITE("gpu") {
         // Not a structured binding: clang 14 cannot capture one in INFO's lambda.
         int rc = 0;
         std::string text;
-        std::tie(rc, text) = run("--scene glass_caustic --res 24 --adaptive bucket-floor --pilot 4 --budget 8 --out " +
-                                 out.string());
+        std::tie(rc, text) =
+            run("--scene glass_caustic --res 24 --adaptive bucket-floor --pilot 4 --budget 8 --out " + out.string());
         INFO(text);
         REQUIRE(rc == 0);
         CHECK(text.find("predicted label reliability") != std::string::npos);
         CHECK(text.find("(9.00 per pixel)") != std::string::npos);
         CHECK(fs::exists(out / "glass_caustic.exr"));
         CHECK(fs::exists(out / "glass_caustic_spp.png"));
-        std::tie(rc, text) = run("--scene glass_caustic --res 24 --adaptive robust-var --pilot 4 --out " + out.string());
+        std::tie(rc, text) =
+            run("--scene glass_caustic --res 24 --adaptive robust-var --pilot 4 --out " + out.string());
         CHECK(rc == 2);
         CHECK(text.find("median-of-means needs blocks of at least 3 samples") != std::string::npos);
         std::tie(rc, text) = run("--scene glass_caustic --adaptive oracle --out " + out.string());

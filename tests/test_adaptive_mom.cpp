@@ -40,7 +40,7 @@ PilotSamples random_pilot(uint32_t n0, size_t pixels, uint64_t seed) {
 
 TEST_CASE("robust-adaptive: the rule picks k = 1 on delta_mediated and specular_direct and ceil(sqrt(N0)) elsewhere") {
     const std::vector<uint8_t> mid = {gpu::BUCKET_EMITTER_DIRECT, gpu::BUCKET_DIRECT, gpu::BUCKET_DIFFUSE_INDIRECT,
-                                      gpu::BUCKET_GLOSSY, gpu::BUCKET_OTHER, gpu::NO_LABEL};
+                                      gpu::BUCKET_GLOSSY,         gpu::BUCKET_OTHER,  gpu::NO_LABEL};
     for (const auto& nk : {std::pair{9, 3}, std::pair{16, 4}, std::pair{64, 8}, std::pair{13, 4}}) {
         const int n0 = nk.first, k0 = nk.second;
         CAPTURE(n0);
@@ -75,10 +75,12 @@ TEST_CASE("robust-adaptive: with every pixel in one bucket it is robust-var at t
             in.mom_var = &mom;
             in.pilot_labels = &labels;
             in.pilot_spp = n0;
-            const std::vector<double> at_k = ps.mom_variance(adaptive_mom_k(static_cast<uint8_t>(b), static_cast<int>(n0)));
+            const std::vector<double> at_k =
+                ps.mom_variance(adaptive_mom_k(static_cast<uint8_t>(b), static_cast<int>(n0)));
             ScoreInputs rv = in;
             rv.mom_var = &at_k;
-            CHECK(same_bits(strategy_score(Strategy::RobustAdaptive, in, 0), strategy_score(Strategy::RobustVar, rv, 0)));
+            CHECK(
+                same_bits(strategy_score(Strategy::RobustAdaptive, in, 0), strategy_score(Strategy::RobustVar, rv, 0)));
             CHECK(plan_allocation(Strategy::RobustAdaptive, in, 32, 1, 0).n ==
                   plan_allocation(Strategy::RobustVar, rv, 32, 1, 0).n);
         }
@@ -86,7 +88,8 @@ TEST_CASE("robust-adaptive: with every pixel in one bucket it is robust-var at t
         std::vector<uint8_t> mixed(P);
         for (size_t p = 0; p < P; ++p) mixed[p] = static_cast<uint8_t>(p % 7);
         const std::vector<double> d = adaptive_mom_score(plain, mom, mixed);
-        for (size_t p = 0; p < P; ++p) CHECK(std::memcmp(&d[p], is_rare_tail(mixed[p]) ? &plain[p] : &mom[p], sizeof(double)) == 0);
+        for (size_t p = 0; p < P; ++p)
+            CHECK(std::memcmp(&d[p], is_rare_tail(mixed[p]) ? &plain[p] : &mom[p], sizeof(double)) == 0);
     }
 }
 
@@ -114,7 +117,8 @@ TEST_CASE("robust-adaptive: a hand-computed pilot and allocation at N0 = 9") {
     CHECK(mom[0] == doctest::Approx(1.0));
     CHECK(plain[1] == doctest::Approx(9.0));
     CHECK(mom[1] == 0.0);
-    const std::vector<uint8_t> labels = {gpu::BUCKET_DIRECT, gpu::BUCKET_DELTA_MEDIATED, gpu::BUCKET_GLOSSY, gpu::NO_LABEL};
+    const std::vector<uint8_t> labels = {gpu::BUCKET_DIRECT, gpu::BUCKET_DELTA_MEDIATED, gpu::BUCKET_GLOSSY,
+                                         gpu::NO_LABEL};
     const std::vector<double> d = adaptive_mom_score(plain, mom, labels);
     CHECK(d[0] == doctest::Approx(1.0));
     CHECK(d[1] == doctest::Approx(9.0));

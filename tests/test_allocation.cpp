@@ -24,9 +24,7 @@ namespace {
 const double kNaN = std::numeric_limits<double>::quiet_NaN();
 const double kInf = std::numeric_limits<double>::infinity();
 
-uint64_t sum_of(const std::vector<uint32_t>& n) {
-    return std::accumulate(n.begin(), n.end(), uint64_t{0});
-}
+uint64_t sum_of(const std::vector<uint32_t>& n) { return std::accumulate(n.begin(), n.end(), uint64_t{0}); }
 
 bool bit_identical(const std::vector<double>& a, const std::vector<double>& b) {
     return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
@@ -43,11 +41,16 @@ std::vector<double> random_field(uint64_t& state, size_t n, bool with_nonfinite)
     for (size_t i = 0; i < n; ++i) {
         const double u = uniform01(state);
         const double r = uniform01(state);
-        if (u < 0.1) d[i] = 0.0;
-        else if (u < 0.2) d[i] = 1e6 * r;           // heavy outliers
-        else if (with_nonfinite && u < 0.23) d[i] = (r < 0.5) ? kNaN : kInf;
-        else if (u < 0.26) d[i] = -r;               // negative: treated as 0
-        else d[i] = r * r;
+        if (u < 0.1)
+            d[i] = 0.0;
+        else if (u < 0.2)
+            d[i] = 1e6 * r;  // heavy outliers
+        else if (with_nonfinite && u < 0.23)
+            d[i] = (r < 0.5) ? kNaN : kInf;
+        else if (u < 0.26)
+            d[i] = -r;  // negative: treated as 0
+        else
+            d[i] = r * r;
     }
     return d;
 }
@@ -309,9 +312,9 @@ TEST_CASE("allocation: placebo labels keep class sizes and are seeded") {
     CHECK(class_sizes(a) == class_sizes(lab));
     CHECK(class_sizes(b) == class_sizes(lab));
     CHECK(class_sizes(a)[255] == 100);
-    CHECK(a == a2);    // deterministic per seed
-    CHECK(a != lab);   // shuffled
-    CHECK(a != b);     // differs across seeds
+    CHECK(a == a2);   // deterministic per seed
+    CHECK(a != lab);  // shuffled
+    CHECK(a != b);    // differs across seeds
     // A shuffle of contiguous runs leaves far fewer pixels in place than
     // the run layout: expected matches = sum_c n_c^2 / 1000 =
     // (90000 + 40000 + 22500 + 10000 + 2500 * 3 + 10000) / 1000 = 180.

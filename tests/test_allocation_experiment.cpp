@@ -159,7 +159,9 @@ std::vector<std::vector<std::string>> read_csv(const std::string& path) {
 
 }  // namespace
 
-TEST_CASE("allocation experiment: runs over a synthetic source without a device - asks for what it scores - and its uniform PSNR is the pool's") {
+TEST_CASE(
+    "allocation experiment: runs over a synthetic source without a device - asks for what it scores - and its uniform "
+    "PSNR is the pool's") {
     TempDir tmp("alloc_exp");
     StudyConfig cfg = small_config();
     SyntheticSource src;
@@ -170,7 +172,8 @@ TEST_CASE("allocation experiment: runs over a synthetic source without a device 
     // One reference, one pool, K pilot draws per N0, in that order, then the timing renders.
     std::vector<std::string> expect = {"reference synthetic", "pool synthetic"};
     for (uint32_t n0 : {4u, 16u})
-        for (uint32_t k = 0; k < 3; ++k) expect.push_back("pilot synthetic " + std::to_string(n0) + " " + std::to_string(k));
+        for (uint32_t k = 0; k < 3; ++k)
+            expect.push_back("pilot synthetic " + std::to_string(n0) + " " + std::to_string(k));
     REQUIRE(src.calls.size() >= expect.size());
     CHECK(std::vector<std::string>(src.calls.begin(), src.calls.begin() + expect.size()) == expect);
     // Timing renders: uniform, observed-var, bucket-floor, guarded and shrink at N0 = 4; the three robust ones too
@@ -255,7 +258,9 @@ TEST_CASE("allocation experiment: runs over a synthetic source without a device 
     }
 }
 
-TEST_CASE("allocation experiment: equal time covers every strategy - the plain ones at the smallest pilot and the robust ones where median-of-means is defined") {
+TEST_CASE(
+    "allocation experiment: equal time covers every strategy - the plain ones at the smallest pilot and the robust "
+    "ones where median-of-means is defined") {
     TempDir tmp("alloc_exp_eq");
     StudyConfig cfg = small_config();
     cfg.equal_time = true;
@@ -288,7 +293,8 @@ TEST_CASE("allocation experiment: a pool that does not match the reference's fil
     CHECK_THROWS_WITH_AS(run_allocation(ctx), doctest::Contains("pool of synthetic"), std::runtime_error);
 }
 
-TEST_CASE("cache records: pilot and pool round-trip - another type - another version - truncation - bad values are refused") {
+TEST_CASE(
+    "cache records: pilot and pool round-trip - another type - another version - truncation - bad values are refused") {
     SampleFn s = SyntheticSource::stream(5);
     Frame f = frame_of(3, 2, s, 0, 16);
     const std::vector<double> mom = {1, 2, 3, 4, 5, 6};
@@ -303,7 +309,7 @@ TEST_CASE("cache records: pilot and pool round-trip - another type - another ver
     SamplePool pool;
     pool.frames = 2;
     pool.pixels = 3;
-    pool.samples = {0.1f, 0.2f, 0.3f, 1, 0, 0, 0, 0, 0.5f, 0.5f, 0.5f, 1,
+    pool.samples = {0.1f, 0.2f, 0.3f, 1, 0,    0,    0,    0, 0.5f, 0.5f, 0.5f, 1,
                     0.2f, 0.2f, 0.2f, 1, 0.4f, 0.1f, 0.0f, 1, 9.0f, 8.0f, 7.0f, 1};
     pool.oracle_var = {0.01, 0.0, 0.5};
     const std::string pool_bytes = serialize_pool(pool);
@@ -315,7 +321,8 @@ TEST_CASE("cache records: pilot and pool round-trip - another type - another ver
     CHECK(*q.at(1, 2) == 9.0f);
 
     // A record of one type is not read as another.
-    CHECK_THROWS_WITH_AS(deserialize_pool(pilot_bytes, "x"), doctest::Contains("holds a 'pilot' record"), CacheFileError);
+    CHECK_THROWS_WITH_AS(deserialize_pool(pilot_bytes, "x"), doctest::Contains("holds a 'pilot' record"),
+                         CacheFileError);
     CHECK_THROWS_WITH_AS(deserialize_frame(pool_bytes, "x"), doctest::Contains("expected a 'frame'"), CacheFileError);
     // Another version: the version field follows magic (8), the type's length (8) and the type ("pool", 4).
     std::string v2 = pool_bytes;
@@ -323,7 +330,8 @@ TEST_CASE("cache records: pilot and pool round-trip - another type - another ver
     CHECK_THROWS_WITH_AS(deserialize_pool(v2, "v.pool"), doctest::Contains("version 2"), CacheFileError);
     // Every truncation is refused, naming the file.
     for (size_t len = 0; len < pool_bytes.size(); ++len)
-        CHECK_THROWS_WITH_AS(deserialize_pool(pool_bytes.substr(0, len), "t.pool"), doctest::Contains("t.pool"), CacheFileError);
+        CHECK_THROWS_WITH_AS(deserialize_pool(pool_bytes.substr(0, len), "t.pool"), doctest::Contains("t.pool"),
+                             CacheFileError);
     for (size_t len = 0; len < pilot_bytes.size(); len += 7)
         CHECK_THROWS_AS(deserialize_pilot(pilot_bytes.substr(0, len), "t.pilot"), CacheFileError);
     // Trailing bytes, a NaN flagged finite, a flag that is neither 0 nor 1, a negative variance, wrong sizes.
@@ -338,10 +346,12 @@ TEST_CASE("cache records: pilot and pool round-trip - another type - another ver
     CHECK_THROWS_WITH_AS(deserialize_pool(serialize_pool(bad), "y"), doctest::Contains("finite flag"), CacheFileError);
     bad = pool;
     bad.oracle_var[1] = -1;
-    CHECK_THROWS_WITH_AS(deserialize_pool(serialize_pool(bad), "y"), doctest::Contains("oracle variance"), CacheFileError);
+    CHECK_THROWS_WITH_AS(deserialize_pool(serialize_pool(bad), "y"), doctest::Contains("oracle variance"),
+                         CacheFileError);
     bad = pool;
     bad.samples.resize(20);
-    CHECK_THROWS_WITH_AS(deserialize_pool(serialize_pool(bad), "y"), doctest::Contains("inconsistent sizes"), CacheFileError);
+    CHECK_THROWS_WITH_AS(deserialize_pool(serialize_pool(bad), "y"), doctest::Contains("inconsistent sizes"),
+                         CacheFileError);
     CHECK_THROWS_WITH_AS(deserialize_pilot(serialize_pilot(f, {1, 2}), "y"), doctest::Contains("median-of-means"),
                          CacheFileError);
 
@@ -404,7 +414,7 @@ TEST_CASE("allocation experiment: the median-of-means of a pilot's samples - by 
     // Median of two block variances = their mean.
     CHECK(k2[0] == doctest::Approx((var({1, 2, 3, 4}) + var({10, 10, 10, 14})) / 2));
     CHECK(k2[1] == doctest::Approx((var({0, 0, 1}) + var({5, 5, 5, 5})) / 2));  // the NaN sample counted out
-    std::vector<double> k3 = s.mom_variance(3);  // blocks {1,2} {3,4} {10,10}
+    std::vector<double> k3 = s.mom_variance(3);                                 // blocks {1,2} {3,4} {10,10}
     CHECK(k3[0] == doctest::Approx(0.5));
     CHECK(k3[1] == doctest::Approx(0.0));  // blocks {0,0} and {5,5} (the NaN block has one sample, left out): 0 and 0
     CHECK_THROWS_AS(s.mom_variance(5), std::invalid_argument);  // blocks of 1 sample
@@ -423,8 +433,8 @@ TEST_CASE("cache records: per-sample pilots round-trip - NaN kept - inconsistent
     CHECK(t.lum[3] == 2.0f);
     PilotSamples bad = s;
     bad.lum.pop_back();
-    CHECK_THROWS_WITH_AS(deserialize_pilot_samples(serialize_pilot_samples(bad), "b"), doctest::Contains("inconsistent"),
-                         CacheFileError);
+    CHECK_THROWS_WITH_AS(deserialize_pilot_samples(serialize_pilot_samples(bad), "b"),
+                         doctest::Contains("inconsistent"), CacheFileError);
     bad = s;
     bad.lum[0] = INFINITY;
     CHECK_THROWS_WITH_AS(deserialize_pilot_samples(serialize_pilot_samples(bad), "b"), doctest::Contains("infinite"),

@@ -59,14 +59,16 @@ TEST_CASE("bootstrap: disagreement in whole tiles widens the tile interval well 
 
 TEST_CASE("bootstrap: kappa intervals - unlabelled pixels left out - NaN scores dropped - bad input refused") {
     std::vector<uint8_t> a = {0, 1, 2, 0, 1, 2, 255, 0, 1}, b = {0, 1, 2, 0, 2, 2, 1, 255, 1};
-    Interval k = tile_bootstrap(a, b, 3, 3, 1, [](const Confusion& c) { return cohen_kappa(c); }, 500, 0);
+    Interval k = tile_bootstrap(
+        a, b, 3, 3, 1, [](const Confusion& c) { return cohen_kappa(c); }, 500, 0);
     const double point = cohen_kappa(confusion(a, b, 3));
     CHECK(k.lo <= point);
     CHECK(k.hi >= point);
     CHECK(k.hi <= 1.0);
     // Every pixel one class in both maps: kappa is NaN in every resample.
     std::vector<uint8_t> same(9, 1);
-    Interval nan = tile_bootstrap(same, same, 3, 3, 1, [](const Confusion& c) { return cohen_kappa(c); }, 50, 0);
+    Interval nan = tile_bootstrap(
+        same, same, 3, 3, 1, [](const Confusion& c) { return cohen_kappa(c); }, 50, 0);
     CHECK(std::isnan(nan.lo));
     CHECK_THROWS_AS(tile_bootstrap(a, std::vector<uint8_t>(8, 0), 3, 3, 1, agree), std::invalid_argument);
     CHECK_THROWS_AS(tile_bootstrap(a, b, 3, 4, 1, agree), std::invalid_argument);
@@ -74,7 +76,8 @@ TEST_CASE("bootstrap: kappa intervals - unlabelled pixels left out - NaN scores 
     CHECK_THROWS_AS(tile_bootstrap(a, b, 3, 3, 1, agree, 5), std::invalid_argument);
 }
 
-TEST_CASE("bootstrap: Spearman intervals - exact for a monotone pair - 1/sqrt(n) for independent pixels - blocks widen it") {
+TEST_CASE(
+    "bootstrap: Spearman intervals - exact for a monotone pair - 1/sqrt(n) for independent pixels - blocks widen it") {
     const int w = 128, n = w * w;
     std::mt19937 rng(5);
     std::normal_distribution<double> g(0.0, 1.0);

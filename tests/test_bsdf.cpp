@@ -121,8 +121,8 @@ GpuMaterial mat_roughplastic(uint32_t dist, float alpha, glm::vec3 albedo, float
     return prepare ? roughplastic_prepare(m) : m;
 }
 struct PrincipledParams {
-    float metallic = 0.0f, roughness = 0.5f, spec_tint = 0.0f, anisotropic = 0.0f, sheen = 0.0f,
-          sheen_tint = 0.0f, clearcoat = 0.0f, clearcoat_gloss = 0.0f, spec_trans = 0.0f, eta = 1.5f;
+    float metallic = 0.0f, roughness = 0.5f, spec_tint = 0.0f, anisotropic = 0.0f, sheen = 0.0f, sheen_tint = 0.0f,
+          clearcoat = 0.0f, clearcoat_gloss = 0.0f, spec_trans = 0.0f, eta = 1.5f;
 };
 GpuMaterial mat_principled(const PrincipledParams& p, glm::vec3 base) {
     GpuMaterial m = base_material(MAT_PRINCIPLED);
@@ -275,9 +275,9 @@ struct Chi2Outcome {
     std::string name;
     double chi2 = 0, pval = 0;
     int dof = 0;
-    std::string failure;     // structural failure (zero-expected cell hit, dof too low)
-    double pdf_mass = 0;     // integral of bsdf_pdf over the sphere
-    double ok_share = 0;     // share of samples that are non-delta and valid
+    std::string failure;  // structural failure (zero-expected cell hit, dof too low)
+    double pdf_mass = 0;  // integral of bsdf_pdf over the sphere
+    double ok_share = 0;  // share of samples that are non-delta and valid
     double eval_integral = 0, mean_weight = 0, weight_sd = 0;  // luminance
     long weight_mismatch = 0, pdf_mismatch = 0, support_violation = 0, bad_values = 0;
     long checked = 0;
@@ -339,9 +339,9 @@ Chi2Outcome run_chi2(const Chi2Case& cs, int n_samples, uint64_t seed) {
                     double th_eval = std::clamp(th, wt.lo + 1e-7, wt.hi - 1e-7);  // this half's side of the horizon
                     double phi = ph.x_of(cp, tp);
                     double jac = wt.dx_du(ct, t) * std::sin(th) * ph.dx_du(cp, tp) / (double(kThetaHalf) * kPhi);
-                    glm::vec3 wi = glm::normalize(glm::vec3(float(std::sin(th_eval) * std::cos(phi)),
-                                                            float(std::sin(th_eval) * std::sin(phi)),
-                                                            float(std::cos(th_eval))));
+                    glm::vec3 wi =
+                        glm::normalize(glm::vec3(float(std::sin(th_eval) * std::cos(phi)),
+                                                 float(std::sin(th_eval) * std::sin(phi)), float(std::cos(th_eval))));
                     float p = bsdf_pdf(m, albedo, wo, wi);
                     glm::vec3 e = bsdf_eval(m, albedo, wo, wi);
                     if (!std::isfinite(p) || p < 0.0f || !finite_nonneg(e)) ++out.bad_values;
@@ -366,8 +366,8 @@ Chi2Outcome run_chi2(const Chi2Case& cs, int n_samples, uint64_t seed) {
                     PE g[5][5];
                     for (int i = 0; i < 5; ++i)
                         for (int j = 0; j < 5; ++j)
-                            g[i][j] = (i % 2 == 0 && j % 2 == 0) ? f[i / 2][j / 2]
-                                                                 : node(t0 + h * i / 4.0, p0 + h * j / 4.0);
+                            g[i][j] =
+                                (i % 2 == 0 && j % 2 == 0) ? f[i / 2][j / 2] : node(t0 + h * i / 4.0, p0 + h * j / 4.0);
                     PE coarse = simpson3(f, h), fine;
                     PE q[2][2][3][3];
                     for (int a = 0; a < 2; ++a)
@@ -517,7 +517,8 @@ std::vector<Chi2Case> cases_diffuse_plastic() {
                       dir_cos(c), 2.0});
     }
     cs.push_back({"diffuse twosided back", mat_diffuse(glm::vec3(0.5f), true), dir_cos(-0.5), 2.0});
-    cs.push_back({"plastic twosided back", [] {
+    cs.push_back({"plastic twosided back",
+                  [] {
                       GpuMaterial m = mat_plastic(glm::vec3(0.3f), 1.9f, false);
                       m.header.y = 1u;
                       return m;
@@ -559,9 +560,10 @@ std::vector<Chi2Case> cases_roughdielectric() {
     cs.push_back({"roughdielectric beckmann aniso in", mat_roughdielectric(MF_BECKMANN, 0.3f, 0.08f, 1.5f),
                   dir_cos(-0.7), 0.08});
     cs.push_back({"roughdielectric eta 2.5 out", mat_roughdielectric(MF_GGX, 0.3f, 0.3f, 2.5f), dir_cos(0.5), 0.3});
-    cs.push_back({"roughdielectric eta 2.5 in", mat_roughdielectric(MF_BECKMANN, 0.3f, 0.3f, 2.5f), dir_cos(-0.95),
-                  0.3});
-    cs.push_back({"roughdielectric eta 1/1.33 (ext_ior 1.33)", [] {
+    cs.push_back(
+        {"roughdielectric eta 2.5 in", mat_roughdielectric(MF_BECKMANN, 0.3f, 0.3f, 2.5f), dir_cos(-0.95), 0.3});
+    cs.push_back({"roughdielectric eta 1/1.33 (ext_ior 1.33)",
+                  [] {
                       GpuMaterial m = mat_roughdielectric(MF_GGX, 0.2f, 0.2f, 1.0f);
                       set_ior(m, 1.0f, 1.33f);
                       return m;
@@ -648,8 +650,8 @@ void check_chi2(const std::vector<Chi2Case>& cases, int n_samples, uint64_t seed
         CHECK(r.bad_values == 0);
         CHECK(r.support_violation == 0);  // eval > 0 only where the pdf is > 0
         CHECK(r.checked > 0);
-        CHECK(r.weight_mismatch == 0);    // (2) weight == eval / pdf
-        CHECK(r.pdf_mismatch == 0);       //     pdf == bsdf_pdf
+        CHECK(r.weight_mismatch == 0);  // (2) weight == eval / pdf
+        CHECK(r.pdf_mismatch == 0);     //     pdf == bsdf_pdf
         // (3) the pdf's mass is at most 1 and equals the share of non-delta samples.
         CHECK(r.pdf_mass <= 1.0 + 2e-3);
         double share_sd = std::sqrt(r.ok_share * (1.0 - r.ok_share) / n_samples);
@@ -676,7 +678,8 @@ TEST_CASE("bsdf: erf and erfc and erfinv agree with the C library") {
         double x = vkm_erfinv(float(y));
         INFO("y = " << y);
         // Through the double-precision erf: relative error in 1 - |y| (the tail) and in y.
-        CHECK(std::abs(std::erf(x) - float(y)) <= 2e-6 * (1.0 - std::abs(double(float(y)))) + 2e-7 * std::abs(y) + 1e-9);
+        CHECK(std::abs(std::erf(x) - float(y)) <=
+              2e-6 * (1.0 - std::abs(double(float(y)))) + 2e-7 * std::abs(y) + 1e-9);
     }
 }
 
@@ -865,7 +868,8 @@ TEST_CASE("bsdf: white furnace") {
             GpuMaterial m = mat_diffuse(glm::vec3(1.0f));
             TestRng rng(5);
             for (int i = 0; i < 10000; ++i) {
-                BsdfSample b = bsdf_sample(m, glm::vec3(1.0f), dir_cos(c), rng.next(), glm::vec2(rng.next(), rng.next()));
+                BsdfSample b =
+                    bsdf_sample(m, glm::vec3(1.0f), dir_cos(c), rng.next(), glm::vec2(rng.next(), rng.next()));
                 REQUIRE(b.ok);
                 CHECK(std::abs(b.weight.x - 1.0f) < 1e-6f);
                 CHECK(b.lobe == LOBE_D);
@@ -887,8 +891,8 @@ TEST_CASE("bsdf: white furnace") {
                 GpuMaterial m = mat_roughconductor(dist, a, a, glm::vec3(0.0f), glm::vec3(1.0f));
                 for (double c : {1.0, 0.5}) {
                     FurnaceStats st = furnace(m, dir_cos(c), 200000, 17);
-                    INFO(std::string(dist_name(dist)) << " alpha " << a << " cos " << c << ": " << st.mean << " +- "
-                                                      << st.sd);
+                    INFO(std::string(dist_name(dist))
+                         << " alpha " << a << " cos " << c << ": " << st.mean << " +- " << st.sd);
                     CHECK(st.max <= 1.0 + 1e-5);  // each weight is G1(wi) <= 1
                     CHECK(st.mean <= 1.0 + 3 * st.sd + 1e-6);
                     if (a <= 0.1f) CHECK(st.mean > 0.9);
@@ -927,8 +931,10 @@ TEST_CASE("bsdf: white furnace") {
         const int n = 200000;
         for (int i = 0; i < n; ++i) {
             BsdfSample b = bsdf_sample(thin, glm::vec3(1.0f), dir_cos(-0.3), rng.next(), glm::vec2(0.5f));
-            if (b.wi.z < 0.0f) ++n_r;
-            else CHECK(b.wi == -dir_cos(-0.3));
+            if (b.wi.z < 0.0f)
+                ++n_r;
+            else
+                CHECK(b.wi == -dir_cos(-0.3));
         }
         double f = ref_fresnel_dielectric(0.3, 1.5), r = 2 * f / (1 + f);
         CHECK(std::abs(double(n_r) / n - r) < 5 * std::sqrt(r * (1 - r) / n));
@@ -939,8 +945,8 @@ TEST_CASE("bsdf: white furnace") {
                 for (double c : {0.9, 0.5, -0.8}) {
                     FurnaceStats st =
                         furnace(mat_roughdielectric(dist, a, a, 1.5f), dir_cos(c), 200000, 31, undo_radiance_scaling);
-                    INFO(std::string(dist_name(dist)) << " alpha " << a << " cos " << c << ": " << st.mean << " +- "
-                                                      << st.sd);
+                    INFO(std::string(dist_name(dist))
+                         << " alpha " << a << " cos " << c << ": " << st.mean << " +- " << st.sd);
                     CHECK(st.mean <= 1.0 + 3 * st.sd + 1e-6);
                     if (a <= 0.1f) CHECK(st.mean > 0.9);
                 }
@@ -992,8 +998,10 @@ TEST_CASE("bsdf: roughplastic tables against smooth limits and the roughdielectr
                 float ul = rng.next();
                 BsdfSample b = bsdf_sample(rd, glm::vec3(1.0f), wo, ul, glm::vec2(rng.next(), rng.next()));
                 if (!b.ok) continue;
-                if (b.wi.z < 0.0f) t += b.weight.x * double(b.eta) * b.eta;
-                else r += b.weight.x;
+                if (b.wi.z < 0.0f)
+                    t += b.weight.x * double(b.eta) * b.eta;
+                else
+                    r += b.weight.x;
             }
             INFO(std::string(dist_name(dist)) << " mu " << mu);
             CHECK(roughplastic_transmittance(rp, float(mu)) == doctest::Approx(t / n).epsilon(0.015));
@@ -1101,10 +1109,10 @@ TEST_CASE("bsdf: hard cases stay finite and non-negative (1e6 samples each)") {
             for (float a : {0.001f, 1.0f})
                 hard.push_back({"roughdielectric " + dn + " eta " + std::to_string(eta) + " alpha " + std::to_string(a),
                                 mat_roughdielectric(dist, a, a, eta)});
-        hard.push_back({"roughplastic alpha 0.001 eta 2.5 " + dn,
-                        mat_roughplastic(dist, 0.001f, glm::vec3(1.0f), 2.5f, true)});
-        hard.push_back({"roughplastic alpha 1 eta 1.0001 " + dn,
-                        mat_roughplastic(dist, 1.0f, glm::vec3(0.9f), 1.0001f, false)});
+        hard.push_back(
+            {"roughplastic alpha 0.001 eta 2.5 " + dn, mat_roughplastic(dist, 0.001f, glm::vec3(1.0f), 2.5f, true)});
+        hard.push_back(
+            {"roughplastic alpha 1 eta 1.0001 " + dn, mat_roughplastic(dist, 1.0f, glm::vec3(0.9f), 1.0001f, false)});
     }
     for (float eta : {1.0001f, 2.5f}) {
         hard.push_back({"dielectric eta " + std::to_string(eta), mat_dielectric(MAT_DIELECTRIC, eta)});
@@ -1144,10 +1152,14 @@ TEST_CASE("bsdf: hard cases stay finite and non-negative (1e6 samples each)") {
                 // wo: a quarter each grazing (|z| ~ 1e-4), uniform, near-normal, random side.
                 double z;
                 int mode = i & 3;
-                if (mode == 0) z = (1e-4 * (0.5 + 1.5 * rng.next_double()));
-                else if (mode == 1) z = 2 * rng.next_double() - 1;
-                else if (mode == 2) z = 1 - 1e-6 * rng.next_double();
-                else z = 1e-3 * rng.next_double();
+                if (mode == 0)
+                    z = (1e-4 * (0.5 + 1.5 * rng.next_double()));
+                else if (mode == 1)
+                    z = 2 * rng.next_double() - 1;
+                else if (mode == 2)
+                    z = 1 - 1e-6 * rng.next_double();
+                else
+                    z = 1e-3 * rng.next_double();
                 if (rng.next() < 0.5f) z = -z;
                 glm::vec3 wo = dir_cos(z, 2 * kPi * rng.next_double());
                 float ul = rng.next();
@@ -1168,9 +1180,9 @@ TEST_CASE("bsdf: hard cases stay finite and non-negative (1e6 samples each)") {
                     ok = ok && finite_nonneg(e) && std::isfinite(p) && p >= 0.0f;
                 }
                 if (!ok && bad++ == 0)
-                    first = "wo (" + std::to_string(wo.x) + ", " + std::to_string(wo.y) + ", " +
-                            std::to_string(wo.z) + ") weight " + std::to_string(b.weight.x) + " pdf " +
-                            std::to_string(b.pdf) + " eval " + std::to_string(e.x) + " pdf(wi) " + std::to_string(p);
+                    first = "wo (" + std::to_string(wo.x) + ", " + std::to_string(wo.y) + ", " + std::to_string(wo.z) +
+                            ") weight " + std::to_string(b.weight.x) + " pdf " + std::to_string(b.pdf) + " eval " +
+                            std::to_string(e.x) + " pdf(wi) " + std::to_string(p);
             }
             if (bad) failures[k] = std::to_string(bad) + " bad values, first: " + first;
         }
@@ -1186,7 +1198,6 @@ TEST_CASE("bsdf: hard cases stay finite and non-negative (1e6 samples each)") {
         if (bsdf_is_delta_only(hard[k].m)) CHECK(lobes_seen[k] == (1L << LOBE_S));
         if (nee == LOBE_G) CHECK(lobes_seen[k] == (1L << LOBE_G));
     }
-
 }
 
 TEST_CASE("bsdf: total internal reflection from inside a dielectric always reflects with weight 1") {
@@ -1228,11 +1239,11 @@ TEST_CASE("bsdf: one-sided and twosided materials and the docs/descriptor.md §2
             uint32_t lobe;
             bool delta;
         };
-        for (Row r : {Row{MAT_DIFFUSE, LOBE_D, false}, Row{MAT_PLASTIC, LOBE_D, false},
-                      Row{MAT_ROUGHPLASTIC, LOBE_D, false}, Row{MAT_CONDUCTOR, LOBE_NONE, true},
-                      Row{MAT_ROUGHCONDUCTOR, LOBE_G, false}, Row{MAT_DIELECTRIC, LOBE_NONE, true},
-                      Row{MAT_ROUGHDIELECTRIC, LOBE_G, false}, Row{MAT_THINDIELECTRIC, LOBE_NONE, true},
-                      Row{MAT_PRINCIPLED, LOBE_D, false}}) {
+        for (Row r :
+             {Row{MAT_DIFFUSE, LOBE_D, false}, Row{MAT_PLASTIC, LOBE_D, false}, Row{MAT_ROUGHPLASTIC, LOBE_D, false},
+              Row{MAT_CONDUCTOR, LOBE_NONE, true}, Row{MAT_ROUGHCONDUCTOR, LOBE_G, false},
+              Row{MAT_DIELECTRIC, LOBE_NONE, true}, Row{MAT_ROUGHDIELECTRIC, LOBE_G, false},
+              Row{MAT_THINDIELECTRIC, LOBE_NONE, true}, Row{MAT_PRINCIPLED, LOBE_D, false}}) {
             GpuMaterial m = base_material(r.type);
             INFO("type " << r.type);
             CHECK(bsdf_nee_lobe(m) == r.lobe);
@@ -1260,7 +1271,8 @@ TEST_CASE("bsdf: one-sided and twosided materials and the docs/descriptor.md §2
             TestRng rng(81);
             long seen = 0;
             for (int i = 0; i < 20000; ++i) {
-                BsdfSample b = bsdf_sample(m, albedo_of(m), dir_cos(0.3), rng.next(), glm::vec2(rng.next(), rng.next()));
+                BsdfSample b =
+                    bsdf_sample(m, albedo_of(m), dir_cos(0.3), rng.next(), glm::vec2(rng.next(), rng.next()));
                 if (b.ok) seen |= 1L << b.lobe;
             }
             CHECK(seen == ((1L << want_a) | (1L << want_b)));

@@ -106,7 +106,9 @@ std::pair<uint32_t, uint32_t> leaf_of(const Bvh& bvh, uint32_t i) {
     return {0, 0};
 }
 
-bool same_bits(const glm::vec3& p, const glm::vec3& q) { return std::bit_cast<glm::uvec3>(p) == std::bit_cast<glm::uvec3>(q); }
+bool same_bits(const glm::vec3& p, const glm::vec3& q) {
+    return std::bit_cast<glm::uvec3>(p) == std::bit_cast<glm::uvec3>(q);
+}
 
 }  // namespace
 
@@ -126,8 +128,10 @@ TEST_CASE("bvh: the two triangles of a quad end up next to each other in their l
             glm::vec3 a = grid[y * (n + 1) + x], b = grid[y * (n + 1) + x + 1];
             glm::vec3 c = grid[(y + 1) * (n + 1) + x + 1], d = grid[(y + 1) * (n + 1) + x];
             tris.push_back({a, b, c});
-            if ((x + y) % 2 == 0) tris.push_back({a, c, d});
-            else tris.push_back({a, d, c});  // winding flipped: not (a, c, d)
+            if ((x + y) % 2 == 0)
+                tris.push_back({a, c, d});
+            else
+                tris.push_back({a, d, c});  // winding flipped: not (a, c, d)
         }
     std::shuffle(tris.begin(), tris.end(), rng);
     std::vector<glm::vec3> pos;
@@ -194,8 +198,14 @@ std::string check_bvh4(const std::vector<gpu::GpuBvh4Node>& nodes, const std::ve
     // Returns the box of everything below node `i`, checking each child box contains its part.
     auto walk = [&](auto& self, uint32_t i, uint32_t depth, glm::vec3& lo, glm::vec3& hi) -> void {
         if (!fault.empty()) return;
-        if (i >= nodes.size()) { fault = "interior reference out of range"; return; }
-        if (visited[i]++) { fault = "node reached twice"; return; }
+        if (i >= nodes.size()) {
+            fault = "interior reference out of range";
+            return;
+        }
+        if (visited[i]++) {
+            fault = "node reached twice";
+            return;
+        }
         deepest = std::max(deepest, depth);
         const auto& nd = nodes[i];
         for (int k = 0; k < 4; ++k) {
@@ -207,7 +217,10 @@ std::string check_bvh4(const std::vector<gpu::GpuBvh4Node>& nodes, const std::ve
                 self(self, index, depth + 1, clo, chi);
             } else {
                 for (uint32_t t = index; t < index + count; ++t) {
-                    if (t >= n) { fault = "leaf triangle out of range"; return; }
+                    if (t >= n) {
+                        fault = "leaf triangle out of range";
+                        return;
+                    }
                     seen[t] += 1;
                     for (int v = 0; v < 3; ++v) {
                         clo = glm::min(clo, pos_bvh_order[3 * t + v]);
@@ -346,7 +359,8 @@ TEST_CASE("bvh: a leaf too large for the 4-wide encoding is refused") {
 TEST_CASE("bvh: a leaf size the 4-wide encoding cannot hold is refused at build time") {
     auto pos = triangle_soup(50, 5, 0.5f);
     CHECK_THROWS_AS(build_bvh(pos, BvhBuildOptions{.max_leaf_size = 0}), std::invalid_argument);
-    CHECK_THROWS_AS(build_bvh(pos, BvhBuildOptions{.max_leaf_size = gpu::BVH4_MAX_LEAF / 2 + 1}), std::invalid_argument);
+    CHECK_THROWS_AS(build_bvh(pos, BvhBuildOptions{.max_leaf_size = gpu::BVH4_MAX_LEAF / 2 + 1}),
+                    std::invalid_argument);
     Bvh bvh = build_bvh(pos, BvhBuildOptions{.max_leaf_size = gpu::BVH4_MAX_LEAF / 2});
     CHECK(check_bvh4(collapse_bvh4(bvh), in_bvh_order(bvh, pos)) == "");
 }

@@ -14,6 +14,7 @@
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfInputFile.h>
 
+#include <sys/wait.h>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -22,7 +23,6 @@
 #include <fstream>
 #include <set>
 #include <sstream>
-#include <sys/wait.h>
 
 namespace fs = std::filesystem;
 
@@ -92,7 +92,8 @@ TEST_SUITE("gpu") {
                 }
             return std::vector<std::string>{};
         };
-        auto r = run_cli("bench traversal --scenes cubes_dof --rays 1000 --bvh-only --dump " + (dir.path / "a").string());
+        auto r =
+            run_cli("bench traversal --scenes cubes_dof --rays 1000 --bvh-only --dump " + (dir.path / "a").string());
         INFO(r.output);
         REQUIRE(r.code == 0);
         std::vector<std::string> c = row(r.output);
@@ -189,7 +190,8 @@ TEST_SUITE("gpu") {
         CHECK(exr.attributes["vkmech.spp"] == Attr{"4"});
         CHECK(exr.attributes.count("vkmech.warnings") == 1);
         // No temporary files are left behind by the atomic writes.
-        for (const auto& e : fs::directory_iterator(out)) CHECK(e.path().filename().string().find(".tmp") == std::string::npos);
+        for (const auto& e : fs::directory_iterator(out))
+            CHECK(e.path().filename().string().find(".tmp") == std::string::npos);
         fs::remove_all(out);
     }
 
@@ -208,7 +210,8 @@ TEST_SUITE("gpu") {
     </shape>
 </scene>
 )";
-        auto r = run_cli("render --scene " + (dir / "away.xml").string() + " --spp 2 --res 16 --out " + (dir / "out").string());
+        auto r = run_cli("render --scene " + (dir / "away.xml").string() + " --spp 2 --res 16 --out " +
+                         (dir / "out").string());
         INFO(r.output);
         CHECK(r.code == 0);
         CHECK(r.output.find("vkmech: warning: the image is black") != std::string::npos);
@@ -223,8 +226,10 @@ TEST_SUITE("gpu") {
     TEST_CASE("cli: --capture off writes the image channels alone and the JSON summary reports the run") {
         VKMECH_REQUIRE_GPU(ctx);
         fs::path out = fs::temp_directory_path() / ("vkmech_cli_nocap_" + std::to_string(::getpid()));
-        auto r = run_cli("--scene cubes_dof --spp 2 --res 16 --capture off --estimator nee --light-selection power "
-                         "--end-vertex literal --exposure -1.5 --out " + out.string());
+        auto r = run_cli(
+            "--scene cubes_dof --spp 2 --res 16 --capture off --estimator nee --light-selection power "
+            "--end-vertex literal --exposure -1.5 --out " +
+            out.string());
         INFO(r.output);
         REQUIRE(r.code == 0);
         auto exr = vkmech::read_exr_channels((out / "cubes_dof.exr").string());
@@ -248,7 +253,9 @@ TEST_SUITE("gpu") {
 }
 
 TEST_SUITE("gpu") {
-    TEST_CASE("cli: render records its provenance and the dominant legend in the EXR header and the JSON, and verify outputs checks it") {
+    TEST_CASE(
+        "cli: render records its provenance and the dominant legend in the EXR header and the JSON, and verify outputs "
+        "checks it") {
         VKMECH_REQUIRE_GPU(ctx);
         vkmech::testing::TempDir dir("cli_provenance");
         const std::string scene = std::string(VKMECH_SOURCE_DIR) + "/scenes/sweep_roughness.xml";
@@ -267,7 +274,8 @@ TEST_SUITE("gpu") {
         // Computed here, independently of the renderer: the scene file's SHA-256, the
         // path tracer's digest (the study cache's), the -D values, the samples.
         CHECK(one("vkmech.sceneSha256") == vkmech::sha256_file(scene));
-        CHECK(one("vkmech.codeDigest") == vkmech::render_code_digest(vkmech::Traversal::Bvh, vkmech::vk::KernelClass::Cpu));
+        CHECK(one("vkmech.codeDigest") ==
+              vkmech::render_code_digest(vkmech::Traversal::Bvh, vkmech::vk::KernelClass::Cpu));
         CHECK(a.at("vkmech.defines") == std::vector<std::string>{"alpha=0.1"});
         CHECK(one("vkmech.sampleRange") == "0:3");
         CHECK(one("vkmech.kernel") == "cpu");
@@ -315,7 +323,7 @@ TEST_SUITE("gpu") {
         const Imf::ChannelList& ch = file.header().channels();
         std::set<std::string> layers;
         ch.layers(layers);
-        const char* names[] = {"emitter_direct", "direct", "diffuse_indirect", "glossy", "delta_mediated",
+        const char* names[] = {"emitter_direct",  "direct", "diffuse_indirect", "glossy", "delta_mediated",
                                "specular_direct", "other"};
         for (const char* b : names) {
             const std::string layer = std::string("bucket.") + b;

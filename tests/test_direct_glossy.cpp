@@ -72,7 +72,8 @@ struct SplitRenders {
     Frame plain, split;
 };
 
-SplitRenders render_with_and_without(vkmech::vk::Context& ctx, Scene scene, Traversal trav, Estimator est, uint32_t spp) {
+SplitRenders render_with_and_without(vkmech::vk::Context& ctx, Scene scene, Traversal trav, Estimator est,
+                                     uint32_t spp) {
     RenderSession session(ctx, std::move(scene), trav);
     Features f = session.features(est);
     Renderer plain = session.renderer(f);
@@ -148,7 +149,8 @@ TEST_CASE("direct_glossy: merging frames adds the split when both have it and dr
 TEST_CASE("direct_glossy: the default path-tracing module is not the variant") {
     for (vkmech::vk::KernelClass k : {vkmech::vk::KernelClass::Cpu, vkmech::vk::KernelClass::Gpu}) {
         for (Traversal t : {Traversal::Bvh, Traversal::RayQuery}) {
-            auto plain = pathtrace_spirv(t, k), same = pathtrace_spirv(t, k, false), variant = pathtrace_spirv(t, k, true);
+            auto plain = pathtrace_spirv(t, k), same = pathtrace_spirv(t, k, false),
+                 variant = pathtrace_spirv(t, k, true);
             CHECK(plain.data() == same.data());
             CHECK(plain.size() == same.size());
             CHECK(variant.data() != plain.data());
@@ -224,8 +226,8 @@ TEST_SUITE("gpu") {
                 above += f.direct_glossy_sum[i] > f.pixels[i].bucket_sum[gpu::BUCKET_DIRECT] ? 1 : 0;
             }
             CHECK(above == 0);
-            CHECK(glossy > 0.0);      // both scenes have rough or glossy surfaces lit directly
-            CHECK(glossy < direct);   // and diffuse ones
+            CHECK(glossy > 0.0);     // both scenes have rough or glossy surfaces lit directly
+            CHECK(glossy < direct);  // and diffuse ones
             CHECK(std::memcmp(r.plain.pixels.data(), f.pixels.data(), sizeof(PixelStats) * f.pixels.size()) == 0);
         }
     }
@@ -234,7 +236,8 @@ TEST_SUITE("gpu") {
         VKMECH_REQUIRE_GPU(ctx);
         testing::TempDir dir("direct_glossy_cli");
         std::ofstream(dir.file("planes.xml")) << kTwoPlanes;
-        const std::string common = "render --scene " + dir.file("planes.xml") + " --spp 4 --res 16 --traversal bvh --out ";
+        const std::string common =
+            "render --scene " + dir.file("planes.xml") + " --spp 4 --res 16 --traversal bvh --out ";
         auto plain = testing::run_cli(common + dir.file("plain"));
         INFO(plain.output);
         REQUIRE(plain.code == 0);
@@ -242,7 +245,8 @@ TEST_SUITE("gpu") {
         INFO(split.output);
         REQUIRE(split.code == 0);
         CHECK(split.output.find("direct energy ending at a glossy vertex:") != std::string::npos);
-        ExrImage a = read_exr_channels(dir.file("plain/planes.exr")), b = read_exr_channels(dir.file("split/planes.exr"));
+        ExrImage a = read_exr_channels(dir.file("plain/planes.exr")),
+                 b = read_exr_channels(dir.file("split/planes.exr"));
         CHECK(a.channels.count("lum.direct_glossy") == 0);
         REQUIRE(b.channels.count("lum.direct_glossy") == 1);
         CHECK(b.channels.size() == a.channels.size() + 1);

@@ -66,7 +66,7 @@ const char* kXml = R"(<scene version="3.0.0">
 std::string gltf_json() {
     // Vertices in world space (identity mesh nodes), wound so that the
     // geometric normal is +y for the floor and -y for the emitter.
-    const float pos[] = {-2, 0, 2,   2, 0, 2,   2, 0, -2,   -2, 0, -2,              // floor
+    const float pos[] = {-2,   0, 2,     2,    0, 2,     2,    0, -2,   -2,   0, -2,     // floor
                          0.3f, 2, -0.5f, 1.3f, 2, -0.5f, 1.3f, 2, 0.5f, 0.3f, 2, 0.5f};  // emitter
     const uint16_t idx[] = {0, 1, 2, 0, 2, 3, 0, 1, 2, 0, 2, 3};  // each primitive indexes its own accessor
     std::vector<unsigned char> buf(sizeof pos + sizeof idx);
@@ -81,7 +81,8 @@ std::string gltf_json() {
     std::string s = R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0,1,2]}],
 "nodes":[{"mesh":0},{"mesh":1},{"camera":0,"translation":[0,3,5],"rotation":[)" +
                     f(q.x) + "," + f(q.y) + "," + f(q.z) + "," + f(q.w) + R"(]}],
-"cameras":[{"type":"perspective","perspective":{"yfov":)" + f(40.0 * M_PI / 180.0) +
+"cameras":[{"type":"perspective","perspective":{"yfov":)" +
+                    f(40.0 * M_PI / 180.0) +
                     R"(,"aspectRatio":1,"znear":0.01,"zfar":1000}}],
 "meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":2,"material":0}]},
           {"primitives":[{"attributes":{"POSITION":1},"indices":3,"material":1}]}],
@@ -89,8 +90,9 @@ std::string gltf_json() {
              {"pbrMetallicRoughness":{"baseColorFactor":[0,0,0,1],"metallicFactor":0,"roughnessFactor":1},
               "emissiveFactor":[1,1,1],"extensions":{"KHR_materials_emissive_strength":{"emissiveStrength":10}}}],
 "extensionsUsed":["KHR_materials_emissive_strength"],
-"buffers":[{"byteLength":)" + std::to_string(buf.size()) +
-                    R"(,"uri":"data:application/octet-stream;base64,)" + base64(buf) + R"("}],
+"buffers":[{"byteLength":)" +
+                    std::to_string(buf.size()) + R"(,"uri":"data:application/octet-stream;base64,)" + base64(buf) +
+                    R"("}],
 "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":96},{"buffer":0,"byteOffset":96,"byteLength":24}],
 "accessors":[{"bufferView":0,"byteOffset":0,"componentType":5126,"count":4,"type":"VEC3","min":[-2,0,-2],"max":[2,0,2]},
              {"bufferView":0,"byteOffset":48,"componentType":5126,"count":4,"type":"VEC3","min":[0.3,2,-0.5],"max":[1.3,2,0.5]},

@@ -1,9 +1,9 @@
 // glTF 2.0 loading (docs/descriptor.md §8, glTF part). Every fixture is written here, by
 // hand: the JSON as text and the buffers byte by byte (base64 and the GLB
 // container too), so the tests are a reference independent of tinygltf.
-#include "temp_dir.hpp"
 #include "scene/mesh_ops.hpp"
 #include "scene/scene.hpp"
+#include "temp_dir.hpp"
 
 #include <doctest/doctest.h>
 
@@ -93,18 +93,28 @@ struct Gltf {
         size_t off = bin.size();
         const auto* p = static_cast<const unsigned char*>(data);
         bin.insert(bin.end(), p, p + n);
-        views.push_back("{\"buffer\":0,\"byteOffset\":" + std::to_string(off) + ",\"byteLength\":" + std::to_string(n) + "}");
+        views.push_back("{\"buffer\":0,\"byteOffset\":" + std::to_string(off) + ",\"byteLength\":" + std::to_string(n) +
+                        "}");
         return static_cast<int>(views.size()) - 1;
     }
     int accessor(int view, int component, size_t count, const char* type) {
-        accessors.push_back("{\"bufferView\":" + std::to_string(view) + ",\"componentType\":" + std::to_string(component) +
-                            ",\"count\":" + std::to_string(count) + ",\"type\":\"" + type + "\"}");
+        accessors.push_back("{\"bufferView\":" + std::to_string(view) +
+                            ",\"componentType\":" + std::to_string(component) + ",\"count\":" + std::to_string(count) +
+                            ",\"type\":\"" + type + "\"}");
         return static_cast<int>(accessors.size()) - 1;
     }
-    int vec3s(const std::vector<glm::vec3>& v) { return accessor(view(v.data(), v.size() * 12), 5126, v.size(), "VEC3"); }
-    int vec2s(const std::vector<glm::vec2>& v) { return accessor(view(v.data(), v.size() * 8), 5126, v.size(), "VEC2"); }
-    int indices(const std::vector<uint32_t>& v) { return accessor(view(v.data(), v.size() * 4), 5125, v.size(), "SCALAR"); }
-    int indices16(const std::vector<uint16_t>& v) { return accessor(view(v.data(), v.size() * 2), 5123, v.size(), "SCALAR"); }
+    int vec3s(const std::vector<glm::vec3>& v) {
+        return accessor(view(v.data(), v.size() * 12), 5126, v.size(), "VEC3");
+    }
+    int vec2s(const std::vector<glm::vec2>& v) {
+        return accessor(view(v.data(), v.size() * 8), 5126, v.size(), "VEC2");
+    }
+    int indices(const std::vector<uint32_t>& v) {
+        return accessor(view(v.data(), v.size() * 4), 5125, v.size(), "SCALAR");
+    }
+    int indices16(const std::vector<uint16_t>& v) {
+        return accessor(view(v.data(), v.size() * 2), 5123, v.size(), "SCALAR");
+    }
     int add(std::vector<std::string>& list, const std::string& json) {
         list.push_back(json);
         return static_cast<int>(list.size()) - 1;
@@ -238,7 +248,8 @@ TEST_CASE("gltf: external bin - embedded data URI and glb load the same triangle
     Gltf g;
     int mesh = quad_mesh(g);
     g.root("{\"mesh\":" + std::to_string(mesh) + ",\"translation\":[0.5,0,-2]}");
-    std::vector<std::string> paths = {g.write_external(dir, "ext"), g.write_embedded(dir, "emb"), g.write_glb(dir, "bin")};
+    std::vector<std::string> paths = {g.write_external(dir, "ext"), g.write_embedded(dir, "emb"),
+                                      g.write_glb(dir, "bin")};
     std::vector<Scene> scenes;
     for (const auto& p : paths) scenes.push_back(load_scene(p));
     for (size_t i = 0; i < scenes.size(); ++i) {
@@ -254,7 +265,7 @@ TEST_CASE("gltf: external bin - embedded data URI and glb load the same triangle
         for (size_t v = 0; v < 4; ++v) CHECK(near(m.positions[v], kQuad[v] + glm::vec3(0.5f, 0.0f, -2.0f)));
         CHECK(m.indices == scenes[0].meshes[0].indices);
         for (const auto& t : m.indices) CHECK(triangle_cross(m, t).z > 0.0f);  // CCW front face kept
-        CHECK(m.normals.empty());  // no NORMAL: flat, as glTF asks
+        CHECK(m.normals.empty());                                              // no NORMAL: flat, as glTF asks
         CHECK(has_warning(s, "no camera"));
         CHECK(has_warning(s, "no emitter"));  // a lightless file would render black
         CHECK(s.warnings.size() == 2);        // nothing else to say about a plain file
@@ -432,9 +443,10 @@ TEST_CASE("gltf: metallic-roughness materials map to the model's families") {
     int idx = g.indices(kQuadIdx);
     std::vector<std::string> prims;
     for (int m = 0; m < static_cast<int>(g.materials.size()); ++m)
-        prims.push_back("{\"attributes\":{\"POSITION\":" + std::to_string(pos) + "},\"indices\":" +
-                        std::to_string(idx) + ",\"material\":" + std::to_string(m) + "}");
-    prims.push_back("{\"attributes\":{\"POSITION\":" + std::to_string(pos) + "},\"indices\":" + std::to_string(idx) + "}");
+        prims.push_back("{\"attributes\":{\"POSITION\":" + std::to_string(pos) +
+                        "},\"indices\":" + std::to_string(idx) + ",\"material\":" + std::to_string(m) + "}");
+    prims.push_back("{\"attributes\":{\"POSITION\":" + std::to_string(pos) + "},\"indices\":" + std::to_string(idx) +
+                    "}");
     int mesh = g.add(g.meshes, "{\"name\":\"all\",\"primitives\":[" + join(prims) + "]}");
     g.root("{\"mesh\":" + std::to_string(mesh) + "}");
     Scene s = load_scene(g.write_external(dir, "mats"));
@@ -501,8 +513,9 @@ TEST_CASE("gltf: metallic-roughness materials map to the model's families") {
 TEST_CASE("gltf: emissive materials with emissive_strength are front-side area emitters") {
     TempDir dir("emissive");
     Gltf g;
-    int lamp = g.add(g.materials, "{\"name\":\"lamp\",\"emissiveFactor\":[1,0.5,0.25],"
-                                  "\"extensions\":{\"KHR_materials_emissive_strength\":{\"emissiveStrength\":4}}}");
+    int lamp = g.add(g.materials,
+                     "{\"name\":\"lamp\",\"emissiveFactor\":[1,0.5,0.25],"
+                     "\"extensions\":{\"KHR_materials_emissive_strength\":{\"emissiveStrength\":4}}}");
     int plain = g.add(g.materials, "{\"name\":\"glow\",\"emissiveFactor\":[0.2,0.2,0.2],\"doubleSided\":true}");
     g.used = {"KHR_materials_emissive_strength"};
     int a = quad_mesh(g, lamp), b = quad_mesh(g, plain), c = quad_mesh(g);
@@ -597,9 +610,10 @@ TEST_CASE("gltf: base-colour textures from a data URI and a glb bufferView are d
         int pos = g.vec3s(kQuad);
         int uv = g.vec2s({{0, 0}, {1, 0}, {1, 1}, {0, 1}});
         int idx = g.indices16({0, 1, 2, 0, 2, 3});
-        int mesh = g.add(g.meshes, "{\"primitives\":[{\"attributes\":{\"POSITION\":" + std::to_string(pos) +
-                                       ",\"TEXCOORD_0\":" + std::to_string(uv) + "},\"indices\":" + std::to_string(idx) +
-                                       ",\"material\":" + std::to_string(mat) + "}]}");
+        int mesh =
+            g.add(g.meshes, "{\"primitives\":[{\"attributes\":{\"POSITION\":" + std::to_string(pos) +
+                                ",\"TEXCOORD_0\":" + std::to_string(uv) + "},\"indices\":" + std::to_string(idx) +
+                                ",\"material\":" + std::to_string(mat) + "}]}");
         g.root("{\"mesh\":" + std::to_string(mesh) + "}");
     };
     const float g128 = srgb_to_linear(128.0f / 255.0f);
@@ -659,13 +673,14 @@ TEST_CASE("gltf: what is read but not used is a warning - not an error") {
                     "\"emissiveTexture\":{\"index\":0},\"extensions\":{\"KHR_materials_sheen\":{}}}");
     std::string tri = "\"attributes\":{\"POSITION\":" + std::to_string(pos) + ",\"COLOR_0\":" + std::to_string(color) +
                       "},\"indices\":" + std::to_string(idx);
-    int mesh = g.add(g.meshes, "{\"primitives\":[{" + tri + ",\"material\":" + std::to_string(mat) +
-                                   ",\"targets\":[{\"POSITION\":" + std::to_string(color) + "}]},{" + tri +
-                                   ",\"mode\":0}]}");
+    int mesh =
+        g.add(g.meshes, "{\"primitives\":[{" + tri + ",\"material\":" + std::to_string(mat) +
+                            ",\"targets\":[{\"POSITION\":" + std::to_string(color) + "}]},{" + tri + ",\"mode\":0}]}");
     g.root("{\"mesh\":" + std::to_string(mesh) + ",\"skin\":0}");
     g.used = {"KHR_texture_transform", "KHR_materials_sheen", "EXT_mesh_gpu_instancing"};
-    g.extra = ",\"skins\":[{\"joints\":[0]}],\"animations\":[{\"channels\":[{\"sampler\":0,\"target\":{"
-              "\"node\":0,\"path\":\"translation\"}}],\"samplers\":[{\"input\":0,\"output\":0}]}]";
+    g.extra =
+        ",\"skins\":[{\"joints\":[0]}],\"animations\":[{\"channels\":[{\"sampler\":0,\"target\":{"
+        "\"node\":0,\"path\":\"translation\"}}],\"samplers\":[{\"input\":0,\"output\":0}]}]";
     std::string path = g.write_external(dir, "ignored");
     Scene s = load_scene(path);
     CHECK(s.meshes.size() == 1);  // the POINTS primitive is skipped
@@ -697,8 +712,9 @@ TEST_CASE("gltf: interleaved views - normalized uv - byte indices - 32-bit indic
     int idx_view = g.view(idx, sizeof idx);
     g.accessors.push_back("{\"bufferView\":" + std::to_string(idx_view) +
                           ",\"componentType\":5121,\"count\":6,\"type\":\"SCALAR\"}");
-    int mesh = g.add(g.meshes, "{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1,\"TEXCOORD_0\":2},"
-                               "\"indices\":3}]}");
+    int mesh = g.add(g.meshes,
+                     "{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1,\"TEXCOORD_0\":2},"
+                     "\"indices\":3}]}");
     g.root("{\"mesh\":" + std::to_string(mesh) + "}");
     Scene s = load_scene(g.write_glb(dir, "inter"));
     REQUIRE(s.meshes.size() == 1);
@@ -787,7 +803,8 @@ TEST_CASE("gltf: hostile files are SceneErrors naming the file - never a crash")
     SUBCASE("only non-triangle primitives") {
         Gltf g;
         int pos = g.vec3s(kQuad);
-        int mesh = g.add(g.meshes, "{\"primitives\":[{\"attributes\":{\"POSITION\":" + std::to_string(pos) + "},\"mode\":1}]}");
+        int mesh = g.add(g.meshes,
+                         "{\"primitives\":[{\"attributes\":{\"POSITION\":" + std::to_string(pos) + "},\"mode\":1}]}");
         g.root("{\"mesh\":" + std::to_string(mesh) + "}");
         expect_error(g.write_external(dir, "lines"), "mode other than TRIANGLES");
     }
@@ -807,8 +824,9 @@ TEST_CASE("gltf: hostile files are SceneErrors naming the file - never a crash")
     }
     SUBCASE("a sparse accessor") {
         Gltf g = valid();
-        g.accessors[0] = "{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\",\"sparse\":{"
-                         "\"count\":1,\"indices\":{\"bufferView\":1,\"componentType\":5125},\"values\":{\"bufferView\":0}}}";
+        g.accessors[0] =
+            "{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\",\"sparse\":{"
+            "\"count\":1,\"indices\":{\"bufferView\":1,\"componentType\":5125},\"values\":{\"bufferView\":0}}}";
         expect_error(g.write_external(dir, "sparse"), "sparse accessors are not supported");
     }
     SUBCASE("a node cycle") {
@@ -822,16 +840,18 @@ TEST_CASE("gltf: hostile files are SceneErrors naming the file - never a crash")
         std::vector<glm::vec3> p = kQuad;
         p[2].y = std::nanf("");
         int pos = g.vec3s(p);
-        int mesh = g.add(g.meshes, "{\"name\":\"bad\",\"primitives\":[{\"attributes\":{\"POSITION\":" +
-                                       std::to_string(pos) + "}}]}");
+        int mesh =
+            g.add(g.meshes,
+                  "{\"name\":\"bad\",\"primitives\":[{\"attributes\":{\"POSITION\":" + std::to_string(pos) + "}}]}");
         g.root("{\"mesh\":" + std::to_string(mesh) + "}");
         expect_error(g.write_external(dir, "nan"), "mesh 0 'bad' primitive 0");
     }
     SUBCASE("only degenerate triangles") {
         Gltf g;
         int pos = g.vec3s({{0, 0, 0}, {1, 1, 1}, {2, 2, 2}});
-        int mesh = g.add(g.meshes, "{\"name\":\"flat\",\"primitives\":[{\"attributes\":{\"POSITION\":" +
-                                       std::to_string(pos) + "}}]}");
+        int mesh =
+            g.add(g.meshes,
+                  "{\"name\":\"flat\",\"primitives\":[{\"attributes\":{\"POSITION\":" + std::to_string(pos) + "}}]}");
         g.root("{\"mesh\":" + std::to_string(mesh) + "}");
         expect_error(g.write_external(dir, "degenerate"), "every triangle is degenerate");
     }

@@ -162,7 +162,7 @@ TEST_CASE("guard: starved pixels of a synthetic pilot are flagged and guarded gi
         for (int x = 5; x < 8; ++x) at(f, x, y) = dark();
     const Pilot pilot = make_pilot(f, {});
     const PilotDiagnosis d = diagnose_pilot(pilot);
-    CHECK(d.seen == 38);      // 48 - D - the 9 block pixels
+    CHECK(d.seen == 38);  // 48 - D - the 9 block pixels
     CHECK(d.labelled == 38);
     CHECK(d.lit_no_variance == 3);
     CHECK(d.dark_in_lit_region == 6);
@@ -170,7 +170,8 @@ TEST_CASE("guard: starved pixels of a synthetic pilot are flagged and guarded gi
     CHECK(d.untrusted_share() == doctest::Approx(9.0 / 48.0));
     std::vector<uint8_t> expected(48, kTrusted);
     for (auto [x, y] : {std::pair{1, 1}, {3, 1}, {3, 4}}) expected[y * 8 + x] = kLitNoVariance;
-    for (auto [x, y] : {std::pair{1, 3}, {5, 3}, {6, 3}, {7, 3}, {5, 4}, {5, 5}}) expected[y * 8 + x] = kDarkInLitRegion;
+    for (auto [x, y] : {std::pair{1, 3}, {5, 3}, {6, 3}, {7, 3}, {5, 4}, {5, 5}})
+        expected[y * 8 + x] = kDarkInLitRegion;
     CHECK(d.untrusted_map == expected);
 
     // Observed-var starves them: score 0 (or not finite) -> the floor of 1.
@@ -265,7 +266,9 @@ TEST_CASE("guard: the lit-region window is clipped at the image border and sizes
 }
 
 TEST_SUITE("gpu") {
-    TEST_CASE("guard: on cubes_dof bucket-floor abstains and the guard is silent at N0 = 64 and flags only lit pixels at N0 = 4") {
+    TEST_CASE(
+        "guard: on cubes_dof bucket-floor abstains and the guard is silent at N0 = 64 and flags only lit pixels at N0 "
+        "= 4") {
         VKMECH_REQUIRE_GPU(ctx);
         Renderer r = testing::project_scene_renderer(*ctx, "cubes_dof", 32);
 
@@ -333,7 +336,8 @@ TEST_SUITE("gpu") {
                                   dir.file("out"));
         INFO(r.output);
         REQUIRE(r.code == 0);
-        CHECK(r.output.find("bucket-floor: no heavy-tailed pilot pixels, identical to observed-var") != std::string::npos);
+        CHECK(r.output.find("bucket-floor: no heavy-tailed pilot pixels, identical to observed-var") !=
+              std::string::npos);
         CHECK(r.output.find("guarded: no untrusted pilot pixels, identical to bucket-floor") != std::string::npos);
         CHECK(r.output.find("predicted label reliability of the 256 of 256 pixels the pilot labelled, not of the 0 it "
                             "left unlabelled") != std::string::npos);

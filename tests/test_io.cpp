@@ -1,8 +1,8 @@
 // Image output layer: multi-channel EXR, PNG previews, atomic writes.
-#include "temp_dir.hpp"
 #include "io/atomic_file.hpp"
 #include "io/exr.hpp"
 #include "io/png.hpp"
+#include "temp_dir.hpp"
 
 #include <doctest/doctest.h>
 
@@ -18,12 +18,12 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <utility>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <unistd.h>
@@ -62,9 +62,9 @@ TEST_CASE("io: EXR round-trip of named - layered channels keeps order and exact 
     const size_t n = static_cast<size_t>(w) * h;
     // Deliberately not in alphabetical order; dotted names form layers.
     const std::vector<std::string> names = {
-        "R",           "G",           "B",          "bucket.direct", "bucket.delta", "bucket.glossy",
-        "bucket.diffuse", "dominant", "purity",     "frac.direct",   "frac.delta",   "lum_var",
-        "lum_mean",    "spp",         "nonfinite",  "depth"};
+        "R",         "G",      "B",           "bucket.direct", "bucket.delta", "bucket.glossy", "bucket.diffuse",
+        "dominant",  "purity", "frac.direct", "frac.delta",    "lum_var",      "lum_mean",      "spp",
+        "nonfinite", "depth"};
     REQUIRE(names.size() >= 12);
     const float special[] = {0.0f,
                              -0.0f,
@@ -122,7 +122,8 @@ TEST_CASE("io: EXR round-trip of named - layered channels keeps order and exact 
         } else if (e.name == "half.exact") {
             for (size_t i = 0; i < n; ++i) CHECK(got[i] == e.data[i]);
         } else {
-            for (size_t i = 0; i < n; ++i) CHECK(std::fabs(got[i] - e.data[i]) <= std::fabs(e.data[i]) * (1.0f / 1024.0f));
+            for (size_t i = 0; i < n; ++i)
+                CHECK(std::fabs(got[i] - e.data[i]) <= std::fabs(e.data[i]) * (1.0f / 1024.0f));
         }
     }
 
@@ -293,9 +294,9 @@ TEST_CASE("exr: a header claiming a huge data window is refused with the file na
     const size_t at = bytes.find(tag);
     REQUIRE(at != std::string::npos);
     const size_t box = at + tag.size() + 4;  // after the attribute's int32 size
-    for (const auto& [min_xy, max_xy] : {std::pair<int32_t, int32_t>{0, 99999},
-                                         std::pair<int32_t, int32_t>{std::numeric_limits<int32_t>::min(),
-                                                                     std::numeric_limits<int32_t>::max()}}) {
+    for (const auto& [min_xy, max_xy] :
+         {std::pair<int32_t, int32_t>{0, 99999},
+          std::pair<int32_t, int32_t>{std::numeric_limits<int32_t>::min(), std::numeric_limits<int32_t>::max()}}) {
         std::string patched = bytes;
         const int32_t win[4] = {min_xy, min_xy, max_xy, max_xy};
         std::memcpy(&patched[box], win, sizeof win);

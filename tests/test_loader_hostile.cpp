@@ -1,9 +1,9 @@
 // Hostile scene files (docs/reliability.md, "Loader"): each fixture here once crashed, hung, ate
 // memory without bound or loaded as silent garbage. Every one must now be a
 // SceneError naming the file, quickly. The fixtures are written by the tests.
-#include "temp_dir.hpp"
 #include "render/gpu_scene.hpp"
 #include "scene/scene.hpp"
+#include "temp_dir.hpp"
 
 #include <doctest/doctest.h>
 
@@ -64,7 +64,8 @@ void png_chunk(std::string& png, const char* type, const std::string& data) {
     put_be32(png, static_cast<uint32_t>(data.size()));
     std::string body = std::string(type) + data;
     png += body;
-    put_be32(png, static_cast<uint32_t>(crc32(0, reinterpret_cast<const Bytef*>(body.data()), static_cast<uInt>(body.size()))));
+    put_be32(png, static_cast<uint32_t>(
+                      crc32(0, reinterpret_cast<const Bytef*>(body.data()), static_cast<uInt>(body.size()))));
 }
 
 // A valid grey 8-bit PNG of w x h black pixels.
@@ -76,7 +77,8 @@ std::string black_png(uint32_t w, uint32_t h) {
     png_chunk(png, "IHDR", ihdr);
     uLongf n = compressBound(static_cast<uLong>(raw.size()));
     std::string z(n, '\0');
-    compress(reinterpret_cast<Bytef*>(z.data()), &n, reinterpret_cast<const Bytef*>(raw.data()), static_cast<uLong>(raw.size()));
+    compress(reinterpret_cast<Bytef*>(z.data()), &n, reinterpret_cast<const Bytef*>(raw.data()),
+             static_cast<uLong>(raw.size()));
     z.resize(n);
     png_chunk(png, "IDAT", z);
     png_chunk(png, "IEND", "");
@@ -99,18 +101,19 @@ TEST_CASE("hostile: 20000 nested twosided bsdfs are refused by the nesting limit
         open += "<bsdf type=\"twosided\">";
         close += "</bsdf>";
     }
-    std::string path = write_scene(dir, "deep.xml", "<shape type=\"cube\">\n" + open + "<bsdf type=\"diffuse\"/>" +
-                                                        close + "</shape>");
+    std::string path = write_scene(dir, "deep.xml",
+                                   "<shape type=\"cube\">\n" + open + "<bsdf type=\"diffuse\"/>" + close + "</shape>");
     CHECK_THROWS_WITH_AS(load_scene(path), doctest::Contains("nesting deeper than"), SceneError);
 }
 
 TEST_CASE("hostile: a PLY with two vertex elements is refused (normals for half the positions)") {
     TempDir dir("hostile_ply2v");
     write(dir, "two.ply",
-          ply_header("ascii", "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-                              "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-                              "property float nx\nproperty float ny\nproperty float nz\n"
-                              "element face 2\nproperty list uchar int vertex_indices\n") +
+          ply_header("ascii",
+                     "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                     "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                     "property float nx\nproperty float ny\nproperty float nz\n"
+                     "element face 2\nproperty list uchar int vertex_indices\n") +
               "0 0 0\n1 0 0\n0 1 0\n"
               "0 0 1 0 0 1\n1 0 1 0 0 1\n0 1 1 0 0 1\n"
               "3 0 1 2\n3 3 4 5\n");
@@ -140,9 +143,10 @@ TEST_CASE("hostile: flatten_scene refuses a mesh whose normals or uvs do not mat
 TEST_CASE("hostile: a PLY element with no properties and a count of 1e18 is refused at once") {
     TempDir dir("hostile_plyjunk");
     write(dir, "junk.ply",
-          ply_header("binary_little_endian", "element junk 1000000000000000000\n"
-                                             "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-                                             "element face 1\nproperty list uchar int vertex_indices\n"));
+          ply_header("binary_little_endian",
+                     "element junk 1000000000000000000\n"
+                     "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                     "element face 1\nproperty list uchar int vertex_indices\n"));
     std::string path = write_scene(dir, "s.xml", ply_shape("junk.ply"));
     CHECK_THROWS_WITH_AS(load_scene(path), doctest::Contains("element 'junk'"), SceneError);
 }
@@ -152,9 +156,10 @@ TEST_CASE("hostile: a binary PLY whose vertex count exceeds the file is refused 
     std::string body;
     for (int i = 0; i < 9; ++i) put(body, 0.5f * static_cast<float>(i % 3));
     write(dir, "big.ply",
-          ply_header("binary_little_endian", "element vertex 4000000000\nproperty float x\nproperty float y\n"
-                                             "property float z\nelement face 1\nproperty list uchar int "
-                                             "vertex_indices\n") +
+          ply_header("binary_little_endian",
+                     "element vertex 4000000000\nproperty float x\nproperty float y\n"
+                     "property float z\nelement face 1\nproperty list uchar int "
+                     "vertex_indices\n") +
               body);
     std::string path = write_scene(dir, "s.xml", ply_shape("big.ply"));
     CHECK_THROWS_WITH_AS(load_scene(path), doctest::Contains("more than the"), SceneError);
@@ -207,7 +212,8 @@ TEST_CASE("hostile: spheres past the triangle budget are refused with how to rai
     TempDir dir("hostile_spheres");
     std::string body = "<emitter type=\"area\" id=\"light\"><rgb name=\"radiance\" value=\"1\"/></emitter>\n";
     for (int i = 0; i < 40; ++i)
-        body += "<shape type=\"sphere\"><point name=\"center\" x=\"" + std::to_string(i) + "\" y=\"0\" z=\"0\"/>"
+        body += "<shape type=\"sphere\"><point name=\"center\" x=\"" + std::to_string(i) +
+                "\" y=\"0\" z=\"0\"/>"
                 "<float name=\"radius\" value=\"0.4\"/></shape>\n";
     std::string path = write_scene(dir, "s.xml", body);
     ScopedEnv env("VKMECH_MAX_TRIANGLES", "100000");
@@ -227,9 +233,10 @@ TEST_CASE("hostile: numbers that overflow a 32-bit float are refused with file a
     CHECK_THROWS_WITH_AS(load_scene(write_scene(dir, "o.xml", obj_shape("big.obj"))),
                          doctest::Contains("big.obj:2: value 1e39 overflows a 32-bit float"), SceneError);
     write(dir, "big.ply",
-          ply_header("ascii", "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-                              "property float u\nproperty float v\n"
-                              "element face 1\nproperty list uchar int vertex_indices\n") +
+          ply_header("ascii",
+                     "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                     "property float u\nproperty float v\n"
+                     "element face 1\nproperty list uchar int vertex_indices\n") +
               "0 0 0 0 0\n1 0 0 1e39 0\n0 1 0 0 1\n3 0 1 2\n");
     CHECK_THROWS_WITH_AS(load_scene(write_scene(dir, "p.xml", ply_shape("big.ply"))),
                          doctest::Contains("overflows a 32-bit float"), SceneError);
@@ -243,9 +250,10 @@ TEST_CASE("hostile: a binary PLY with NaN texture coordinates is refused") {
     body += '\3';
     for (int v : {0, 1, 2}) put(body, v);
     write(dir, "uv.ply",
-          ply_header("binary_little_endian", "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-                                             "property float u\nproperty float v\n"
-                                             "element face 1\nproperty list uchar int vertex_indices\n") +
+          ply_header("binary_little_endian",
+                     "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                     "property float u\nproperty float v\n"
+                     "element face 1\nproperty list uchar int vertex_indices\n") +
               body);
     CHECK_THROWS_WITH_AS(load_scene(write_scene(dir, "s.xml", ply_shape("uv.ply"))),
                          doctest::Contains("texture coordinate"), SceneError);
@@ -253,8 +261,9 @@ TEST_CASE("hostile: a binary PLY with NaN texture coordinates is refused") {
 
 TEST_CASE("hostile: glTF JSON nested 200000 deep is refused instead of overflowing the stack") {
     TempDir dir("hostile_json");
-    std::string path = write(dir, "deep.gltf", "{\"asset\":{\"version\":\"2.0\"},\"extras\":" + std::string(200000, '[') +
-                                                   std::string(200000, ']') + "}");
+    std::string path = write(
+        dir, "deep.gltf",
+        "{\"asset\":{\"version\":\"2.0\"},\"extras\":" + std::string(200000, '[') + std::string(200000, ']') + "}");
     CHECK_THROWS_WITH_AS(load_scene(path), doctest::Contains("JSON nested deeper than"), SceneError);
 }
 
@@ -274,10 +283,10 @@ TEST_CASE("hostile: an image wider than the texture limit is refused before deco
 TEST_CASE("hostile: a GLB whose header length leaves no JSON chunk is refused") {
     TempDir dir("hostile_glb");
     std::string glb("glTF", 4);
-    put<uint32_t>(glb, 2);           // version
-    put<uint32_t>(glb, 0);           // length: claims nothing
-    put<uint32_t>(glb, 0x40000000);  // JSON chunk length: 1 GiB
-    put<uint32_t>(glb, 0x4E4F534Au); // "JSON"
+    put<uint32_t>(glb, 2);            // version
+    put<uint32_t>(glb, 0);            // length: claims nothing
+    put<uint32_t>(glb, 0x40000000);   // JSON chunk length: 1 GiB
+    put<uint32_t>(glb, 0x4E4F534Au);  // "JSON"
     glb += "{\"scene\": 0}";
     std::string path = write(dir, "short.glb", glb);
     CHECK_THROWS_WITH_AS(load_scene(path), doctest::Contains("leaves no JSON chunk"), SceneError);

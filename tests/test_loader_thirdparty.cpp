@@ -106,7 +106,7 @@ TEST_CASE("mitsuba third-party: checkerboard and bitmap textures on any colour p
     const Material& plastic = s.materials[s.meshes[2].material];
     REQUIRE(plastic.reflectance.texture >= 0);
     CHECK(s.textures[plastic.reflectance.texture].to_uv[0][0] == 3.0f);  // 0.6's uscale
-    REQUIRE(s.warnings.size() == 1);  // only that nothing emits
+    REQUIRE(s.warnings.size() == 1);                                     // only that nothing emits
     CHECK(has_warning(s, "no emitter"));
 
     // A texture on a float parameter is outside the model: refused, or with

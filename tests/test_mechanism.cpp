@@ -50,8 +50,10 @@ static uint label_bsdf_hit(bool literal, std::initializer_list<uint> lobes) {
             lobe_n = l;
             break;
         }
-        if (l == LOBE_S) delta_before = true;
-        else last_nondelta = l;
+        if (l == LOBE_S)
+            delta_before = true;
+        else
+            last_nondelta = l;
     }
     return classify_event(n, bsdf_hit_end_lobe(literal, lobe_n, last_nondelta),
                           bsdf_hit_delta(literal, lobe_n, last_nondelta, delta_before));

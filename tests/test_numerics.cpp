@@ -16,8 +16,8 @@
 #include <sstream>
 
 using namespace vkmech;
-using testing::RenderSetup;
 using testing::read_text;
+using testing::RenderSetup;
 
 namespace {
 
@@ -88,7 +88,9 @@ Written write_outputs(const testing::TempDir& dir, const Frame& f) {
 
 }  // namespace
 
-TEST_CASE("frame: each bucket's RGB comes from its own three floats of a batch, its energy is their luminance, and frames keep the RGB only when both have it") {
+TEST_CASE(
+    "frame: each bucket's RGB comes from its own three floats of a batch, its energy is their luminance, and frames "
+    "keep the RGB only when both have it") {
     // The shader packs bucket b's R, G, B at floats 3b..3b+2 of GpuPixelAccum::bucket_rgb
     // (shared/types.h): give every float its own value and find each where the layout says.
     std::vector<gpu::GpuPixelAccum> batch(1, gpu::GpuPixelAccum{});

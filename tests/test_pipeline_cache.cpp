@@ -2,24 +2,24 @@
 // hand-made bytes (no device); on the device, a saved file is loaded by the
 // next context, and a corrupted file or an unusable directory never stops a
 // render. Every test uses its own directory, never the user's cache.
-#include "temp_dir.hpp"
 #include "gpu_fixture.hpp"
-#include "render_fixture.hpp"
 #include "render/shader_modules.hpp"
+#include "render_fixture.hpp"
 #include "shared/bindings.h"
+#include "temp_dir.hpp"
 #include "vk/pipeline.hpp"
 #include "vk/pipeline_cache.hpp"
 
 #include <doctest/doctest.h>
 
+#include <sys/wait.h>
+#include <unistd.h>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-#include <sys/wait.h>
-#include <unistd.h>
 
 namespace fs = std::filesystem;
 using namespace vkmech;
@@ -73,7 +73,8 @@ std::vector<uint8_t> read_bytes(const fs::path& p) {
 }
 
 void write_bytes(const fs::path& p, const std::vector<uint8_t>& b) {
-    std::ofstream(p, std::ios::binary).write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(b.size()));
+    std::ofstream(p, std::ios::binary)
+        .write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(b.size()));
 }
 
 // A context of its own, caching in `dir` ("off": none), validated like the shared one.
@@ -158,8 +159,7 @@ TEST_CASE("pipeline cache: foreign, truncated, empty and garbage headers are rej
 
 TEST_CASE("pipeline cache: the file name and the default directory") {
     const auto id = test_identity();
-    CHECK(vkc::pipeline_cache_file_name(id, 0x1234) ==
-          "pipelines-10de-2330-1234-a0a1a2a3a4a5a6a7a8a9aaabacadaeaf.bin");
+    CHECK(vkc::pipeline_cache_file_name(id, 0x1234) == "pipelines-10de-2330-1234-a0a1a2a3a4a5a6a7a8a9aaabacadaeaf.bin");
     // ctest sets VKMECH_CACHE_DIR (CMakeLists.txt); the variable wins when set.
     if (const char* d = std::getenv("VKMECH_CACHE_DIR"); d && *d) CHECK(vkc::default_pipeline_cache_dir() == d);
 }
@@ -204,7 +204,8 @@ TEST_SUITE("gpu") {
         auto foreign = make_blob(test_identity());
         auto truncated = make_blob(device_identity(*shared));
         truncated.resize(17);
-        for (const auto* bytes : {&garbage, &good_header, &foreign, &truncated, static_cast<std::vector<uint8_t>*>(nullptr)}) {
+        for (const auto* bytes :
+             {&garbage, &good_header, &foreign, &truncated, static_cast<std::vector<uint8_t>*>(nullptr)}) {
             CAPTURE(bytes ? bytes->size() : 0);
             write_bytes(file, bytes ? *bytes : std::vector<uint8_t>{});  // nullptr: zero length
             auto ctx = context_with_cache(dir.path.string());

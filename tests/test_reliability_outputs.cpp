@@ -16,6 +16,8 @@
 
 #include <doctest/doctest.h>
 
+#include <sys/wait.h>
+#include <unistd.h>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -23,8 +25,6 @@
 #include <fstream>
 #include <random>
 #include <sstream>
-#include <sys/wait.h>
-#include <unistd.h>
 
 namespace fs = std::filesystem;
 using namespace vkmech;
@@ -100,7 +100,8 @@ std::vector<std::string> temporaries(const fs::path& dir) {
 }
 
 // Runs `body` in a child process with $VKMECH_FAULT set; returns the raw wait status.
-template <class F> int in_child(const std::string& fault, F&& body) {
+template <class F>
+int in_child(const std::string& fault, F&& body) {
     std::fflush(nullptr);
     pid_t pid = fork();
     REQUIRE(pid >= 0);
@@ -148,8 +149,8 @@ TEST_CASE("outputs: a committed set has a manifest that verifies - and replaces 
 
 TEST_CASE("outputs: SIGKILL at every step of writing and committing leaves the old set or the new one - never a mix") {
     // Every fault point of write + commit, each a SIGKILL at that exact step.
-    for (const char* point : {"staged-.exr", "staged-.png", "staged-.json", "commit-staged", "commit-moving",
-                              "commit-moved-one"}) {
+    for (const char* point :
+         {"staged-.exr", "staged-.png", "staged-.json", "commit-staged", "commit-moving", "commit-moved-one"}) {
         CAPTURE(point);
         TempDir tmp("rel_kill");
         const std::string old_id = write_set(tmp.path, "old", true);
@@ -182,7 +183,8 @@ TEST_CASE("outputs: SIGKILL at every step of writing and committing leaves the o
     }
 }
 
-TEST_CASE("outputs: SIGINT and SIGTERM while writing remove the temporaries - exit 130 and 143 - and keep the old set") {
+TEST_CASE(
+    "outputs: SIGINT and SIGTERM while writing remove the temporaries - exit 130 and 143 - and keep the old set") {
     for (const char* sig : {"INT", "TERM"}) {
         CAPTURE(sig);
         TempDir tmp("rel_term");
@@ -243,7 +245,8 @@ TEST_CASE("cli: --out and --cache that cannot be written are refused before rend
     r = run_cli("render --scene cubes_dof --adaptive bucket-floor --pilot 4 --budget 1 --res 16 --out " + bad);
     CHECK(r.code == 2);
     CHECK(r.output.find(bad) != std::string::npos);
-    r = run_cli("study stability --preset quick --scenes cubes_dof --out " + (tmp.path / "s").string() + " --cache " + bad);
+    r = run_cli("study stability --preset quick --scenes cubes_dof --out " + (tmp.path / "s").string() + " --cache " +
+                bad);
     INFO(r.output);
     CHECK(r.code == 2);
     CHECK(r.output.find("--cache '" + bad + "' is not writable") != std::string::npos);
@@ -314,7 +317,8 @@ TEST_CASE("cache: flipped bytes - truncation - a frame under another key - all d
     CHECK_THROWS_AS(cache.load(key), std::runtime_error);
 }
 
-TEST_CASE("cache: a NaN sealed with a valid checksum - an old-format file - and try_load warns removes and never uses") {
+TEST_CASE(
+    "cache: a NaN sealed with a valid checksum - an old-format file - and try_load warns removes and never uses") {
     TempDir tmp("rel_cache_nan");
     RenderCache cache(tmp.path.string());
     const std::string key = "00112233445566778899aabbccddeeff";
@@ -370,7 +374,8 @@ TEST_CASE("temporaries: names carry the host and only this host's dead writers' 
 }
 
 TEST_SUITE("gpu") {
-    TEST_CASE("cli: render writes its outputs as a set with a manifest - SIGTERM mid-write keeps the old set - exit 143") {
+    TEST_CASE(
+        "cli: render writes its outputs as a set with a manifest - SIGTERM mid-write keeps the old set - exit 143") {
         TempDir tmp("rel_cli_set");
         const std::string out = (tmp.path / "o").string();
         auto r = run_cli("render --scene cubes_dof --spp 1 --res 16 --out " + out);

@@ -12,8 +12,8 @@
 #include <cmath>
 #include <cstring>
 #include <functional>
-#include <numeric>
 #include <glm/gtc/matrix_inverse.hpp>
+#include <numeric>
 #include <set>
 
 using namespace vkmech;
@@ -22,11 +22,13 @@ using testing::RenderSetup;
 namespace {
 
 std::string test_scene(const std::string& name) { return std::string(VKMECH_TEST_DATA) + "/render/" + name + ".xml"; }
-std::string project_scene(const std::string& name) { return std::string(VKMECH_SOURCE_DIR) + "/scenes/" + name + ".xml"; }
+std::string project_scene(const std::string& name) {
+    return std::string(VKMECH_SOURCE_DIR) + "/scenes/" + name + ".xml";
+}
 
 struct ImageStats {
-    double mean_lum = 0.0;     // mean over pixels of the per-pixel mean luminance
-    double std_error = 0.0;    // its standard error from the per-pixel sample variances
+    double mean_lum = 0.0;   // mean over pixels of the per-pixel mean luminance
+    double std_error = 0.0;  // its standard error from the per-pixel sample variances
 };
 
 ImageStats image_stats(const Frame& f) {
@@ -81,7 +83,9 @@ TEST_CASE("render: the workgroup order is a permutation that spreads every threa
 }
 
 TEST_SUITE("gpu") {
-    TEST_CASE("render: bucket energies sum to the pixel luminance, their RGB to the pixel's RGB, and `other` gets nothing - on every scene") {
+    TEST_CASE(
+        "render: bucket energies sum to the pixel luminance, their RGB to the pixel's RGB, and `other` gets nothing - "
+        "on every scene") {
         VKMECH_REQUIRE_GPU(ctx);
         for (const auto& path : testing::project_scene_paths()) {
             CAPTURE(path);
@@ -153,7 +157,9 @@ TEST_SUITE("gpu") {
         CHECK(e[gpu::BUCKET_EMITTER_DIRECT] == doctest::Approx(0.5).epsilon(1e-4));
         CHECK(e[gpu::BUCKET_DIRECT] == doctest::Approx(0.25).epsilon(0.02));
         CHECK(e[gpu::BUCKET_DIFFUSE_INDIRECT] == doctest::Approx(0.25 - std::pow(0.5, 12)).epsilon(0.04));
-        CHECK(e[gpu::BUCKET_GLOSSY] + e[gpu::BUCKET_DELTA_MEDIATED] + e[gpu::BUCKET_SPECULAR_DIRECT] + e[gpu::BUCKET_OTHER] == 0.0);
+        CHECK(e[gpu::BUCKET_GLOSSY] + e[gpu::BUCKET_DELTA_MEDIATED] + e[gpu::BUCKET_SPECULAR_DIRECT] +
+                  e[gpu::BUCKET_OTHER] ==
+              0.0);
     }
 
     TEST_CASE("render: the same seed gives bit-identical frames - batching changes only float rounding") {
@@ -173,7 +179,8 @@ TEST_SUITE("gpu") {
             const auto &pa = a.pixels[i], &pb = b.pixels[i], &pc = c.pixels[i];
             identical = identical && std::memcmp(&pa, &pb, sizeof(PixelStats)) == 0;
             for (int k = 0; k < 3; ++k)
-                worst = std::max(worst, std::abs(pa.rgb_sum[k] - pc.rgb_sum[k]) / std::max(1e-6, std::abs(pa.rgb_sum[k])));
+                worst =
+                    std::max(worst, std::abs(pa.rgb_sum[k] - pc.rgb_sum[k]) / std::max(1e-6, std::abs(pa.rgb_sum[k])));
             CHECK(pa.count == pc.count);
         }
         CHECK(identical);
@@ -183,7 +190,9 @@ TEST_SUITE("gpu") {
         CHECK(std::memcmp(&a.pixels[0], &d.pixels[0], sizeof(PixelStats) * a.pixels.size()) != 0);
     }
 
-    TEST_CASE("render: a 137x137 film takes every pixel once - tiles and claimed pixels and the adaptive pixel list agree bit for bit") {
+    TEST_CASE(
+        "render: a 137x137 film takes every pixel once - tiles and claimed pixels and the adaptive pixel list agree "
+        "bit for bit") {
         VKMECH_REQUIRE_GPU(ctx);
         RenderSetup setup;
         // 18 x 18 tiles of 8 x 8, the last row and column partly outside; more
@@ -280,7 +289,8 @@ TEST_SUITE("gpu") {
                              std::equal(a.bucket_rgb_sum.begin() + i * Frame::kBucketRgb,
                                         a.bucket_rgb_sum.begin() + (i + 1) * Frame::kBucketRgb,
                                         b.bucket_rgb_sum.begin() + i * Frame::kBucketRgb);
-                if (std::abs(pa.lum_mean - pb.lum_mean) > 1e-5 * std::max({pa.lum_mean, pb.lum_mean, 1e-3})) differing++;
+                if (std::abs(pa.lum_mean - pb.lum_mean) > 1e-5 * std::max({pa.lum_mean, pb.lum_mean, 1e-3}))
+                    differing++;
             }
             MESSAGE(path << ": " << identical << " of " << a.pixels.size() << " pixels bit-identical, " << differing
                          << " differ by more than 1e-5");
@@ -359,7 +369,9 @@ TEST_SUITE("gpu") {
 }
 
 TEST_SUITE("gpu") {
-    TEST_CASE("render: an emitter whose winding disagrees with its normals emits on the normals' side for NEE and for hits alike") {
+    TEST_CASE(
+        "render: an emitter whose winding disagrees with its normals emits on the normals' side for NEE and for hits "
+        "alike") {
         VKMECH_REQUIRE_GPU(ctx);
         // A 2x2 diffuse floor at z = 0 under a 0.6 x 0.6 emitting quad at z = 1, seen from z = 3 looking down.
         // The light's winding faces up (+z); its authored normals face down, at the floor. Mitsuba emits on the
@@ -436,7 +448,8 @@ TEST_SUITE("gpu") {
             if (std::abs(c.r - c.g) < 0.05f && std::abs(c.g - c.b) < 0.05f) return 'w';
             return '?';
         };
-        char q00 = kind(colour_at(6, 6)), q10 = kind(colour_at(26, 6)), q01 = kind(colour_at(6, 26)), q11 = kind(colour_at(26, 26));
+        char q00 = kind(colour_at(6, 6)), q10 = kind(colour_at(26, 6)), q01 = kind(colour_at(6, 26)),
+             q11 = kind(colour_at(26, 26));
         std::string all = {q00, q10, q01, q11};
         CAPTURE(all);
         std::string sorted = all;
@@ -510,50 +523,52 @@ TEST_SUITE("gpu") {
         }
     }
 
-    TEST_CASE("render: the GPU labels recorded events exactly as the C++ cascade does (debug event mode) under both end-vertex readings") {
+    TEST_CASE(
+        "render: the GPU labels recorded events exactly as the C++ cascade does (debug event mode) under both "
+        "end-vertex readings") {
         VKMECH_REQUIRE_GPU(ctx);
         for (const EndVertex reading : {EndVertex::LastNonDelta, EndVertex::Literal})
-        for (const char* name : {"snooker", "glass_caustic", "kitchen_counter", "ring_caustic"}) {
-            CAPTURE(name);
-            CAPTURE(static_cast<int>(reading));
-            Scene scene = load_scene(project_scene(name));
-            scene.camera.width = scene.camera.height = 32;
-            RenderSession session(*ctx, scene, Traversal::Bvh);
-            Features f = session.features();
-            f.debug_events = true;
-            f.end_vertex = reading;
-            Renderer r = session.renderer(f);
-            RenderSpec spec;
-            spec.spp = 64;
-            // Pick the pixels carrying the most heavy-tailed energy, plus the centre.
-            Frame probe = r.render(spec);
-            std::vector<uint32_t> pixels = {32 * 16 + 16};
-            for (uint32_t bucket : {gpu::BUCKET_DELTA_MEDIATED, gpu::BUCKET_GLOSSY, gpu::BUCKET_SPECULAR_DIRECT}) {
-                uint32_t best = 0;
-                for (uint32_t i = 0; i < probe.pixels.size(); ++i)
-                    if (probe.pixels[i].bucket_sum[bucket] > probe.pixels[best].bucket_sum[bucket]) best = i;
-                if (probe.pixels[best].bucket_sum[bucket] > 0.0) pixels.push_back(best);
-            }
-            std::set<uint32_t> seen_buckets;
-            for (uint32_t px : pixels) {
-                CAPTURE(px);
-                Frame frame;
-                auto events = r.render_debug_events(spec, px, 65536, &frame);
-                REQUIRE(events.size() < 65536);
-                std::array<double, kBucketCount> sums{};
-                for (const auto& e : events) {
-                    uint32_t expected = shader::classify_event(e.label.x, e.label.y, e.label.z != 0);
-                    CHECK(e.label.w == expected);
-                    CHECK(e.energy.x >= 0.0f);
-                    sums[e.label.w] += e.energy.x;
-                    seen_buckets.insert(e.label.w);
+            for (const char* name : {"snooker", "glass_caustic", "kitchen_counter", "ring_caustic"}) {
+                CAPTURE(name);
+                CAPTURE(static_cast<int>(reading));
+                Scene scene = load_scene(project_scene(name));
+                scene.camera.width = scene.camera.height = 32;
+                RenderSession session(*ctx, scene, Traversal::Bvh);
+                Features f = session.features();
+                f.debug_events = true;
+                f.end_vertex = reading;
+                Renderer r = session.renderer(f);
+                RenderSpec spec;
+                spec.spp = 64;
+                // Pick the pixels carrying the most heavy-tailed energy, plus the centre.
+                Frame probe = r.render(spec);
+                std::vector<uint32_t> pixels = {32 * 16 + 16};
+                for (uint32_t bucket : {gpu::BUCKET_DELTA_MEDIATED, gpu::BUCKET_GLOSSY, gpu::BUCKET_SPECULAR_DIRECT}) {
+                    uint32_t best = 0;
+                    for (uint32_t i = 0; i < probe.pixels.size(); ++i)
+                        if (probe.pixels[i].bucket_sum[bucket] > probe.pixels[best].bucket_sum[bucket]) best = i;
+                    if (probe.pixels[best].bucket_sum[bucket] > 0.0) pixels.push_back(best);
                 }
-                // The recorded events are exactly what the pixel accumulated.
-                for (uint32_t b = 0; b < kBucketCount; ++b)
-                    CHECK(sums[b] == doctest::Approx(frame.pixels[px].bucket_sum[b]).epsilon(1e-4));
+                std::set<uint32_t> seen_buckets;
+                for (uint32_t px : pixels) {
+                    CAPTURE(px);
+                    Frame frame;
+                    auto events = r.render_debug_events(spec, px, 65536, &frame);
+                    REQUIRE(events.size() < 65536);
+                    std::array<double, kBucketCount> sums{};
+                    for (const auto& e : events) {
+                        uint32_t expected = shader::classify_event(e.label.x, e.label.y, e.label.z != 0);
+                        CHECK(e.label.w == expected);
+                        CHECK(e.energy.x >= 0.0f);
+                        sums[e.label.w] += e.energy.x;
+                        seen_buckets.insert(e.label.w);
+                    }
+                    // The recorded events are exactly what the pixel accumulated.
+                    for (uint32_t b = 0; b < kBucketCount; ++b)
+                        CHECK(sums[b] == doctest::Approx(frame.pixels[px].bucket_sum[b]).epsilon(1e-4));
+                }
+                CHECK(seen_buckets.size() >= 2);
             }
-            CHECK(seen_buckets.size() >= 2);
-        }
     }
 }
 
@@ -597,7 +612,8 @@ TEST_SUITE("gpu") {
         VKMECH_REQUIRE_GPU(ctx);
         auto r = render_labelled(*ctx, "cubes_dof", 128, 16);
         CHECK(r.summary.pixel_share[gpu::BUCKET_DIRECT] > 0.8);
-        for (uint32_t b : {gpu::BUCKET_GLOSSY, gpu::BUCKET_DELTA_MEDIATED, gpu::BUCKET_SPECULAR_DIRECT, gpu::BUCKET_OTHER}) {
+        for (uint32_t b :
+             {gpu::BUCKET_GLOSSY, gpu::BUCKET_DELTA_MEDIATED, gpu::BUCKET_SPECULAR_DIRECT, gpu::BUCKET_OTHER}) {
             CHECK(r.summary.pixel_share[b] == 0.0);
             CHECK(r.summary.energy_share[b] == 0.0);
         }

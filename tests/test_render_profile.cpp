@@ -21,12 +21,14 @@ TEST_SUITE("gpu") {
         CHECK(prof.batches == 5);
         CHECK(prof.dispatch > 0.0);
         for (double x : {prof.upload, prof.dispatch, prof.readback, prof.accumulate, prof.callbacks}) CHECK(x >= 0.0);
-        CHECK(prof.upload + prof.dispatch + prof.readback + prof.accumulate + prof.callbacks <= profiled.seconds + 1e-6);
+        CHECK(prof.upload + prof.dispatch + prof.readback + prof.accumulate + prof.callbacks <=
+              profiled.seconds + 1e-6);
         // Profiling changes no pixel.
         REQUIRE(plain.pixels.size() == profiled.pixels.size());
         bool same = true;
         for (size_t i = 0; i < plain.pixels.size(); ++i)
-            same = same && plain.pixels[i].rgb_sum == profiled.pixels[i].rgb_sum && plain.pixels[i].lum_m2 == profiled.pixels[i].lum_m2;
+            same = same && plain.pixels[i].rgb_sum == profiled.pixels[i].rgb_sum &&
+                   plain.pixels[i].lum_m2 == profiled.pixels[i].lum_m2;
         CHECK(same);
     }
 }

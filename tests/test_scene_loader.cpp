@@ -144,8 +144,8 @@ TEST_CASE("primitives: sphere under a similarity transform keeps (p - c) / r nor
     check_mesh_invariants(m);
     Mesh inward = make_sphere(glm::vec3(0.0f), 1.0f, t, /*flip_normals=*/true);
     check_mesh_invariants(inward);
-    CHECK(glm::dot(inward.normals[inward.positions.size() / 2], inward.positions[inward.positions.size() / 2] -
-                                                                    inward.center) < 0.0f);
+    CHECK(glm::dot(inward.normals[inward.positions.size() / 2],
+                   inward.positions[inward.positions.size() / 2] - inward.center) < 0.0f);
 }
 
 TEST_CASE("primitives: a non-uniformly scaled sphere is an ellipsoid with exact normals - not a sphere") {

@@ -17,7 +17,8 @@ namespace {
 std::string scene_path(const std::string& name) { return std::string(VKMECH_SOURCE_DIR) + "/scenes/" + name + ".xml"; }
 
 int count_kind(const Scene& s, ShapeKind k) {
-    return static_cast<int>(std::count_if(s.meshes.begin(), s.meshes.end(), [&](const Mesh& m) { return m.kind == k; }));
+    return static_cast<int>(
+        std::count_if(s.meshes.begin(), s.meshes.end(), [&](const Mesh& m) { return m.kind == k; }));
 }
 
 const Material& material_of(const Scene& s, const Mesh& m) { return s.materials.at(m.material); }
@@ -186,7 +187,8 @@ TEST_CASE("scenes: tabletop_separated is tabletop_mixed plus one opaque partitio
     // The extra mesh is the partition: opaque (diffuse), not an emitter.
     int extra = 0;
     for (const auto& m : sep.meshes) {
-        bool in_mixed = std::any_of(mixed.meshes.begin(), mixed.meshes.end(), [&](const Mesh& o) { return o.name == m.name; });
+        bool in_mixed =
+            std::any_of(mixed.meshes.begin(), mixed.meshes.end(), [&](const Mesh& o) { return o.name == m.name; });
         if (in_mixed) continue;
         ++extra;
         CHECK(m.name == "partition");
@@ -215,8 +217,8 @@ TEST_CASE("scenes: tabletop_mixed interleaves the delta-S and glossy balls") {
     // Not two groups on two sides: no vertical plane separates the families.
     CHECK(hulls_overlap(delta, glossy));
     // (The check can fail: two groups on two sides of x = 0, as the old design had.)
-    CHECK_FALSE(hulls_overlap({{-0.2f, 0.0f}, {-0.3f, -0.25f}, {-0.1f, 0.3f}},
-                              {{0.2f, 0.1f}, {0.35f, -0.2f}, {0.1f, -0.3f}}));
+    CHECK_FALSE(
+        hulls_overlap({{-0.2f, 0.0f}, {-0.3f, -0.25f}, {-0.1f, 0.3f}}, {{0.2f, 0.1f}, {0.35f, -0.2f}, {0.1f, -0.3f}}));
     CHECK(hulls_overlap({{-0.3f, 0.0f}, {0.04f, -0.35f}, {0.04f, 0.35f}}, {{-0.04f, 0.0f}}));
     // Each ball has a ball of the other family within 0.06 m (surface to
     // surface): close proximity.

@@ -216,12 +216,12 @@ TEST_CASE("sentinel: evaluate decides every prediction by its registered rule") 
     in.pilots = s.pilots;
     const sentinel::Evaluation e = sentinel::evaluate(r, in);
     CHECK(e.pilot_reproduced);
-    CHECK(verdict(e, "coverage.diffuse_indirect.pixel_share") == "PASS");  // measured 1.0, |0.03| <= 0.05
-    CHECK(verdict(e, "coverage.direct.pixel_share") == "FAIL");            // measured 0.0, |0.10| > 0.05
-    CHECK(verdict(e, "coverage.diffuse_indirect.energy_share") == "PASS"); // exactly 1.0 within a band of 0
-    CHECK(verdict(e, "reliability.margin") == "PASS");                     // agreement 1.0
+    CHECK(verdict(e, "coverage.diffuse_indirect.pixel_share") == "PASS");   // measured 1.0, |0.03| <= 0.05
+    CHECK(verdict(e, "coverage.direct.pixel_share") == "FAIL");             // measured 0.0, |0.10| > 0.05
+    CHECK(verdict(e, "coverage.diffuse_indirect.energy_share") == "PASS");  // exactly 1.0 within a band of 0
+    CHECK(verdict(e, "reliability.margin") == "PASS");                      // agreement 1.0
     CHECK(verdict(e, "reliability.purity") == "FAIL");
-    CHECK(verdict(e, "allocation.observed-var_vs_uniform") == "PASS");     // the floor of 1 in B: a^2 against (a/33)^2
+    CHECK(verdict(e, "allocation.observed-var_vs_uniform") == "PASS");  // the floor of 1 in B: a^2 against (a/33)^2
     CHECK(verdict(e, "allocation.bucket-floor_vs_uniform") == "FAIL");
     CHECK(verdict(e, "allocation.bucket-floor_vs_observed-var") == "PASS");  // no heavy label: identical plans
     // B is lit with no pilot variance: untrusted, so guarded moves samples there and is not a no-op.
@@ -233,7 +233,8 @@ TEST_CASE("sentinel: evaluate decides every prediction by its registered rule") 
     CHECK(e.pass == 5);
     CHECK(e.fail == 4);
     CHECK(e.indeterminate == 3);
-    // The uniform image: A exact, B the mean of 33 alternating samples (one extra 1 + a): error (a/33)^2 on half the pixels.
+    // The uniform image: A exact, B the mean of 33 alternating samples (one extra 1 + a): error (a/33)^2 on half the
+    // pixels.
     const double uniform_mse = 0.5 * (0.5 / 33) * (0.5 / 33);
     REQUIRE(e.strategies.front().name == "uniform");
     CHECK(e.strategies.front().mse[0] == doctest::Approx(uniform_mse).epsilon(1e-6));
@@ -250,8 +251,9 @@ TEST_CASE("sentinel: evaluate decides every prediction by its registered rule") 
 TEST_CASE("sentinel: the loader lists the mesh and include files a record must digest") {
     testing::TempDir dir("sentinel_files");
     write_text(dir.file("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
-    write_text(dir.file("part.xml"), "<scene version=\"3.0.0\"><shape type=\"obj\"><string name=\"filename\" "
-                                     "value=\"tri.obj\"/></shape></scene>\n");
+    write_text(dir.file("part.xml"),
+               "<scene version=\"3.0.0\"><shape type=\"obj\"><string name=\"filename\" "
+               "value=\"tri.obj\"/></shape></scene>\n");
     write_text(dir.file("main.xml"),
                "<scene version=\"3.0.0\"><sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/>"
                "<transform name=\"to_world\"><lookat origin=\"0, 0, 5\" target=\"0, 0, 0\" up=\"0, 1, 0\"/></transform>"
@@ -359,8 +361,8 @@ TEST_CASE("sentinel: the prediction rules over a pilot diagnosis") {
     CHECK(find(ps, "allocation.bucket-floor_vs_observed-var")->outcome == "no-op");
     CHECK(find(ps, "allocation.guarded_vs_bucket-floor")->outcome == "no-op");
     CHECK_FALSE(find(ps, "allocation.robust-var_vs_uniform"));  // no median-of-means given
-    CHECK_FALSE(find(ps, "reliability.margin"));                 // no curve given
-    CHECK_FALSE(find(ps, "structure.rho_CG_sign"));              // no separation given
+    CHECK_FALSE(find(ps, "reliability.margin"));                // no curve given
+    CHECK_FALSE(find(ps, "structure.rho_CG_sign"));             // no separation given
     REQUIRE(find(ps, "coverage.emitter_direct.pixel_share"));
     CHECK(find(ps, "coverage.emitter_direct.pixel_share")->value == doctest::Approx(1.0));
 
@@ -376,7 +378,8 @@ TEST_CASE("sentinel: the prediction rules over a pilot diagnosis") {
     d.untrusted = 4;
     CHECK(find(sentinel::predict(pilot.frame, d, nullptr, nullptr), "allocation.observed-var_vs_uniform")->outcome ==
           "helps");
-    CHECK(find(sentinel::predict(pilot.frame, d, nullptr, nullptr), "allocation.guarded_vs_uniform")->outcome == "helps");
+    CHECK(find(sentinel::predict(pilot.frame, d, nullptr, nullptr), "allocation.guarded_vs_uniform")->outcome ==
+          "helps");
     // A pilot shorter than 16 samples per pixel: the pilot-variance strategies, guarded included, fail against uniform.
     const Frame short_pilot = synthetic_pilot(10, 10, 0, 8);
     ps = sentinel::predict(short_pilot, d, nullptr, nullptr);
@@ -452,7 +455,9 @@ TEST_SUITE("gpu") {
         // Evaluate the intact record with a small protocol (registered below): PASS/FAIL per prediction.
         const std::string rec2 = dir.file("small.sentinel.json");
         REQUIRE(testing::run_cli("sentinel register --scene cubes_dof --res 16 --pilot 8 --reference-spp 64 --draws 2 "
-                                 "--out " + rec2).code == 0);
+                                 "--out " +
+                                 rec2)
+                    .code == 0);
         const std::string ev = dir.file("ev");
         auto e = testing::run_cli("sentinel evaluate " + rec2 + " --out " + ev);
         INFO(e.output);
@@ -472,8 +477,11 @@ TEST_SUITE("gpu") {
         const std::string scene_copy = dir.file("copy.xml");
         std::filesystem::copy_file(std::string(VKMECH_SOURCE_DIR) + "/scenes/cubes_dof.xml", scene_copy);
         const std::string rec3 = dir.file("copy.sentinel.json");
-        REQUIRE(testing::run_cli("sentinel register --scene " + scene_copy + " --res 16 --pilot 8 --reference-spp 64 "
-                                 "--draws 1 --out " + rec3).code == 0);
+        REQUIRE(testing::run_cli("sentinel register --scene " + scene_copy +
+                                 " --res 16 --pilot 8 --reference-spp 64 "
+                                 "--draws 1 --out " +
+                                 rec3)
+                    .code == 0);
         write_text(scene_copy, read_text(scene_copy) + "<!-- edited -->\n");
         e = testing::run_cli("sentinel evaluate " + rec3 + " --out " + dir.file("ev3"));
         CHECK(e.code == 1);

@@ -6,11 +6,11 @@
 // the project's Finding-1 scenes.
 #include "gpu_fixture.hpp"
 
-#include "study/separation_gpu.hpp"
+#include "bsdf.glsl"
 #include "render/gpu_scene.hpp"
 #include "scene/primitives.hpp"
 #include "scene/scene.hpp"
-#include "bsdf.glsl"
+#include "study/separation_gpu.hpp"
 
 #include <doctest/doctest.h>
 
@@ -128,15 +128,12 @@ TEST_CASE("separation: family rule by BSDF lobe flags for every material type") 
         BsdfType type;
         SeparationFamily family;
     };
-    const Row rows[] = {{BsdfType::Diffuse, SeparationFamily::None},
-                        {BsdfType::Plastic, SeparationFamily::Delta},
-                        {BsdfType::RoughPlastic, SeparationFamily::Glossy},
-                        {BsdfType::Conductor, SeparationFamily::Delta},
-                        {BsdfType::RoughConductor, SeparationFamily::Glossy},
-                        {BsdfType::Dielectric, SeparationFamily::Delta},
-                        {BsdfType::RoughDielectric, SeparationFamily::Glossy},
-                        {BsdfType::ThinDielectric, SeparationFamily::Delta},
-                        {BsdfType::Principled, SeparationFamily::Glossy}};
+    const Row rows[] = {
+        {BsdfType::Diffuse, SeparationFamily::None},           {BsdfType::Plastic, SeparationFamily::Delta},
+        {BsdfType::RoughPlastic, SeparationFamily::Glossy},    {BsdfType::Conductor, SeparationFamily::Delta},
+        {BsdfType::RoughConductor, SeparationFamily::Glossy},  {BsdfType::Dielectric, SeparationFamily::Delta},
+        {BsdfType::RoughDielectric, SeparationFamily::Glossy}, {BsdfType::ThinDielectric, SeparationFamily::Delta},
+        {BsdfType::Principled, SeparationFamily::Glossy}};
     CHECK(std::size(rows) == gpu::MAT_PRINCIPLED + 1);  // a new BsdfType needs a row
     for (const Row& r : rows)
         for (bool twosided : {false, true}) {
@@ -184,7 +181,8 @@ TEST_CASE("separation: family rule by BSDF lobe flags for every material type") 
                 CHECK(f == SeparationFamily::Delta);
             else if (n == "gold_sphere" || n == "aluminium_sphere" || n == "frosted_sphere")
                 CHECK(f == SeparationFamily::Glossy);
-            else CHECK(f == SeparationFamily::None);
+            else
+                CHECK(f == SeparationFamily::None);
             nd += f == SeparationFamily::Delta;
             ng += f == SeparationFamily::Glossy;
         }
@@ -427,7 +425,7 @@ TEST_CASE("separation: triangle distance agrees with dense point sampling of bot
         glm::dvec3 shift = rnd() * 1.2;
         Triangle3 b = {rnd() * 0.7 + shift, rnd() * 0.7 + shift, rnd() * 0.7 + shift};
         if (k % 10 == 7) b[2] = 0.3 * b[0] + 0.7 * b[1];  // (nearly) degenerate
-        if (k % 10 == 8) {                               // coplanar with a, moved in its plane
+        if (k % 10 == 8) {                                // coplanar with a, moved in its plane
             glm::dvec3 along = (a[1] - a[0]) * (0.5 * u()) + (a[2] - a[0]) * (0.5 * u());
             b = {a[0] + along, a[1] + along * 0.5 + (a[2] - a[1]) * 0.3, a[2] + along};
         }
@@ -446,12 +444,15 @@ TEST_CASE("separation: triangle distance agrees with dense point sampling of bot
         CAPTURE(sampled);
         CHECK(sampled >= exact - 1e-12);
         CHECK(sampled <= exact + tol);
-        if (triangles_intersect(a, b)) CHECK(exact == 0.0);
-        else if (k % 10 != 8) CHECK(exact > 0.0);  // (nearly coplanar pairs may touch within rounding)
+        if (triangles_intersect(a, b))
+            CHECK(exact == 0.0);
+        else if (k % 10 != 8)
+            CHECK(exact > 0.0);  // (nearly coplanar pairs may touch within rounding)
         zero += exact == 0.0;
         edge_closest += vertex_triangle_min(a, b) > exact + 1e-9;
     }
-    MESSAGE("random pairs: " << zero << " intersecting, " << edge_closest << " closer than any vertex-triangle distance");
+    MESSAGE("random pairs: " << zero << " intersecting, " << edge_closest
+                             << " closer than any vertex-triangle distance");
     CHECK(zero >= 4);
     CHECK(edge_closest >= 8);
 }
@@ -562,8 +563,8 @@ TEST_SUITE("gpu") {
             Scene scene = load_scene(scene_path(name));
             SeparationMeasures m = measure_separation(RenderSession(*ctx, scene, Traversal::Bvh));
             MESSAGE(name << ": delta-S objects " << m.delta_objects << ", glossy objects " << m.glossy_objects
-                         << ", min distance " << m.min_distance << " m, mutual visibility " << m.mutual_visibility << " ("
-                         << m.visible << " of " << m.segments << " segments)");
+                         << ", min distance " << m.min_distance << " m, mutual visibility " << m.mutual_visibility
+                         << " (" << m.visible << " of " << m.segments << " segments)");
             REQUIRE(m.defined());
             CHECK(m.segments == 64ull * 64ull * m.delta_objects * m.glossy_objects);
             CHECK(std::isfinite(m.min_distance));
@@ -590,7 +591,8 @@ TEST_SUITE("gpu") {
                             const Mesh &a = scene.meshes[i], &b = scene.meshes[j];
                             REQUIRE(a.radius > 0.0f);
                             REQUIRE(b.radius > 0.0f);
-                            gap = std::min(gap, glm::length(glm::dvec3(a.center) - glm::dvec3(b.center)) - a.radius - b.radius);
+                            gap = std::min(
+                                gap, glm::length(glm::dvec3(a.center) - glm::dvec3(b.center)) - a.radius - b.radius);
                         }
                 CAPTURE(gap);
                 CHECK(std::abs(m.min_distance - gap) <= 0.01 * gap);
@@ -624,8 +626,10 @@ TEST_SUITE("gpu") {
                 CHECK(m.delta_objects == 3);
                 CHECK(m.glossy_objects == 3);
                 CHECK(m.segments == uint64_t(s.points) * s.points * 9u);
-                if (name == "tabletop_mixed") CHECK(m.mutual_visibility > 0.0);
-                else CHECK(m.visible == 0u);
+                if (name == "tabletop_mixed")
+                    CHECK(m.mutual_visibility > 0.0);
+                else
+                    CHECK(m.visible == 0u);
             }
         }
         CHECK(ctx->validation_messages() == 0);

@@ -3,19 +3,19 @@
 // with and without normals and uvs, two meshes in one file), load them back,
 // load one through a scene XML, and check that hostile files are SceneErrors
 // naming the file.
-#include "temp_dir.hpp"
 #include "scene/scene.hpp"
 #include "scene/serialized_io.hpp"
+#include "temp_dir.hpp"
 
 #include <doctest/doctest.h>
 
 #include <zlib.h>
 
+#include <unistd.h>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
-#include <unistd.h>
 #include <vector>
 
 namespace fs = std::filesystem;
@@ -66,16 +66,20 @@ struct Options {
 // The uncompressed body of one mesh.
 std::string mesh_body(const TestMesh& m, const Options& o) {
     std::string s;
-    uint32_t flags = (o.no_precision_flag ? 0x100u : o.dbl ? 0x2000u : 0x1000u) | (o.normals ? 0x1u : 0u) |
-                     (o.uvs ? 0x2u : 0u) | (o.colors ? 0x8u : 0u);
+    uint32_t flags = (o.no_precision_flag ? 0x100u
+                      : o.dbl             ? 0x2000u
+                                          : 0x1000u) |
+                     (o.normals ? 0x1u : 0u) | (o.uvs ? 0x2u : 0u) | (o.colors ? 0x8u : 0u);
     put(s, flags);
     if (o.version == 4) s += m.name + '\0';
     put<uint64_t>(s, o.vertex_count_override ? o.vertex_count_override : m.vertex_count());
     put<uint64_t>(s, m.indices.size() / 3);
     auto reals = [&](const std::vector<double>& v) {
         for (double x : v) {
-            if (o.dbl) put<double>(s, x);
-            else put<float>(s, static_cast<float>(x));
+            if (o.dbl)
+                put<double>(s, x);
+            else
+                put<float>(s, static_cast<float>(x));
         }
     };
     reals(m.positions);
@@ -106,8 +110,10 @@ std::string serialized_file(const std::vector<std::string>& bodies, int version)
         file += zlib_compress(b);
     }
     for (uint64_t o : offsets) {
-        if (version == 4) put<uint64_t>(file, o);
-        else put<uint32_t>(file, static_cast<uint32_t>(o));
+        if (version == 4)
+            put<uint64_t>(file, o);
+        else
+            put<uint32_t>(file, static_cast<uint32_t>(o));
     }
     put<uint32_t>(file, static_cast<uint32_t>(bodies.size()));
     return file;
@@ -254,7 +260,8 @@ TEST_CASE("serialized: a scene XML with serialized shapes loads through load_sce
     <shape type="serialized"><string name="filename" value="meshes.serialized"/><integer name="shape_index" value="5"/></shape>
 </scene>
 )";
-    CHECK_THROWS_WITH_AS(load_scene((dir.path / "bad.xml").string()), doctest::Contains("meshes.serialized"), SceneError);
+    CHECK_THROWS_WITH_AS(load_scene((dir.path / "bad.xml").string()), doctest::Contains("meshes.serialized"),
+                         SceneError);
 }
 
 TEST_CASE("serialized: hostile files are SceneErrors naming the file") {

@@ -24,8 +24,8 @@ namespace {
 // around -z (where s + n.z -> 0 would break a naive frame), and a
 // Fibonacci sphere.
 std::vector<vec3> test_normals() {
-    std::vector<vec3> ns = {vec3(0, 0, 1), vec3(0, 0, -1), vec3(1, 0, 0), vec3(-1, 0, 0), vec3(0, 1, 0),
-                            vec3(0, -1, 0), vec3(1.0f, 0.0f, -0.0f)};
+    std::vector<vec3> ns = {vec3(0, 0, 1), vec3(0, 0, -1), vec3(1, 0, 0),          vec3(-1, 0, 0),
+                            vec3(0, 1, 0), vec3(0, -1, 0), vec3(1.0f, 0.0f, -0.0f)};
     for (float e : {1e-3f, 1e-5f, 1e-7f}) {
         ns.push_back(normalize(vec3(e, 0.0f, -1.0f)));
         ns.push_back(normalize(vec3(0.0f, -e, -1.0f)));

@@ -31,9 +31,7 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-doctest::Approx near(double v) {
-    return doctest::Approx(v).epsilon(1e-12);
-}
+doctest::Approx near(double v) { return doctest::Approx(v).epsilon(1e-12); }
 
 void check_vec(const std::vector<double>& got, const std::vector<double>& want) {
     REQUIRE(got.size() == want.size());
@@ -62,9 +60,7 @@ struct Lcg {
 };
 
 // The half containing seed 0 identifies an unordered split {a, b}.
-std::vector<int> canonical(const Partition& p) {
-    return std::find(p.a.begin(), p.a.end(), 0) != p.a.end() ? p.a : p.b;
-}
+std::vector<int> canonical(const Partition& p) { return std::find(p.a.begin(), p.a.end(), 0) != p.a.end() ? p.a : p.b; }
 
 }  // namespace
 
@@ -91,8 +87,8 @@ TEST_CASE("stats: mean and variance edge cases give NaN") {
 }
 
 TEST_CASE("stats: median of odd and even counts") {
-    CHECK(median({3, 1, 2}) == 2.0);           // sorted 1,2,3 -> middle 2
-    CHECK(median({4, 1, 3, 2}) == 2.5);        // sorted 1,2,3,4 -> (2+3)/2
+    CHECK(median({3, 1, 2}) == 2.0);     // sorted 1,2,3 -> middle 2
+    CHECK(median({4, 1, 3, 2}) == 2.5);  // sorted 1,2,3,4 -> (2+3)/2
     CHECK(median({7}) == 7.0);
     CHECK(std::isnan(median({})));
     CHECK(std::isnan(median({1.0, kNaN, 3.0})));  // NaN has no place in the order
@@ -330,9 +326,9 @@ TEST_CASE("stats: agreement edge cases - empty - single class - bad input") {
     CHECK_THROWS_AS(labelled_in_one_only({0, 1}, {0}), std::invalid_argument);
     CHECK_THROWS_AS(pixel_shares({5}, 3), std::invalid_argument);
     const Confusion c{2, {1, 2, 3, 4}};
-    CHECK_THROWS_AS(weighted_kappa(c, {1, 0, 0}), std::invalid_argument);           // not k*k
-    CHECK_THROWS_AS(weighted_kappa(c, {0.9, 0, 0, 1}), std::invalid_argument);      // diagonal != 1
-    CHECK_THROWS_AS(weighted_kappa(c, {1, 1.5, 0, 1}), std::invalid_argument);      // outside [0,1]
+    CHECK_THROWS_AS(weighted_kappa(c, {1, 0, 0}), std::invalid_argument);       // not k*k
+    CHECK_THROWS_AS(weighted_kappa(c, {0.9, 0, 0, 1}), std::invalid_argument);  // diagonal != 1
+    CHECK_THROWS_AS(weighted_kappa(c, {1, 1.5, 0, 1}), std::invalid_argument);  // outside [0,1]
     CHECK_THROWS_AS(structural_share(c, {true}), std::invalid_argument);
 }
 
@@ -496,10 +492,10 @@ TEST_CASE("stats: time to quality crossing is strict and the first level wins") 
 TEST_CASE("stats: time to quality rejects malformed input") {
     const std::vector<double> ref = {1.0};
     CHECK_THROWS_AS(time_to_quality({}, {}, ref), std::invalid_argument);
-    CHECK_THROWS_AS(time_to_quality({32, 16}, {{1.0}, {1.0}}, ref), std::invalid_argument);   // not ascending
-    CHECK_THROWS_AS(time_to_quality({16, 16}, {{1.0}, {1.0}}, ref), std::invalid_argument);   // repeated level
-    CHECK_THROWS_AS(time_to_quality({16, 32}, {{1.0}}, ref), std::invalid_argument);          // missing level
-    CHECK_THROWS_AS(time_to_quality({16}, {{1.0, 2.0}}, ref), std::invalid_argument);         // size mismatch
+    CHECK_THROWS_AS(time_to_quality({32, 16}, {{1.0}, {1.0}}, ref), std::invalid_argument);  // not ascending
+    CHECK_THROWS_AS(time_to_quality({16, 16}, {{1.0}, {1.0}}, ref), std::invalid_argument);  // repeated level
+    CHECK_THROWS_AS(time_to_quality({16, 32}, {{1.0}}, ref), std::invalid_argument);         // missing level
+    CHECK_THROWS_AS(time_to_quality({16}, {{1.0, 2.0}}, ref), std::invalid_argument);        // size mismatch
     CHECK_THROWS_AS(time_to_quality({16}, {{1.0}}, ref, 0.0), std::invalid_argument);
     CHECK_THROWS_AS(time_to_quality({16}, {{1.0}}, ref, 0.1, 0.0), std::invalid_argument);
 }

@@ -8,6 +8,8 @@
 
 #include <doctest/doctest.h>
 
+#include <sys/wait.h>
+#include <unistd.h>
 #include <chrono>
 #include <csignal>
 #include <cstdlib>
@@ -16,8 +18,6 @@
 #include <set>
 #include <sstream>
 #include <thread>
-#include <sys/wait.h>
-#include <unistd.h>
 
 namespace fs = std::filesystem;
 using namespace vkmech;
@@ -83,7 +83,8 @@ TEST_CASE("study: a cached frame round-trips bit for bit and a corrupt file is r
     CHECK(std::memcmp(g.pixels.data(), f.pixels.data(), 6 * sizeof(PixelStats)) == 0);
 
     std::string bytes = serialize_frame(f, "test");
-    CHECK_THROWS_WITH_AS(deserialize_frame(bytes.substr(0, 40), "x.frame"), doctest::Contains("x.frame"), std::runtime_error);
+    CHECK_THROWS_WITH_AS(deserialize_frame(bytes.substr(0, 40), "x.frame"), doctest::Contains("x.frame"),
+                         std::runtime_error);
     bytes[0] = 'Z';
     CHECK_THROWS_WITH_AS(deserialize_frame(bytes, "y.frame"), doctest::Contains("bad magic"), std::runtime_error);
 }
@@ -195,19 +196,39 @@ TEST_SUITE("gpu") {
         int rc = run_shell(cmd + " > " + (out.string() + ".log") + " 2>&1");
         INFO(slurp(out.string() + ".log"));
         REQUIRE(rc == 0);
-        for (const char* t : {"cross_spp", "kappa", "discretized_sigma", "robust_mis", "coverage", "bucket_shares",
-                              "sigma_splithalf", "sigma_perbucket", "alpha_reliability", "cost_by_bucket",
-                              "cost_by_bucket_ms", "cost_by_bucket_detail", "cost_perdim", "correlation_matrix",
-                              "sign_reversal", "sweep_roughness", "sweep_lights", "predictor",
-                              "transitions_glass_caustic", "downstream", "downstream_f4", "robust_alloc",
-                              "perbucket_mse", "downstream_all", "alloc_time", "equal_time"}) {
+        for (const char* t : {"cross_spp",
+                              "kappa",
+                              "discretized_sigma",
+                              "robust_mis",
+                              "coverage",
+                              "bucket_shares",
+                              "sigma_splithalf",
+                              "sigma_perbucket",
+                              "alpha_reliability",
+                              "cost_by_bucket",
+                              "cost_by_bucket_ms",
+                              "cost_by_bucket_detail",
+                              "cost_perdim",
+                              "correlation_matrix",
+                              "sign_reversal",
+                              "sweep_roughness",
+                              "sweep_lights",
+                              "predictor",
+                              "transitions_glass_caustic",
+                              "downstream",
+                              "downstream_f4",
+                              "robust_alloc",
+                              "perbucket_mse",
+                              "downstream_all",
+                              "alloc_time",
+                              "equal_time"}) {
             CAPTURE(t);
             CHECK(fs::file_size(out / "tables" / (std::string(t) + ".md")) > 0);
             CHECK(fs::file_size(out / "tables" / (std::string(t) + ".csv")) > 0);
         }
-        for (const char* f : {"per_bucket_stability", "sigma_splithalf", "cost_by_bucket", "caustic_vs_glossy",
-                              "sweep_roughness", "sweep_lights", "predictor", "psnr_vs_pilot", "psnr_vs_budget",
-                              "error_vs_time"}) {
+        for (const char* f :
+             {"per_bucket_stability", "sigma_splithalf", "cost_by_bucket", "caustic_vs_glossy", "sweep_roughness",
+              "sweep_lights", "predictor", "psnr_vs_pilot", "psnr_vs_budget", "error_vs_time"}) {
             CAPTURE(f);
             fs::path png = out / "figures" / (std::string(f) + ".png");
             REQUIRE(fs::exists(png));
@@ -271,9 +292,11 @@ TEST_SUITE("gpu") {
         VKMECH_REQUIRE_GPU(ctx);
         fs::path base = fs::temp_directory_path() / ("vkmech_study_int_" + std::to_string(::getpid()));
         fs::remove_all(base);
-        const std::string args = " study stability --preset quick --scenes cubes_dof,glass_caustic --spp-levels 4,16,256";
+        const std::string args =
+            " study stability --preset quick --scenes cubes_dof,glass_caustic --spp-levels 4,16,256";
         // Uninterrupted run.
-        REQUIRE(run_shell(std::string(VKMECH_CLI) + args + " --out " + (base / "a").string() + " > /dev/null 2>&1") == 0);
+        REQUIRE(run_shell(std::string(VKMECH_CLI) + args + " --out " + (base / "a").string() + " > /dev/null 2>&1") ==
+                0);
         // Interrupted run: SIGINT once the second render is in the cache, mid-way through the plan.
         fs::path b = base / "b";
         std::fflush(nullptr);  // the child must not inherit unflushed output
@@ -283,8 +306,8 @@ TEST_SUITE("gpu") {
             std::string out = "--out=" + b.string();
             std::freopen("/dev/null", "w", stderr);
             std::freopen("/dev/null", "w", stdout);
-            execl(VKMECH_CLI, VKMECH_CLI, "study", "stability", "--preset", "quick", "--scenes", "cubes_dof,glass_caustic",
-                  "--spp-levels", "4,16,256", out.c_str(), static_cast<char*>(nullptr));
+            execl(VKMECH_CLI, VKMECH_CLI, "study", "stability", "--preset", "quick", "--scenes",
+                  "cubes_dof,glass_caustic", "--spp-levels", "4,16,256", out.c_str(), static_cast<char*>(nullptr));
             _exit(127);
         }
         auto t0 = std::chrono::steady_clock::now();
@@ -303,7 +326,8 @@ TEST_SUITE("gpu") {
             CHECK(e.path().filename().string().find(".tmp") == std::string::npos);
         // Resume: renders only what is missing, tables identical to the uninterrupted run.
         fs::path log = base / "resume.log";
-        REQUIRE(run_shell(std::string(VKMECH_CLI) + args + " --out " + b.string() + " > " + log.string() + " 2>&1") == 0);
+        REQUIRE(run_shell(std::string(VKMECH_CLI) + args + " --out " + b.string() + " > " + log.string() + " 2>&1") ==
+                0);
         std::string text = slurp(log);
         INFO(text);
         CHECK(text.find("(" + std::to_string(cached) + " cached") != std::string::npos);

@@ -12,10 +12,10 @@
 
 #include <doctest/doctest.h>
 
-#include <bit>
 #include <algorithm>
-#include <cstring>
+#include <bit>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <random>
@@ -186,7 +186,8 @@ Judged judge_bvh(RayCaster& caster, const SceneArrays& arrays, const std::vector
         if (t < 0.0) {
             if (b.clear >= 0.0) why = "missed a clear hit at t=" + std::to_string(b.clear);
         } else if (prim >= tris || std::abs(cpu_hit(arrays, prim, rays[i], scaled_slack) - t) > tol(t)) {
-            why = "reported prim " + std::to_string(prim) + " at t=" + std::to_string(t) + ", which it does not hit there";
+            why = "reported prim " + std::to_string(prim) + " at t=" + std::to_string(t) +
+                  ", which it does not hit there";
         } else if (b.clear >= 0.0 && b.clear < t - tol(t)) {
             why = "reported t=" + std::to_string(t) + " past a clear hit at t=" + std::to_string(b.clear);
         }
@@ -210,7 +211,8 @@ TEST_SUITE("gpu") {
         for_each_project_scene([&](const std::string& path, const SceneArrays& arrays) {
             const size_t tris = arrays.tri_positions.size() / 3;
             // About 5e7 ray-triangle tests a scene: 500 to 4000 rays.
-            const uint32_t count = static_cast<uint32_t>(std::clamp<size_t>(50000000 / std::max<size_t>(tris, 1), 500, 4000));
+            const uint32_t count =
+                static_cast<uint32_t>(std::clamp<size_t>(50000000 / std::max<size_t>(tris, 1), 500, 4000));
             auto rays = random_rays(arrays, count, 7);
             GpuScene bvh(*ctx, arrays, Traversal::Bvh);
             RayCaster caster(*ctx, bvh);
@@ -222,7 +224,6 @@ TEST_SUITE("gpu") {
         });
         CHECK(ctx->validation_messages() == 0);
     }
-
 
     TEST_CASE("traversal: a tree deeper than the stack's registers agrees with brute force (the stack's memory part)") {
         // Triangles shrinking geometrically towards a point: the builder's deepest trees (tests/test_bvh.cpp),
@@ -256,7 +257,8 @@ TEST_SUITE("gpu") {
             deepest = std::max(deepest, w.stack);
             past_registers += w.stack > 8;
         }
-        MESSAGE("deepest stack " << deepest << ", " << past_registers << " of " << rays.size() << " rays past the eight registers");
+        MESSAGE("deepest stack " << deepest << ", " << past_registers << " of " << rays.size()
+                                 << " rays past the eight registers");
         CHECK(deepest > 16);  // twice the registers: spills of up to three at once, many levels into memory
         CHECK(past_registers >= 20);
         const Judged j = judge_bvh(caster, arrays, rays, true);
@@ -410,7 +412,8 @@ TEST_SUITE("gpu") {
             CHECK(k[PHASE_BUSY] <= k[PHASE_PATH]);
             CHECK(k[PHASE_CAMERA] + k[PHASE_PATH] <= k[PHASE_SLOT]);
         }
-        MESSAGE("clock ticks, whole slots: " << rc.counters().clock[gpu::PHASE_SLOT] << " (" << ctx->info().type << ")");
+        MESSAGE("clock ticks, whole slots: " << rc.counters().clock[gpu::PHASE_SLOT] << " (" << ctx->info().type
+                                             << ")");
         if (ctx->info().type == "cpu") CHECK(rc.counters().clock[gpu::PHASE_SLOT] > 0x1p32);
         CHECK(rc.counters().clock_backwards < 0.01 * rc.counters().rays);
         CHECK(ctx->validation_messages() == 0);
@@ -434,7 +437,8 @@ TEST_SUITE("gpu") {
         GpuScene g(*ctx, arrays, Traversal::Bvh);
         RayCaster caster(*ctx, g);
         const RaySchedule schedule = caster.slices_supported() ? RaySchedule::Slices : RaySchedule::Auto;
-        if (!caster.slices_supported()) MESSAGE("no subgroup ballot on " << ctx->info().name << ": one ray per invocation");
+        if (!caster.slices_supported())
+            MESSAGE("no subgroup ballot on " << ctx->info().name << ": one ray per invocation");
         for (bool any_hit : {false, true}) {
             CAPTURE(any_hit);
             const auto all = caster.trace(rays, any_hit, nullptr, schedule);
@@ -442,13 +446,16 @@ TEST_SUITE("gpu") {
             uint32_t prim_differ = 0;
             for (size_t i = 0; i < rays.size(); ++i) {
                 CAPTURE(i);
-                prim_differ += std::bit_cast<uint32_t>(all[i].hit.w) != std::bit_cast<uint32_t>(per_invocation[i].hit.w);
+                prim_differ +=
+                    std::bit_cast<uint32_t>(all[i].hit.w) != std::bit_cast<uint32_t>(per_invocation[i].hit.w);
                 CHECK(all[i].hit.x == doctest::Approx(per_invocation[i].hit.x).epsilon(1e-6));
             }
             // lavapipe compiles both alike (the same bits); a GPU compiler may contract the
             // two modules' arithmetic differently, flipping a rare tie at a shared edge.
-            if (ctx->info().type == "cpu") CHECK(prim_differ == 0);
-            else CHECK(prim_differ <= rays.size() / 1000);
+            if (ctx->info().type == "cpu")
+                CHECK(prim_differ == 0);
+            else
+                CHECK(prim_differ <= rays.size() / 1000);
             uint32_t hits = 0;
             for (const auto& h : all) {
                 CHECK(h.hit.x != 0.0f);  // written: a hit's t is positive, a miss -1 (the buffer starts as zeros)
@@ -457,13 +464,15 @@ TEST_SUITE("gpu") {
             CHECK(hits > rays.size() / 10);
             const std::pair<size_t, size_t> batches[] = {{0, 1}, {4321, 1}, {5, 7}, {3, 2049}, {100, 4099}, {1, 5999}};
             for (const auto& batch : batches) {
-                const size_t first = batch.first, count = batch.second;  // not a structured binding: CAPTURE takes it in a lambda
+                const size_t first = batch.first,
+                             count = batch.second;  // not a structured binding: CAPTURE takes it in a lambda
                 CAPTURE(first);
                 CAPTURE(count);
                 std::vector<gpu::GpuRay> part(rays.begin() + first, rays.begin() + first + count);
                 const auto got = caster.trace(part, any_hit, nullptr, schedule);
                 uint32_t differ = 0;
-                for (size_t i = 0; i < count; ++i) differ += std::memcmp(&got[i], &all[first + i], sizeof(gpu::GpuHit)) != 0;
+                for (size_t i = 0; i < count; ++i)
+                    differ += std::memcmp(&got[i], &all[first + i], sizeof(gpu::GpuHit)) != 0;
                 CHECK(differ == 0);
             }
         }
@@ -498,8 +507,10 @@ TEST_SUITE("gpu") {
                 bool inside = std::abs(x) < 1.0f && std::abs(y) < 1.0f;
                 CAPTURE(x);
                 CAPTURE(y);
-                if (inside) CHECK(hits[k].hit.x == doctest::Approx(2.0f).epsilon(1e-6));
-                else CHECK(hits[k].hit.x < 0.0f);
+                if (inside)
+                    CHECK(hits[k].hit.x == doctest::Approx(2.0f).epsilon(1e-6));
+                else
+                    CHECK(hits[k].hit.x < 0.0f);
             }
         }
     }

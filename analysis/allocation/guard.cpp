@@ -74,7 +74,8 @@ PilotDiagnosis diagnose_pilot(const Frame& frame, const std::vector<double>& var
             const PixelStats& s = frame.pixels[p];
             if (seen(s)) {
                 const bool usable = std::isfinite(var[p]) && var[p] != 0.0;
-                const bool constant_light = std::isfinite(var[p]) && s.count >= 2.0 && s.nonfinite == 0.0 && emitter_only(s);
+                const bool constant_light =
+                    std::isfinite(var[p]) && s.count >= 2.0 && s.nonfinite == 0.0 && emitter_only(s);
                 if (!usable && !constant_light) d.untrusted_map[p] = kLitNoVariance;
                 continue;
             }
@@ -110,8 +111,10 @@ std::vector<double> guard_score(std::vector<double> D0, const std::vector<uint8_
     double trusted_sum = 0.0;
     std::vector<double> a;  // the untrusted pixels' own weights
     for (size_t p = 0; p < P; ++p) {
-        if (untrusted[p]) a.push_back(weight(D0[p]));
-        else trusted_sum += weight(D0[p]);
+        if (untrusted[p])
+            a.push_back(weight(D0[p]));
+        else
+            trusted_sum += weight(D0[p]);
     }
     if (a.empty()) return D0;
     if (a.size() == P) return std::vector<double>(P, 1.0);

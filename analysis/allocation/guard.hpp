@@ -55,17 +55,17 @@ struct PilotDiagnosis {
     size_t seen = 0;      // seen pixels (above)
 
     // Abstention of the floor.
-    size_t heavy = 0;              // pixels with a heavy-tailed pilot label
-    size_t floor_changed = 0;      // pixels where bucket_floor(sigma^2, labels) differs from sigma^2 (bits)
-    bool floor_abstains = true;    // floor_changed == 0: bucket-floor == observed-var bit for bit
-    bool robust_checked = false;   // a median-of-means variance was given
+    size_t heavy = 0;             // pixels with a heavy-tailed pilot label
+    size_t floor_changed = 0;     // pixels where bucket_floor(sigma^2, labels) differs from sigma^2 (bits)
+    bool floor_abstains = true;   // floor_changed == 0: bucket-floor == observed-var bit for bit
+    bool robust_checked = false;  // a median-of-means variance was given
     size_t robust_floor_changed = 0;
     bool robust_floor_abstains = true;  // robust-floor == robust-var bit for bit (when robust_checked)
 
     // Untrusted pixels.
     size_t lit_no_variance = 0;
     size_t dark_in_lit_region = 0;
-    size_t untrusted = 0;               // the sum of the two
+    size_t untrusted = 0;                // the sum of the two
     std::vector<uint8_t> untrusted_map;  // per pixel: kTrusted, kLitNoVariance or kDarkInLitRegion
 
     double untrusted_share() const { return pixels ? static_cast<double>(untrusted) / pixels : 0.0; }

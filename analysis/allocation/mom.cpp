@@ -59,23 +59,19 @@ bool mom_defined(int n0) {
     return n0 / mom_block_count(n0) >= 3;
 }
 
-int mom_discarded(int n0) {
-    return n0 - mom_block_count(n0) * mom_block_size(n0);
-}
+int mom_discarded(int n0) { return n0 - mom_block_count(n0) * mom_block_size(n0); }
 
 int mom_block_size(int n0, int k) {
     if (n0 < 1) throw std::invalid_argument("alloc::mom_block_size: N0 must be >= 1, got " + std::to_string(n0));
     if (k < 1) throw std::invalid_argument("alloc::mom_block_size: k must be >= 1, got " + std::to_string(k));
     const int size = n0 / k;
     if (size < 2)
-        throw std::invalid_argument("median-of-means needs blocks of at least 2 samples for a ddof-1 variance; N0 = " +
-                                    std::to_string(n0) + " with k = " + std::to_string(k) + " gives blocks of " +
-                                    std::to_string(size) + ": not defined");
+        throw std::invalid_argument(
+            "median-of-means needs blocks of at least 2 samples for a ddof-1 variance; N0 = " + std::to_string(n0) +
+            " with k = " + std::to_string(k) + " gives blocks of " + std::to_string(size) + ": not defined");
     return size;
 }
 
-int mom_discarded(int n0, int k) {
-    return n0 - k * mom_block_size(n0, k);
-}
+int mom_discarded(int n0, int k) { return n0 - k * mom_block_size(n0, k); }
 
 }  // namespace vkmech::alloc

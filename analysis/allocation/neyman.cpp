@@ -17,8 +17,9 @@ std::vector<uint32_t> neyman_allocation(const std::vector<double>& D, uint64_t t
     const uint64_t lo = static_cast<uint64_t>(floor) * P;
     const uint64_t hi = static_cast<uint64_t>(cap) * P;
     if (total < lo || total > hi)
-        throw std::invalid_argument("alloc::neyman_allocation: total " + std::to_string(total) + " outside [floor * P, cap * P] = [" +
-                                    std::to_string(lo) + ", " + std::to_string(hi) + "] for P = " + std::to_string(P));
+        throw std::invalid_argument("alloc::neyman_allocation: total " + std::to_string(total) +
+                                    " outside [floor * P, cap * P] = [" + std::to_string(lo) + ", " +
+                                    std::to_string(hi) + "] for P = " + std::to_string(P));
 
     // Weights sqrt(max(D, 0)), normalised by the largest so sums stay in [0, P].
     size_t bad = 0;

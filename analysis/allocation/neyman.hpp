@@ -22,10 +22,10 @@
 
 namespace vkmech::alloc {
 
-inline constexpr uint32_t kStudyBaselineSpp = 1;  // per-pixel baseline = primary floor f = 1
-inline constexpr uint32_t kStudyExtraSpp = 32;    // extra budget, SPP per pixel on average
-inline constexpr uint32_t kStudyControlFloor = 4; // the f = 4 control
-inline constexpr uint32_t kStudyPoolFrames = 256; // shared pool size = per-pixel cap
+inline constexpr uint32_t kStudyBaselineSpp = 1;   // per-pixel baseline = primary floor f = 1
+inline constexpr uint32_t kStudyExtraSpp = 32;     // extra budget, SPP per pixel on average
+inline constexpr uint32_t kStudyControlFloor = 4;  // the f = 4 control
+inline constexpr uint32_t kStudyPoolFrames = 256;  // shared pool size = per-pixel cap
 
 // The study's total budget: pixels * (kStudyBaselineSpp + extra_spp).
 constexpr uint64_t study_total(uint64_t pixels, uint32_t extra_spp = kStudyExtraSpp) {

@@ -2,8 +2,8 @@
 
 #include "allocation/mom.hpp"
 #include "allocation/neyman.hpp"
-#include "stats/summary.hpp"
 #include "render/descriptor.hpp"
+#include "stats/summary.hpp"
 
 #include <algorithm>
 #include <chrono>

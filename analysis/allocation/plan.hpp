@@ -46,7 +46,9 @@ struct SamplePool {
     size_t pixels = 0;
     std::vector<float> samples;      // [frame][pixel] x 4
     std::vector<double> oracle_var;  // per pixel
-    const float* at(uint32_t frame, size_t pixel) const { return &samples[(static_cast<size_t>(frame) * pixels + pixel) * 4]; }
+    const float* at(uint32_t frame, size_t pixel) const {
+        return &samples[(static_cast<size_t>(frame) * pixels + pixel) * 4];
+    }
 };
 
 // A pilot's samples one by one: luminance of sample i of pixel p at

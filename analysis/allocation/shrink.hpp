@@ -43,10 +43,10 @@ double log_variance_noise(uint32_t n);
 
 // Per-label prior fitted from the pilot (for the report and the tests).
 struct ShrinkPrior {
-    uint32_t pixels = 0;   // pixels with this label and a positive finite sigma^2
-    double mu = 0.0;       // mean of log sigma^2 over them
-    double tau2 = 0.0;     // prior variance, max(0, S2 - v)
-    double weight = 0.0;   // w = tau2 / (tau2 + v): the share of a pixel's own deviation kept
+    uint32_t pixels = 0;  // pixels with this label and a positive finite sigma^2
+    double mu = 0.0;      // mean of log sigma^2 over them
+    double tau2 = 0.0;    // prior variance, max(0, S2 - v)
+    double weight = 0.0;  // w = tau2 / (tau2 + v): the share of a pixel's own deviation kept
 };
 
 // The prior of every label 0..255 (index = label; unused labels have pixels = 0).

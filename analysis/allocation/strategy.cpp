@@ -12,18 +12,30 @@ namespace vkmech::alloc {
 
 const char* to_string(Strategy s) {
     switch (s) {
-        case Strategy::Uniform: return "uniform";
-        case Strategy::ObservedVar: return "observed-var";
-        case Strategy::Oracle: return "oracle";
-        case Strategy::BucketFloor: return "bucket-floor";
-        case Strategy::Placebo: return "placebo";
-        case Strategy::LabelOracle: return "label-oracle";
-        case Strategy::RobustVar: return "robust-var";
-        case Strategy::RobustFloor: return "robust-floor";
-        case Strategy::RobustPlacebo: return "robust-placebo";
-        case Strategy::Guarded: return "guarded";
-        case Strategy::Shrink: return "shrink";
-        case Strategy::RobustAdaptive: return "robust-adaptive";
+        case Strategy::Uniform:
+            return "uniform";
+        case Strategy::ObservedVar:
+            return "observed-var";
+        case Strategy::Oracle:
+            return "oracle";
+        case Strategy::BucketFloor:
+            return "bucket-floor";
+        case Strategy::Placebo:
+            return "placebo";
+        case Strategy::LabelOracle:
+            return "label-oracle";
+        case Strategy::RobustVar:
+            return "robust-var";
+        case Strategy::RobustFloor:
+            return "robust-floor";
+        case Strategy::RobustPlacebo:
+            return "robust-placebo";
+        case Strategy::Guarded:
+            return "guarded";
+        case Strategy::Shrink:
+            return "shrink";
+        case Strategy::RobustAdaptive:
+            return "robust-adaptive";
     }
     return "unknown";
 }
@@ -60,18 +72,26 @@ std::vector<double> strategy_score(Strategy s, const ScoreInputs& in, uint64_t p
     switch (s) {
         case Strategy::Uniform: {
             size_t n;
-            if (in.pilot_var) n = in.pilot_var->size();
-            else if (in.pilot_labels) n = in.pilot_labels->size();
-            else if (in.oracle_var) n = in.oracle_var->size();
-            else if (in.reference_labels) n = in.reference_labels->size();
-            else if (in.mom_var) n = in.mom_var->size();
+            if (in.pilot_var)
+                n = in.pilot_var->size();
+            else if (in.pilot_labels)
+                n = in.pilot_labels->size();
+            else if (in.oracle_var)
+                n = in.oracle_var->size();
+            else if (in.reference_labels)
+                n = in.reference_labels->size();
+            else if (in.mom_var)
+                n = in.mom_var->size();
             else
                 throw std::invalid_argument(
-                    "alloc::strategy_score: strategy 'uniform' needs at least one input for the pixel count, all are null");
+                    "alloc::strategy_score: strategy 'uniform' needs at least one input for the pixel count, all are "
+                    "null");
             return std::vector<double>(n, 1.0);
         }
-        case Strategy::ObservedVar: return need(in.pilot_var, s, "pilot_var");
-        case Strategy::Oracle: return need(in.oracle_var, s, "oracle_var");
+        case Strategy::ObservedVar:
+            return need(in.pilot_var, s, "pilot_var");
+        case Strategy::Oracle:
+            return need(in.oracle_var, s, "oracle_var");
         case Strategy::BucketFloor:
             return bucket_floor(need(in.pilot_var, s, "pilot_var"), need(in.pilot_labels, s, "pilot_labels"));
         case Strategy::Placebo: {
@@ -80,7 +100,8 @@ std::vector<double> strategy_score(Strategy s, const ScoreInputs& in, uint64_t p
         }
         case Strategy::LabelOracle:
             return bucket_floor(need(in.pilot_var, s, "pilot_var"), need(in.reference_labels, s, "reference_labels"));
-        case Strategy::RobustVar: return need(in.mom_var, s, "mom_var");
+        case Strategy::RobustVar:
+            return need(in.mom_var, s, "mom_var");
         case Strategy::RobustFloor:
             return bucket_floor(need(in.mom_var, s, "mom_var"), need(in.pilot_labels, s, "pilot_labels"));
         case Strategy::RobustPlacebo: {

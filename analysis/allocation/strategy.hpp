@@ -9,26 +9,25 @@
 namespace vkmech::alloc {
 
 enum class Strategy {
-    Uniform,       // "uniform": D = 1 everywhere
-    ObservedVar,   // "observed-var": D = pilot sigma^2 (the incumbent)
-    Oracle,        // "oracle": D = the pool's converged variance (upper bound)
-    BucketFloor,   // "bucket-floor": bucket_floor(pilot sigma^2, pilot labels)
-    Placebo,       // "placebo": bucket_floor(pilot sigma^2, shuffled pilot labels)
-    LabelOracle,   // "label-oracle": bucket_floor(pilot sigma^2, reference labels)
-    RobustVar,     // "robust-var": D = median-of-means pilot variance (mom.hpp)
-    RobustFloor,   // "robust-floor": bucket_floor(MoM variance, pilot labels)
-    RobustPlacebo, // "robust-placebo": bucket_floor(MoM variance, shuffled pilot labels)
-    Guarded,       // "guarded": bucket-floor, at least the uniform share on untrusted pixels (guard.hpp)
-    Shrink,        // "shrink": the pilot variance shrunk towards its label's prior (shrink.hpp)
-    RobustAdaptive,// "robust-adaptive": the MoM block count chosen per pixel from its pilot label (adaptive_mom.hpp)
+    Uniform,         // "uniform": D = 1 everywhere
+    ObservedVar,     // "observed-var": D = pilot sigma^2 (the incumbent)
+    Oracle,          // "oracle": D = the pool's converged variance (upper bound)
+    BucketFloor,     // "bucket-floor": bucket_floor(pilot sigma^2, pilot labels)
+    Placebo,         // "placebo": bucket_floor(pilot sigma^2, shuffled pilot labels)
+    LabelOracle,     // "label-oracle": bucket_floor(pilot sigma^2, reference labels)
+    RobustVar,       // "robust-var": D = median-of-means pilot variance (mom.hpp)
+    RobustFloor,     // "robust-floor": bucket_floor(MoM variance, pilot labels)
+    RobustPlacebo,   // "robust-placebo": bucket_floor(MoM variance, shuffled pilot labels)
+    Guarded,         // "guarded": bucket-floor, at least the uniform share on untrusted pixels (guard.hpp)
+    Shrink,          // "shrink": the pilot variance shrunk towards its label's prior (shrink.hpp)
+    RobustAdaptive,  // "robust-adaptive": the MoM block count chosen per pixel from its pilot label (adaptive_mom.hpp)
 };
 
 // Every strategy, in declaration order.
 inline constexpr Strategy kAllStrategies[] = {
-    Strategy::Uniform,     Strategy::ObservedVar, Strategy::Oracle,
-    Strategy::BucketFloor, Strategy::Placebo,     Strategy::LabelOracle,
-    Strategy::RobustVar,   Strategy::RobustFloor, Strategy::RobustPlacebo,
-    Strategy::Guarded,     Strategy::Shrink,      Strategy::RobustAdaptive,
+    Strategy::Uniform,       Strategy::ObservedVar, Strategy::Oracle,    Strategy::BucketFloor,
+    Strategy::Placebo,       Strategy::LabelOracle, Strategy::RobustVar, Strategy::RobustFloor,
+    Strategy::RobustPlacebo, Strategy::Guarded,     Strategy::Shrink,    Strategy::RobustAdaptive,
 };
 
 // The command-line / report name ("uniform", "observed-var", ...).

@@ -69,7 +69,8 @@ PilotPixels pilot_pixels(const Frame& pilot, const Frame* ref) {
 }
 
 // Pooled counts over the given scenes -> isotonic curve (empty bins weight 0).
-std::vector<double> pooled_curve(const std::vector<stats::BinnedRate>& per_scene, const std::vector<size_t>& use, int bins) {
+std::vector<double> pooled_curve(const std::vector<stats::BinnedRate>& per_scene, const std::vector<size_t>& use,
+                                 int bins) {
     std::vector<double> rate(bins, 0.0), w(bins, 0.0);
     for (int b = 0; b < bins; ++b) {
         double n = 0, h = 0;
@@ -101,9 +102,11 @@ double ReliabilityCurve::predict(const std::vector<double>& curve, const std::ve
 std::string ReliabilityCurve::json() const {
     std::ostringstream o;
     o.precision(9);
-    o << "{\n  \"what\": \"vkmech label-reliability curve: agreement of the pilot's dominant label with the reference per "
+    o << "{\n  \"what\": \"vkmech label-reliability curve: agreement of the pilot's dominant label with the reference "
+         "per "
          "equal-width bin on [0,1] of the pilot's argmax margin and purity (pooled, isotonic)\",\n";
-    o << "  \"pilot_spp\": " << pilot_spp << ",\n  \"reference_spp\": " << reference_spp << ",\n  \"bins\": " << bins << ",\n";
+    o << "  \"pilot_spp\": " << pilot_spp << ",\n  \"reference_spp\": " << reference_spp << ",\n  \"bins\": " << bins
+      << ",\n";
     auto arr = [&](const std::vector<double>& v) {
         o << "[";
         for (size_t i = 0; i < v.size(); ++i) o << (i ? ", " : "") << v[i];
@@ -129,8 +132,9 @@ ReliabilityCurve ReliabilityCurve::load(const std::string& path) {
     try {
         if (text.find_first_not_of(" \t\r\n") == std::string::npos) throw std::runtime_error("the file is empty");
         if (text.find("vkmech label-reliability curve") == std::string::npos)
-            throw std::runtime_error("it lacks the \"what\": \"vkmech label-reliability curve ...\" header that "
-                                     "`vkmech study predictor` writes");
+            throw std::runtime_error(
+                "it lacks the \"what\": \"vkmech label-reliability curve ...\" header that "
+                "`vkmech study predictor` writes");
         c.margin = parse_array(text, "margin");
         c.purity = parse_array(text, "purity");
         if (c.margin.empty() || c.margin.size() != c.purity.size())
@@ -162,10 +166,14 @@ void run_predictor(StudyContext& ctx) {
     if (!cfg.predictor_curve.empty()) {
         // New scenes: predicted agreement from their own pilot and a frozen curve.
         ReliabilityCurve curve = ReliabilityCurve::load(cfg.predictor_curve);
-        Table t{"predictor_new", "Predicted label reliability from the pilot alone", {"scene", "pilot SPP", "labelled px",
-                "pred. (margin)", "pred. (purity)"}, {}, ""};
+        Table t{"predictor_new",
+                "Predicted label reliability from the pilot alone",
+                {"scene", "pilot SPP", "labelled px", "pred. (margin)", "pred. (purity)"},
+                {},
+                ""};
         t.note = "Curve: " + cfg.predictor_curve + " (pilot " + std::to_string(curve.pilot_spp) + " SPP, reference " +
-                 std::to_string(curve.reference_spp) + " SPP). The prediction is the expected share of pixels whose pilot "
+                 std::to_string(curve.reference_spp) +
+                 " SPP). The prediction is the expected share of pixels whose pilot "
                  "label matches a reference render.";
         if (curve.pilot_spp != 0 && curve.pilot_spp != cfg.pilot_spp())
             t.note += " Warning: this pilot has " + pilot + " SPP, the curve was fitted on " +
@@ -173,7 +181,8 @@ void run_predictor(StudyContext& ctx) {
         for (const auto& scene : cfg.scenes) {
             Frame p = ctx.frames.get({scene, cfg.pilot_spp(), seeds::stability(0), Estimator::Nee});
             auto px = pilot_pixels(p, nullptr);
-            t.add({Cell::str(scene.name), Cell::integer(cfg.pilot_spp()), Cell::integer(static_cast<long long>(px.margin.size())),
+            t.add({Cell::str(scene.name), Cell::integer(cfg.pilot_spp()),
+                   Cell::integer(static_cast<long long>(px.margin.size())),
                    Cell::num(ReliabilityCurve::predict(curve.margin, px.margin)),
                    Cell::num(ReliabilityCurve::predict(curve.purity, px.purity))});
         }
@@ -185,7 +194,8 @@ void run_predictor(StudyContext& ctx) {
     std::vector<stats::BinnedRate> by_margin, by_purity;
     for (const auto& scene : cfg.scenes) {
         Frame p = ctx.frames.get({scene, cfg.pilot_spp(), seeds::stability(0), Estimator::Nee});
-        Frame r = ctx.frames.get({scene, cfg.stability_reference_spp(), seeds::stability(cfg.stability_spp.size() - 1), Estimator::Nee});
+        Frame r = ctx.frames.get(
+            {scene, cfg.stability_reference_spp(), seeds::stability(cfg.stability_spp.size() - 1), Estimator::Nee});
         px.push_back(pilot_pixels(p, &r));
         by_margin.push_back(stats::binned_rate(px.back().margin, px.back().agree, bins, 0.0, 1.0));
         by_purity.push_back(stats::binned_rate(px.back().purity, px.back().agree, bins, 0.0, 1.0));
@@ -202,9 +212,12 @@ void run_predictor(StudyContext& ctx) {
     for (const auto& s : cfg.scenes) curve.scenes.push_back(s.name);
     write_file_atomic((std::filesystem::path(ctx.out.dir()) / "predictor_curve.json").string(), curve.json());
 
-    Table t{"predictor", "Scene-level label reliability predicted from the pilot (leave-one-scene-out)",
-            {"scene", "labelled px", "actual " + pilot + " vs " + top, "pred. (margin)", "error", "pred. (purity)", "error",
-             "largest drop (margin)", "largest drop (purity)"}, {}, ""};
+    Table t{"predictor",
+            "Scene-level label reliability predicted from the pilot (leave-one-scene-out)",
+            {"scene", "labelled px", "actual " + pilot + " vs " + top, "pred. (margin)", "error", "pred. (purity)",
+             "error", "largest drop (margin)", "largest drop (purity)"},
+            {},
+            ""};
     report::Panel pm, pp, pa;
     pm.title = "agreement per pilot margin bin";
     pm.xlabel = "pilot argmax margin";
@@ -248,9 +261,10 @@ void run_predictor(StudyContext& ctx) {
         }
         if (std::isfinite(pred_m)) max_err_m = std::max(max_err_m, std::fabs(pred_m - actual));
         if (std::isfinite(pred_p)) max_err_p = std::max(max_err_p, std::fabs(pred_p - actual));
-        t.add({Cell::str(cfg.scenes[s].name), Cell::integer(static_cast<long long>(px[s].agree.size())), Cell::num(actual),
-               Cell::num(pred_m), Cell::num(pred_m - actual, "%+.3f"), Cell::num(pred_p), Cell::num(pred_p - actual, "%+.3f"),
-               Cell::num(largest_drop(by_margin[s]), "%.3f"), Cell::num(largest_drop(by_purity[s]), "%.3f")});
+        t.add({Cell::str(cfg.scenes[s].name), Cell::integer(static_cast<long long>(px[s].agree.size())),
+               Cell::num(actual), Cell::num(pred_m), Cell::num(pred_m - actual, "%+.3f"), Cell::num(pred_p),
+               Cell::num(pred_p - actual, "%+.3f"), Cell::num(largest_drop(by_margin[s]), "%.3f"),
+               Cell::num(largest_drop(by_purity[s]), "%.3f")});
         sa_m.x.push_back(actual);
         sa_m.y.push_back(pred_m);
         sa_p.x.push_back(actual);
@@ -270,18 +284,22 @@ void run_predictor(StudyContext& ctx) {
     pm.series.push_back({"pooled isotonic", centres, curve.margin, {}, {}, "#000000", "", "-", 0, 0, {}});
     pp.series.push_back({"pooled isotonic", centres, curve.purity, {}, {}, "#000000", "", "-", 0, 0, {}});
     pa.series = {sa_m, sa_p};
-    t.note = "Pilot " + pilot + " SPP, reference " + top + " SPP. Each scene's prediction uses the curve pooled over the "
-             "other scenes (20 equal-width bins, isotonic); error = predicted - actual. Largest LOSO error: " +
-             report::format("%.3f", max_err_m) + " (margin), " + report::format("%.3f", max_err_p) +
-             " (purity). \"largest drop\": the largest decrease of the agreement rate between consecutive bins with >= 20 "
-             "pixels (0 = monotone). The curve fitted on all scenes is frozen in predictor_curve.json (use it with "
-             "`vkmech study predictor --curve FILE --scenes NEW` to predict a new scene from its pilot).";
+    t.note =
+        "Pilot " + pilot + " SPP, reference " + top +
+        " SPP. Each scene's prediction uses the curve pooled over the "
+        "other scenes (20 equal-width bins, isotonic); error = predicted - actual. Largest LOSO error: " +
+        report::format("%.3f", max_err_m) + " (margin), " + report::format("%.3f", max_err_p) +
+        " (purity). \"largest drop\": the largest decrease of the agreement rate between consecutive bins with >= 20 "
+        "pixels (0 = monotone). The curve fitted on all scenes is frozen in predictor_curve.json (use it with "
+        "`vkmech study predictor --curve FILE --scenes NEW` to predict a new scene from its pilot).";
     report::Figure fig{"predictor", "Label-reliability predictor", "", 3, {pm, pp, pa}};
-    ctx.out.table(sec, t, "how well a scene's own pilot predicts its pilot-vs-reference agreement before any reference "
-                          "exists (the paper reports LOSO errors of at most 0.061 purity, 0.079 margin).");
-    ctx.out.figure(sec, fig, "left and middle: agreement rate per pilot bin, one thin line per scene and the pooled monotone "
-                             "curve in black; right: leave-one-scene-out prediction against the actual agreement (diagonal = "
-                             "perfect).");
+    ctx.out.table(sec, t,
+                  "how well a scene's own pilot predicts its pilot-vs-reference agreement before any reference "
+                  "exists (the paper reports LOSO errors of at most 0.061 purity, 0.079 margin).");
+    ctx.out.figure(sec, fig,
+                   "left and middle: agreement rate per pilot bin, one thin line per scene and the pooled monotone "
+                   "curve in black; right: leave-one-scene-out prediction against the actual agreement (diagonal = "
+                   "perfect).");
 }
 
 }  // namespace vkmech

@@ -10,7 +10,7 @@
 namespace vkmech {
 
 struct ReliabilityCurve {
-    int bins = 20;          // equal-width bins on [0, 1]
+    int bins = 20;                       // equal-width bins on [0, 1]
     std::vector<double> margin, purity;  // monotone agreement rate per bin
     unsigned pilot_spp = 0, reference_spp = 0;
     std::vector<std::string> scenes;  // what it was fitted on

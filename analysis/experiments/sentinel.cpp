@@ -15,15 +15,15 @@ namespace vkmech::sentinel {
 
 namespace {
 
-
 // How evaluate decides a categorical prediction (docs/descriptor.md §9.4).
 std::string pass_rule(const std::string& name, const std::string& what) {
     if (name.rfind("allocation.", 0) == 0) {
         const std::string pair = name.substr(11);
         const size_t vs = pair.find("_vs_");
         const std::string a = pair.substr(0, vs), b = vs == std::string::npos ? "?" : pair.substr(vs + 4);
-        const std::string over = " over the protocol's pilot draws (equal samples: the protocol's extra budget and floor, "
-                                 "final images from the shared pool, PSNR on unclamped RGB against the reference)";
+        const std::string over =
+            " over the protocol's pilot draws (equal samples: the protocol's extra budget and floor, "
+            "final images from the shared pool, PSNR on unclamped RGB against the reference)";
         const std::string share = json_number(kWinShare);
         if (what == "helps")
             return "PASS if " + a + "'s mean PSNR is above " + b + "'s and its MSE is lower on at least " + share +
@@ -31,11 +31,13 @@ std::string pass_rule(const std::string& name, const std::string& what) {
         if (what == "fails")
             return "PASS if " + a + "'s mean PSNR is below " + b + "'s and its MSE is higher on at least " + share +
                    " of the draws, FAIL if its mean PSNR is not below, INDETERMINATE otherwise" + over;
-        if (what == "no-op") return "PASS if " + a + "'s allocation equals " + b + "'s bit for bit on the registered draw";
+        if (what == "no-op")
+            return "PASS if " + a + "'s allocation equals " + b + "'s bit for bit on the registered draw";
     }
     if (name == "structure.rho_CG_sign")
         return "PASS if the 95% tile-bootstrap interval of rho (8x8-pixel tiles, 1000 resamples, seed 0) lies on the "
-               "predicted side of 0, FAIL if it lies on the other side, INDETERMINATE if it contains 0 or rho is undefined";
+               "predicted side of 0, FAIL if it lies on the other side, INDETERMINATE if it contains 0 or rho is "
+               "undefined";
     return "";
 }
 
@@ -55,10 +57,11 @@ std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis&
     if (curve) {
         const PilotPrediction p = predict_from_pilot(*curve, pilot);
         const std::string covers = std::to_string(p.labelled) + " pilot-labelled pixels of " + std::to_string(d.pixels);
-        const std::string pass = "PASS if |measured - predicted| <= " + json_number(kReliabilityTolerance) +
-                                 " (the curve's largest first-party leave-one-scene-out error, rounded up); measured: "
-                                 "the share of the pixels labelled in both the registered pilot and the reference whose "
-                                 "dominant labels agree (§5 agreement)";
+        const std::string pass =
+            "PASS if |measured - predicted| <= " + json_number(kReliabilityTolerance) +
+            " (the curve's largest first-party leave-one-scene-out error, rounded up); measured: "
+            "the share of the pixels labelled in both the registered pilot and the reference whose "
+            "dominant labels agree (§5 agreement)";
         out.push_back({"reliability.margin", "", p.margin, covers,
                        "mean of the frozen margin curve over the pilot-labelled pixels' argmax margins (§5.6)", pass,
                        kReliabilityTolerance});
@@ -95,7 +98,8 @@ std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis&
                                 "on 6 of 7 at N0 = 16)";
     const std::string var_rule =
         n0_rule + " or the untrusted share is at least " + json_number(kUntrustedFailShare) +
-        " (the ajar-door mode: the pilot leaves pixels it cannot vouch for with the floor only), helps otherwise; " + share;
+        " (the ajar-door mode: the pilot leaves pixels it cannot vouch for with the floor only), helps otherwise; " +
+        share;
     out.push_back(outcome("allocation.observed-var_vs_uniform", starved ? "fails" : "helps", all_px, var_rule));
     out.push_back(outcome("allocation.bucket-floor_vs_uniform", starved ? "fails" : "helps", all_px, var_rule));
     out.push_back(outcome(
@@ -109,12 +113,12 @@ std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis&
                               "no-op if the floor changes no pilot pixel's median-of-means score, helps otherwise (" +
                                   std::to_string(d.robust_floor_changed) + " changed)"));
     }
-    out.push_back(outcome("allocation.guarded_vs_bucket-floor", d.untrusted == 0 ? "no-op" : "helps", all_px,
-                          std::string("no-op if no pilot pixel is untrusted (identical allocation), helps otherwise; ") +
-                              share));
+    out.push_back(
+        outcome("allocation.guarded_vs_bucket-floor", d.untrusted == 0 ? "no-op" : "helps", all_px,
+                std::string("no-op if no pilot pixel is untrusted (identical allocation), helps otherwise; ") + share));
     out.push_back(outcome("allocation.guarded_vs_uniform", short_pilot ? "fails" : "helps", all_px,
                           n0_rule + ", helps otherwise: guarded keeps at least the uniform share where the pilot "
-                          "cannot be trusted, so only the pilot's length is held against it"));
+                                    "cannot be trusted, so only the pilot's length is held against it"));
 
     // (d) Finding 1: the sign of rho(C, G) from the families' mutual visibility.
     if (sep && sep->defined() && std::isfinite(sep->mutual_visibility)) {
@@ -136,30 +140,33 @@ std::string record_json(const Record& r) {
     j << ",\n  \"scene\": {\"name\": " << json_string(r.scene_name) << ", \"path\": " << json_string(r.scene_path)
       << ", \"sha256\": " << json_string(r.scene_sha256) << ", \"files\": [";
     for (size_t i = 0; i < r.scene_files.size(); ++i)
-        j << (i ? ", " : "") << "{\"path\": " << json_string(r.scene_files[i].path) << ", \"sha256\": " << json_string(r.scene_files[i].sha256)
-          << "}";
+        j << (i ? ", " : "") << "{\"path\": " << json_string(r.scene_files[i].path)
+          << ", \"sha256\": " << json_string(r.scene_files[i].sha256) << "}";
     j << "], \"params\": {";
     size_t pi = 0;
     for (const auto& [k, v] : r.params) j << (pi++ ? ", " : "") << json_string(k) << ": " << json_string(v);
     j << "}}";
-    j << ",\n  \"settings\": {\"width\": " << r.width << ", \"height\": " << r.height << ", \"pilot_spp\": " << r.pilot_spp
-      << ", \"pilot_draw\": " << r.pilot_draw << ", \"pilot_seed\": " << r.pilot_seed
-      << ", \"estimator\": " << json_string(r.estimator) << ", \"end_vertex\": " << json_string(r.end_vertex)
+    j << ",\n  \"settings\": {\"width\": " << r.width << ", \"height\": " << r.height
+      << ", \"pilot_spp\": " << r.pilot_spp << ", \"pilot_draw\": " << r.pilot_draw
+      << ", \"pilot_seed\": " << r.pilot_seed << ", \"estimator\": " << json_string(r.estimator)
+      << ", \"end_vertex\": " << json_string(r.end_vertex)
       << ", \"light_selection\": " << json_string(r.light_selection) << ", \"max_depth\": " << r.max_depth
       << ", \"rr_depth\": " << r.rr_depth << ", \"traversal\": " << json_string(r.traversal) << "}";
     j << ",\n  \"protocol\": {\"reference_spp\": " << r.protocol.reference_spp << ", \"draws\": " << r.protocol.draws
       << ", \"extra_spp\": " << r.protocol.extra_spp << ", \"floor\": " << r.protocol.floor << "}";
     j << ",\n  \"renders\": [";
     for (size_t i = 0; i < r.renders.size(); ++i)
-        j << (i ? ", " : "") << "{\"purpose\": \"pilot\", \"seed\": " << r.renders[i].seed << ", \"spp\": " << r.renders[i].spp
-          << "}";
+        j << (i ? ", " : "") << "{\"purpose\": \"pilot\", \"seed\": " << r.renders[i].seed
+          << ", \"spp\": " << r.renders[i].spp << "}";
     j << "]";
-    j << ",\n  \"code\": {\"version\": " << json_string(r.version) << ", \"code_digest\": " << json_string(r.code_digest)
-      << ", \"spirv_sha256\": " << json_string(r.spirv_sha256) << "}";
+    j << ",\n  \"code\": {\"version\": " << json_string(r.version)
+      << ", \"code_digest\": " << json_string(r.code_digest) << ", \"spirv_sha256\": " << json_string(r.spirv_sha256)
+      << "}";
     j << ",\n  \"registered_utc\": " << json_string(r.registered_utc);
     j << ",\n  \"device\": " << json_string(r.device);
     j << ",\n  \"curve\": ";
-    if (r.curve_path.empty()) j << "null";
+    if (r.curve_path.empty())
+        j << "null";
     else
         j << "{\"path\": " << json_string(r.curve_path) << ", \"sha256\": " << json_string(r.curve_sha256)
           << ", \"pilot_spp\": " << r.curve_pilot_spp << ", \"reference_spp\": " << r.curve_reference_spp << "}";
@@ -172,19 +179,21 @@ std::string record_json(const Record& r) {
     j << ", \"untrusted\": " << d.untrusted << ", \"lit_no_variance\": " << d.lit_no_variance
       << ", \"dark_in_lit_region\": " << d.dark_in_lit_region << "}";
     j << ",\n  \"separation\": ";
-    if (!r.separation) j << "null";
+    if (!r.separation)
+        j << "null";
     else
-        j << "{\"delta_objects\": " << r.separation->delta_objects << ", \"glossy_objects\": " << r.separation->glossy_objects
+        j << "{\"delta_objects\": " << r.separation->delta_objects
+          << ", \"glossy_objects\": " << r.separation->glossy_objects
           << ", \"min_distance\": " << json_number(r.separation->min_distance)
           << ", \"mutual_visibility\": " << json_number(r.separation->mutual_visibility)
           << ", \"segments\": " << r.separation->segments << ", \"visible\": " << r.separation->visible << "}";
     j << ",\n  \"predictions\": [";
     for (size_t i = 0; i < r.predictions.size(); ++i) {
         const Prediction& p = r.predictions[i];
-        j << (i ? "," : "") << "\n    {\"name\": " << json_string(p.name) << ", \"predicted\": "
-          << (p.outcome.empty() ? json_number(p.value) : json_string(p.outcome)) << ", \"covers\": " << json_string(p.covers)
-          << ", \"tolerance\": " << json_number(p.tolerance) << ", \"rule\": " << json_string(p.rule)
-          << ", \"pass_if\": " << json_string(p.pass_if) << "}";
+        j << (i ? "," : "") << "\n    {\"name\": " << json_string(p.name)
+          << ", \"predicted\": " << (p.outcome.empty() ? json_number(p.value) : json_string(p.outcome))
+          << ", \"covers\": " << json_string(p.covers) << ", \"tolerance\": " << json_number(p.tolerance)
+          << ", \"rule\": " << json_string(p.rule) << ", \"pass_if\": " << json_string(p.pass_if) << "}";
     }
     j << "\n  ]\n}\n";
     return j.str();
@@ -204,7 +213,9 @@ std::string seal(const std::string& body) {
 
 Verification verify_record(const std::string& text, const std::string& file) {
     const std::string f = "'" + file + "'";
-    auto bad = [&](const std::string& why) { return Verification{Verification::Malformed, f + " is not a sentinel record: " + why}; };
+    auto bad = [&](const std::string& why) {
+        return Verification{Verification::Malformed, f + " is not a sentinel record: " + why};
+    };
     std::string why;
     const std::optional<JsonValue> doc = parse_json(text, &why);
     if (!doc) return bad("malformed JSON: " + why);
@@ -215,17 +226,22 @@ Verification verify_record(const std::string& text, const std::string& file) {
     const JsonValue* version = doc->find("format_version");
     if (!version || version->kind != JsonValue::Number) return bad("it lacks a numeric \"format_version\"");
     if (version->number != kFormatVersion)
-        return {Verification::Malformed, f + ": unknown sentinel record format version " + json_number(version->number) +
-                                             " (this vkmech reads version " + std::to_string(kFormatVersion) + ")"};
+        return {Verification::Malformed, f + ": unknown sentinel record format version " +
+                                             json_number(version->number) + " (this vkmech reads version " +
+                                             std::to_string(kFormatVersion) + ")"};
     struct Required {
         const char* key;
         JsonValue::Kind kind;
     };
-    for (const Required& r : {Required{"scene", JsonValue::Object}, {"settings", JsonValue::Object},
-                              {"protocol", JsonValue::Object}, {"renders", JsonValue::Array},
+    for (const Required& r : {Required{"scene", JsonValue::Object},
+                              {"settings", JsonValue::Object},
+                              {"protocol", JsonValue::Object},
+                              {"renders", JsonValue::Array},
                               {"code", JsonValue::Object},
-                              {"registered_utc", JsonValue::String}, {"device", JsonValue::String},
-                              {"diagnosis", JsonValue::Object}, {"predictions", JsonValue::Array},
+                              {"registered_utc", JsonValue::String},
+                              {"device", JsonValue::String},
+                              {"diagnosis", JsonValue::Object},
+                              {"predictions", JsonValue::Array},
                               {"sha256", JsonValue::String}}) {
         const JsonValue* v = doc->find(r.key);
         if (!v) return bad(std::string("the member \"") + r.key + "\" is missing");
@@ -250,11 +266,11 @@ Verification verify_record(const std::string& text, const std::string& file) {
                 edited + "its content hashes to " + actual + ", the registered SHA-256 is " + recorded};
 
     const JsonValue* scene = doc->find("scene")->find("name");
-    return {Verification::Intact,
-            f + ": intact sentinel record of " + (scene && scene->kind == JsonValue::String ? scene->string : "?") +
-                ", registered " + doc->find("registered_utc")->string + ", " +
-                std::to_string(doc->find("predictions")->array.size()) + " predictions, sha256 " + recorded.substr(0, 16) +
-                "..."};
+    return {Verification::Intact, f + ": intact sentinel record of " +
+                                      (scene && scene->kind == JsonValue::String ? scene->string : "?") +
+                                      ", registered " + doc->find("registered_utc")->string + ", " +
+                                      std::to_string(doc->find("predictions")->array.size()) + " predictions, sha256 " +
+                                      recorded.substr(0, 16) + "..."};
 }
 
 namespace {
@@ -292,7 +308,8 @@ Record parse_record(const JsonValue& doc) {
     for (const JsonValue& f : member(scene, "files", JsonValue::Array, "scene").array)
         r.scene_files.push_back({text(f, "path", "scene.files"), text(f, "sha256", "scene.files")});
     for (const auto& [k, v] : member(scene, "params", JsonValue::Object, "scene").object) {
-        if (v.kind != JsonValue::String) throw std::runtime_error("sentinel record: scene.params." + k + " is not a string");
+        if (v.kind != JsonValue::String)
+            throw std::runtime_error("sentinel record: scene.params." + k + " is not a string");
         r.params[k] = v.string;
     }
     const JsonValue& st = member(doc, "settings", JsonValue::Object, "the record");
@@ -357,9 +374,12 @@ Record parse_record(const JsonValue& doc) {
         Prediction x;
         x.name = text(p, "name", "a prediction");
         const JsonValue& v = p.find("predicted") ? *p.find("predicted") : JsonValue();
-        if (v.kind == JsonValue::String) x.outcome = v.string;
-        else if (v.kind == JsonValue::Number) x.value = v.number;
-        else x.value = NAN;  // written as null: not finite
+        if (v.kind == JsonValue::String)
+            x.outcome = v.string;
+        else if (v.kind == JsonValue::Number)
+            x.value = v.number;
+        else
+            x.value = NAN;  // written as null: not finite
         x.covers = text(p, "covers", "a prediction");
         x.rule = text(p, "rule", "a prediction");
         x.pass_if = text(p, "pass_if", "a prediction");

@@ -86,7 +86,7 @@ struct FileDigest {
 struct Record {
     std::string scene_name, scene_path, scene_sha256;
     std::map<std::string, std::string> params;  // -D name=value the scene was loaded with
-    std::vector<FileDigest> scene_files;  // further files the loader read (textures)
+    std::vector<FileDigest> scene_files;        // further files the loader read (textures)
     int width = 0, height = 0;
     uint32_t pilot_spp = 0, pilot_draw = 0, pilot_seed = 0;
     std::string estimator, end_vertex, light_selection, traversal;

@@ -29,7 +29,6 @@ std::string fmt(const char* f, double x) {
     return b;
 }
 
-
 struct Scores {
     std::map<std::string, StrategyScore> by_name;
     std::map<std::string, std::vector<std::vector<uint32_t>>> plans;  // per draw
@@ -48,13 +47,13 @@ Evaluation evaluate(const Record& r, const EvalInputs& in) {
     const size_t P = static_cast<size_t>(ref.width) * ref.height;
     if (ref.width != r.width || ref.height != r.height)
         throw std::invalid_argument("sentinel evaluate: the reference is " + std::to_string(ref.width) + "x" +
-                                    std::to_string(ref.height) + ", the record's film " + std::to_string(r.width) + "x" +
-                                    std::to_string(r.height));
+                                    std::to_string(ref.height) + ", the record's film " + std::to_string(r.width) +
+                                    "x" + std::to_string(r.height));
     if (in.pool->pixels != P || in.pool->frames < r.protocol.extra_spp + 1)
         throw std::invalid_argument("sentinel evaluate: the pool does not match the film or the budget");
     if (in.pilots.empty() || in.pilots.size() != r.protocol.draws)
-        throw std::invalid_argument("sentinel evaluate: " + std::to_string(in.pilots.size()) + " pilot draws, the protocol has " +
-                                    std::to_string(r.protocol.draws));
+        throw std::invalid_argument("sentinel evaluate: " + std::to_string(in.pilots.size()) +
+                                    " pilot draws, the protocol has " + std::to_string(r.protocol.draws));
     for (const Pilot& p : in.pilots)
         if (p.var.size() != P) throw std::invalid_argument("sentinel evaluate: a pilot does not match the film");
 
@@ -69,16 +68,17 @@ Evaluation evaluate(const Record& r, const EvalInputs& in) {
     const alloc::PilotDiagnosis d0 = alloc::diagnose_pilot(in.pilots[0]);
     const alloc::PilotDiagnosis& rdg = r.diagnosis;
     e.pilot_reproduced = d0.pixels == rdg.pixels && d0.labelled == rdg.labelled && d0.seen == rdg.seen &&
-                         d0.heavy == rdg.heavy && d0.floor_changed == rdg.floor_changed && d0.untrusted == rdg.untrusted &&
-                         d0.robust_floor_changed == rdg.robust_floor_changed;
-    e.checks.push_back(e.pilot_reproduced
-                           ? "the registered pilot (seed " + std::to_string(r.pilot_seed) +
-                                 "), rendered again, gives the registered diagnosis (labelled, seen, heavy, floor "
-                                 "changes, untrusted pixels): the predictions were made from this pilot"
-                           : "the registered pilot, rendered again, does NOT give the registered diagnosis (labelled " +
-                                 std::to_string(d0.labelled) + " vs " + std::to_string(rdg.labelled) + ", untrusted " +
-                                 std::to_string(d0.untrusted) + " vs " + std::to_string(rdg.untrusted) +
-                                 "): another device or driver? the allocation outcomes below are for the pilot rendered now");
+                         d0.heavy == rdg.heavy && d0.floor_changed == rdg.floor_changed &&
+                         d0.untrusted == rdg.untrusted && d0.robust_floor_changed == rdg.robust_floor_changed;
+    e.checks.push_back(
+        e.pilot_reproduced
+            ? "the registered pilot (seed " + std::to_string(r.pilot_seed) +
+                  "), rendered again, gives the registered diagnosis (labelled, seen, heavy, floor "
+                  "changes, untrusted pixels): the predictions were made from this pilot"
+            : "the registered pilot, rendered again, does NOT give the registered diagnosis (labelled " +
+                  std::to_string(d0.labelled) + " vs " + std::to_string(rdg.labelled) + ", untrusted " +
+                  std::to_string(d0.untrusted) + " vs " + std::to_string(rdg.untrusted) +
+                  "): another device or driver? the allocation outcomes below are for the pilot rendered now");
 
     // The allocation comparison at equal samples over the protocol's draws.
     const bool robust = !in.pilots[0].mom_var.empty();
@@ -143,7 +143,8 @@ Evaluation evaluate(const Record& r, const EvalInputs& in) {
             uint32_t b = 0;
             while (b < kBucketCount && bucket != kBucketNames[b]) ++b;
             double m = NAN;
-            if (b < kBucketCount) m = what == "pixel_share" ? rs.pixel_share[b] : what == "energy_share" ? rs.energy_share[b] : NAN;
+            if (b < kBucketCount)
+                m = what == "pixel_share" ? rs.pixel_share[b] : what == "energy_share" ? rs.energy_share[b] : NAN;
             o.measured = fmt("%.4f", m);
             o.verdict = verdict_band(pr.value, m, pr.tolerance);
             o.detail = "the reference's " + what + " of " + bucket + " (" + std::to_string(rs.labelled_pixels) +
@@ -175,12 +176,14 @@ Evaluation evaluate(const Record& r, const EvalInputs& in) {
                         o.verdict = !(diff > 0) ? "FAIL" : pw.wins >= kWinShare * n ? "PASS" : "INDETERMINATE";
                     else if (pr.outcome == "fails")
                         o.verdict = !(diff < 0) ? "FAIL" : losses.wins >= kWinShare * n ? "PASS" : "INDETERMINATE";
-                    else o.verdict = "INDETERMINATE";
+                    else
+                        o.verdict = "INDETERMINATE";
                 }
                 o.detail = a + " " + fmt("%.2f", A.psnr_mean) + " dB vs " + b + " " + fmt("%.2f", B.psnr_mean) +
                            " dB (mean over " + std::to_string(A.mse.size()) + " draws); lower MSE on " +
-                           std::to_string(pw.wins) + "/" + std::to_string(pw.draws) + " draws; identical allocation on " +
-                           std::to_string(same) + "/" + std::to_string(A.mse.size()) + " draws";
+                           std::to_string(pw.wins) + "/" + std::to_string(pw.draws) +
+                           " draws; identical allocation on " + std::to_string(same) + "/" +
+                           std::to_string(A.mse.size()) + " draws";
             }
         } else if (pr.name == "structure.rho_CG_sign") {
             std::vector<double> cx, gx, cf(P, NAN), gf(P, NAN);
@@ -197,7 +200,8 @@ Evaluation evaluate(const Record& r, const EvalInputs& in) {
             if (!cnz || !gnz) {
                 o.measured = "degenerate";
                 o.verdict = "INDETERMINATE";
-                o.detail = std::string("the reference has no ") + (cnz ? "glossy" : "delta-mediated") + " energy in a labelled pixel";
+                o.detail = std::string("the reference has no ") + (cnz ? "glossy" : "delta-mediated") +
+                           " energy in a labelled pixel";
             } else {
                 const double rho = stats::spearman(cx, gx);
                 const stats::Interval ci = stats::tile_bootstrap_spearman(cf, gf, ref.width, 8, 1000, 0);
@@ -205,8 +209,8 @@ Evaluation evaluate(const Record& r, const EvalInputs& in) {
                 const bool pos = ci.lo > 0, neg = ci.hi < 0;
                 const bool want_pos = pr.outcome == "positive";
                 o.verdict = (want_pos && pos) || (!want_pos && neg) ? "PASS" : (pos || neg) ? "FAIL" : "INDETERMINATE";
-                o.detail = "Spearman rho of caustic_frac and glossy_frac over the reference's " + std::to_string(cx.size()) +
-                           " labelled pixels, 95% tile-bootstrap interval";
+                o.detail = "Spearman rho of caustic_frac and glossy_frac over the reference's " +
+                           std::to_string(cx.size()) + " labelled pixels, 95% tile-bootstrap interval";
             }
         } else {
             o.measured = "not measured";
@@ -216,8 +220,9 @@ Evaluation evaluate(const Record& r, const EvalInputs& in) {
         (o.verdict == "PASS" ? e.pass : o.verdict == "FAIL" ? e.fail : e.indeterminate) += 1;
         e.outcomes.push_back(std::move(o));
     }
-    e.checks.push_back("the reference: " + std::to_string(r.protocol.reference_spp) + " samples per pixel, `other` energy " +
-                       fmt("%.3g", rs.other_energy) + ", " + std::to_string(rs.nonfinite_samples) + " non-finite samples");
+    e.checks.push_back("the reference: " + std::to_string(r.protocol.reference_spp) +
+                       " samples per pixel, `other` energy " + fmt("%.3g", rs.other_energy) + ", " +
+                       std::to_string(rs.nonfinite_samples) + " non-finite samples");
     return e;
 }
 
@@ -226,20 +231,23 @@ std::string evaluation_json(const Record& r, const std::string& record_sha256, c
     j << "{\n  \"format\": \"vkmech sentinel evaluation\",\n  \"format_version\": 1";
     j << ",\n  \"record\": {\"scene\": " << json_string(r.scene_name) << ", \"sha256\": " << json_string(record_sha256)
       << ", \"registered_utc\": " << json_string(r.registered_utc) << "}";
-    j << ",\n  \"summary\": {\"pass\": " << e.pass << ", \"fail\": " << e.fail << ", \"indeterminate\": " << e.indeterminate
-      << ", \"pilot_reproduced\": " << (e.pilot_reproduced ? "true" : "false") << ", \"psnr_peak\": " << json_number(e.peak) << "}";
+    j << ",\n  \"summary\": {\"pass\": " << e.pass << ", \"fail\": " << e.fail
+      << ", \"indeterminate\": " << e.indeterminate
+      << ", \"pilot_reproduced\": " << (e.pilot_reproduced ? "true" : "false")
+      << ", \"psnr_peak\": " << json_number(e.peak) << "}";
     j << ",\n  \"outcomes\": [";
     for (size_t i = 0; i < e.outcomes.size(); ++i) {
         const Outcome& o = e.outcomes[i];
-        j << (i ? "," : "") << "\n    {\"name\": " << json_string(o.name) << ", \"predicted\": " << json_string(o.predicted)
-          << ", \"measured\": " << json_string(o.measured) << ", \"verdict\": " << json_string(o.verdict) << ", \"detail\": " << json_string(o.detail)
-          << "}";
+        j << (i ? "," : "") << "\n    {\"name\": " << json_string(o.name)
+          << ", \"predicted\": " << json_string(o.predicted) << ", \"measured\": " << json_string(o.measured)
+          << ", \"verdict\": " << json_string(o.verdict) << ", \"detail\": " << json_string(o.detail) << "}";
     }
     j << "\n  ],\n  \"strategies\": [";
     for (size_t i = 0; i < e.strategies.size(); ++i) {
         const StrategyScore& s = e.strategies[i];
-        j << (i ? "," : "") << "\n    {\"name\": " << json_string(s.name) << ", \"psnr_mean\": " << json_number(s.psnr_mean)
-          << ", \"psnr_std\": " << json_number(s.psnr_std) << ", \"wins_vs_uniform\": " << s.wins_vs_uniform << ", \"mse\": [";
+        j << (i ? "," : "") << "\n    {\"name\": " << json_string(s.name)
+          << ", \"psnr_mean\": " << json_number(s.psnr_mean) << ", \"psnr_std\": " << json_number(s.psnr_std)
+          << ", \"wins_vs_uniform\": " << s.wins_vs_uniform << ", \"mse\": [";
         for (size_t k = 0; k < s.mse.size(); ++k) j << (k ? ", " : "") << json_number(s.mse[k]);
         j << "]}";
     }
@@ -254,21 +262,24 @@ std::string evaluation_markdown(const Record& r, const std::string& record_file,
     std::ostringstream m;
     m << "# Sentinel evaluation: " << r.scene_name << "\n\n";
     m << "Record `" << record_file << "` (sha256 `" << record_sha256 << "`), registered " << r.registered_utc << " on "
-      << r.device << " from a " << r.pilot_spp << "-spp pilot (seed " << r.pilot_seed << ") at " << r.width << "x" << r.height
-      << ". Protocol (fixed at registration): reference " << r.protocol.reference_spp << " spp, " << r.protocol.draws
-      << " pilot draws, extra budget " << r.protocol.extra_spp << " spp, floor " << r.protocol.floor << ".\n\n";
+      << r.device << " from a " << r.pilot_spp << "-spp pilot (seed " << r.pilot_seed << ") at " << r.width << "x"
+      << r.height << ". Protocol (fixed at registration): reference " << r.protocol.reference_spp << " spp, "
+      << r.protocol.draws << " pilot draws, extra budget " << r.protocol.extra_spp << " spp, floor " << r.protocol.floor
+      << ".\n\n";
     m << "**" << e.pass << " PASS, " << e.fail << " FAIL, " << e.indeterminate << " INDETERMINATE** of "
       << e.outcomes.size() << " predictions.\n\n";
     m << "| prediction | predicted | measured | verdict | how measured |\n|---|---|---|---|---|\n";
     for (const Outcome& o : e.outcomes)
-        m << "| " << o.name << " | " << o.predicted << " | " << o.measured << " | " << o.verdict << " | " << o.detail << " |\n";
+        m << "| " << o.name << " | " << o.predicted << " | " << o.measured << " | " << o.verdict << " | " << o.detail
+          << " |\n";
     m << "\n## Allocation at equal samples\n\nPSNR (dB) on unclamped linear RGB against the reference (peak "
       << fmt("%.4g", e.peak) << "), mean and seed std over " << r.protocol.draws
       << " pilot draws; final images are prefixes of one shared pool, so uniform has no spread.\n\n";
     m << "| strategy | PSNR | std | MSE wins vs uniform | = observed-var (registered draw) |\n|---|---|---|---|---|\n";
     for (const StrategyScore& s : e.strategies)
         m << "| " << s.name << " | " << fmt("%.2f", s.psnr_mean) << " | " << fmt("%.2f", s.psnr_std) << " | "
-          << s.wins_vs_uniform << "/" << s.mse.size() << " | " << (s.identical_to_observed_var ? "yes" : "no") << " |\n";
+          << s.wins_vs_uniform << "/" << s.mse.size() << " | " << (s.identical_to_observed_var ? "yes" : "no")
+          << " |\n";
     m << "\n## Checks\n\n";
     for (const std::string& c : e.checks) m << "- " << c << "\n";
     m << "\n## Renders made by the evaluation\n\n";

@@ -29,10 +29,10 @@ struct Outcome {
 
 struct StrategyScore {
     std::string name;
-    std::vector<double> mse;    // per pilot draw (unclamped linear RGB)
-    double psnr_mean = 0.0;     // mean over draws of the per-draw PSNR (peak: the reference's largest RGB value)
-    double psnr_std = 0.0;      // seed std over draws
-    int wins_vs_uniform = 0;    // draws with a lower MSE than uniform
+    std::vector<double> mse;  // per pilot draw (unclamped linear RGB)
+    double psnr_mean = 0.0;   // mean over draws of the per-draw PSNR (peak: the reference's largest RGB value)
+    double psnr_std = 0.0;    // seed std over draws
+    int wins_vs_uniform = 0;  // draws with a lower MSE than uniform
     bool identical_to_observed_var = false;  // same n(p) as observed-var on the registered draw
 };
 

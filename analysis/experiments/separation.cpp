@@ -169,8 +169,8 @@ bool boxes_overlap(const Triangle3& a, const Triangle3& b) {
 // directions, and each candidate is checked with the exact orient3d.
 bool off_plane_point(const Triangle3& t, dvec3& o) {
     dvec3 e1 = t[1] - t[0], e2 = t[2] - t[0];
-    double scale = std::max({std::abs(e1.x), std::abs(e1.y), std::abs(e1.z), std::abs(e2.x), std::abs(e2.y),
-                             std::abs(e2.z), 1.0});
+    double scale =
+        std::max({std::abs(e1.x), std::abs(e1.y), std::abs(e1.z), std::abs(e2.x), std::abs(e2.y), std::abs(e2.z), 1.0});
     dvec3 cand[4] = {t[0] + glm::cross(e1, e2), t[0] + dvec3(scale, 0, 0), t[0] + dvec3(0, scale, 0),
                      t[0] + dvec3(0, 0, scale)};
     for (const dvec3& c : cand)
@@ -480,8 +480,10 @@ SeparationMeasures measure_separation(const Scene& scene, const SegmentVisibilit
     std::vector<uint32_t> delta, glossy;
     for (size_t i = 0; i < scene.meshes.size(); ++i) {
         SeparationFamily f = separation_family(scene, i);
-        if (f == SeparationFamily::Delta) delta.push_back(static_cast<uint32_t>(i));
-        else if (f == SeparationFamily::Glossy) glossy.push_back(static_cast<uint32_t>(i));
+        if (f == SeparationFamily::Delta)
+            delta.push_back(static_cast<uint32_t>(i));
+        else if (f == SeparationFamily::Glossy)
+            glossy.push_back(static_cast<uint32_t>(i));
     }
     r.delta_objects = static_cast<int>(delta.size());
     r.glossy_objects = static_cast<int>(glossy.size());
@@ -494,7 +496,8 @@ SeparationMeasures measure_separation(const Scene& scene, const SegmentVisibilit
     std::vector<std::pair<double, std::pair<size_t, size_t>>> pairs;
     for (size_t i = 0; i < delta.size(); ++i)
         for (size_t j = 0; j < glossy.size(); ++j)
-            pairs.push_back({box_box_dist2(dobj_delta[i].lo, dobj_delta[i].hi, dobj_glossy[j].lo, dobj_glossy[j].hi), {i, j}});
+            pairs.push_back(
+                {box_box_dist2(dobj_delta[i].lo, dobj_delta[i].hi, dobj_glossy[j].lo, dobj_glossy[j].hi), {i, j}});
     std::sort(pairs.begin(), pairs.end());
     double best2 = std::numeric_limits<double>::infinity();
     for (const auto& [box2, ij] : pairs) {
@@ -515,8 +518,8 @@ SeparationMeasures measure_separation(const Scene& scene, const SegmentVisibilit
         if (rays.empty()) return;
         std::vector<uint8_t> open = unoccluded(rays);
         if (open.size() != rays.size())
-            throw std::logic_error("measure_separation: the visibility function answered " + std::to_string(open.size()) +
-                                   " of " + std::to_string(rays.size()) + " segments");
+            throw std::logic_error("measure_separation: the visibility function answered " +
+                                   std::to_string(open.size()) + " of " + std::to_string(rays.size()) + " segments");
         for (uint8_t v : open) r.visible += v ? 1u : 0u;
         r.segments += rays.size();
         rays.clear();

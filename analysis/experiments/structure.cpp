@@ -23,25 +23,37 @@ void run_structure(StudyContext& ctx) {
     const std::vector<std::pair<int, int>> pairs = {{0, 3}, {3, 1}, {0, 1}, {2, 0}, {2, 1}, {2, 3}};
     const char* abbrev[] = {"C", "G", "D", "P"};
 
-    Table corr{"correlation_matrix", "Per-pixel Spearman rho among the four continuous components (tab:correlation-matrix)",
-               {"pair"}, {}, ""};
-    corr.note = "C = caustic_frac, G = glossy_frac, D = depth, P = inv_purity (1 - purity), over the reference render's "
-                "labelled pixels. deg.: one component is identically zero in that scene.";
-    Table sep{"sign_reversal", "Caustic/glossy correlation and object-space separation (tab:sign-reversal)",
+    Table corr{"correlation_matrix",
+               "Per-pixel Spearman rho among the four continuous components (tab:correlation-matrix)",
+               {"pair"},
+               {},
+               ""};
+    corr.note =
+        "C = caustic_frac, G = glossy_frac, D = depth, P = inv_purity (1 - purity), over the reference render's "
+        "labelled pixels. deg.: one component is identically zero in that scene.";
+    Table sep{"sign_reversal",
+              "Caustic/glossy correlation and object-space separation (tab:sign-reversal)",
               {"scene", "delta-S objects", "glossy objects", "min dist. (scene units)", "mut. vis.", "rho C-G",
-               "rho C-G 95% CI"}, {}, ""};
-    sep.note = "families by BSDF lobe flags: glossy = can sample a glossy lobe (rough conductor, rough dielectric, rough "
-               "plastic, principled), delta-S = a delta lobe and no glossy one (smooth conductor, dielectric, thin "
-               "dielectric, smooth plastic); min dist.: exact minimum surface-to-surface distance between any delta-S and "
-               "any glossy object; mut. vis.: share of unoccluded segments between 64 surface points per object pair "
-               "(ray-tested, offset 1e-3, seed 0). n/a: a family is empty. 95% CI: tile bootstrap of rho over the "
-               "reference's labelled pixels (8 x 8-pixel tiles, 1000 resamples, seed 0): how much rho varies across "
-               "image regions of this one render, not across seeds.";
-    Table f2{"depth_purity", "Finding 2: rho(depth, inv_purity) per scene against the paper's sign",
-             {"scene", "rho D-P", "95% CI", "paper", "reading"}, {}, ""};
-    f2.note = "rho D-P: per-pixel Spearman of depth and 1 - purity over the reference's labelled pixels; 95% CI: tile "
-              "bootstrap as in tab:sign-reversal. reading: holds when the interval lies on the paper's side of 0, "
-              "differs when it lies on the other side, indeterminate when it contains 0.";
+               "rho C-G 95% CI"},
+              {},
+              ""};
+    sep.note =
+        "families by BSDF lobe flags: glossy = can sample a glossy lobe (rough conductor, rough dielectric, rough "
+        "plastic, principled), delta-S = a delta lobe and no glossy one (smooth conductor, dielectric, thin "
+        "dielectric, smooth plastic); min dist.: exact minimum surface-to-surface distance between any delta-S and "
+        "any glossy object; mut. vis.: share of unoccluded segments between 64 surface points per object pair "
+        "(ray-tested, offset 1e-3, seed 0). n/a: a family is empty. 95% CI: tile bootstrap of rho over the "
+        "reference's labelled pixels (8 x 8-pixel tiles, 1000 resamples, seed 0): how much rho varies across "
+        "image regions of this one render, not across seeds.";
+    Table f2{"depth_purity",
+             "Finding 2: rho(depth, inv_purity) per scene against the paper's sign",
+             {"scene", "rho D-P", "95% CI", "paper", "reading"},
+             {},
+             ""};
+    f2.note =
+        "rho D-P: per-pixel Spearman of depth and 1 - purity over the reference's labelled pixels; 95% CI: tile "
+        "bootstrap as in tab:sign-reversal. reading: holds when the interval lies on the paper's side of 0, "
+        "differs when it lies on the other side, indeterminate when it contains 0.";
     for (const auto& s : cfg.scenes) corr.columns.push_back(s.name);
     std::vector<std::vector<Cell>> corr_rows;
     for (auto [a, b] : pairs) corr_rows.push_back({Cell::str(std::string(abbrev[a]) + " <-> " + abbrev[b])});
@@ -61,7 +73,8 @@ void run_structure(StudyContext& ctx) {
     report::Figure fig{"caustic_vs_glossy", "caustic_frac versus glossy_frac per pixel", "", 0, {}};
 
     for (const auto& scene : cfg.scenes) {
-        Frame ref = ctx.frames.get({scene, cfg.stability_reference_spp(), seeds::stability(cfg.stability_spp.size() - 1), Estimator::Nee});
+        Frame ref = ctx.frames.get(
+            {scene, cfg.stability_reference_spp(), seeds::stability(cfg.stability_spp.size() - 1), Estimator::Nee});
         Descriptor d = derive_descriptor(ref);
         std::array<std::vector<double>, 4> comp;
         std::array<std::vector<double>, 4> field;  // the same per pixel, NaN where unlabelled (for the bootstrap)
@@ -84,7 +97,8 @@ void run_structure(StudyContext& ctx) {
         double rho_cg = nonzero[0] && nonzero[1] ? stats::spearman(comp[0], comp[1]) : NAN;
         rho_dp[scene.name] = nonzero[2] && nonzero[3] ? stats::spearman(comp[2], comp[3]) : NAN;
         const int w = static_cast<int>(ref.width);
-        if (std::isfinite(rho_cg)) ci_cg[scene.name] = stats::tile_bootstrap_spearman(field[0], field[1], w, 8, 1000, 0);
+        if (std::isfinite(rho_cg))
+            ci_cg[scene.name] = stats::tile_bootstrap_spearman(field[0], field[1], w, 8, 1000, 0);
         if (std::isfinite(rho_dp[scene.name]))
             ci_dp[scene.name] = stats::tile_bootstrap_spearman(field[2], field[3], w, 8, 1000, 0);
         if (ctx.separation) {
@@ -117,23 +131,26 @@ void run_structure(StudyContext& ctx) {
         auto [vs, rs] = vis_rho["tabletop_separated"];
         ctx.out.check("Finding 1: blocking the sight lines (tabletop_separated) lowers rho C-G below tabletop_mixed's",
                       rm > rs && vs < vm,
-                      "tabletop_mixed: visibility " + report::format("%.3f", vm) + ", rho " + report::format("%+.3f", rm) +
-                          "; tabletop_separated: visibility " + report::format("%.3f", vs) + ", rho " +
-                          report::format("%+.3f", rs) + " (paper: +0.441 vs -0.270, a sign reversal)");
+                      "tabletop_mixed: visibility " + report::format("%.3f", vm) + ", rho " +
+                          report::format("%+.3f", rm) + "; tabletop_separated: visibility " +
+                          report::format("%.3f", vs) + ", rho " + report::format("%+.3f", rs) +
+                          " (paper: +0.441 vs -0.270, a sign reversal)");
         const stats::Interval im = ci_cg.count("tabletop_mixed") ? ci_cg["tabletop_mixed"] : stats::Interval{NAN, NAN};
-        const stats::Interval is = ci_cg.count("tabletop_separated") ? ci_cg["tabletop_separated"] : stats::Interval{NAN, NAN};
-        ctx.out.check("Finding 1, the paper's strong form: rho C-G changes sign, positive on tabletop_mixed and negative on "
-                      "tabletop_separated, with 95% intervals that exclude 0",
-                      im.lo > 0 && is.hi < 0,
-                      "rho C-G " + report::format("%+.3f", rm) + " " + ci_str(im) + " (mixed) and " +
-                          report::format("%+.3f", rs) + " " + ci_str(is) + " (separated); paper: +0.441 and -0.270");
+        const stats::Interval is =
+            ci_cg.count("tabletop_separated") ? ci_cg["tabletop_separated"] : stats::Interval{NAN, NAN};
+        ctx.out.check(
+            "Finding 1, the paper's strong form: rho C-G changes sign, positive on tabletop_mixed and negative on "
+            "tabletop_separated, with 95% intervals that exclude 0",
+            im.lo > 0 && is.hi < 0,
+            "rho C-G " + report::format("%+.3f", rm) + " " + ci_str(im) + " (mixed) and " +
+                report::format("%+.3f", rs) + " " + ci_str(is) + " (separated); paper: +0.441 and -0.270");
     }
     {
         // Finding 2 (paper §5, tab:correlation-matrix last row): the sign of rho(depth, inv_purity) separates the
         // specular-chain scenes (negative: snooker, ring_caustic) from the lobe-mixing ones (positive).
-        const std::map<std::string, int> paper_sign = {{"cubes_dof", +1},      {"glass_caustic", +1}, {"tabletop_mixed", +1},
-                                                       {"tabletop_separated", +1}, {"kitchen_counter", +1}, {"snooker", -1},
-                                                       {"ring_caustic", -1}};
+        const std::map<std::string, int> paper_sign = {
+            {"cubes_dof", +1},       {"glass_caustic", +1}, {"tabletop_mixed", +1}, {"tabletop_separated", +1},
+            {"kitchen_counter", +1}, {"snooker", -1},       {"ring_caustic", -1}};
         std::string detail, wrong, unsure;
         int compared = 0;
         for (const auto& scene : cfg.scenes) {
@@ -151,25 +168,31 @@ void run_structure(StudyContext& ctx) {
             detail += (detail.empty() ? "" : ", ") + scene.name + " " +
                       (std::isfinite(r) ? report::format("%+.2f", r) + " " + ci_str(ci) : std::string("deg.")) +
                       (sign > 0 ? " (paper +)" : " (paper -)");
-            if (std::string(reading) == "indeterminate") unsure += (unsure.empty() ? "" : ", ") + scene.name;
-            else if (std::string(reading) != "holds") wrong += (wrong.empty() ? "" : ", ") + scene.name;
+            if (std::string(reading) == "indeterminate")
+                unsure += (unsure.empty() ? "" : ", ") + scene.name;
+            else if (std::string(reading) != "holds")
+                wrong += (wrong.empty() ? "" : ", ") + scene.name;
         }
         if (compared > 0)
-            ctx.out.check("Finding 2: rho(depth, inv_purity) is negative on snooker and ring_caustic and positive on the "
-                          "other first-party scenes (95% intervals on the paper's side of 0)",
-                          wrong.empty() && unsure.empty(),
-                          detail + (wrong.empty() ? "" : "; sign differs on: " + wrong) +
-                              (unsure.empty() ? "" : "; interval contains 0 on: " + unsure));
+            ctx.out.check(
+                "Finding 2: rho(depth, inv_purity) is negative on snooker and ring_caustic and positive on the "
+                "other first-party scenes (95% intervals on the paper's side of 0)",
+                wrong.empty() && unsure.empty(),
+                detail + (wrong.empty() ? "" : "; sign differs on: " + wrong) +
+                    (unsure.empty() ? "" : "; interval contains 0 on: " + unsure));
     }
-    ctx.out.table(sec, corr, "each cell is a per-pixel rank correlation within one scene; a pair whose sign flips across "
-                             "scenes points at a scene-level variable (the paper's Findings 1 and 2).");
+    ctx.out.table(sec, corr,
+                  "each cell is a per-pixel rank correlation within one scene; a pair whose sign flips across "
+                  "scenes points at a scene-level variable (the paper's Findings 1 and 2).");
     if (!f2.rows.empty())
-        ctx.out.table(sec, f2, "Finding 2: the sign of the depth/purity correlation separates specular-chain scenes "
-                               "(negative) from lobe-mixing ones (positive) in the paper; each row says whether this "
-                               "render agrees, with its uncertainty.");
+        ctx.out.table(sec, f2,
+                      "Finding 2: the sign of the depth/purity correlation separates specular-chain scenes "
+                      "(negative) from lobe-mixing ones (positive) in the paper; each row says whether this "
+                      "render agrees, with its uncertainty.");
     if (!sep.rows.empty())
-        ctx.out.table(sec, sep, "Finding 1: the caustic/glossy correlation should follow the mutual visibility of the two "
-                                "object families (positive when light paths can meet both, negative when separated).");
+        ctx.out.table(sec, sep,
+                      "Finding 1: the caustic/glossy correlation should follow the mutual visibility of the two "
+                      "object families (positive when light paths can meet both, negative when separated).");
     ctx.out.figure(sec, fig, "one panel per scene; every point is a labelled pixel (subsampled to about 3000).");
 }
 

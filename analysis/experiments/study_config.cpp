@@ -7,11 +7,14 @@
 namespace vkmech {
 
 namespace {
-const std::vector<std::pair<StudyKind, const char*>> kStudyNames = {
-    {StudyKind::Stability, "stability"},           {StudyKind::Variance, "variance"},
-    {StudyKind::Cost, "cost"},                     {StudyKind::Structure, "structure"},
-    {StudyKind::SweepRoughness, "sweep-roughness"}, {StudyKind::SweepLights, "sweep-lights"},
-    {StudyKind::Predictor, "predictor"},           {StudyKind::Allocation, "allocation"}};
+const std::vector<std::pair<StudyKind, const char*>> kStudyNames = {{StudyKind::Stability, "stability"},
+                                                                    {StudyKind::Variance, "variance"},
+                                                                    {StudyKind::Cost, "cost"},
+                                                                    {StudyKind::Structure, "structure"},
+                                                                    {StudyKind::SweepRoughness, "sweep-roughness"},
+                                                                    {StudyKind::SweepLights, "sweep-lights"},
+                                                                    {StudyKind::Predictor, "predictor"},
+                                                                    {StudyKind::Allocation, "allocation"}};
 
 std::string join(const std::vector<uint32_t>& v) {
     std::string s;
@@ -26,7 +29,8 @@ void check_ascending(const std::vector<uint32_t>& v, const char* what) {
     if (v.empty()) throw std::invalid_argument(std::string(what) + ": no levels");
     for (size_t i = 0; i < v.size(); ++i) {
         if (v[i] == 0) throw std::invalid_argument(std::string(what) + ": a level of 0 spp");
-        if (i && v[i] <= v[i - 1]) throw std::invalid_argument(std::string(what) + ": levels must be strictly ascending");
+        if (i && v[i] <= v[i - 1])
+            throw std::invalid_argument(std::string(what) + ": levels must be strictly ascending");
     }
 }
 }  // namespace
@@ -58,8 +62,8 @@ void StudyConfig::validate(bool needs_cost) const {
     if (variance_spp.size() < 2) throw std::invalid_argument("variance levels: need at least two for the exponent fit");
     check_ascending(cost_spp, "cost levels");
     if (needs_cost && cost_spp.back() >= stability_reference_spp())
-        throw std::invalid_argument("cost levels must stay below the reference (" + std::to_string(stability_reference_spp()) +
-                                    " spp)");
+        throw std::invalid_argument("cost levels must stay below the reference (" +
+                                    std::to_string(stability_reference_spp()) + " spp)");
     if (variance_seeds < 4 || variance_seeds % 2)
         throw std::invalid_argument("--seeds must be even and at least 4 (split-half uses two equal halves)");
     if (sweep_seeds < 4 || sweep_seeds % 2) throw std::invalid_argument("sweep seeds must be even and at least 4");
@@ -68,14 +72,14 @@ void StudyConfig::validate(bool needs_cost) const {
 
 std::string StudyConfig::describe() const {
     std::ostringstream o;
-    o << "preset " << preset << ": film width " << res << " px; stability SPP " << join(stability_spp)
-      << " (reference " << stability_reference_spp() << ", pilot " << pilot_spp() << "); variance SPP "
-      << join(variance_spp) << " x " << variance_seeds << " seeds; time-to-quality SPP " << join(cost_spp)
-      << " against the reference (tau " << cost_tau << "); sweeps " << sweep_seeds << " seeds x " << sweep_spp
-      << " SPP + a " << sweep_ref_spp << "-SPP reference per level; allocation at " << alloc_res
-      << " px: pilots " << join(alloc_pilots) << " SPP x " << alloc_draws << " draws, extra budget " << alloc_extra
-      << " SPP (sweep " << join(alloc_budget_sweep) << "), floors " << join(alloc_floors) << ", reference "
-      << alloc_ref_chunks * alloc_ref_chunk_spp << " SPP, pool " << 256 << " frames";
+    o << "preset " << preset << ": film width " << res << " px; stability SPP " << join(stability_spp) << " (reference "
+      << stability_reference_spp() << ", pilot " << pilot_spp() << "); variance SPP " << join(variance_spp) << " x "
+      << variance_seeds << " seeds; time-to-quality SPP " << join(cost_spp) << " against the reference (tau "
+      << cost_tau << "); sweeps " << sweep_seeds << " seeds x " << sweep_spp << " SPP + a " << sweep_ref_spp
+      << "-SPP reference per level; allocation at " << alloc_res << " px: pilots " << join(alloc_pilots) << " SPP x "
+      << alloc_draws << " draws, extra budget " << alloc_extra << " SPP (sweep " << join(alloc_budget_sweep)
+      << "), floors " << join(alloc_floors) << ", reference " << alloc_ref_chunks * alloc_ref_chunk_spp << " SPP, pool "
+      << 256 << " frames";
     return o.str();
 }
 
@@ -129,14 +133,16 @@ uint32_t sweep_reference() { return 4999; }
 
 std::vector<SceneVariant> roughness_variants(const StudyConfig& cfg) {
     std::vector<SceneVariant> v;
-    for (const auto& a : cfg.sweep_alphas) v.push_back({"sweep_roughness alpha=" + a, cfg.sweep_roughness_scene, {{"alpha", a}}});
+    for (const auto& a : cfg.sweep_alphas)
+        v.push_back({"sweep_roughness alpha=" + a, cfg.sweep_roughness_scene, {{"alpha", a}}});
     return v;
 }
 
 std::vector<SceneVariant> light_variants(const StudyConfig& cfg) {
     std::vector<SceneVariant> v;
     for (int n : cfg.sweep_lights)
-        v.push_back({"sweep_lights lights=" + std::to_string(n), cfg.sweep_lights_scene, {{"lights", std::to_string(n)}}});
+        v.push_back(
+            {"sweep_lights lights=" + std::to_string(n), cfg.sweep_lights_scene, {{"lights", std::to_string(n)}}});
     return v;
 }
 
@@ -145,63 +151,69 @@ std::vector<RenderRequest> plan_renders(const StudyConfig& cfg, StudyKind kind) 
     auto stability_ref = [&](const SceneVariant& s, Estimator e) {
         out.push_back({s, cfg.stability_reference_spp(), seeds::stability(cfg.stability_spp.size() - 1), e});
     };
-    auto pilot = [&](const SceneVariant& s, Estimator e) { out.push_back({s, cfg.pilot_spp(), seeds::stability(0), e}); };
+    auto pilot = [&](const SceneVariant& s, Estimator e) {
+        out.push_back({s, cfg.pilot_spp(), seeds::stability(0), e});
+    };
     auto sweep = [&](const std::vector<SceneVariant>& variants) {
         for (const auto& v : variants) {
             out.push_back({v, cfg.sweep_ref_spp, seeds::sweep_reference(), Estimator::Nee});
-            for (int s = 0; s < cfg.sweep_seeds; ++s) out.push_back({v, cfg.sweep_spp, seeds::sweep(s), Estimator::Nee});
+            for (int s = 0; s < cfg.sweep_seeds; ++s)
+                out.push_back({v, cfg.sweep_spp, seeds::sweep(s), Estimator::Nee});
         }
     };
     switch (kind) {
-    case StudyKind::Stability:
-        for (const auto& s : cfg.scenes) {
-            for (size_t i = 0; i < cfg.stability_spp.size(); ++i)
-                out.push_back({s, cfg.stability_spp[i], seeds::stability(i), Estimator::Nee});
-            // docs/descriptor.md §5 / paper tab:robust-mis: the restricted-MIS estimator at the pilot and the reference.
-            pilot(s, Estimator::MisRestricted);
-            stability_ref(s, Estimator::MisRestricted);
-            // The same comparison on seeds disjoint from the NEE reference, and its NEE noise floor.
-            out.push_back({s, cfg.stability_reference_spp(), seeds::mis_disjoint_reference(), Estimator::MisRestricted});
-            out.push_back({s, cfg.stability_reference_spp(), seeds::nee_disjoint_reference(), Estimator::Nee});
-            // docs/descriptor.md §2: the literal end-vertex reading at the pilot and the reference, for the comparison
-            // of the two readings (same seeds as the default reading's renders).
-            out.push_back({s, cfg.pilot_spp(), seeds::stability(0), Estimator::Nee, EndVertex::Literal});
-            out.push_back({s, cfg.stability_reference_spp(), seeds::stability(cfg.stability_spp.size() - 1), Estimator::Nee,
-                           EndVertex::Literal});
-        }
-        break;
-    case StudyKind::Variance:
-        for (const auto& s : cfg.scenes) {
-            stability_ref(s, Estimator::Nee);  // labels for the per-bucket split
-            for (size_t l = 0; l < cfg.variance_spp.size(); ++l)
-                for (int k = 0; k < cfg.variance_seeds; ++k)
-                    out.push_back({s, cfg.variance_spp[l], seeds::variance(l, k), Estimator::Nee});
-        }
-        break;
-    case StudyKind::Cost:
-        for (const auto& s : cfg.scenes) {
-            stability_ref(s, Estimator::Nee);
-            for (size_t l = 0; l < cfg.cost_spp.size(); ++l)
-                out.push_back({s, cfg.cost_spp[l], seeds::cost(l), Estimator::Nee});
-        }
-        break;
-    case StudyKind::Structure:
-        for (const auto& s : cfg.scenes) stability_ref(s, Estimator::Nee);
-        break;
-    case StudyKind::SweepRoughness:
-        sweep(roughness_variants(cfg));
-        break;
-    case StudyKind::SweepLights:
-        sweep(light_variants(cfg));
-        break;
-    case StudyKind::Allocation:  // its pool, pilots and reference come from an AllocationSource (experiments/allocation.hpp)
-        break;
-    case StudyKind::Predictor:
-        for (const auto& s : cfg.scenes) {
-            pilot(s, Estimator::Nee);
-            if (cfg.predictor_curve.empty()) stability_ref(s, Estimator::Nee);
-        }
-        break;
+        case StudyKind::Stability:
+            for (const auto& s : cfg.scenes) {
+                for (size_t i = 0; i < cfg.stability_spp.size(); ++i)
+                    out.push_back({s, cfg.stability_spp[i], seeds::stability(i), Estimator::Nee});
+                // docs/descriptor.md §5 / paper tab:robust-mis: the restricted-MIS estimator at the pilot and the
+                // reference.
+                pilot(s, Estimator::MisRestricted);
+                stability_ref(s, Estimator::MisRestricted);
+                // The same comparison on seeds disjoint from the NEE reference, and its NEE noise floor.
+                out.push_back(
+                    {s, cfg.stability_reference_spp(), seeds::mis_disjoint_reference(), Estimator::MisRestricted});
+                out.push_back({s, cfg.stability_reference_spp(), seeds::nee_disjoint_reference(), Estimator::Nee});
+                // docs/descriptor.md §2: the literal end-vertex reading at the pilot and the reference, for the
+                // comparison of the two readings (same seeds as the default reading's renders).
+                out.push_back({s, cfg.pilot_spp(), seeds::stability(0), Estimator::Nee, EndVertex::Literal});
+                out.push_back({s, cfg.stability_reference_spp(), seeds::stability(cfg.stability_spp.size() - 1),
+                               Estimator::Nee, EndVertex::Literal});
+            }
+            break;
+        case StudyKind::Variance:
+            for (const auto& s : cfg.scenes) {
+                stability_ref(s, Estimator::Nee);  // labels for the per-bucket split
+                for (size_t l = 0; l < cfg.variance_spp.size(); ++l)
+                    for (int k = 0; k < cfg.variance_seeds; ++k)
+                        out.push_back({s, cfg.variance_spp[l], seeds::variance(l, k), Estimator::Nee});
+            }
+            break;
+        case StudyKind::Cost:
+            for (const auto& s : cfg.scenes) {
+                stability_ref(s, Estimator::Nee);
+                for (size_t l = 0; l < cfg.cost_spp.size(); ++l)
+                    out.push_back({s, cfg.cost_spp[l], seeds::cost(l), Estimator::Nee});
+            }
+            break;
+        case StudyKind::Structure:
+            for (const auto& s : cfg.scenes) stability_ref(s, Estimator::Nee);
+            break;
+        case StudyKind::SweepRoughness:
+            sweep(roughness_variants(cfg));
+            break;
+        case StudyKind::SweepLights:
+            sweep(light_variants(cfg));
+            break;
+        case StudyKind::Allocation:  // its pool, pilots and reference come from an AllocationSource
+                                     // (experiments/allocation.hpp)
+            break;
+        case StudyKind::Predictor:
+            for (const auto& s : cfg.scenes) {
+                pilot(s, Estimator::Nee);
+                if (cfg.predictor_curve.empty()) stability_ref(s, Estimator::Nee);
+            }
+            break;
     }
     return out;
 }

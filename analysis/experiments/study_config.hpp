@@ -7,8 +7,8 @@
 
 #include <cstdint>
 #include <map>
-#include <tuple>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace vkmech {
@@ -31,10 +31,12 @@ struct RenderRequest {
     Estimator estimator = Estimator::Nee;
     EndVertex end_vertex = EndVertex::LastNonDelta;  // docs/descriptor.md §2 reading
     bool operator<(const RenderRequest& o) const {
-        return std::tie(scene, spp, seed, estimator, end_vertex) < std::tie(o.scene, o.spp, o.seed, o.estimator, o.end_vertex);
+        return std::tie(scene, spp, seed, estimator, end_vertex) <
+               std::tie(o.scene, o.spp, o.seed, o.estimator, o.end_vertex);
     }
     bool operator==(const RenderRequest& o) const {
-        return scene == o.scene && spp == o.spp && seed == o.seed && estimator == o.estimator && end_vertex == o.end_vertex;
+        return scene == o.scene && spp == o.spp && seed == o.seed && estimator == o.estimator &&
+               end_vertex == o.end_vertex;
     }
 };
 
@@ -67,7 +69,7 @@ struct StudyConfig {
     int sweep_seeds = 10;
     uint32_t sweep_ref_spp = 64;
     std::string sweep_roughness_scene, sweep_lights_scene;  // resolved paths
-    std::string predictor_curve;  // --curve: predict new scenes from their pilots only
+    std::string predictor_curve;                            // --curve: predict new scenes from their pilots only
 
     // Downstream allocation (docs/descriptor.md §6): pilots N0, K disjoint pilot draws, extra
     // budget (on top of the baseline 1), the budget sweep, the f = 4 control,
@@ -101,16 +103,16 @@ StudyConfig preset_config(const std::string& name);
 // docs/descriptor.md §4 seed layouts. Disjoint by construction: every family has its own
 // range, and the levels within a family use distinct seeds.
 namespace seeds {
-uint32_t stability(size_t level);                // 100 + level
+uint32_t stability(size_t level);  // 100 + level
 // The robustness comparison's second top-level renders (paper §4.4,
 // tab:robust-mis), seed-disjoint from the NEE reference: the restricted-MIS
 // render (150) and an NEE render (151) that gives the noise floor.
-uint32_t mis_disjoint_reference();               // 150
-uint32_t nee_disjoint_reference();               // 151
-uint32_t variance(size_t level, int seed_index); // 2000 + 100 * level + s
-uint32_t cost(size_t level);                     // 3000 + level
-uint32_t sweep(int seed_index);                  // 4000 + s
-uint32_t sweep_reference();                      // 4999
+uint32_t mis_disjoint_reference();                // 150
+uint32_t nee_disjoint_reference();                // 151
+uint32_t variance(size_t level, int seed_index);  // 2000 + 100 * level + s
+uint32_t cost(size_t level);                      // 3000 + level
+uint32_t sweep(int seed_index);                   // 4000 + s
+uint32_t sweep_reference();                       // 4999
 }  // namespace seeds
 
 // The renders each study needs (stable order, may repeat across studies).

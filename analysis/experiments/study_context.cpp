@@ -21,8 +21,8 @@ void StudyOutput::figure(const std::string& section, const report::Figure& f, co
     entries_.push_back({section, "figure", "figures/" + f.name + ".png", how, ""});
 }
 
-void StudyOutput::image(const std::string& section, const std::string& rel, int w, int h, const std::vector<uint8_t>& rgb,
-                        const std::string& how) {
+void StudyOutput::image(const std::string& section, const std::string& rel, int w, int h,
+                        const std::vector<uint8_t>& rgb, const std::string& how) {
     write_png_rgb8((fs::path(dir_) / rel).string(), w, h, rgb);
     entries_.push_back({section, "image", rel, how, ""});
 }
@@ -90,9 +90,17 @@ std::string build_report(const StudyOutput& out, const std::string& header) {
     std::ostringstream o;
     o << header << "\n";
     // Headline tables first, then pictures, then the long per-scene detail.
-    std::vector<std::string> sections = {"Checks against the paper's shape", "Cross-SPP stability", "Coverage", "Dominant-class maps", "Agreement maps",
-                                         "Variance baseline", "Time-to-quality", "Correlation structure",
-                                         "Roughness sweep", "Light-count sweep", "Reliability predictor",
+    std::vector<std::string> sections = {"Checks against the paper's shape",
+                                         "Cross-SPP stability",
+                                         "Coverage",
+                                         "Dominant-class maps",
+                                         "Agreement maps",
+                                         "Variance baseline",
+                                         "Time-to-quality",
+                                         "Correlation structure",
+                                         "Roughness sweep",
+                                         "Light-count sweep",
+                                         "Reliability predictor",
                                          "Label transitions"};
     for (const auto& e : out.entries())
         if (std::find(sections.begin(), sections.end(), e.section) == sections.end()) sections.push_back(e.section);
@@ -102,7 +110,9 @@ std::string build_report(const StudyOutput& out, const std::string& header) {
     o << "## Contents\n\n";
     for (const auto& s : sections) {
         std::string anchor;
-        for (char c : s) anchor += std::isalnum(static_cast<unsigned char>(c)) ? static_cast<char>(std::tolower(c)) : (c == ' ' || c == '-' ? '-' : '\0');
+        for (char c : s)
+            anchor += std::isalnum(static_cast<unsigned char>(c)) ? static_cast<char>(std::tolower(c))
+                                                                  : (c == ' ' || c == '-' ? '-' : '\0');
         anchor.erase(std::remove(anchor.begin(), anchor.end(), '\0'), anchor.end());
         o << "- [" << s << "](#" << anchor << ")\n";
     }

@@ -26,10 +26,16 @@ void run_sweep(StudyContext& ctx, const std::vector<SceneVariant>& variants, con
     const StudyConfig& cfg = ctx.cfg;
     const int S = cfg.sweep_seeds;
     const auto partitions = stats::random_halves(S, cfg.split_half_partitions, 0);
-    Table t{name, title, {xlabel, "glossy-dominant px", "glossy energy share", "median firefly", "p90 firefly",
-                          "split-half rho sigma^2"}, {}, ""};
-    t.note = "Per level: glossy-dominant pixels of a " + std::to_string(cfg.sweep_ref_spp) + "-SPP reference; firefly ratio "
-             "per pixel = max / mean over " + std::to_string(S) + " seeds (" + std::to_string(cfg.sweep_spp) +
+    Table t{name,
+            title,
+            {xlabel, "glossy-dominant px", "glossy energy share", "median firefly", "p90 firefly",
+             "split-half rho sigma^2"},
+            {},
+            ""};
+    t.note = "Per level: glossy-dominant pixels of a " + std::to_string(cfg.sweep_ref_spp) +
+             "-SPP reference; firefly ratio "
+             "per pixel = max / mean over " +
+             std::to_string(S) + " seeds (" + std::to_string(cfg.sweep_spp) +
              " SPP each) of the glossy bucket's energy; split-half rho of sigma^2 over the same pixels (" +
              std::to_string(partitions.size()) + " partitions). \"---\": fewer than 50 glossy-dominant pixels.";
     report::Figure fig{name, title, "", 2, {}};
@@ -43,7 +49,8 @@ void run_sweep(StudyContext& ctx, const std::vector<SceneVariant>& variants, con
     pr.ylabel = "rho";
     pr.logx = logx;
     pr.hlines.push_back({0.0, "", ":", "#888888"});
-    report::Series sf{"median", {}, {}, {}, {}, "#D55E00", "o", "-", 0, 0, {}}, sr{"", {}, {}, {}, {}, "#0072B2", "o", "-", 0, 0, {}};
+    report::Series sf{"median", {}, {}, {}, {}, "#D55E00", "o", "-", 0, 0, {}},
+        sr{"", {}, {}, {}, {}, "#0072B2", "o", "-", 0, 0, {}};
 
     for (size_t v = 0; v < variants.size(); ++v) {
         Frame ref = ctx.frames.get({variants[v], cfg.sweep_ref_spp, seeds::sweep_reference(), Estimator::Nee});
@@ -54,7 +61,8 @@ void run_sweep(StudyContext& ctx, const std::vector<SceneVariant>& variants, con
             if (d.dominant[p] == gpu::BUCKET_GLOSSY) glossy.push_back(p);
         if (glossy.size() < kMinGlossyPixels) {
             t.add({Cell::str(level_names[v]), Cell::integer(static_cast<long long>(glossy.size())),
-                   Cell::pct(sum.energy_share[gpu::BUCKET_GLOSSY]), Cell::str("---"), Cell::str("---"), Cell::str("---")});
+                   Cell::pct(sum.energy_share[gpu::BUCKET_GLOSSY]), Cell::str("---"), Cell::str("---"),
+                   Cell::str("---")});
             continue;
         }
         std::vector<std::vector<double>> g(S), m(S);
@@ -98,10 +106,12 @@ void run_sweep(StudyContext& ctx, const std::vector<SceneVariant>& variants, con
     pf.series.push_back(sf);
     pr.series.push_back(sr);
     fig.panels = {pf, pr};
-    ctx.out.table(section, t, "narrow lobes should carry heavier per-pixel tails (larger firefly ratios); the split-half "
-                              "column shows whether sigma^2 agrees with itself on the glossy pixels at that level.");
-    ctx.out.figure(section, fig, "left: firefly ratio against the level (band p50-p90); right: split-half rho of sigma^2 "
-                                 "(levels with too few glossy pixels are omitted).");
+    ctx.out.table(section, t,
+                  "narrow lobes should carry heavier per-pixel tails (larger firefly ratios); the split-half "
+                  "column shows whether sigma^2 agrees with itself on the glossy pixels at that level.");
+    ctx.out.figure(section, fig,
+                   "left: firefly ratio against the level (band p50-p90); right: split-half rho of sigma^2 "
+                   "(levels with too few glossy pixels are omitted).");
 }
 
 }  // namespace

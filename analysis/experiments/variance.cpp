@@ -69,31 +69,46 @@ void run_variance(StudyContext& ctx) {
     const StudyConfig& cfg = ctx.cfg;
     const size_t L = cfg.variance_spp.size();
     const int S = cfg.variance_seeds;
-    const auto partitions = stats::random_halves(S, cfg.split_half_partitions, 0);  // docs/descriptor.md §5: base seed 0
+    const auto partitions =
+        stats::random_halves(S, cfg.split_half_partitions, 0);  // docs/descriptor.md §5: base seed 0
     const std::string sec = "Variance baseline";
     const std::string lo = std::to_string(cfg.variance_spp.front()), hi = std::to_string(cfg.variance_spp.back());
-    const std::vector<uint32_t> bucket_cols = {gpu::BUCKET_DIRECT, gpu::BUCKET_DIFFUSE_INDIRECT, gpu::BUCKET_DELTA_MEDIATED,
-                                               gpu::BUCKET_SPECULAR_DIRECT, gpu::BUCKET_GLOSSY};
+    const std::vector<uint32_t> bucket_cols = {gpu::BUCKET_DIRECT, gpu::BUCKET_DIFFUSE_INDIRECT,
+                                               gpu::BUCKET_DELTA_MEDIATED, gpu::BUCKET_SPECULAR_DIRECT,
+                                               gpu::BUCKET_GLOSSY};
 
-    Table split{"sigma_splithalf", "Split-half self-consistency of sigma^2 per SPP level (tab:sigma-splithalf)", {"scene"}, {}, ""};
+    Table split{"sigma_splithalf",
+                "Split-half self-consistency of sigma^2 per SPP level (tab:sigma-splithalf)",
+                {"scene"},
+                {},
+                ""};
     for (uint32_t s : cfg.variance_spp) split.columns.push_back("SPP=" + std::to_string(s));
     split.columns.push_back("max partition std");
-    split.note = "Spearman rho between the sigma^2_intrinsic fields of two disjoint " + std::to_string(S / 2) +
-                 "-seed halves, mean over " + std::to_string(partitions.size()) +
-                 " random partitions (base seed 0); background (mean luminance <= 1e-4) dropped. A noiseless field scores 1.";
+    split.note =
+        "Spearman rho between the sigma^2_intrinsic fields of two disjoint " + std::to_string(S / 2) +
+        "-seed halves, mean over " + std::to_string(partitions.size()) +
+        " random partitions (base seed 0); background (mean luminance <= 1e-4) dropped. A noiseless field scores 1.";
     auto bucket_table = [&](const std::string& name, const std::string& spp) {
-        Table t{name, "Split-half sigma^2 self-consistency per bucket at SPP=" + spp + " (tab:sigma-perbucket)",
-                {"scene", "dir.", "diff.", "d-m", "spec.", "gloss."}, {}, ""};
+        Table t{name,
+                "Split-half sigma^2 self-consistency per bucket at SPP=" + spp + " (tab:sigma-perbucket)",
+                {"scene", "dir.", "diff.", "d-m", "spec.", "gloss."},
+                {},
+                ""};
         t.note = "Buckets from the reference render's dominant label; \"---\": fewer than 50 pixels.";
         return t;
     };
     Table per_hi = bucket_table("sigma_perbucket", hi), per_lo = bucket_table("sigma_perbucket_" + lo, lo);
-    Table alpha_t{"alpha_reliability", "Convergence exponent alpha_hat and the cross-budget rank agreement of sigma^2",
+    Table alpha_t{"alpha_reliability",
+                  "Convergence exponent alpha_hat and the cross-budget rank agreement of sigma^2",
                   {"scene", "pixels fitted", "median alpha_hat", "median R^2", "split-half rho(alpha_hat)",
-                   "Spearman sigma^2 " + lo + " vs " + hi}, {}, ""};
-    alpha_t.note = "alpha_hat(p) = -slope of the OLS of log10 Var_seeds(per-seed mean luminance) on log10 SPP over the " + std::to_string(L) +
-                   " levels (all seeds); pixels with a non-positive or non-finite variance at any level excluded. The "
-                   "split-half column refits alpha_hat on each half of every partition.";
+                   "Spearman sigma^2 " + lo + " vs " + hi},
+                  {},
+                  ""};
+    alpha_t.note =
+        "alpha_hat(p) = -slope of the OLS of log10 Var_seeds(per-seed mean luminance) on log10 SPP over the " +
+        std::to_string(L) +
+        " levels (all seeds); pixels with a non-positive or non-finite variance at any level excluded. The "
+        "split-half column refits alpha_hat on each half of every partition.";
 
     report::Figure fig{"sigma_splithalf", "Split-half rho of sigma^2 versus SPP", "", 1, {}};
     report::Panel panel;
@@ -108,7 +123,8 @@ void run_variance(StudyContext& ctx) {
     double lowest = INFINITY, caustic_share = -1.0;
 
     for (const auto& scene : cfg.scenes) {
-        Frame ref = ctx.frames.get({scene, cfg.stability_reference_spp(), seeds::stability(cfg.stability_spp.size() - 1), Estimator::Nee});
+        Frame ref = ctx.frames.get(
+            {scene, cfg.stability_reference_spp(), seeds::stability(cfg.stability_spp.size() - 1), Estimator::Nee});
         Descriptor dref = derive_descriptor(ref);
         double dm_share = summarize(ref, dref).energy_share[gpu::BUCKET_DELTA_MEDIATED];
         if (dm_share > caustic_share) {
@@ -117,7 +133,9 @@ void run_variance(StudyContext& ctx) {
         }
         std::vector<SeedMeans> m(L);
         for (size_t l = 0; l < L; ++l)
-            for (int s = 0; s < S; ++s) m[l].push_back(lum_mean_field(ctx.frames.get({scene, cfg.variance_spp[l], seeds::variance(l, s), Estimator::Nee})));
+            for (int s = 0; s < S; ++s)
+                m[l].push_back(lum_mean_field(
+                    ctx.frames.get({scene, cfg.variance_spp[l], seeds::variance(l, s), Estimator::Nee})));
         size_t P = m[0][0].size();
         std::vector<int> all(S);
         for (int s = 0; s < S; ++s) all[s] = s;
@@ -213,18 +231,22 @@ void run_variance(StudyContext& ctx) {
     }
     fig.panels.push_back(panel);
     if (cfg.scenes.size() > 1)
-        ctx.out.check("the split-half rho of sigma^2 is lowest on the caustic-dominated scene", lowest_scene == caustic_scene,
+        ctx.out.check("the split-half rho of sigma^2 is lowest on the caustic-dominated scene",
+                      lowest_scene == caustic_scene,
                       "lowest (mean over levels): " + lowest_scene + " (" + report::format("%.3f", lowest) +
                           "); largest delta-mediated energy share: " + caustic_scene + " (" +
                           report::format("%.1f%%", 100.0 * caustic_share) + ")");
-    ctx.out.table(sec, split, "1 would be a noiseless reference; low values mean the variance field does not even agree with "
-                              "itself across a seed split. The paper finds it lowest on the caustic-dominated scene.");
-    ctx.out.table(sec, per_hi, "the same statistic restricted to each dominant bucket at the highest variance level: where "
-                               "within an image the variance signal is unreliable.");
+    ctx.out.table(sec, split,
+                  "1 would be a noiseless reference; low values mean the variance field does not even agree with "
+                  "itself across a seed split. The paper finds it lowest on the caustic-dominated scene.");
+    ctx.out.table(sec, per_hi,
+                  "the same statistic restricted to each dominant bucket at the highest variance level: where "
+                  "within an image the variance signal is unreliable.");
     ctx.out.table(sec, per_lo, "as above at the lowest variance level (the pilot's regime).");
-    ctx.out.table(sec, alpha_t, "alpha_hat near 1 is Monte Carlo's 1/N; a low split-half rho means the per-pixel exponent "
-                                "ranking is not reproducible; the last column is how well the low-budget variance ranks "
-                                "pixels like the high-budget one.");
+    ctx.out.table(sec, alpha_t,
+                  "alpha_hat near 1 is Monte Carlo's 1/N; a low split-half rho means the per-pixel exponent "
+                  "ranking is not reproducible; the last column is how well the low-budget variance ranks "
+                  "pixels like the high-budget one.");
     ctx.out.figure(sec, fig, "one line per scene: split-half rho of sigma^2 against the per-seed budget (log axis).");
 }
 

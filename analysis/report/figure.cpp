@@ -25,12 +25,14 @@ std::string Figure::json() const {
     o << "{\n  \"title\": " << json_string(title) << ",\n";
     if (!caption.empty()) o << "  \"caption\": " << json_string(caption) << ",\n";
     if (columns > 0) o << "  \"columns\": " << columns << ",\n";
-    if (panel_size) o << "  \"panel_size\": [" << json_number(panel_size->first) << ", " << json_number(panel_size->second) << "],\n";
+    if (panel_size)
+        o << "  \"panel_size\": [" << json_number(panel_size->first) << ", " << json_number(panel_size->second)
+          << "],\n";
     o << "  \"panels\": [\n";
     for (size_t pi = 0; pi < panels.size(); ++pi) {
         const Panel& p = panels[pi];
-        o << "    {\"kind\": " << json_string(p.kind) << ", \"title\": " << json_string(p.title) << ", \"xlabel\": " << json_string(p.xlabel)
-          << ", \"ylabel\": " << json_string(p.ylabel);
+        o << "    {\"kind\": " << json_string(p.kind) << ", \"title\": " << json_string(p.title)
+          << ", \"xlabel\": " << json_string(p.xlabel) << ", \"ylabel\": " << json_string(p.ylabel);
         if (p.logx) o << ", \"logx\": true";
         if (p.logy) o << ", \"logy\": true";
         if (p.diagonal) o << ", \"diagonal\": true";
@@ -44,8 +46,10 @@ std::string Figure::json() const {
         if (!p.hlines.empty()) {
             o << ", \"hlines\": [";
             for (size_t i = 0; i < p.hlines.size(); ++i)
-                o << (i ? ", " : "") << "{\"y\": " << json_number(p.hlines[i].y) << ", \"label\": " << json_string(p.hlines[i].label)
-                  << ", \"linestyle\": " << json_string(p.hlines[i].linestyle) << ", \"color\": " << json_string(p.hlines[i].color) << "}";
+                o << (i ? ", " : "") << "{\"y\": " << json_number(p.hlines[i].y)
+                  << ", \"label\": " << json_string(p.hlines[i].label)
+                  << ", \"linestyle\": " << json_string(p.hlines[i].linestyle)
+                  << ", \"color\": " << json_string(p.hlines[i].color) << "}";
             o << "]";
         }
         o << ",\n     \"series\": [";
@@ -62,7 +66,8 @@ std::string Figure::json() const {
             if (s.alpha > 0) o << ", \"alpha\": " << json_number(s.alpha);
             if (!s.lower_bound.empty()) {
                 o << ", \"lower_bound\": [";
-                for (size_t i = 0; i < s.lower_bound.size(); ++i) o << (i ? "," : "") << (s.lower_bound[i] ? "true" : "false");
+                for (size_t i = 0; i < s.lower_bound.size(); ++i)
+                    o << (i ? "," : "") << (s.lower_bound[i] ? "true" : "false");
                 o << "]";
             }
             o << "}";

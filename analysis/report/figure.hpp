@@ -11,8 +11,8 @@ namespace vkmech::report {
 
 struct Series {
     std::string label;
-    std::vector<double> x, y;        // NaN in y = missing
-    std::vector<double> lo, hi;      // optional band (line) or error bars (bar)
+    std::vector<double> x, y;    // NaN in y = missing
+    std::vector<double> lo, hi;  // optional band (line) or error bars (bar)
     std::string color, marker, linestyle;
     double size = 0.0, alpha = 0.0;  // 0 = default
     std::vector<bool> lower_bound;   // bar: censored bars

@@ -21,9 +21,7 @@ void check_label(uint8_t v, int k) {
         throw std::invalid_argument("stats: label " + std::to_string(v) + " outside 0.." + std::to_string(k - 1));
 }
 
-size_t idx(int i, int j, int k) {
-    return static_cast<size_t>(i) * static_cast<size_t>(k) + static_cast<size_t>(j);
-}
+size_t idx(int i, int j, int k) { return static_cast<size_t>(i) * static_cast<size_t>(k) + static_cast<size_t>(j); }
 
 // Row sums (map a) and column sums (map b) of the confusion table.
 void marginals(const Confusion& c, std::vector<double>& row, std::vector<double>& col) {
@@ -37,9 +35,7 @@ void marginals(const Confusion& c, std::vector<double>& row, std::vector<double>
 }
 }  // namespace
 
-double Confusion::total() const {
-    return std::accumulate(counts.begin(), counts.end(), 0.0);
-}
+double Confusion::total() const { return std::accumulate(counts.begin(), counts.end(), 0.0); }
 
 Confusion confusion(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, int k) {
     check_k(k);
@@ -109,7 +105,8 @@ double weighted_kappa(const Confusion& c, const std::vector<double>& w) {
     for (int i = 0; i < c.k; ++i)
         for (int j = 0; j < c.k; ++j) {
             const double v = w[idx(i, j, c.k)];
-            if (!(v >= 0.0 && v <= 1.0)) throw std::invalid_argument("stats::weighted_kappa: weights must lie in [0, 1]");
+            if (!(v >= 0.0 && v <= 1.0))
+                throw std::invalid_argument("stats::weighted_kappa: weights must lie in [0, 1]");
             if (i == j && v != 1.0) throw std::invalid_argument("stats::weighted_kappa: diagonal weights must be 1");
         }
     const double n = c.total();
@@ -135,8 +132,10 @@ std::vector<double> spec_kappa_weights(int k, const std::vector<bool>& light_tai
     std::vector<double> w(static_cast<size_t>(k) * static_cast<size_t>(k), 0.0);
     for (int i = 0; i < k; ++i)
         for (int j = 0; j < k; ++j) {
-            if (i == j) w[idx(i, j, k)] = 1.0;
-            else if (light_tailed[i] && light_tailed[j]) w[idx(i, j, k)] = 1.0 - 0.2;
+            if (i == j)
+                w[idx(i, j, k)] = 1.0;
+            else if (light_tailed[i] && light_tailed[j])
+                w[idx(i, j, k)] = 1.0 - 0.2;
         }
     return w;
 }

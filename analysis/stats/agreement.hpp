@@ -28,7 +28,9 @@ struct Confusion {
     int k = 0;
     std::vector<double> counts;  // k*k row-major: row = label in a, column = label in b
     double total() const;
-    double at(int i, int j) const { return counts[static_cast<std::size_t>(i) * static_cast<std::size_t>(k) + static_cast<std::size_t>(j)]; }
+    double at(int i, int j) const {
+        return counts[static_cast<std::size_t>(i) * static_cast<std::size_t>(k) + static_cast<std::size_t>(j)];
+    }
 };
 
 // Throws std::invalid_argument on a size mismatch, k outside 1..255, or a

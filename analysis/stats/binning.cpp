@@ -10,7 +10,8 @@ namespace vkmech::stats {
 BinnedRate binned_rate(const std::vector<double>& x, const std::vector<uint8_t>& hit, int bins, double lo, double hi) {
     if (x.size() != hit.size()) throw std::invalid_argument("stats::binned_rate: size mismatch");
     if (bins < 1) throw std::invalid_argument("stats::binned_rate: bins must be >= 1");
-    if (!std::isfinite(lo) || !std::isfinite(hi) || !(lo < hi)) throw std::invalid_argument("stats::binned_rate: need finite lo < hi");
+    if (!std::isfinite(lo) || !std::isfinite(hi) || !(lo < hi))
+        throw std::invalid_argument("stats::binned_rate: need finite lo < hi");
     const size_t B = static_cast<size_t>(bins);
     BinnedRate r;
     r.lo.resize(B);
@@ -33,7 +34,8 @@ BinnedRate binned_rate(const std::vector<double>& x, const std::vector<uint8_t>&
         if (hit[i]) r.hits[b] += 1.0;
     }
     r.rate.resize(B);
-    for (size_t b = 0; b < B; ++b) r.rate[b] = r.count[b] > 0.0 ? r.hits[b] / r.count[b] : std::numeric_limits<double>::quiet_NaN();
+    for (size_t b = 0; b < B; ++b)
+        r.rate[b] = r.count[b] > 0.0 ? r.hits[b] / r.count[b] : std::numeric_limits<double>::quiet_NaN();
     return r;
 }
 

@@ -11,10 +11,10 @@
 namespace vkmech::stats {
 
 struct BinnedRate {
-    std::vector<double> lo, hi;   // bin b covers [lo[b], hi[b]); the last bin also holds x == hi
-    std::vector<double> count;    // values that fell into the bin
-    std::vector<double> hits;     // of those, with hit != 0
-    std::vector<double> rate;     // hits / count; NaN for an empty bin
+    std::vector<double> lo, hi;  // bin b covers [lo[b], hi[b]); the last bin also holds x == hi
+    std::vector<double> count;   // values that fell into the bin
+    std::vector<double> hits;    // of those, with hit != 0
+    std::vector<double> rate;    // hits / count; NaN for an empty bin
 };
 
 // `bins` equal-width bins on [lo, hi]; x == hi goes into the last bin; values

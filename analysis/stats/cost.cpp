@@ -11,11 +11,13 @@ CostMap time_to_quality(const std::vector<uint32_t>& levels, const std::vector<s
                         const std::vector<double>& lum_ref, double tau, double eps) {
     if (levels.empty()) throw std::invalid_argument("stats::time_to_quality: no levels");
     for (size_t l = 1; l < levels.size(); ++l)
-        if (levels[l] <= levels[l - 1]) throw std::invalid_argument("stats::time_to_quality: levels must be strictly ascending");
+        if (levels[l] <= levels[l - 1])
+            throw std::invalid_argument("stats::time_to_quality: levels must be strictly ascending");
     if (lum_at_level.size() != levels.size())
         throw std::invalid_argument("stats::time_to_quality: one luminance map per level required");
     for (const auto& m : lum_at_level)
-        if (m.size() != lum_ref.size()) throw std::invalid_argument("stats::time_to_quality: map size differs from the reference");
+        if (m.size() != lum_ref.size())
+            throw std::invalid_argument("stats::time_to_quality: map size differs from the reference");
     if (!(tau > 0.0) || !(eps > 0.0)) throw std::invalid_argument("stats::time_to_quality: tau and eps must be > 0");
 
     const size_t P = lum_ref.size();

@@ -9,8 +9,10 @@ namespace vkmech::stats {
 std::vector<double> isotonic_increasing(const std::vector<double>& y, const std::vector<double>& w) {
     if (y.size() != w.size()) throw std::invalid_argument("stats::isotonic_increasing: size mismatch");
     for (size_t i = 0; i < y.size(); ++i) {
-        if (!(w[i] >= 0.0) || !std::isfinite(w[i])) throw std::invalid_argument("stats::isotonic_increasing: weights must be finite and >= 0");
-        if (w[i] > 0.0 && !std::isfinite(y[i])) throw std::invalid_argument("stats::isotonic_increasing: non-finite y with positive weight");
+        if (!(w[i] >= 0.0) || !std::isfinite(w[i]))
+            throw std::invalid_argument("stats::isotonic_increasing: weights must be finite and >= 0");
+        if (w[i] > 0.0 && !std::isfinite(y[i]))
+            throw std::invalid_argument("stats::isotonic_increasing: non-finite y with positive weight");
     }
     // Blocks of consecutive positive-weight entries, merged while the previous
     // block's mean exceeds the last one's (a monotonicity violation).

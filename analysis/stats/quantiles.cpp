@@ -23,7 +23,8 @@ std::vector<double> quantile_edges(const std::vector<double>& values, int bins) 
 
 std::vector<uint8_t> quantile_bin(const std::vector<double>& values, const std::vector<double>& edges) {
     if (edges.size() > 254) throw std::invalid_argument("stats::quantile_bin: at most 254 edges");
-    if (!std::is_sorted(edges.begin(), edges.end())) throw std::invalid_argument("stats::quantile_bin: edges not ascending");
+    if (!std::is_sorted(edges.begin(), edges.end()))
+        throw std::invalid_argument("stats::quantile_bin: edges not ascending");
     for (double e : edges)
         if (std::isnan(e)) throw std::invalid_argument("stats::quantile_bin: NaN edge");
     std::vector<uint8_t> out(values.size());

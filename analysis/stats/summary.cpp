@@ -30,9 +30,7 @@ double sample_variance(const std::vector<double>& x) {
     return ss / static_cast<double>(x.size() - 1);
 }
 
-double median(std::vector<double> x) {
-    return quantile(std::move(x), 0.5);
-}
+double median(std::vector<double> x) { return quantile(std::move(x), 0.5); }
 
 double quantile_sorted(const std::vector<double>& sorted, double q) {
     if (!(q >= 0.0 && q <= 1.0)) throw std::invalid_argument("stats::quantile: q must lie in [0, 1]");

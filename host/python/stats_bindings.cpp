@@ -35,8 +35,8 @@ std::vector<uint8_t> labels(const DoubleArray& a, const char* what) {
         const double v = d[i];
         const bool bucket = v >= 0 && v < gpu::BUCKET_COUNT && v == std::floor(v);
         if (!bucket && v != gpu::NO_LABEL)
-            throw py::value_error(std::string(what) + ": value " + std::to_string(v) + " at index " + std::to_string(i) +
-                                  " is neither a bucket index 0..6 nor 255 (no label)");
+            throw py::value_error(std::string(what) + ": value " + std::to_string(v) + " at index " +
+                                  std::to_string(i) + " is neither a bucket index 0..6 nor 255 (no label)");
         out[i] = static_cast<uint8_t>(v);
     }
     return out;

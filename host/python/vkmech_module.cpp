@@ -52,8 +52,8 @@ struct PyScene {
 struct PyFrame {
     int width = 0, height = 0;
     std::vector<std::string> names;
-    std::vector<std::vector<float>> data;     // one per name, row-major, top row first
-    std::vector<float> rgb;                   // interleaved R, G, B
+    std::vector<std::vector<float>> data;  // one per name, row-major, top row first
+    std::vector<float> rgb;                // interleaved R, G, B
     std::map<std::string, std::vector<std::string>> header;
     // Set for frames rendered here (write() needs them); empty for frames read from a file.
     std::string scene_name;
@@ -185,8 +185,15 @@ PyFrame make_frame(const PyScene& s, const PyRender& r, Frame frame, uint32_t sp
     out.width = frame.width;
     out.height = frame.height;
     out.scene_name = s.name;
-    RenderInfo info{s.name, s.path, r.ctx->info().name, to_string(r.trav), to_string(r.features.estimator),
-                    r.features.describe() + features_note, spp, seed, capture};
+    RenderInfo info{s.name,
+                    s.path,
+                    r.ctx->info().name,
+                    to_string(r.trav),
+                    to_string(r.features.estimator),
+                    r.features.describe() + features_note,
+                    spp,
+                    seed,
+                    capture};
     info.light_selection = r.light_selection;
     info.end_vertex = r.end_vertex;
     info.warnings = r.scene.warnings;
@@ -368,13 +375,15 @@ PYBIND11_MODULE(vkmech, m) {
     py::class_<PyFrame>(m, "Frame", "A rendered frame: every EXR channel as a float32 (H, W) numpy view")
         .def_readonly("width", &PyFrame::width)
         .def_readonly("height", &PyFrame::height)
-        .def_property_readonly("channels", [](const PyFrame& f) { return f.names; }, "Channel names, in the EXR's order")
+        .def_property_readonly(
+            "channels", [](const PyFrame& f) { return f.names; }, "Channel names, in the EXR's order")
         .def("__getitem__", &channel_view, py::arg("name"), "A channel as a float32 (H, W) view of the frame's memory")
-        .def("__contains__", [](const PyFrame& f, const std::string& n) {
-            for (const auto& x : f.names)
-                if (x == n) return true;
-            return false;
-        })
+        .def("__contains__",
+             [](const PyFrame& f, const std::string& n) {
+                 for (const auto& x : f.names)
+                     if (x == n) return true;
+                 return false;
+             })
         .def_property_readonly("rgb", &rgb_view, "The image, float32 (H, W, 3), linear RGB")
         .def_property_readonly("header", &header_dict, "The EXR header's attributes (provenance included)")
         .def("write", &frame_write, py::arg("dir"),

@@ -53,15 +53,16 @@ std::string wrapper_scene(const std::string& shape) {
     <transform name="to_world"><translate z="3"/></transform>
     <emitter type="area"><rgb name="radiance" value="1, 1, 1"/></emitter>
   </shape>
-)" + shape + "\n</scene>\n";
+)" + shape +
+           "\n</scene>\n";
 }
 
 void write_wrappers() {
     const char* kinds[] = {"obj", "ply", "serialized"};
     for (const char* k : kinds)
         write_text(g_dir / (std::string("mesh_") + k + ".xml"),
-                   wrapper_scene(std::string("  <shape type=\"") + k + "\"><string name=\"filename\" value=\"fuzz." + k +
-                                 "\"/><bsdf type=\"diffuse\"/></shape>"));
+                   wrapper_scene(std::string("  <shape type=\"") + k + "\"><string name=\"filename\" value=\"fuzz." +
+                                 k + "\"/><bsdf type=\"diffuse\"/></shape>"));
     write_text(g_dir / "texture.xml",
                wrapper_scene("  <shape type=\"rectangle\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" "
                              "name=\"reflectance\"><string name=\"filename\" value=\"fuzz.png\"/></texture></bsdf>"
@@ -90,16 +91,34 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     size_t n = size - 1;
     std::string scene_path;
     switch (data[0] % 7) {
-    case 0: scene_path = (g_dir / "loader" / "fuzz.xml").string(); write_file(scene_path, body, n); break;
-    case 1: write_file(g_dir / "fuzz.obj", body, n); scene_path = (g_dir / "mesh_obj.xml").string(); break;
-    case 2: write_file(g_dir / "fuzz.ply", body, n); scene_path = (g_dir / "mesh_ply.xml").string(); break;
-    case 3:
-        write_file(g_dir / "fuzz.serialized", body, n);
-        scene_path = (g_dir / "mesh_serialized.xml").string();
-        break;
-    case 4: scene_path = (g_dir / "fuzz.gltf").string(); write_file(scene_path, body, n); break;
-    case 5: scene_path = (g_dir / "fuzz.glb").string(); write_file(scene_path, body, n); break;
-    default: write_file(g_dir / "fuzz.png", body, n); scene_path = (g_dir / "texture.xml").string(); break;
+        case 0:
+            scene_path = (g_dir / "loader" / "fuzz.xml").string();
+            write_file(scene_path, body, n);
+            break;
+        case 1:
+            write_file(g_dir / "fuzz.obj", body, n);
+            scene_path = (g_dir / "mesh_obj.xml").string();
+            break;
+        case 2:
+            write_file(g_dir / "fuzz.ply", body, n);
+            scene_path = (g_dir / "mesh_ply.xml").string();
+            break;
+        case 3:
+            write_file(g_dir / "fuzz.serialized", body, n);
+            scene_path = (g_dir / "mesh_serialized.xml").string();
+            break;
+        case 4:
+            scene_path = (g_dir / "fuzz.gltf").string();
+            write_file(scene_path, body, n);
+            break;
+        case 5:
+            scene_path = (g_dir / "fuzz.glb").string();
+            write_file(scene_path, body, n);
+            break;
+        default:
+            write_file(g_dir / "fuzz.png", body, n);
+            scene_path = (g_dir / "texture.xml").string();
+            break;
     }
     vkmech::LoadOptions options;
     options.substitute_unsupported = (n % 2) == 1;  // both the strict and the substituting paths

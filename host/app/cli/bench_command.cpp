@@ -5,8 +5,8 @@
 #include "render/gpu_scene.hpp"
 #include "render/ray_caster.hpp"
 #include "render/renderer.hpp"
-#include "render/traversal_dump.hpp"
 #include "render/session.hpp"
+#include "render/traversal_dump.hpp"
 #include "scene/scene.hpp"
 #include "vk/context.hpp"
 
@@ -30,10 +30,13 @@ int cmd_devices() {
         std::printf("[%u] %s (%s)\n", d.index, d.name.c_str(), d.type.c_str());
         std::printf("    driver: %s\n", d.driver.c_str());
         std::printf("    Vulkan %u.%u.%u, ray query: %s\n", VK_API_VERSION_MAJOR(d.api_version),
-                    VK_API_VERSION_MINOR(d.api_version), VK_API_VERSION_PATCH(d.api_version), d.ray_query ? "yes" : "no");
-        std::printf("    max compute workgroup invocations: %u, max storage buffer range: %llu MiB, device-local heap: %llu MiB\n",
-                    d.max_workgroup_invocations, static_cast<unsigned long long>(d.max_storage_buffer_range >> 20),
-                    static_cast<unsigned long long>(d.device_local_bytes >> 20));
+                    VK_API_VERSION_MINOR(d.api_version), VK_API_VERSION_PATCH(d.api_version),
+                    d.ray_query ? "yes" : "no");
+        std::printf(
+            "    max compute workgroup invocations: %u, max storage buffer range: %llu MiB, device-local heap: %llu "
+            "MiB\n",
+            d.max_workgroup_invocations, static_cast<unsigned long long>(d.max_storage_buffer_range >> 20),
+            static_cast<unsigned long long>(d.device_local_bytes >> 20));
     }
     return 0;
 }
@@ -83,7 +86,8 @@ void print_traversal_work(const vk::Context& ctx, const SceneArrays& arrays, con
         }
         const double n = static_cast<double>(work.size());
         char buf[96];
-        std::snprintf(buf, sizeof buf, "%.2f (x8 %.2f, x32 %.2f)", sum / n, g8 / std::ceil(n / 8), g32 / std::ceil(n / 32));
+        std::snprintf(buf, sizeof buf, "%.2f (x8 %.2f, x32 %.2f)", sum / n, g8 / std::ceil(n / 8),
+                      g32 / std::ceil(n / 32));
         return std::string(buf);
     };
     uint32_t stack = 0;
@@ -106,8 +110,8 @@ int cmd_bench_traversal(const BenchOptions& o) {
                          " does not report subgroup ballot in compute shaders, which the slices kernel needs");
     const RaySchedule bvh_schedule = o.slices ? RaySchedule::Slices : RaySchedule::Auto;
     std::printf("device: %s (%s), %s kernel, %u random rays per measurement (closest hit; median of 3; seed %u)%s\n",
-                ctx.info().name.c_str(), ctx.info().type.c_str(), vk::to_string(ctx.kernel()), o.rays, kBenchTraversalSeed,
-                o.slices ? "; bvh column: slices (--slices)" : "");
+                ctx.info().name.c_str(), ctx.info().type.c_str(), vk::to_string(ctx.kernel()), o.rays,
+                kBenchTraversalSeed, o.slices ? "; bvh column: slices (--slices)" : "");
     std::printf("%-22s %10s %16s %16s %20s\n", "scene", "triangles", "rayquery Mray/s", "bvh Mray/s",
                 "bvh 1 ray/inv Mray/s");
     for (const auto& n : names) {
@@ -153,9 +157,10 @@ namespace {
 
 // `bench render --profile`: per scene and batch size, the render's wall time split into the batch loop's steps.
 int bench_render_profile(const BenchOptions& o, const std::vector<std::string>& names, const vk::Context& ctx) {
-    std::printf("device: %s (%s), %s kernel; %ux%u film, %u spp per render (the median of 3 renders by wall time); "
-                "seconds per render; dispatch = record + submit + wait (the device's work)\n",
-                ctx.info().name.c_str(), ctx.info().type.c_str(), vk::to_string(ctx.kernel()), o.res, o.res, o.spp);
+    std::printf(
+        "device: %s (%s), %s kernel; %ux%u film, %u spp per render (the median of 3 renders by wall time); "
+        "seconds per render; dispatch = record + submit + wait (the device's work)\n",
+        ctx.info().name.c_str(), ctx.info().type.c_str(), vk::to_string(ctx.kernel()), o.res, o.res, o.spp);
     std::printf("%-20s %-9s %6s %8s %9s %9s %9s %9s %9s %7s %9s\n", "scene", "traversal", "batch", "batches", "total",
                 "upload", "dispatch", "readback", "accum.", "other", "Mpaths/s");
     for (const auto& n : names) {
@@ -198,28 +203,31 @@ int bench_render_profile(const BenchOptions& o, const std::vector<std::string>& 
             const TraversalCounters& c = rc.counters();
             const double paths = static_cast<double>(o.spp) * scene.camera.width * scene.camera.height;
             const double rays = std::max(c.rays, 1.0);
-            std::printf("  %s, software BVH, %u spp: %.3g traces (%.2f per path); per trace: interior nodes %.2f, "
-                        "leaves %.2f, triangles %.2f; deepest stack %u\n",
-                        scene_stem(n).c_str(), o.spp, c.rays, c.rays / paths, c.nodes / rays, c.leaves / rays,
-                        c.triangles / rays, c.deepest_stack);
+            std::printf(
+                "  %s, software BVH, %u spp: %.3g traces (%.2f per path); per trace: interior nodes %.2f, "
+                "leaves %.2f, triangles %.2f; deepest stack %u\n",
+                scene_stem(n).c_str(), o.spp, c.rays, c.rays / paths, c.nodes / rays, c.leaves / rays,
+                c.triangles / rays, c.deepest_stack);
             // The phases nest (shared/types.h): the exclusive shares of the whole.
             using namespace gpu;
             const auto& k = c.clock;
             const double whole = std::max(k[PHASE_SLOT], 1.0);
             auto pct = [&](double ticks) { return 100.0 * ticks / whole; };
-            std::printf("  phases, %% of the invocations' clock ticks: setup %.1f, camera-ray trace %.1f, later "
-                        "traces %.1f, shadow traces %.1f, NEE without its trace %.1f, other shading %.1f, "
-                        "path ended, waiting for the vector's longer paths %.1f, accumulation and write %.1f; all "
-                        "traces %.1f (%.0f intervals left out: the clock went backwards)\n",
-                        pct(k[PHASE_CAMERA]), pct(k[PHASE_PRIMARY]), pct(k[PHASE_BOUNCE]), pct(k[PHASE_SHADOW]),
-                        pct(k[PHASE_NEE] - k[PHASE_SHADOW]),
-                        pct(k[PHASE_BUSY] - k[PHASE_PRIMARY] - k[PHASE_BOUNCE] - k[PHASE_NEE]),
-                        pct(k[PHASE_PATH] - k[PHASE_BUSY]), pct(k[PHASE_SLOT] - k[PHASE_CAMERA] - k[PHASE_PATH]),
-                        pct(k[PHASE_PRIMARY] + k[PHASE_BOUNCE] + k[PHASE_SHADOW]), c.clock_backwards);
+            std::printf(
+                "  phases, %% of the invocations' clock ticks: setup %.1f, camera-ray trace %.1f, later "
+                "traces %.1f, shadow traces %.1f, NEE without its trace %.1f, other shading %.1f, "
+                "path ended, waiting for the vector's longer paths %.1f, accumulation and write %.1f; all "
+                "traces %.1f (%.0f intervals left out: the clock went backwards)\n",
+                pct(k[PHASE_CAMERA]), pct(k[PHASE_PRIMARY]), pct(k[PHASE_BOUNCE]), pct(k[PHASE_SHADOW]),
+                pct(k[PHASE_NEE] - k[PHASE_SHADOW]),
+                pct(k[PHASE_BUSY] - k[PHASE_PRIMARY] - k[PHASE_BOUNCE] - k[PHASE_NEE]),
+                pct(k[PHASE_PATH] - k[PHASE_BUSY]), pct(k[PHASE_SLOT] - k[PHASE_CAMERA] - k[PHASE_PATH]),
+                pct(k[PHASE_PRIMARY] + k[PHASE_BOUNCE] + k[PHASE_SHADOW]), c.clock_backwards);
             if (c.clock_backwards > 0.01 * rays)
-                std::printf("  warning: the shader clock went backwards in %.0f intervals (over 1%% of the traces): "
-                            "it wraps or is not steady on this device, and the phases' shares are not reliable\n",
-                            c.clock_backwards);
+                std::printf(
+                    "  warning: the shader clock went backwards in %.0f intervals (over 1%% of the traces): "
+                    "it wraps or is not steady on this device, and the phases' shares are not reliable\n",
+                    c.clock_backwards);
             std::fflush(stdout);
         }
     }
@@ -246,9 +254,10 @@ double measure_paths_per_second(const RenderSession& session, const Features& f,
 // worth on this device. The specialized pipeline compiles out every effect the
 // scene does not call for; each row compiles one of them back in.
 int bench_render_ablation(const BenchOptions& o, const std::vector<std::string>& names, const vk::Context& ctx) {
-    std::printf("device: %s (%s), %s kernel; %ux%u film, %u spp per measurement, median of 3; paths/s in millions; "
-                "each effect row: the specialized pipeline with that effect compiled in\n",
-                ctx.info().name.c_str(), ctx.info().type.c_str(), vk::to_string(ctx.kernel()), o.res, o.res, o.spp);
+    std::printf(
+        "device: %s (%s), %s kernel; %ux%u film, %u spp per measurement, median of 3; paths/s in millions; "
+        "each effect row: the specialized pipeline with that effect compiled in\n",
+        ctx.info().name.c_str(), ctx.info().type.c_str(), vk::to_string(ctx.kernel()), o.res, o.res, o.spp);
     std::printf("%-20s %-22s %12s %9s\n", "scene", "pipeline", "Mpaths/s", "vs spec.");
     for (const auto& n : names) {
         Scene scene = load_scene(resolve_scene_path(n));
@@ -262,8 +271,9 @@ int bench_render_ablation(const BenchOptions& o, const std::vector<std::string>&
         };
         row("specialized", base);
         const std::pair<const char*, bool Features::*> effects[] = {
-            {"+thin-lens", &Features::thin_lens}, {"+dielectric", &Features::dielectric}, {"+rough", &Features::rough},
-            {"+plastic", &Features::plastic},     {"+principled", &Features::principled}, {"+conductor", &Features::conductor},
+            {"+thin-lens", &Features::thin_lens},   {"+dielectric", &Features::dielectric},
+            {"+rough", &Features::rough},           {"+plastic", &Features::plastic},
+            {"+principled", &Features::principled}, {"+conductor", &Features::conductor},
             {"+textures", &Features::textures}};
         for (const auto& [what, member] : effects) {
             if (spec.*member) continue;
@@ -300,8 +310,8 @@ int cmd_bench_render(const BenchOptions& o) {
             double spec_on = measure(Features::from_scene(scene));
             double generic = measure(Features::generic());
             double cap_off = measure(Features::from_scene(scene, Estimator::Nee, false));
-            std::printf("%-20s %-9s %12.4f %12.4f %12.4f %11.1f%%\n", scene_stem(n).c_str(), to_string(t), spec_on, generic,
-                        cap_off, 100.0 * (spec_on / generic - 1.0));
+            std::printf("%-20s %-9s %12.4f %12.4f %12.4f %11.1f%%\n", scene_stem(n).c_str(), to_string(t), spec_on,
+                        generic, cap_off, 100.0 * (spec_on / generic - 1.0));
             std::fflush(stdout);
         }
     }
@@ -318,19 +328,22 @@ void register_devices(CLI::App& app, CliCommands& commands) {
 void register_bench(CLI::App& app, CliCommands& commands) {
     auto o = std::make_shared<BenchOptions>();
     auto* bench = app.add_subcommand("bench", "Benchmarks (not tests)");
-    auto* bench_trav = bench->add_subcommand("traversal", "Rays/s of ray query and of the software BVH on each scene (the BVH twice: "
-                                             "its ray kernel's default, which on CPU devices hands each invocation "
-                                             "the next ray of its workgroup's slice when its own is done, and one "
-                                             "ray per invocation, as the path tracer traces)");
+    auto* bench_trav =
+        bench->add_subcommand("traversal",
+                              "Rays/s of ray query and of the software BVH on each scene (the BVH twice: "
+                              "its ray kernel's default, which on CPU devices hands each invocation "
+                              "the next ray of its workgroup's slice when its own is done, and one "
+                              "ray per invocation, as the path tracer traces)");
     bench->require_subcommand(1);
     bench_trav->add_option("--scenes", o->scenes, "Comma-separated scene names or paths (default: all in scenes/)")
         ->delimiter(',');
     bench_trav->add_option("--rays", o->rays, "Rays per measurement")->check(CLI::Range(1000u, 1u << 26));
     bench_trav->add_option("--device", o->device, "Vulkan device index (see `vkmech devices`)");
-    bench_trav->add_option("--dump", o->dump_dir,
-                           "Write each scene's triangles, rays, software-BVH closest hits and rays/s to DIR "
-                           "(<scene>.tris.bin, .rays.bin, .hits.bin, .json; layout in docs/performance.md) for "
-                           "ci/bench-embree.sh")
+    bench_trav
+        ->add_option("--dump", o->dump_dir,
+                     "Write each scene's triangles, rays, software-BVH closest hits and rays/s to DIR "
+                     "(<scene>.tris.bin, .rays.bin, .hits.bin, .json; layout in docs/performance.md) for "
+                     "ci/bench-embree.sh")
         ->type_name("DIR");
     bench_trav->add_flag("--counters", o->counters,
                          "Also trace the rays once with the instrumented software-BVH shader and print its work per "

@@ -19,7 +19,8 @@ namespace {
 std::string lobe_classes(const Material& m) {
     uint32_t f = m.lobe_flags();
     std::string s;
-    for (auto [bit, name] : {std::pair{gpu::LOBE_BIT_D, "D"}, std::pair{gpu::LOBE_BIT_G, "G"}, std::pair{gpu::LOBE_BIT_S, "S"}})
+    for (auto [bit, name] :
+         {std::pair{gpu::LOBE_BIT_D, "D"}, std::pair{gpu::LOBE_BIT_G, "G"}, std::pair{gpu::LOBE_BIT_S, "S"}})
         if (f & bit) s += s.empty() ? name : std::string("+") + name;
     return s.empty() ? "?" : s;
 }
@@ -52,8 +53,8 @@ int cmd_check(const CommonOptions& o) {
             tex += " specular_reflectance=" + scene.textures[m.specular_reflectance_texture].path;
         if (m.specular_transmittance_texture >= 0)
             tex += " specular_transmittance=" + scene.textures[m.specular_transmittance_texture].path;
-        std::printf("  %-24s %-16s lobes %-4s %d shape%s%s%s\n", m.id.c_str(), to_string(m.type), lobe_classes(m).c_str(),
-                    users, users == 1 ? "" : "s", m.twosided ? ", twosided" : "", tex.c_str());
+        std::printf("  %-24s %-16s lobes %-4s %d shape%s%s%s\n", m.id.c_str(), to_string(m.type),
+                    lobe_classes(m).c_str(), users, users == 1 ? "" : "s", m.twosided ? ", twosided" : "", tex.c_str());
     }
     std::printf("emitters: %zu\n", scene.emitters.size());
     for (const auto& e : scene.emitters) {
@@ -65,9 +66,11 @@ int cmd_check(const CommonOptions& o) {
     const Camera& c = scene.camera;
     glm::vec3 pos(c.to_world[3]), fwd(c.to_world[2]);
     std::printf("camera: %s, %d x %d, fov %g deg (%s), at (%g, %g, %g) looking along (%g, %g, %g)%s\n",
-                c.type == CameraType::ThinLens ? "thinlens" : c.type == CameraType::Orthographic ? "orthographic" : "perspective",
-                c.width, c.height, c.type == CameraType::Orthographic ? 0.0f : c.fov_deg,
-                c.fov_axis.c_str(), pos.x, pos.y, pos.z, fwd.x, fwd.y, fwd.z,
+                c.type == CameraType::ThinLens       ? "thinlens"
+                : c.type == CameraType::Orthographic ? "orthographic"
+                                                     : "perspective",
+                c.width, c.height, c.type == CameraType::Orthographic ? 0.0f : c.fov_deg, c.fov_axis.c_str(), pos.x,
+                pos.y, pos.z, fwd.x, fwd.y, fwd.z,
                 c.type == CameraType::ThinLens ? (", aperture " + std::to_string(c.aperture_radius)).c_str() : "");
     std::printf("integrator: max_depth %d, rr_depth %d\n", scene.integrator.max_depth, scene.integrator.rr_depth);
     std::printf("features: %s\n", f.describe().c_str());
@@ -82,8 +85,9 @@ int cmd_check(const CommonOptions& o) {
 void register_check(CLI::App& app, CliCommands& commands) {
     auto o = std::make_shared<CommonOptions>();
     auto* check = app.add_subcommand(
-        "check", "Load a scene without rendering: shapes, materials and their lobes, emitters, camera, the features the "
-                 "renderer specializes on, and every warning and substitution");
+        "check",
+        "Load a scene without rendering: shapes, materials and their lobes, emitters, camera, the features the "
+        "renderer specializes on, and every warning and substitution");
     add_common_options(check, *o);
 
     commands.push_back({check, [o](const std::vector<std::string>&) { return cmd_check(*o); }});

@@ -15,11 +15,13 @@ namespace fs = std::filesystem;
 namespace vkmech {
 
 void add_common_options(CLI::App* app, CommonOptions& o) {
-    app->add_option("--scene", o.scene,
-                    "Scene name in scenes/ (e.g. ring_caustic) or a path to a Mitsuba XML (.xml) or glTF (.gltf, .glb) file")
+    app->add_option(
+           "--scene", o.scene,
+           "Scene name in scenes/ (e.g. ring_caustic) or a path to a Mitsuba XML (.xml) or glTF (.gltf, .glb) file")
         ->required();
     app->add_option("-D,--define", o.defines, "Override a scene parameter: -D name=value (as Mitsuba's -D)");
-    app->add_option("--res", o.res, "Film width in pixels (height follows the scene's aspect)")->check(CLI::Range(1u, 16384u));
+    app->add_option("--res", o.res, "Film width in pixels (height follows the scene's aspect)")
+        ->check(CLI::Range(1u, 16384u));
     app->add_option("--device", o.device, "Vulkan device index (see `vkmech devices`)");
     app->add_option("--traversal", o.traversal, "Ray traversal: auto, rayquery or bvh")
         ->check(CLI::IsMember({"auto", "rayquery", "bvh"}));

@@ -3,8 +3,8 @@
 #pragma once
 
 #include "scene/scene.hpp"
-#include "vk/context.hpp"
 #include "study/study_runner.hpp"
+#include "vk/context.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -24,16 +24,16 @@ public:
 };
 
 struct CommonOptions {
-    std::string scene;                  // name in scenes/ or a path
-    std::vector<std::string> defines;   // -D name=value
-    std::optional<uint32_t> res;        // --res N: film width N, height by aspect
-    std::optional<uint32_t> device;     // --device N
-    std::string traversal = "auto";     // auto | rayquery | bvh
-    bool substitute = false;            // replace unsupported emitters (docs/descriptor.md §8)
-    size_t max_triangles = 0;           // --max-triangles N (0: $VKMECH_MAX_TRIANGLES or the default)
-    bool validation = false;            // Vulkan validation layers
+    std::string scene;                          // name in scenes/ or a path
+    std::vector<std::string> defines;           // -D name=value
+    std::optional<uint32_t> res;                // --res N: film width N, height by aspect
+    std::optional<uint32_t> device;             // --device N
+    std::string traversal = "auto";             // auto | rayquery | bvh
+    bool substitute = false;                    // replace unsupported emitters (docs/descriptor.md §8)
+    size_t max_triangles = 0;                   // --max-triangles N (0: $VKMECH_MAX_TRIANGLES or the default)
+    bool validation = false;                    // Vulkan validation layers
     std::optional<std::string> pipeline_cache;  // --pipeline-cache DIR|off (vk::ContextOptions)
-    std::string kernel = "auto";        // --kernel auto|cpu|gpu (vk::KernelClass)
+    std::string kernel = "auto";                // --kernel auto|cpu|gpu (vk::KernelClass)
 };
 
 struct RenderOptions {
@@ -42,13 +42,13 @@ struct RenderOptions {
     uint32_t seed = 0;
     uint32_t batch_spp = 8;
     std::string out_dir;
-    std::string estimator;          // nee | mis-restricted | mis (docs/descriptor.md §1); empty: mis, nee with --adaptive
-    std::string light_selection = "uniform";  // uniform | power (docs/descriptor.md §1)
-    std::string end_vertex = "last-nondelta"; // last-nondelta | literal (docs/descriptor.md §2)
-    float exposure = 0.0f;          // PNG preview exposure in EV (stops)
-    std::string capture = "on";     // on | off: the mechanism descriptor
-    bool generic = false;           // the unspecialized pipeline (for comparisons)
-    bool preview = false;           // provisional direct-light preview instead of the estimator
+    std::string estimator;  // nee | mis-restricted | mis (docs/descriptor.md §1); empty: mis, nee with --adaptive
+    std::string light_selection = "uniform";   // uniform | power (docs/descriptor.md §1)
+    std::string end_vertex = "last-nondelta";  // last-nondelta | literal (docs/descriptor.md §2)
+    float exposure = 0.0f;                     // PNG preview exposure in EV (stops)
+    std::string capture = "on";                // on | off: the mechanism descriptor
+    bool generic = false;                      // the unspecialized pipeline (for comparisons)
+    bool preview = false;                      // provisional direct-light preview instead of the estimator
     // Optional outputs beyond the descriptor: direct_glossy (docs/descriptor.md §3.4).
     std::vector<std::string> extra_outputs;
     // Two-stage adaptive rendering (docs/descriptor.md §6): strategy, pilot N0, extra budget, floor, pilot draw.
@@ -57,18 +57,18 @@ struct RenderOptions {
     uint32_t budget = 32;
     uint32_t floor = 1;
     uint32_t pilot_draw = 0;
-    std::string curve;              // frozen predictor curve (default: docs/results/predictor_curve.json)
+    std::string curve;  // frozen predictor curve (default: docs/results/predictor_curve.json)
 };
 
 // `vkmech sentinel register` (docs/descriptor.md §9).
 struct SentinelOptions {
     CommonOptions common;
-    uint32_t pilot = 64;       // N0: the frozen curve's pilot
-    uint32_t pilot_draw = 0;   // pilot seed downstream_seeds::pilot(k)
-    std::string out;           // the record (default sentinel_<scene>.json)
-    std::string curve;         // frozen predictor curve (default: found as `vkmech paths` says)
-    std::string name;          // the scene's name in the record (default: the file stem)
-    bool force = false;        // overwrite an existing record
+    uint32_t pilot = 64;      // N0: the frozen curve's pilot
+    uint32_t pilot_draw = 0;  // pilot seed downstream_seeds::pilot(k)
+    std::string out;          // the record (default sentinel_<scene>.json)
+    std::string curve;        // frozen predictor curve (default: found as `vkmech paths` says)
+    std::string name;         // the scene's name in the record (default: the file stem)
+    bool force = false;       // overwrite an existing record
     // The evaluation protocol, fixed in the record (docs/descriptor.md §9.4).
     uint32_t reference_spp = 2048, draws = 10, extra = 32, floor = 1;
 };
@@ -88,9 +88,9 @@ struct SentinelEvaluateOptions {
 struct BenchOptions {
     std::vector<std::string> scenes;
     uint32_t rays = 1u << 18;
-    uint32_t res = 128;  // bench render: film width
-    uint32_t spp = 8;    // bench render: samples per measurement
-    bool profile = false;       // bench render: where a render's time goes, per batch size
+    uint32_t res = 128;                       // bench render: film width
+    uint32_t spp = 8;                         // bench render: samples per measurement
+    bool profile = false;                     // bench render: where a render's time goes, per batch size
     std::vector<uint32_t> batches{1, 8, 64};  // bench render --profile: samples per dispatch tried
     std::optional<uint32_t> device;
     std::optional<std::string> pipeline_cache;

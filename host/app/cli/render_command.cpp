@@ -55,12 +55,12 @@ public:
         double left = done > 0 ? el * (total - done) / done : 0.0;
         int pct = static_cast<int>(100.0 * done / total);
         if (tty_) {
-            std::fprintf(stderr, "\r%s: %u/%u spp (%3d%%)  %.1fs elapsed, ~%.1fs left   ", label_.c_str(), done, total, pct,
-                         el, left);
+            std::fprintf(stderr, "\r%s: %u/%u spp (%3d%%)  %.1fs elapsed, ~%.1fs left   ", label_.c_str(), done, total,
+                         pct, el, left);
             if (done == total) std::fprintf(stderr, "\n");
         } else if (pct >= next_pct_ || done == total) {
-            std::fprintf(stderr, "%s: %u/%u spp (%d%%) %.1fs elapsed, ~%.1fs left\n", label_.c_str(), done, total, pct, el,
-                         left);
+            std::fprintf(stderr, "%s: %u/%u spp (%d%%) %.1fs elapsed, ~%.1fs left\n", label_.c_str(), done, total, pct,
+                         el, left);
             next_pct_ = pct + 25;
         }
         std::fflush(stderr);
@@ -83,8 +83,15 @@ Estimator render_estimator(const RenderOptions& o, Estimator fallback) {
 RenderInfo render_info(const std::string& name, const RenderOptions& o, const vk::Context& ctx, Traversal trav,
                        Estimator estimator, const Features& features, const Scene& scene, uint32_t spp, uint32_t seed,
                        bool capture) {
-    RenderInfo info{name, resolve_scene_path(o.common.scene), ctx.info().name, to_string(trav), to_string(estimator),
-                    features.describe(), spp, seed, capture};
+    RenderInfo info{name,
+                    resolve_scene_path(o.common.scene),
+                    ctx.info().name,
+                    to_string(trav),
+                    to_string(estimator),
+                    features.describe(),
+                    spp,
+                    seed,
+                    capture};
     info.kernel = vk::to_string(ctx.kernel());
     info.provenance = make_provenance(resolve_scene_path(o.common.scene), scene, o.common.defines, ctx, trav, spp);
     info.light_selection = o.light_selection;
@@ -113,12 +120,15 @@ void print_diagnosis(alloc::Strategy s, const alloc::PilotDiagnosis& d) {
         if (d.heavy == 0)
             std::printf("%s: no heavy-tailed pilot pixels, identical to %s\n", floor, base);
         else
-            std::printf("%s: the floor changes none of the %zu heavy-tailed pilot pixels (each at or above its "
-                        "bucket's median), identical to %s\n",
-                        floor, d.heavy, base);
+            std::printf(
+                "%s: the floor changes none of the %zu heavy-tailed pilot pixels (each at or above its "
+                "bucket's median), identical to %s\n",
+                floor, d.heavy, base);
     };
-    if (s == Strategy::BucketFloor || s == Strategy::Guarded) abstention("bucket-floor", "observed-var", d.floor_changed);
-    if (s == Strategy::RobustFloor && d.robust_checked) abstention("robust-floor", "robust-var", d.robust_floor_changed);
+    if (s == Strategy::BucketFloor || s == Strategy::Guarded)
+        abstention("bucket-floor", "observed-var", d.floor_changed);
+    if (s == Strategy::RobustFloor && d.robust_checked)
+        abstention("robust-floor", "robust-var", d.robust_floor_changed);
     if (s == Strategy::Guarded && d.untrusted == 0)
         std::printf("guarded: no untrusted pilot pixels, identical to bucket-floor\n");
     if (d.untrusted == 0 || s == Strategy::Uniform) return;
@@ -143,13 +153,15 @@ void print_adaptive_k(const std::vector<uint8_t>& labels, uint32_t n0) {
     const size_t rare = alloc::rare_tail_pixels(labels);
     const int k = alloc::mom_block_count(static_cast<int>(n0));
     if (rare == 0)
-        std::printf("robust-adaptive: no delta_mediated or specular_direct pilot pixels, identical to robust-var "
-                    "(k = %d everywhere)\n",
-                    k);
+        std::printf(
+            "robust-adaptive: no delta_mediated or specular_direct pilot pixels, identical to robust-var "
+            "(k = %d everywhere)\n",
+            k);
     else
-        std::printf("robust-adaptive: k = 1 (the plain pilot variance) on %zu pilot pixels labelled delta_mediated or "
-                    "specular_direct, k = %d (median-of-means, as robust-var) on the other %zu\n",
-                    rare, k, labels.size() - rare);
+        std::printf(
+            "robust-adaptive: k = 1 (the plain pilot variance) on %zu pilot pixels labelled delta_mediated or "
+            "specular_direct, k = %d (median-of-means, as robust-var) on the other %zu\n",
+            rare, k, labels.size() - rare);
 }
 
 struct UntrustedAllocation {
@@ -177,8 +189,10 @@ std::string adaptive_json(alloc::Strategy s, const RenderOptions& o, const alloc
     std::ostringstream j;
     j.precision(9);
     auto number = [&](double x) -> std::ostringstream& {
-        if (std::isfinite(x)) j << x;
-        else j << "null";
+        if (std::isfinite(x))
+            j << x;
+        else
+            j << "null";
         return j;
     };
     j << "{\"strategy\": \"" << alloc::to_string(s) << "\", \"pilot_spp\": " << o.pilot
@@ -204,7 +218,8 @@ std::string adaptive_json(alloc::Strategy s, const RenderOptions& o, const alloc
 // splits the descriptor's direct bucket, so it needs the capture.
 bool wants_direct_glossy(const RenderOptions& o, bool capture) {
     const bool on = std::find(o.extra_outputs.begin(), o.extra_outputs.end(), "direct_glossy") != o.extra_outputs.end();
-    if (on && !capture) throw UsageError("--extra-output direct_glossy needs --capture on (it splits the direct bucket)");
+    if (on && !capture)
+        throw UsageError("--extra-output direct_glossy needs --capture on (it splits the direct bucket)");
     return on;
 }
 
@@ -242,11 +257,12 @@ int cmd_render(const RenderOptions& o) {
     Renderer renderer = session.renderer(features);
     const vk::PipelineStats pipes = ctx.pipeline_cache().stats() - before;
 
-    std::fprintf(stderr, "vkmech: %s: %dx%d, %zu triangles, %zu emitters, %u spp on '%s' (%s traversal, %s kernel; %s; %s "
+    std::fprintf(stderr,
+                 "vkmech: %s: %dx%d, %zu triangles, %zu emitters, %u spp on '%s' (%s traversal, %s kernel; %s; %s "
                  "light selection)\n",
                  name.c_str(), scene.camera.width, scene.camera.height, arrays.triangles.size(), scene.emitters.size(),
-                 o.spp, ctx.info().name.c_str(), to_string(trav), vk::to_string(ctx.kernel()), features.describe().c_str(),
-                 o.light_selection.c_str());
+                 o.spp, ctx.info().name.c_str(), to_string(trav), vk::to_string(ctx.kernel()),
+                 features.describe().c_str(), o.light_selection.c_str());
     RenderSpec spec;
     spec.spp = o.spp;
     spec.seed = o.seed;
@@ -275,7 +291,8 @@ int cmd_render(const RenderOptions& o) {
         desc = derive_descriptor(frame);
         summary = summarize(frame, *desc);
     }
-    WrittenFiles files = write_render_outputs(*set, info, frame, desc ? &*desc : nullptr, summary ? &*summary : nullptr);
+    WrittenFiles files =
+        write_render_outputs(*set, info, frame, desc ? &*desc : nullptr, summary ? &*summary : nullptr);
     set->commit();
     report_render_warnings(files);
 
@@ -292,7 +309,8 @@ int cmd_render(const RenderOptions& o) {
             std::printf("%-18s %11.2f%% %11.2f%%\n", kBucketNames[b], 100.0 * summary->pixel_share[b],
                         100.0 * summary->energy_share[b]);
         std::printf("labelled pixels: %llu of %zu; other energy: %g\n",
-                    static_cast<unsigned long long>(summary->labelled_pixels), frame.pixels.size(), summary->other_energy);
+                    static_cast<unsigned long long>(summary->labelled_pixels), frame.pixels.size(),
+                    summary->other_energy);
         if (summary->has_direct_glossy)
             std::printf("direct energy ending at a glossy vertex: %.2f%% of direct, %.2f%% of all\n",
                         100.0 * summary->direct_glossy_share_of_direct, 100.0 * summary->direct_glossy_energy_share);
@@ -339,7 +357,8 @@ int cmd_render_adaptive(const RenderOptions& o) {
             std::fprintf(stderr, "vkmech: note: the pilot's label reliability is not predicted: %s\n",
                          found.missing_message().c_str());
     }
-    if (!o.curve.empty() && !fs::exists(curve_path)) throw UsageError("predictor curve '" + o.curve + "' does not exist");
+    if (!o.curve.empty() && !fs::exists(curve_path))
+        throw UsageError("predictor curve '" + o.curve + "' does not exist");
     std::optional<ReliabilityCurve> curve;
     if (!curve_path.empty() && fs::exists(curve_path)) curve = load_curve_for_cli(curve_path);
     Scene loaded = load_for_cli(o.common);
@@ -362,7 +381,8 @@ int cmd_render_adaptive(const RenderOptions& o) {
     const std::string pipe_outcome = vk::pipeline_cache_outcome(pipes, ctx.pipeline_cache().enabled());
     std::printf("pipeline creation: %.2f s (%s; not in the render times)\n", pipes.seconds, pipe_outcome.c_str());
     const size_t pixels = static_cast<size_t>(scene.camera.width) * scene.camera.height;
-    std::fprintf(stderr, "vkmech: %s: %dx%d adaptive (%s, pilot %u spp, budget 1 + %u spp per pixel, floor %u) on '%s'\n",
+    std::fprintf(stderr,
+                 "vkmech: %s: %dx%d adaptive (%s, pilot %u spp, budget 1 + %u spp per pixel, floor %u) on '%s'\n",
                  name.c_str(), scene.camera.width, scene.camera.height, alloc::to_string(strategy), o.pilot, o.budget,
                  o.floor, ctx.info().name.c_str());
 
@@ -379,15 +399,17 @@ int cmd_render_adaptive(const RenderOptions& o) {
     std::optional<PilotPrediction> pred;
     if (curve) {
         pred = predict_from_pilot(*curve, pilot.frame);
-        std::printf("predicted label reliability of the %zu of %zu pixels the pilot labelled, not of the %zu it left "
-                    "unlabelled: %.3f by margin, %.3f by purity (share of those labels a converged render keeps; curve "
-                    "%s, fitted on %u-spp pilots)\n",
-                    diag.labelled, diag.pixels, diag.pixels - diag.labelled, pred->margin, pred->purity,
-                    curve_path.c_str(), curve->pilot_spp);
+        std::printf(
+            "predicted label reliability of the %zu of %zu pixels the pilot labelled, not of the %zu it left "
+            "unlabelled: %.3f by margin, %.3f by purity (share of those labels a converged render keeps; curve "
+            "%s, fitted on %u-spp pilots)\n",
+            diag.labelled, diag.pixels, diag.pixels - diag.labelled, pred->margin, pred->purity, curve_path.c_str(),
+            curve->pilot_spp);
         if (curve->pilot_spp != 0 && curve->pilot_spp != o.pilot)
-            std::printf("note: this pilot has %u spp; the curve was fitted on %u-spp pilots, so the prediction is "
-                        "indicative only\n",
-                        o.pilot, curve->pilot_spp);
+            std::printf(
+                "note: this pilot has %u spp; the curve was fitted on %u-spp pilots, so the prediction is "
+                "indicative only\n",
+                o.pilot, curve->pilot_spp);
     } else {
         std::printf("predicted label reliability: no frozen curve at %s (run `vkmech study predictor`)\n",
                     curve_path.c_str());
@@ -416,7 +438,8 @@ int cmd_render_adaptive(const RenderOptions& o) {
     RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene,
                                   static_cast<uint32_t>(plan.total / pixels), downstream_seeds::kPool, true);
     info.features += std::string(" adaptive=") + alloc::to_string(strategy);
-    info.provenance.sample_range = "0:" + std::to_string(max_n) + " (adaptive: samples 0:n(p) at pixel p, n(p) in the spp channel)";
+    info.provenance.sample_range =
+        "0:" + std::to_string(max_n) + " (adaptive: samples 0:n(p) at pixel p, n(p) in the spp channel)";
     info.pipeline_seconds = pipes.seconds;
     info.pipeline_cache = pipe_outcome;
     info.extra_json.emplace_back("adaptive", adaptive_json(strategy, o, diag, pred, plan, untrusted_n));
@@ -438,8 +461,8 @@ int cmd_render_adaptive(const RenderOptions& o) {
                     untrusted_n.min_n, untrusted_n.max_n, untrusted_n.below_uniform, diag.untrusted, uniform_share);
     std::printf("final: %.2f s; wall time pilot + allocation + final: %.2f s\n", frame.seconds,
                 pilot.seconds + plan.allocation_ms / 1000.0 + frame.seconds);
-    for (const auto& f : {files.exr, files.png, files.dominant_png, spp_png, files.json,
-                          set->final_path(manifest_file_name(name))})
+    for (const auto& f :
+         {files.exr, files.png, files.dominant_png, spp_png, files.json, set->final_path(manifest_file_name(name))})
         if (!f.empty()) std::printf("wrote %s\n", f.c_str());
     return 0;
 }
@@ -453,38 +476,43 @@ void register_render(CLI::App& app, CliCommands& commands) {
     render->add_option("--seed", o->seed, "Random seed (docs/descriptor.md §4)");
     render->add_option("--batch", o->batch_spp, "Samples per GPU dispatch")->check(CLI::Range(1u, 4096u));
     render->add_option("--out", o->out_dir, "Output directory (default: out/<scene>)");
-    render->add_option("--estimator", o->estimator,
-                       "Estimator: mis (default), nee (the paper's; the default with --adaptive) or mis-restricted")
+    render
+        ->add_option("--estimator", o->estimator,
+                     "Estimator: mis (default), nee (the paper's; the default with --adaptive) or mis-restricted")
         ->check(CLI::IsMember({"nee", "mis-restricted", "mis"}));
-    render->add_option("--light-selection", o->light_selection,
-                       "How NEE picks an emitter: uniform (default, as Mitsuba) or power")
+    render
+        ->add_option("--light-selection", o->light_selection,
+                     "How NEE picks an emitter: uniform (default, as Mitsuba) or power")
         ->check(CLI::IsMember({"uniform", "power"}));
-    render->add_option("--end-vertex", o->end_vertex,
-                       "Label's end vertex: last-nondelta (default) or literal (the last surface vertex)")
+    render
+        ->add_option("--end-vertex", o->end_vertex,
+                     "Label's end vertex: last-nondelta (default) or literal (the last surface vertex)")
         ->check(CLI::IsMember({"last-nondelta", "literal"}));
-    render->add_option("--exposure", o->exposure,
-                       "Exposure of the PNG preview in stops (EV; the EXR is never scaled)")
+    render->add_option("--exposure", o->exposure, "Exposure of the PNG preview in stops (EV; the EXR is never scaled)")
         ->check(CLI::Range(-30.0f, 30.0f));
     render->add_option("--capture", o->capture, "Mechanism descriptor capture: on (default) or off")
         ->check(CLI::IsMember({"on", "off"}));
-    render->add_option("--extra-output", o->extra_outputs,
-                       "Optional extra outputs (comma-separated): direct_glossy = the direct bucket's energy whose end "
-                       "vertex is glossy, as EXR channel lum.direct_glossy and a JSON share (docs/descriptor.md "
-                       "§3.4; a second shader variant, needs --capture on)")
+    render
+        ->add_option("--extra-output", o->extra_outputs,
+                     "Optional extra outputs (comma-separated): direct_glossy = the direct bucket's energy whose end "
+                     "vertex is glossy, as EXR channel lum.direct_glossy and a JSON share (docs/descriptor.md "
+                     "§3.4; a second shader variant, needs --capture on)")
         ->delimiter(',')
         ->check(CLI::IsMember({"direct_glossy"}));
     render->add_flag("--generic", o->generic, "Use the unspecialized pipeline (every effect compiled in)");
     render->add_flag("--preview", o->preview, "Fast direct-light preview instead of the full estimator");
-    render->add_option("--adaptive", o->adaptive,
-                       "Two-stage adaptive rendering (docs/descriptor.md §6) with this allocation strategy: uniform, observed-var, "
-                       "bucket-floor, robust-var, robust-floor, placebo, robust-placebo, guarded (bucket-floor with at least "
-                       "the uniform share where the pilot cannot be trusted), shrink (the pilot variance shrunk towards its label's "
-                       "empirical-Bayes prior), robust-adaptive (median-of-means with the block count chosen per pixel from its pilot "
-                       "label: the plain variance on delta_mediated and specular_direct pixels, ceil(sqrt(N0)) blocks elsewhere)");
+    render->add_option(
+        "--adaptive", o->adaptive,
+        "Two-stage adaptive rendering (docs/descriptor.md §6) with this allocation strategy: uniform, observed-var, "
+        "bucket-floor, robust-var, robust-floor, placebo, robust-placebo, guarded (bucket-floor with at least "
+        "the uniform share where the pilot cannot be trusted), shrink (the pilot variance shrunk towards its label's "
+        "empirical-Bayes prior), robust-adaptive (median-of-means with the block count chosen per pixel from its pilot "
+        "label: the plain variance on delta_mediated and specular_direct pixels, ceil(sqrt(N0)) blocks elsewhere)");
     render->add_option("--pilot", o->pilot, "Adaptive: pilot samples per pixel N0 (default 16)")
         ->check(CLI::Range(2u, 4096u));
-    render->add_option("--budget", o->budget,
-                       "Adaptive: extra samples per pixel on average, on top of the baseline of 1 (default 32)")
+    render
+        ->add_option("--budget", o->budget,
+                     "Adaptive: extra samples per pixel on average, on top of the baseline of 1 (default 32)")
         ->check(CLI::Range(0u, 255u));
     render->add_option("--floor", o->floor, "Adaptive: minimum samples per pixel (default 1)")
         ->check(CLI::Range(1u, 256u));

@@ -54,7 +54,8 @@ std::vector<ResourceCandidate> data_candidates(const ResourceRoots& roots, const
                                                const std::string& source_rel) {
     std::vector<ResourceCandidate> c;
     if (!roots.data_dir_env.empty()) c.push_back({(fs::path(roots.data_dir_env) / name).string(), "$VKMECH_DATA_DIR"});
-    if (!roots.exe.empty()) c.push_back({(fs::path(data_dir_next_to(roots.exe)) / name).string(), "next to the binary"});
+    if (!roots.exe.empty())
+        c.push_back({(fs::path(data_dir_next_to(roots.exe)) / name).string(), "next to the binary"});
     if (!roots.source_dir.empty()) c.push_back({(fs::path(roots.source_dir) / source_rel).string(), "source tree"});
     return c;
 }
@@ -92,9 +93,11 @@ std::string data_dir_next_to(const std::string& exe) {
 std::vector<ResourceCandidate> scene_dir_candidates(const ResourceRoots& roots) {
     std::vector<ResourceCandidate> c;
     if (!roots.scene_dir_env.empty()) c.push_back({roots.scene_dir_env, "$VKMECH_SCENE_DIR"});
-    if (!roots.data_dir_env.empty()) c.push_back({(fs::path(roots.data_dir_env) / "scenes").string(), "$VKMECH_DATA_DIR"});
+    if (!roots.data_dir_env.empty())
+        c.push_back({(fs::path(roots.data_dir_env) / "scenes").string(), "$VKMECH_DATA_DIR"});
     c.push_back({"scenes", "working directory"});
-    if (!roots.exe.empty()) c.push_back({(fs::path(data_dir_next_to(roots.exe)) / "scenes").string(), "next to the binary"});
+    if (!roots.exe.empty())
+        c.push_back({(fs::path(data_dir_next_to(roots.exe)) / "scenes").string(), "next to the binary"});
     if (!roots.source_dir.empty()) c.push_back({(fs::path(roots.source_dir) / "scenes").string(), "source tree"});
     return c;
 }
@@ -112,7 +115,8 @@ Resource find_plot_script(const ResourceRoots& roots) {
 }
 
 Resource find_predictor_curve(const ResourceRoots& roots) {
-    return first_of("predictor curve", data_candidates(roots, "predictor_curve.json", "docs/results/predictor_curve.json"),
+    return first_of("predictor curve",
+                    data_candidates(roots, "predictor_curve.json", "docs/results/predictor_curve.json"),
                     "pass --curve FILE or set VKMECH_DATA_DIR=DIR", is_file);
 }
 
@@ -136,9 +140,10 @@ int cmd_paths() {
 // `vkmech paths`.
 void register_paths(CLI::App& app, CliCommands& commands) {
     auto* paths = app.add_subcommand(
-        "paths", "Where the scenes, the figure script and the predictor curve are found: $VKMECH_SCENE_DIR, "
-                 "$VKMECH_PLOT_SCRIPT, $VKMECH_DATA_DIR (a data root), ./scenes, <prefix>/share/vkmech next to "
-                 "<prefix>/bin/vkmech, then the source tree; exit 1 when one is missing");
+        "paths",
+        "Where the scenes, the figure script and the predictor curve are found: $VKMECH_SCENE_DIR, "
+        "$VKMECH_PLOT_SCRIPT, $VKMECH_DATA_DIR (a data root), ./scenes, <prefix>/share/vkmech next to "
+        "<prefix>/bin/vkmech, then the source tree; exit 1 when one is missing");
 
     commands.push_back({paths, [](const std::vector<std::string>&) { return cmd_paths(); }});
 }

@@ -30,11 +30,11 @@ struct ResourceCandidate {
 };
 
 struct Resource {
-    std::string what;                      // "scene directory", "plot script", "predictor curve"
-    std::string path;                      // the first candidate that exists; empty when none does
-    std::string origin;                    // that candidate's origin
+    std::string what;                         // "scene directory", "plot script", "predictor curve"
+    std::string path;                         // the first candidate that exists; empty when none does
+    std::string origin;                       // that candidate's origin
     std::vector<ResourceCandidate> searched;  // every candidate, in order
-    std::string how_to_override;           // e.g. "set VKMECH_PLOT_SCRIPT=FILE or VKMECH_DATA_DIR=DIR"
+    std::string how_to_override;              // e.g. "set VKMECH_PLOT_SCRIPT=FILE or VKMECH_DATA_DIR=DIR"
     bool found() const { return !path.empty(); }
     // "every candidate path (origin), ..." for error messages.
     std::string searched_list() const;

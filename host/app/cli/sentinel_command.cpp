@@ -6,8 +6,6 @@
 #include "adaptive/adaptive.hpp"
 #include "experiments/sentinel.hpp"
 #include "experiments/sentinel_eval.hpp"
-#include "study/allocation_source.hpp"
-#include "study/render_cache.hpp"
 #include "io/atomic_file.hpp"
 #include "io/digest.hpp"
 #include "io/interrupt.hpp"
@@ -15,6 +13,8 @@
 #include "render/features.hpp"
 #include "render/session.hpp"
 #include "render/shader_modules.hpp"
+#include "study/allocation_source.hpp"
+#include "study/render_cache.hpp"
 #include "study/sentinel_register.hpp"
 #include "study/study_runner.hpp"
 
@@ -42,7 +42,6 @@ std::string utc_now() {
     return b;
 }
 
-
 }  // namespace
 
 // Renders only the pilot and writes the sealed pre-registration record.
@@ -60,7 +59,8 @@ int cmd_sentinel_register(const SentinelOptions& o) {
         throw UsageError(e.what());
     }
     if (o.common.substitute)
-        throw UsageError("sentinel register does not take --substitute: the evaluation must load the scene as registered");
+        throw UsageError(
+            "sentinel register does not take --substitute: the evaluation must load the scene as registered");
     const std::string scene_path = resolve_scene_path(o.common.scene);
     const std::string name = o.name.empty() ? scene_stem(o.common.scene) : o.name;
     const std::string out = o.out.empty() ? "sentinel_" + name + ".json" : o.out;
@@ -128,9 +128,10 @@ int cmd_sentinel_register(const SentinelOptions& o) {
 
     const std::string sealed = sentinel::seal(sentinel::record_json(r));
     write_file_atomic(out, sealed);
-    std::printf("registered %zu predictions for %s from the pilot alone (%u spp, seed %u)%s\n", r.predictions.size(),
-                name.c_str(), o.pilot, r.pilot_seed,
-                curve.pilot_spp != 0 && curve.pilot_spp != o.pilot ? "; note: the curve was fitted on other pilots" : "");
+    std::printf(
+        "registered %zu predictions for %s from the pilot alone (%u spp, seed %u)%s\n", r.predictions.size(),
+        name.c_str(), o.pilot, r.pilot_seed,
+        curve.pilot_spp != 0 && curve.pilot_spp != o.pilot ? "; note: the curve was fitted on other pilots" : "");
     std::printf("wrote %s\n", out.c_str());
     return 0;
 }
@@ -180,7 +181,8 @@ int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o) {
     }
     // The scene must be the registered one, byte for byte.
     if (!fs::is_regular_file(r.scene_path))
-        throw UsageError("the registered scene '" + r.scene_path + "' does not exist (moved? the record names it absolutely)");
+        throw UsageError("the registered scene '" + r.scene_path +
+                         "' does not exist (moved? the record names it absolutely)");
     std::vector<std::pair<std::string, std::string>> files = {{r.scene_path, r.scene_sha256}};
     for (const auto& f : r.scene_files) files.emplace_back(f.path, f.sha256);
     for (const auto& [path, digest] : files) {
@@ -192,12 +194,14 @@ int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o) {
         }
         if (now != digest) {
             std::cerr << "vkmech: error: '" << path << "' changed since registration (SHA-256 " << now.substr(0, 16)
-                      << "..., registered " << digest.substr(0, 16) << "...); refusing to evaluate a record of another scene\n";
+                      << "..., registered " << digest.substr(0, 16)
+                      << "...); refusing to evaluate a record of another scene\n";
             return 1;
         }
     }
     const fs::path rec_path(o.record);
-    const std::string out = o.out.empty() ? (rec_path.parent_path() / (rec_path.stem().string() + "_evaluation")).string() : o.out;
+    const std::string out =
+        o.out.empty() ? (rec_path.parent_path() / (rec_path.stem().string() + "_evaluation")).string() : o.out;
     if (fs::exists(fs::path(out) / "evaluation.json") && !o.force)
         throw UsageError("'" + out + "' already holds an evaluation (remove it, or --force)");
     std::error_code ec;
@@ -223,14 +227,16 @@ int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o) {
     std::vector<std::string> notes;
     if (digest != r.code_digest) {
         if (!o.allow_code_change)
-            throw UsageError("the code differs from the registered code (digest " + digest.substr(0, 16) + "..., registered " +
-                             r.code_digest.substr(0, 16) + "..., version " + r.version +
-                             "); evaluate with the registered build and kernel (this run's: --kernel " + std::string(vk::to_string(ctx.kernel())) +
+            throw UsageError("the code differs from the registered code (digest " + digest.substr(0, 16) +
+                             "..., registered " + r.code_digest.substr(0, 16) + "..., version " + r.version +
+                             "); evaluate with the registered build and kernel (this run's: --kernel " +
+                             std::string(vk::to_string(ctx.kernel())) +
                              "), or pass --allow-code-change (the report says so)");
         notes.push_back("evaluated with code other than the registered code (digest " + digest.substr(0, 16) +
                         "..., registered " + r.code_digest.substr(0, 16) + "...), --allow-code-change");
     }
-    if (ctx.info().name != r.device) notes.push_back("evaluated on '" + ctx.info().name + "', registered on '" + r.device + "'");
+    if (ctx.info().name != r.device)
+        notes.push_back("evaluated on '" + ctx.info().name + "', registered on '" + r.device + "'");
 
     StudyConfig cfg = preset_config("quick");
     cfg.scenes = {SceneVariant{r.scene_name, r.scene_path, r.params}};
@@ -241,9 +247,11 @@ int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o) {
     const RenderCache cache(cache_dir);
     RenderedAllocationSource source(cfg, ctx, trav, cache, digest, [] { return pending_signal() != 0; });
     const SceneVariant& sv = cfg.scenes.front();
-    std::fprintf(stderr, "vkmech: sentinel evaluate %s: reference %u spp, pool %u, %u pilot draws of %u spp on '%s' (cache %s)\n",
-                 r.scene_name.c_str(), r.protocol.reference_spp, downstream_seeds::kPoolSize, r.protocol.draws, r.pilot_spp,
-                 ctx.info().name.c_str(), cache_dir.c_str());
+    std::fprintf(
+        stderr,
+        "vkmech: sentinel evaluate %s: reference %u spp, pool %u, %u pilot draws of %u spp on '%s' (cache %s)\n",
+        r.scene_name.c_str(), r.protocol.reference_spp, downstream_seeds::kPoolSize, r.protocol.draws, r.pilot_spp,
+        ctx.info().name.c_str(), cache_dir.c_str());
     sentinel::EvalInputs ein;
     std::vector<std::string> renders;
     // The pilots first (the registered draw first): nothing new is learned from them.
@@ -255,8 +263,8 @@ int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o) {
     }
     if (ein.pilots.front().frame.width != r.width || ein.pilots.front().frame.height != r.height)
         throw UsageError("the scene loads at " + std::to_string(ein.pilots.front().frame.width) + "x" +
-                         std::to_string(ein.pilots.front().frame.height) + ", the record's film is " + std::to_string(r.width) +
-                         "x" + std::to_string(r.height));
+                         std::to_string(ein.pilots.front().frame.height) + ", the record's film is " +
+                         std::to_string(r.width) + "x" + std::to_string(r.height));
     const SamplePool pool = source.pool(sv);
     renders.push_back("the shared pool: " + std::to_string(downstream_seeds::kPoolSize) + " spp of seed " +
                       std::to_string(downstream_seeds::kPool) + ", one frame per sample");
@@ -274,10 +282,12 @@ int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o) {
     write_file_atomic((fs::path(out) / "report.md").string(),
                       sentinel::evaluation_markdown(r, rec_path.filename().string(), seal, e, renders));
     std::printf("%s: %d PASS, %d FAIL, %d INDETERMINATE of %zu predictions%s\n", r.scene_name.c_str(), e.pass, e.fail,
-                e.indeterminate, e.outcomes.size(), e.pilot_reproduced ? "" : " (the registered pilot was NOT reproduced)");
+                e.indeterminate, e.outcomes.size(),
+                e.pilot_reproduced ? "" : " (the registered pilot was NOT reproduced)");
     for (const auto& x : e.outcomes)
-        if (x.verdict != "PASS") std::printf("  %s %s: predicted %s, measured %s\n", x.verdict.c_str(), x.name.c_str(),
-                                             x.predicted.c_str(), x.measured.c_str());
+        if (x.verdict != "PASS")
+            std::printf("  %s %s: predicted %s, measured %s\n", x.verdict.c_str(), x.name.c_str(), x.predicted.c_str(),
+                        x.measured.c_str());
     std::printf("wrote %s/evaluation.json and %s/report.md\n", out.c_str(), out.c_str());
     return 0;
 }
@@ -287,7 +297,8 @@ void register_sentinel(CLI::App& app, CliCommands& commands) {
     auto o = std::make_shared<SentinelOptions>();
     auto file = std::make_shared<std::string>();
     auto* sentinel = app.add_subcommand(
-        "sentinel", "Pre-registered predictions on a scene (docs/descriptor.md §9): register from a pilot alone, verify a record, "
+        "sentinel",
+        "Pre-registered predictions on a scene (docs/descriptor.md §9): register from a pilot alone, verify a record, "
         "evaluate it against a reference");
     sentinel->require_subcommand(1);
     auto* sentinel_register = sentinel->add_subcommand(
@@ -303,20 +314,23 @@ void register_sentinel(CLI::App& app, CliCommands& commands) {
     sentinel_register->add_flag("--force", o->force, "Overwrite an existing record");
     sentinel_register->add_option("--name", o->name,
                                   "The scene's name in the record and reports (default: the file stem)");
-    sentinel_register->add_option("--reference-spp", o->reference_spp,
-                                  "Protocol: the reference's samples per pixel (default 2048, the curve's; a multiple of 64)")
+    sentinel_register
+        ->add_option("--reference-spp", o->reference_spp,
+                     "Protocol: the reference's samples per pixel (default 2048, the curve's; a multiple of 64)")
         ->check(CLI::Range(64u, 1u << 20));
     sentinel_register->add_option("--draws", o->draws, "Protocol: pilot draws compared (default 10)")
         ->check(CLI::Range(1u, 100u));
-    sentinel_register->add_option("--extra", o->extra,
-                                  "Protocol: extra samples per pixel of the allocation on top of 1 (default 32)")
+    sentinel_register
+        ->add_option("--extra", o->extra,
+                     "Protocol: extra samples per pixel of the allocation on top of 1 (default 32)")
         ->check(CLI::Range(1u, 254u));
     sentinel_register->add_option("--floor", o->floor, "Protocol: the allocation's per-pixel floor (default 1)")
         ->check(CLI::Range(1u, 32u));
     auto eval = std::make_shared<SentinelEvaluateOptions>();
     auto* sentinel_evaluate = sentinel->add_subcommand(
-        "evaluate", "Refuse an edited record, render the reference and the allocation comparison, and write PASS/FAIL per "
-                    "prediction with the measured values (evaluation.json, report.md)");
+        "evaluate",
+        "Refuse an edited record, render the reference and the allocation comparison, and write PASS/FAIL per "
+        "prediction with the measured values (evaluation.json, report.md)");
     sentinel_evaluate->add_option("record", eval->record, "The record (JSON)")->required();
     sentinel_evaluate->add_option("--out", eval->out, "Output directory (default: <record>_evaluation)");
     sentinel_evaluate->add_option("--cache", eval->cache, "Render cache (default: <out>/cache)");
@@ -330,8 +344,10 @@ void register_sentinel(CLI::App& app, CliCommands& commands) {
         "verify", "Check a record's seal: exit 0 when intact, 1 when edited after registration, 2 when malformed");
     sentinel_verify->add_option("record", *file, "The record (JSON)")->required();
     commands.push_back({sentinel_register, [o](const std::vector<std::string>&) { return cmd_sentinel_register(*o); }});
-    commands.push_back({sentinel_evaluate, [eval](const std::vector<std::string>&) { return cmd_sentinel_evaluate(*eval); }});
-    commands.push_back({sentinel_verify, [file](const std::vector<std::string>&) { return cmd_sentinel_verify(*file); }});
+    commands.push_back(
+        {sentinel_evaluate, [eval](const std::vector<std::string>&) { return cmd_sentinel_evaluate(*eval); }});
+    commands.push_back(
+        {sentinel_verify, [file](const std::vector<std::string>&) { return cmd_sentinel_verify(*file); }});
 }
 
 }  // namespace vkmech

@@ -72,7 +72,8 @@ std::string check_provenance(const fs::path& dir, const std::string& name, std::
             return "provenance: the EXR's " + std::string(what) + " '" + v.first + "' differs from the JSON's '" +
                    v.second + "'";
     if (a["vkmech.defines"] != strs("defines")) return "provenance: the EXR's -D values differ from the JSON's";
-    if (a["vkmech.sceneFiles"] != strs("scene_files")) return "provenance: the EXR's scene files differ from the JSON's";
+    if (a["vkmech.sceneFiles"] != strs("scene_files"))
+        return "provenance: the EXR's scene files differ from the JSON's";
     detail += "; provenance: vkmech " + str("version") + ", code " + str("code_digest").substr(0, 12) + ", scene " +
               str("scene_sha256").substr(0, 12) + ", samples " + str("sample_range");
     return "";
@@ -96,12 +97,15 @@ int cmd_verify_outputs(const std::string& dir) {
     }
     int bad = 0;
     for (const auto& s : sets) {
-        const char* kind = s.kind == SetStatus::Complete ? "complete" : s.kind == SetStatus::Pending ? "pending" : "BAD";
-        std::printf("%-8s %s%s%s: %s\n", kind, s.name.c_str(), s.run_id.empty() ? "" : " (run ", s.run_id.empty() ? "" :
-                    (s.run_id + ")").c_str(), s.detail.c_str());
+        const char* kind = s.kind == SetStatus::Complete  ? "complete"
+                           : s.kind == SetStatus::Pending ? "pending"
+                                                          : "BAD";
+        std::printf("%-8s %s%s%s: %s\n", kind, s.name.c_str(), s.run_id.empty() ? "" : " (run ",
+                    s.run_id.empty() ? "" : (s.run_id + ")").c_str(), s.detail.c_str());
         bad += s.kind == SetStatus::Bad;
     }
-    for (const auto& f : stale) std::printf("stale    %s: a temporary of an interrupted run (the next run here removes it)\n", f.c_str());
+    for (const auto& f : stale)
+        std::printf("stale    %s: a temporary of an interrupted run (the next run here removes it)\n", f.c_str());
     std::printf("%zu output sets: %d bad; %zu stale temporaries\n", sets.size(), bad, stale.size());
     return bad ? 1 : 0;
 }
@@ -118,26 +122,30 @@ int cmd_verify_cache(const std::string& dir) {
 }
 
 void add_study_options(CLI::App* app, StudyOptions& o) {
-    app->add_option("name", o.study,
-                    "stability, variance, cost, structure, sweep-roughness, sweep-lights, predictor, allocation, or all")
+    app->add_option(
+           "name", o.study,
+           "stability, variance, cost, structure, sweep-roughness, sweep-lights, predictor, allocation, or all")
         ->required()
-        ->check(CLI::IsMember({"stability", "variance", "cost", "structure", "sweep-roughness", "sweep-lights", "predictor",
-                               "allocation", "all"}));
+        ->check(CLI::IsMember({"stability", "variance", "cost", "structure", "sweep-roughness", "sweep-lights",
+                               "predictor", "allocation", "all"}));
     app->add_option("--preset", o.preset,
                     "quick (tiny images, low SPP: minutes, for CI), reduced (96 px, SPP 64/512/2048: what a CPU device "
                     "affords), paper (256², SPP 64/512/4096, 10 seeds per level: the paper's protocol)")
         ->check(CLI::IsMember({"quick", "reduced", "paper"}));
-    app->add_option("--scenes", o.scenes, "Comma-separated scene names or paths (default: the seven first-party scenes)")
+    app->add_option("--scenes", o.scenes,
+                    "Comma-separated scene names or paths (default: the seven first-party scenes)")
         ->delimiter(',');
     app->add_option("--res", o.res, "Film width in pixels (overrides the preset)")->check(CLI::Range(4, 4096));
     app->add_option("--spp-levels", o.spp_levels, "Stability SPP levels, ascending; the last is the reference")
         ->delimiter(',')
         ->check(CLI::Range(1u, 1u << 20));
-    app->add_option("--seeds", o.seeds, "Seeds per variance level and per sweep level (even, >= 4)")->check(CLI::Range(4, 1000));
+    app->add_option("--seeds", o.seeds, "Seeds per variance level and per sweep level (even, >= 4)")
+        ->check(CLI::Range(4, 1000));
     app->add_option("--out", o.out_dir, "Output directory (default: out/study-<name>)");
     app->add_option("--cache", o.cache_dir, "Render cache directory (default: <out>/cache); share it between studies");
-    app->add_option("--curve", o.curve,
-                    "predictor: a frozen predictor_curve.json; predicts each scene's label reliability from its pilot only");
+    app->add_option(
+        "--curve", o.curve,
+        "predictor: a frozen predictor_curve.json; predicts each scene's label reliability from its pilot only");
     app->add_option("--device", o.device, "Vulkan device index (see `vkmech devices`)");
     add_pipeline_cache_option(app, o.pipeline_cache);
     add_kernel_option(app, o.kernel);
@@ -172,7 +180,8 @@ int cmd_study(StudyOptions o) {
     o.plot_script = script.path;
     if (!script.found()) o.plot_script_missing = script.missing_message() + ", or pass --no-plots";
     if (!o.curve.empty() && !fs::exists(o.curve)) throw UsageError("predictor curve '" + o.curve + "' does not exist");
-    if (!o.curve.empty() && o.study != "predictor") throw UsageError("--curve applies to `vkmech study predictor` only");
+    if (!o.curve.empty() && o.study != "predictor")
+        throw UsageError("--curve applies to `vkmech study predictor` only");
     if (!o.curve.empty()) check_curve_for_cli(o.curve);
     if (!o.shard_text.empty()) {
         unsigned i = 0, n = 0;
@@ -194,7 +203,8 @@ int cmd_study(StudyOptions o) {
 void register_study(CLI::App& app, CliCommands& commands) {
     auto o = std::make_shared<StudyOptions>();
     auto* study = app.add_subcommand(
-        "study", "Regenerate the paper's analyses (docs/descriptor.md §5) on a scene set: tables, figures, maps and report.md");
+        "study",
+        "Regenerate the paper's analyses (docs/descriptor.md §5) on a scene set: tables, figures, maps and report.md");
     add_study_options(study, *o);
     commands.push_back({study, [o](const std::vector<std::string>& args) {
                             StudyOptions run = *o;
@@ -207,14 +217,17 @@ void register_study(CLI::App& app, CliCommands& commands) {
 // `vkmech verify outputs|cache DIR`.
 void register_verify(CLI::App& app, CliCommands& commands) {
     auto dir = std::make_shared<std::string>();
-    auto* verify = app.add_subcommand("verify", "Check written results: output sets against their manifests, or a render cache");
+    auto* verify =
+        app.add_subcommand("verify", "Check written results: output sets against their manifests, or a render cache");
     verify->require_subcommand(1);
     auto* verify_outputs = verify->add_subcommand(
-        "outputs", "Check every output set in DIR against its manifest (complete, pending or bad); exit 1 when one is bad");
+        "outputs",
+        "Check every output set in DIR against its manifest (complete, pending or bad); exit 1 when one is bad");
     verify_outputs->add_option("dir", *dir, "Output directory (a render's --out)")->required();
     auto* verify_cache = verify->add_subcommand(
-        "cache", "Check every file of a render cache (key, size, checksum, finite data): good, bad or stale; exit 1 when "
-                 "one is bad");
+        "cache",
+        "Check every file of a render cache (key, size, checksum, finite data): good, bad or stale; exit 1 when "
+        "one is bad");
     verify_cache->add_option("dir", *dir, "Cache directory (a study's --cache, default <out>/cache)")->required();
     commands.push_back({verify_outputs, [dir](const std::vector<std::string>&) { return cmd_verify_outputs(*dir); }});
     commands.push_back({verify_cache, [dir](const std::vector<std::string>&) { return cmd_verify_cache(*dir); }});

@@ -5,9 +5,9 @@
 #include "study/study_runner.hpp"
 
 #include <cmath>
-#include <filesystem>
 #include <csignal>
 #include <cstdio>
+#include <filesystem>
 #include <utility>
 
 namespace fs = std::filesystem;
@@ -17,7 +17,11 @@ namespace vkmech {
 RenderedAllocationSource::RenderedAllocationSource(const StudyConfig& cfg, const vk::Context& ctx, Traversal traversal,
                                                    const RenderCache& cache, std::string code_digest,
                                                    std::function<bool()> interrupted)
-    : cfg_(cfg), ctx_(ctx), traversal_(traversal), cache_(cache), code_digest_(std::move(code_digest)),
+    : cfg_(cfg),
+      ctx_(ctx),
+      traversal_(traversal),
+      cache_(cache),
+      code_digest_(std::move(code_digest)),
       interrupted_(std::move(interrupted)) {}
 
 RenderedAllocationSource::Loaded& RenderedAllocationSource::load(const SceneVariant& v) {
@@ -40,14 +44,15 @@ namespace {
 // per-sample pilots 1 (one frame per sample), a pilot its median-of-means block size where that is defined.
 constexpr uint32_t kReferenceBatch = 64;
 uint32_t pilot_batch(uint32_t n0) {
-    return alloc::mom_defined(static_cast<int>(n0)) ? static_cast<uint32_t>(alloc::mom_block_size(static_cast<int>(n0))) : 8;
+    return alloc::mom_defined(static_cast<int>(n0)) ? static_cast<uint32_t>(alloc::mom_block_size(static_cast<int>(n0)))
+                                                    : 8;
 }
 }  // namespace
 
 std::string RenderedAllocationSource::key(const std::string& digest, const Camera& c, uint32_t spp, uint32_t seed,
                                           uint32_t batch) const {
-    return cache_key({digest, c.width, c.height, spp, seed, 0, batch, to_string(traversal_), ctx_.info().name,
-                      code_digest_});
+    return cache_key(
+        {digest, c.width, c.height, spp, seed, 0, batch, to_string(traversal_), ctx_.info().name, code_digest_});
 }
 
 std::string RenderedAllocationSource::key(const Loaded& l, uint32_t spp, uint32_t seed, uint32_t batch) const {
@@ -75,8 +80,10 @@ Frame RenderedAllocationSource::reference(const SceneVariant& v) {
             f = l.renderer->render(spec);
             cache_.store(k, *f, v.name + " allocation reference chunk " + std::to_string(c));
         }
-        if (c == 0) ref = std::move(*f);
-        else ref.merge(*f);
+        if (c == 0)
+            ref = std::move(*f);
+        else
+            ref.merge(*f);
     }
     return ref;
 }
@@ -89,8 +96,10 @@ SamplePool RenderedAllocationSource::pool(const SceneVariant& v) {
     const size_t P = static_cast<size_t>(l.session->scene().camera.width) * l.session->scene().camera.height;
     if (std::optional<SamplePool> cached = cache_.try_load_pool(k)) {
         if (cached->pixels == P && cached->frames == F) return std::move(*cached);
-        std::fprintf(stderr, "vkmech: warning: render cache file '%s': %u frames of %zu pixels, not %u of %zu; rendering it "
-                     "again\n", cache_.path(k, "pool").c_str(), cached->frames, cached->pixels, F, P);
+        std::fprintf(stderr,
+                     "vkmech: warning: render cache file '%s': %u frames of %zu pixels, not %u of %zu; rendering it "
+                     "again\n",
+                     cache_.path(k, "pool").c_str(), cached->frames, cached->pixels, F, P);
     }
     need(v.name + " allocation pool");
     SamplePool pool;
@@ -170,7 +179,8 @@ double RenderedAllocationSource::final_render_seconds(const SceneVariant& v, con
 
 void RenderedAllocationSource::need(const std::string& what) const {
     if (offline_)
-        throw std::runtime_error("the render cache lacks " + what + " (--analyse-only renders nothing: run the study "
+        throw std::runtime_error("the render cache lacks " + what +
+                                 " (--analyse-only renders nothing: run the study "
                                  "without it, or its --shard / --jobs commands, first)");
 }
 
@@ -184,13 +194,16 @@ bool reads_pilot_samples(const StudyConfig& cfg, uint32_t n0) {
 std::vector<std::string> RenderedAllocationSource::missing(const SceneVariant& v) {
     // Keys from the scene's content at the allocation film, without the device.
     const LoadedScene ls = load_variant(v, cfg_.alloc_res);
-    auto key = [&](uint32_t spp, uint32_t seed, uint32_t batch) { return this->key(ls.digest, ls.scene.camera, spp, seed, batch); };
+    auto key = [&](uint32_t spp, uint32_t seed, uint32_t batch) {
+        return this->key(ls.digest, ls.scene.camera, spp, seed, batch);
+    };
     auto absent = [&](const std::string& k, const std::string& kind) { return !fs::exists(cache_.path(k, kind)); };
     std::vector<std::string> out;
     for (uint32_t ch = 0; ch < cfg_.alloc_ref_chunks; ++ch)
         if (absent(key(cfg_.alloc_ref_chunk_spp, downstream_seeds::reference_chunk(ch), kReferenceBatch), "frame"))
             out.push_back(v.name + " allocation reference chunk " + std::to_string(ch));
-    if (absent(key(downstream_seeds::kPoolSize, downstream_seeds::kPool, 1), "pool")) out.push_back(v.name + " allocation pool");
+    if (absent(key(downstream_seeds::kPoolSize, downstream_seeds::kPool, 1), "pool"))
+        out.push_back(v.name + " allocation pool");
     for (uint32_t n0 : cfg_.alloc_pilots)
         for (uint32_t d = 0; d < static_cast<uint32_t>(cfg_.alloc_draws); ++d) {
             if (absent(key(n0, downstream_seeds::pilot(d), pilot_batch(n0)), "pilot"))

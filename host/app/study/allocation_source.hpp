@@ -20,8 +20,8 @@ namespace vkmech {
 class RenderedAllocationSource final : public AllocationSource {
 public:
     // `interrupted` is asked before every render; true throws StudyInterrupted.
-    RenderedAllocationSource(const StudyConfig& cfg, const vk::Context& ctx, Traversal traversal, const RenderCache& cache,
-                             std::string code_digest, std::function<bool()> interrupted);
+    RenderedAllocationSource(const StudyConfig& cfg, const vk::Context& ctx, Traversal traversal,
+                             const RenderCache& cache, std::string code_digest, std::function<bool()> interrupted);
 
     Frame reference(const SceneVariant& v) override;
     SamplePool pool(const SceneVariant& v) override;

@@ -7,9 +7,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <functional>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <stdexcept>
 #include <type_traits>
@@ -45,7 +45,8 @@ struct Reader {
     const std::string& b;
     size_t pos;
     const std::function<void(const std::string&)>& fail;
-    template <class T> void get(T& v) {
+    template <class T>
+    void get(T& v) {
         if (pos + sizeof v > b.size()) fail("truncated");
         std::memcpy(&v, b.data() + pos, sizeof v);
         pos += sizeof v;
@@ -66,7 +67,12 @@ std::string scene_digest(const Scene& scene, const SceneArrays& arrays) {
     d.vec(arrays.vertices).vec(arrays.triangles).vec(arrays.triangle_mesh).vec(arrays.materials).vec(arrays.emitters);
     d.vec(arrays.light_triangles).vec(arrays.texels).vec(arrays.textures).pod(arrays.light_weight_total);
     const Camera& c = scene.camera;
-    d.pod(static_cast<uint32_t>(c.type)).pod(c.to_world).pod(c.fov_deg).str(c.fov_axis).pod(c.near_clip).pod(c.far_clip);
+    d.pod(static_cast<uint32_t>(c.type))
+        .pod(c.to_world)
+        .pod(c.fov_deg)
+        .str(c.fov_axis)
+        .pod(c.near_clip)
+        .pod(c.far_clip);
     d.pod(c.aperture_radius).pod(c.focus_distance).pod(c.width).pod(c.height);
     d.pod(scene.integrator.max_depth).pod(scene.integrator.rr_depth);
     return d.hex();
@@ -101,7 +107,8 @@ std::string seal_cache_file(const std::string& kind, const std::string& key, con
     return out;
 }
 
-std::string open_cache_file(const std::string& b, const std::string& kind, const std::string& key, const std::string& where) {
+std::string open_cache_file(const std::string& b, const std::string& kind, const std::string& key,
+                            const std::string& where) {
     std::function<void(const std::string&)> fail = [&](const std::string& what) {
         throw CacheFileError("render cache file '" + where + "': " + what);
     };
@@ -113,9 +120,10 @@ std::string open_cache_file(const std::string& b, const std::string& kind, const
     uint32_t version = 0;
     r.get(version);
     if (version < kFormatVersion && version >= 2)
-        fail("an older cache format (" + std::to_string(version) + "; this vkmech reads " + std::to_string(kFormatVersion) + ")");
-    if (version != kFormatVersion) fail("cache format " + std::to_string(version) + ", this vkmech reads " +
-                                        std::to_string(kFormatVersion));
+        fail("an older cache format (" + std::to_string(version) + "; this vkmech reads " +
+             std::to_string(kFormatVersion) + ")");
+    if (version != kFormatVersion)
+        fail("cache format " + std::to_string(version) + ", this vkmech reads " + std::to_string(kFormatVersion));
     const std::string stored_kind = r.str(64);
     if (stored_kind != kind) fail("holds a '" + stored_kind + "', expected a '" + kind + "'");
     const std::string stored_key = r.str(256);
@@ -126,9 +134,9 @@ std::string open_cache_file(const std::string& b, const std::string& kind, const
     const std::string digest = b.substr(r.pos, 32);
     r.pos += 32;
     if (b.size() - r.pos != size)
-        fail(b.size() - r.pos < size ? "truncated (" + std::to_string(b.size() - r.pos) + " of " + std::to_string(size) +
-                                           " payload bytes)"
-                                     : "trailing bytes after the payload");
+        fail(b.size() - r.pos < size
+                 ? "truncated (" + std::to_string(b.size() - r.pos) + " of " + std::to_string(size) + " payload bytes)"
+                 : "trailing bytes after the payload");
     std::string payload = b.substr(r.pos);
     if (Digest().str(kind).str(key).str(payload).hex() != digest) fail("checksum mismatch (the data is damaged)");
     return payload;
@@ -169,7 +177,8 @@ void BlobReader::take(void* dst, size_t n) {
 
 std::string BlobReader::str() {
     const uint64_t n = pod<uint64_t>();
-    if (n > left()) fail("truncated (a string of " + std::to_string(n) + " bytes, " + std::to_string(left()) + " left)");
+    if (n > left())
+        fail("truncated (a string of " + std::to_string(n) + " bytes, " + std::to_string(left()) + " left)");
     std::string s = b_.substr(pos_, n);
     pos_ += n;
     return s;
@@ -179,7 +188,9 @@ void BlobReader::end() const {
     if (pos_ != b_.size()) fail("trailing bytes after the record");
 }
 
-void BlobReader::fail(const std::string& what) const { throw CacheFileError("render cache file '" + where_ + "': " + what); }
+void BlobReader::fail(const std::string& what) const {
+    throw CacheFileError("render cache file '" + where_ + "': " + what);
+}
 
 std::string serialize_frame(const Frame& f, const std::string& description) {
     return BlobWriter("frame", kFrameBlobVersion)
@@ -211,9 +222,11 @@ Frame deserialize_frame(const std::string& b, const std::string& where) {
         const double* v = reinterpret_cast<const double*>(&f.pixels[p]);
         for (int k = 0; k < 17; ++k)
             if (!std::isfinite(v[k]))
-                r.fail("pixel " + std::to_string(p) + " holds a non-finite statistic, though the frame counts non-finite "
+                r.fail("pixel " + std::to_string(p) +
+                       " holds a non-finite statistic, though the frame counts non-finite "
                        "samples apart");
-        if (f.pixels[p].count < 0 || f.pixels[p].nonfinite < 0) r.fail("pixel " + std::to_string(p) + " has a negative count");
+        if (f.pixels[p].count < 0 || f.pixels[p].nonfinite < 0)
+            r.fail("pixel " + std::to_string(p) + " has a negative count");
     }
     return f;
 }
@@ -228,7 +241,8 @@ Pilot deserialize_pilot(const std::string& payload, const std::string& where) {
     std::vector<double> mom = r.array<double>();
     r.end();
     if (!mom.empty() && mom.size() != f.pixels.size())
-        r.fail(std::to_string(mom.size()) + " median-of-means variances for " + std::to_string(f.pixels.size()) + " pixels");
+        r.fail(std::to_string(mom.size()) + " median-of-means variances for " + std::to_string(f.pixels.size()) +
+               " pixels");
     for (double v : mom)
         if (!std::isfinite(v) || v < 0) r.fail("a non-finite or negative median-of-means variance");
     return make_pilot(std::move(f), std::move(mom));
@@ -250,8 +264,8 @@ PilotSamples deserialize_pilot_samples(const std::string& payload, const std::st
     s.lum = r.array<float>();
     r.end();
     if (pixels == 0 || s.samples == 0 || s.lum.size() / pixels != s.samples || s.lum.size() != pixels * s.samples)
-        r.fail("inconsistent sizes (" + std::to_string(s.samples) + " samples of " + std::to_string(pixels) + " pixels, " +
-               std::to_string(s.lum.size()) + " values)");
+        r.fail("inconsistent sizes (" + std::to_string(s.samples) + " samples of " + std::to_string(pixels) +
+               " pixels, " + std::to_string(s.lum.size()) + " values)");
     s.pixels = static_cast<size_t>(pixels);
     for (float x : s.lum)
         if (std::isinf(x)) r.fail("an infinite luminance (a counted-out sample is stored as NaN)");
@@ -277,9 +291,9 @@ SamplePool deserialize_pool(const std::string& payload, const std::string& where
     r.end();
     if (pixels == 0 || pool.frames == 0 || pool.oracle_var.size() != pixels ||
         pool.samples.size() / 4 / pixels != pool.frames || pool.samples.size() != 4 * pixels * pool.frames)
-        r.fail("inconsistent sizes (" + std::to_string(pool.frames) + " frames of " + std::to_string(pixels) + " pixels, " +
-               std::to_string(pool.samples.size()) + " sample values, " + std::to_string(pool.oracle_var.size()) +
-               " variances)");
+        r.fail("inconsistent sizes (" + std::to_string(pool.frames) + " frames of " + std::to_string(pixels) +
+               " pixels, " + std::to_string(pool.samples.size()) + " sample values, " +
+               std::to_string(pool.oracle_var.size()) + " variances)");
     pool.pixels = static_cast<size_t>(pixels);
     for (size_t i = 0; i < pool.samples.size(); i += 4) {
         const float* x = &pool.samples[i];
@@ -402,8 +416,10 @@ CacheVerifyReport verify_cache_dir(const std::string& dir) {
             rep.good.push_back(full);
         } catch (const CacheFileError& e) {
             std::string what = e.what();
-            if (what.find("older cache format") != std::string::npos) rep.stale.push_back({full, "an older cache format"});
-            else rep.bad.push_back({full, what});
+            if (what.find("older cache format") != std::string::npos)
+                rep.stale.push_back({full, "an older cache format"});
+            else
+                rep.bad.push_back({full, what});
         }
     }
     return rep;

@@ -87,12 +87,14 @@ private:
 class BlobWriter {
 public:
     BlobWriter(const std::string& type, uint32_t version);
-    template <class T> BlobWriter& pod(const T& v) {
+    template <class T>
+    BlobWriter& pod(const T& v) {
         static_assert(std::is_trivially_copyable_v<T>);
         out_.append(reinterpret_cast<const char*>(&v), sizeof v);
         return *this;
     }
-    template <class T> BlobWriter& array(const std::vector<T>& v) {
+    template <class T>
+    BlobWriter& array(const std::vector<T>& v) {
         static_assert(std::is_trivially_copyable_v<T>);
         pod(static_cast<uint64_t>(v.size()));
         out_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
@@ -110,17 +112,19 @@ public:
     // Throws CacheFileError("render cache file '<where>': ...") unless `bytes`
     // holds a blob of `type` at `version`.
     BlobReader(const std::string& bytes, const std::string& type, uint32_t version, std::string where);
-    template <class T> T pod() {
+    template <class T>
+    T pod() {
         static_assert(std::is_trivially_copyable_v<T>);
         T v;
         take(&v, sizeof v);
         return v;
     }
-    template <class T> std::vector<T> array() {
+    template <class T>
+    std::vector<T> array() {
         static_assert(std::is_trivially_copyable_v<T>);
         const uint64_t n = pod<uint64_t>();
-        if (n > left() / sizeof(T)) fail("truncated (an array of " + std::to_string(n) + " values, " +
-                                         std::to_string(left()) + " bytes left)");
+        if (n > left() / sizeof(T))
+            fail("truncated (an array of " + std::to_string(n) + " values, " + std::to_string(left()) + " bytes left)");
         std::vector<T> v(n);
         take(v.data(), n * sizeof(T));
         return v;

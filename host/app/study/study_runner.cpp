@@ -1,6 +1,5 @@
 #include "study/study_runner.hpp"
 
-#include "study/separation_gpu.hpp"
 #include "allocation/mom.hpp"
 #include "experiments/study_context.hpp"
 #include "io/atomic_file.hpp"
@@ -13,6 +12,7 @@
 #include "scene/scene.hpp"
 #include "study/allocation_source.hpp"
 #include "study/render_cache.hpp"
+#include "study/separation_gpu.hpp"
 #include "vk/context.hpp"
 
 #include <unistd.h>
@@ -41,20 +41,25 @@ std::string hms(double s) {
     if (!std::isfinite(s) || s < 0) return "?";
     long t = static_cast<long>(s + 0.5);
     char b[32];
-    if (t >= 3600) std::snprintf(b, sizeof b, "%ldh%02ldm", t / 3600, (t / 60) % 60);
-    else if (t >= 60) std::snprintf(b, sizeof b, "%ldm%02lds", t / 60, t % 60);
-    else std::snprintf(b, sizeof b, "%lds", t);
+    if (t >= 3600)
+        std::snprintf(b, sizeof b, "%ldh%02ldm", t / 3600, (t / 60) % 60);
+    else if (t >= 60)
+        std::snprintf(b, sizeof b, "%ldm%02lds", t / 60, t % 60);
+    else
+        std::snprintf(b, sizeof b, "%lds", t);
     return b;
 }
 
 std::string describe(const RenderRequest& r) {
-    return r.scene.name + ", " + std::to_string(r.spp) + " spp, seed " + std::to_string(r.seed) + ", " + to_string(r.estimator) +
+    return r.scene.name + ", " + std::to_string(r.spp) + " spp, seed " + std::to_string(r.seed) + ", " +
+           to_string(r.estimator) +
            (r.end_vertex == EndVertex::LastNonDelta ? "" : std::string(", end vertex ") + to_string(r.end_vertex));
 }
 
 class CacheFrames : public FrameSource {
 public:
-    CacheFrames(const RenderCache& cache, const std::map<RenderRequest, std::string>& keys) : cache_(cache), keys_(keys) {}
+    CacheFrames(const RenderCache& cache, const std::map<RenderRequest, std::string>& keys)
+        : cache_(cache), keys_(keys) {}
     Frame get(const RenderRequest& r) override {
         auto it = keys_.find(r);
         if (it == keys_.end()) throw std::logic_error("study: render not planned: " + describe(r));
@@ -88,14 +93,19 @@ LoadedScene load_variant(const SceneVariant& v, int res) {
 
 std::string render_code_digest(Traversal t, vk::KernelClass k) {
     const auto spirv = pathtrace_spirv(t, k);
-    return Digest().str(VKMECH_VERSION).bytes(spirv.data(), spirv.size_bytes()).str("frame-merge-v2").hex();  // v2: bucket energies from the buckets' RGB sums
+    return Digest()
+        .str(VKMECH_VERSION)
+        .bytes(spirv.data(), spirv.size_bytes())
+        .str("frame-merge-v2")
+        .hex();  // v2: bucket energies from the buckets' RGB sums
 }
 
 bool study_interrupted() { return pending_signal() != 0; }
 
 const std::vector<std::string>& first_party_scenes() {
-    static const std::vector<std::string> s = {"cubes_dof",        "glass_caustic",      "snooker",        "tabletop_mixed",
-                                               "tabletop_separated", "ring_caustic",     "kitchen_counter"};
+    static const std::vector<std::string> s = {"cubes_dof",      "glass_caustic",      "snooker",
+                                               "tabletop_mixed", "tabletop_separated", "ring_caustic",
+                                               "kitchen_counter"};
     return s;
 }
 
@@ -193,8 +203,9 @@ CacheState key_renders(const StudyPlan& p, const StudyDevice& dev, const RenderC
                 film[r.scene] = {ls.scene.camera.width, ls.scene.camera.height};
             }
             auto [w, h] = film[r.scene];
-            keys[r] = cache_key({digests[r.scene], w, h, r.spp, r.seed, static_cast<uint32_t>(r.estimator), cfg.batch_spp,
-                                 to_string(trav), ctx.info().name, code_digest, static_cast<uint32_t>(r.end_vertex)});
+            keys[r] =
+                cache_key({digests[r.scene], w, h, r.spp, r.seed, static_cast<uint32_t>(r.estimator), cfg.batch_spp,
+                           to_string(trav), ctx.info().name, code_digest, static_cast<uint32_t>(r.end_vertex)});
         }
     }
 
@@ -246,7 +257,8 @@ double estimate(const StudyPlan& p, const StudyDevice& dev, const CacheState& cs
         for (uint32_t n0 : cfg.alloc_pilots)
             per_pixel += cfg.alloc_draws * n0 + allocation_timed_strategies(n0).size() * (1.0 + cfg.alloc_extra);
         if (cfg.equal_time && !cfg.alloc_pilots.empty()) {
-            std::vector<uint32_t> eq_pilots = {cfg.alloc_pilots.front()};  // the smallest pilot and the first robust one
+            std::vector<uint32_t> eq_pilots = {
+                cfg.alloc_pilots.front()};  // the smallest pilot and the first robust one
             for (uint32_t n0 : cfg.alloc_pilots)
                 if (alloc::mom_defined(static_cast<int>(n0))) {
                     eq_pilots.push_back(n0);
@@ -267,7 +279,9 @@ double estimate(const StudyPlan& p, const StudyDevice& dev, const CacheState& cs
                  "vkmech study: plan %zu renders (%zu cached, %zu to render), %.3g paths to trace%s; probed %zu scene "
                  "files -> expected render time ~%s on this device (the progress line refines it)\n",
                  plan.size(), plan.size() - missing.size(), missing.size(), paths_missing,
-                 alloc_paths > 0 ? (" + about " + report::format("%.3g", alloc_paths) + " for the allocation study").c_str() : "",
+                 alloc_paths > 0
+                     ? (" + about " + report::format("%.3g", alloc_paths) + " for the allocation study").c_str()
+                     : "",
                  rate.size(), hms(expected_s).c_str());
     return alloc_paths;
 }
@@ -316,8 +330,9 @@ RenderTally render_missing(const StudyPlan& p, const StudyDevice& dev, RenderCac
                     double traced = paths_done + d * px;
                     double left = traced > 0 ? spent * (paths_missing - traced) / traced : NAN;
                     if (tty) {
-                        std::fprintf(stderr, "\rstudy: %zu/%zu renders done, %s spent, ~%s left | %s: %u/%u spp      ", done,
-                                     missing.size(), hms(spent).c_str(), hms(left).c_str(), r.scene.name.c_str(), d, r.spp);
+                        std::fprintf(stderr, "\rstudy: %zu/%zu renders done, %s spent, ~%s left | %s: %u/%u spp      ",
+                                     done, missing.size(), hms(spent).c_str(), hms(left).c_str(), r.scene.name.c_str(),
+                                     d, r.spp);
                         std::fflush(stderr);
                     }
                 };
@@ -329,8 +344,8 @@ RenderTally render_missing(const StudyPlan& p, const StudyDevice& dev, RenderCac
                 double spent = std::chrono::duration<double>(clock_type::now() - t_render).count();
                 double left = spent * (paths_missing - paths_done) / std::max(paths_done, 1.0);
                 if (tty) std::fprintf(stderr, "\r\033[K");
-                std::fprintf(stderr, "study: %zu/%zu renders done, %s spent, ~%s left (%s: %.1fs)\n", done, missing.size(),
-                             hms(spent).c_str(), hms(left).c_str(), describe(r).c_str(), f.seconds);
+                std::fprintf(stderr, "study: %zu/%zu renders done, %s spent, ~%s left (%s: %.1fs)\n", done,
+                             missing.size(), hms(spent).c_str(), hms(left).c_str(), describe(r).c_str(), f.seconds);
             }
         }
     }
@@ -354,20 +369,34 @@ void analyse(const StudyPlan& p, const StudyDevice& dev, RenderCache& cache, Stu
     for (StudyKind k : p.kinds) {
         std::fprintf(stderr, "study: analysing %s\n", to_string(k));
         switch (k) {
-        case StudyKind::Stability: run_stability(sc); break;
-        case StudyKind::Variance: run_variance(sc); break;
-        case StudyKind::Cost: run_cost(sc); break;
-        case StudyKind::Structure: run_structure(sc); break;
-        case StudyKind::SweepRoughness: run_sweep_roughness(sc); break;
-        case StudyKind::SweepLights: run_sweep_lights(sc); break;
-        case StudyKind::Predictor: run_predictor(sc); break;
-        case StudyKind::Allocation: {
-            RenderedAllocationSource source(cfg, ctx, trav, cache, code_digest, [] { return study_interrupted(); });
-            source.set_offline(offline);
-            AllocationContext ac{cfg, source, out, ctx.info().name};
-            run_allocation(ac);
-            break;
-        }
+            case StudyKind::Stability:
+                run_stability(sc);
+                break;
+            case StudyKind::Variance:
+                run_variance(sc);
+                break;
+            case StudyKind::Cost:
+                run_cost(sc);
+                break;
+            case StudyKind::Structure:
+                run_structure(sc);
+                break;
+            case StudyKind::SweepRoughness:
+                run_sweep_roughness(sc);
+                break;
+            case StudyKind::SweepLights:
+                run_sweep_lights(sc);
+                break;
+            case StudyKind::Predictor:
+                run_predictor(sc);
+                break;
+            case StudyKind::Allocation: {
+                RenderedAllocationSource source(cfg, ctx, trav, cache, code_digest, [] { return study_interrupted(); });
+                source.set_offline(offline);
+                AllocationContext ac{cfg, source, out, ctx.info().name};
+                run_allocation(ac);
+                break;
+            }
         }
     }
 }
@@ -414,7 +443,8 @@ std::string report_header(const StudyOptions& o, const StudyPlan& p, const Study
     header << "- Protocol: " << cfg.describe() << ".\n";
     header << "- Scenes: ";
     for (size_t i = 0; i < cfg.scenes.size(); ++i) header << (i ? ", " : "") << cfg.scenes[i].name;
-    header << "\n- Device: " << ctx.info().name << " (" << ctx.info().type << "), " << to_string(trav) << " traversal.\n";
+    header << "\n- Device: " << ctx.info().name << " (" << ctx.info().type << "), " << to_string(trav)
+           << " traversal.\n";
     if (!plan.empty())
         header << "- Renders: " << plan.size() << " (" << done << " rendered in this run, " << plan.size() - done
                << " from the cache), " << report::format("%.3g", paths_total) << " paths in all.\n";
@@ -440,7 +470,7 @@ std::string report_header(const StudyOptions& o, const StudyPlan& p, const Study
 
 struct WorkUnit {
     bool allocation = false;
-    size_t render = 0;  // index into the plan (a render unit)
+    size_t render = 0;   // index into the plan (a render unit)
     SceneVariant scene;  // the allocation unit's scene
 };
 
@@ -458,8 +488,10 @@ std::string shell_quote(const std::string& s) {
         return s;
     std::string q = "'";
     for (char c : s) {
-        if (c == '\'') q += "'\\''";
-        else q += c;
+        if (c == '\'')
+            q += "'\\''";
+        else
+            q += c;
     }
     return q + "'";
 }
@@ -556,25 +588,29 @@ int run_study(const StudyOptions& o) {
         std::string jobs;
         for (size_t u : missing_units) jobs += unit_command(o, p, u, units.size()) + "\n";
         write_file_atomic(o.jobs_file, jobs);
-        std::printf("vkmech study %s: %zu of %zu work units are missing from the cache; wrote one command each to %s "
-                    "(run them in any order, on any machines sharing the cache, then `vkmech study %s ... "
-                    "--analyse-only`)\n",
-                    o.study.c_str(), missing_units.size(), units.size(), o.jobs_file.c_str(), o.study.c_str());
+        std::printf(
+            "vkmech study %s: %zu of %zu work units are missing from the cache; wrote one command each to %s "
+            "(run them in any order, on any machines sharing the cache, then `vkmech study %s ... "
+            "--analyse-only`)\n",
+            o.study.c_str(), missing_units.size(), units.size(), o.jobs_file.c_str(), o.study.c_str());
         return 0;
     }
     if (o.analyse_only && !missing_units.empty()) {
-        std::fprintf(stderr, "vkmech: error: --analyse-only: the cache %s lacks %zu of %zu work units (%zu renders or "
-                     "inputs); the first ones:\n", p.cache_dir.c_str(), missing_units.size(), units.size(),
-                     missing_lines.size());
-        for (size_t i = 0; i < missing_lines.size() && i < 20; ++i) std::fprintf(stderr, "  %s\n", missing_lines[i].c_str());
-        std::fprintf(stderr, "render them with this command without --analyse-only, with --shard i/N, or with the "
+        std::fprintf(stderr,
+                     "vkmech: error: --analyse-only: the cache %s lacks %zu of %zu work units (%zu renders or "
+                     "inputs); the first ones:\n",
+                     p.cache_dir.c_str(), missing_units.size(), units.size(), missing_lines.size());
+        for (size_t i = 0; i < missing_lines.size() && i < 20; ++i)
+            std::fprintf(stderr, "  %s\n", missing_lines[i].c_str());
+        std::fprintf(stderr,
+                     "render them with this command without --analyse-only, with --shard i/N, or with the "
                      "commands of --jobs FILE\n");
         return 1;
     }
     const double alloc_paths = o.shard ? 0.0 : estimate(p, dev, cs);
     if (o.shard)
-        std::fprintf(stderr, "vkmech study: shard %u/%u: %zu of its renders missing, %zu allocation units\n", o.shard->first,
-                     o.shard->second, cs.missing.size(), missing_units.size() - cs.missing.size());
+        std::fprintf(stderr, "vkmech study: shard %u/%u: %zu of its renders missing, %zu allocation units\n",
+                     o.shard->first, o.shard->second, cs.missing.size(), missing_units.size() - cs.missing.size());
     if (o.plan_only) return 0;
 
     SignalGuard guard;  // SIGINT/SIGTERM until the end: the allocation study renders during its analysis
@@ -587,9 +623,10 @@ int run_study(const StudyOptions& o) {
                 alloc_source->render_all(units[u].scene);
                 ++alloc_units;
             }
-        std::printf("vkmech study %s: shard %u/%u: %zu renders and %zu allocation inputs rendered into %s; no tables "
-                    "(run `--analyse-only` when every shard is done)\n",
-                    o.study.c_str(), i, N, tally.done, alloc_units, p.cache_dir.c_str());
+        std::printf(
+            "vkmech study %s: shard %u/%u: %zu renders and %zu allocation inputs rendered into %s; no tables "
+            "(run `--analyse-only` when every shard is done)\n",
+            o.study.c_str(), i, N, tally.done, alloc_units, p.cache_dir.c_str());
         return 0;
     }
 

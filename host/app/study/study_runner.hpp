@@ -19,25 +19,25 @@
 namespace vkmech {
 
 struct StudyOptions {
-    std::string study;                    // stability | variance | ... | all
-    std::string preset = "quick";         // quick | reduced | paper
-    std::vector<std::string> scenes;      // resolved scene files (the CLI resolves names)
+    std::string study;                                      // stability | variance | ... | all
+    std::string preset = "quick";                           // quick | reduced | paper
+    std::vector<std::string> scenes;                        // resolved scene files (the CLI resolves names)
     std::string sweep_roughness_scene, sweep_lights_scene;  // resolved sweep scene files
-    std::optional<int> res;               // film width
-    std::vector<uint32_t> spp_levels;     // stability levels (last = reference)
-    std::optional<int> seeds;             // seeds per variance level (and per sweep level)
-    std::string out_dir;                  // default out/study-<study>
-    std::string cache_dir;                // default <out>/cache
-    std::string curve;                    // predictor: frozen curve for new scenes
+    std::optional<int> res;                                 // film width
+    std::vector<uint32_t> spp_levels;                       // stability levels (last = reference)
+    std::optional<int> seeds;                               // seeds per variance level (and per sweep level)
+    std::string out_dir;                                    // default out/study-<study>
+    std::string cache_dir;                                  // default <out>/cache
+    std::string curve;                                      // predictor: frozen curve for new scenes
     std::optional<uint32_t> device;
     std::optional<std::string> pipeline_cache;  // vk::ContextOptions::pipeline_cache_dir
     std::string kernel = "auto";                // vk::ContextOptions::kernel
     std::string traversal = "auto";
     bool no_plots = false;
-    std::string plot_script;              // analysis/plot_figures.py as the CLI found it; empty: not found
-    std::string plot_script_missing;      // then: where it was searched and how to say where it is
-    bool plan_only = false;               // print the plan and the expected cost, render nothing
-    bool equal_time = false;              // allocation: also compare strategies at equal wall-clock time
+    std::string plot_script;          // analysis/plot_figures.py as the CLI found it; empty: not found
+    std::string plot_script_missing;  // then: where it was searched and how to say where it is
+    bool plan_only = false;           // print the plan and the expected cost, render nothing
+    bool equal_time = false;          // allocation: also compare strategies at equal wall-clock time
     // Scale-out (README "Studies on many machines"): the study's work units are
     // its planned renders, in plan order, then one unit per scene for the
     // allocation study's cached inputs. --shard i/N renders the units whose
@@ -46,10 +46,10 @@ struct StudyOptions {
     // nothing; --analyse-only renders nothing the cache keeps and refuses,
     // listing them, when units are missing.
     std::optional<std::pair<uint32_t, uint32_t>> shard;  // (i, N), 0 <= i < N
-    std::string shard_text;  // the CLI's "i/N", parsed into `shard` by cmd_study
+    std::string shard_text;                              // the CLI's "i/N", parsed into `shard` by cmd_study
     std::string jobs_file;
     bool analyse_only = false;
-    std::string command_line;             // for the report
+    std::string command_line;  // for the report
 };
 
 // Thrown when SIGINT or SIGTERM arrives during rendering: finished renders are cached.

@@ -185,8 +185,8 @@ void pair_quads(Bvh& bvh, const std::vector<glm::vec3>& pos) {
             uint32_t t = leaf[i];
             for (uint32_t j = 0; j < count; ++j) {
                 uint32_t u = leaf[j];
-                if (j == i || used[j] || !same_point(vertex(u, 0), vertex(t, 0)) || !same_point(vertex(u, 1), vertex(t, 2)) ||
-                    same_point(vertex(u, 2), vertex(t, 0)))
+                if (j == i || used[j] || !same_point(vertex(u, 0), vertex(t, 0)) ||
+                    !same_point(vertex(u, 1), vertex(t, 2)) || same_point(vertex(u, 2), vertex(t, 0)))
                     continue;
                 used[i] = used[j] = true;
                 bvh.quad_next[out] = 1;
@@ -376,7 +376,8 @@ std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh) {
     // children as consecutive new nodes.
     auto emit = [&](auto& self, const std::vector<uint32_t>& start, uint32_t index, uint32_t depth) -> void {
         deepest = std::max(deepest, depth);
-        if (3u * deepest > gpu::BVH4_STACK_SIZE) throw std::length_error("collapse_bvh4: tree deeper than the traversal stack");
+        if (3u * deepest > gpu::BVH4_STACK_SIZE)
+            throw std::length_error("collapse_bvh4: tree deeper than the traversal stack");
         const std::vector<uint32_t> kids = bvh4_children(bvh, start);
         gpu::GpuBvh4Node node{};
         std::array<glm::vec3, 4> lo{}, hi{};
@@ -400,8 +401,10 @@ std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh) {
                 const uint32_t qhi = quantize_up(nlo[a], scale, hi[k][a]);
                 const uint32_t shift = 8u * static_cast<uint32_t>(k);
                 node.q0[a] |= qlo << shift;
-                if (a == 0) node.q0[3] |= qhi << shift;
-                else node.q1[a - 1] |= qhi << shift;
+                if (a == 0)
+                    node.q0[3] |= qhi << shift;
+                else
+                    node.q1[a - 1] |= qhi << shift;
             }
         }
         // The children's codes, the first interior child and the first leaf triangle.
@@ -417,23 +420,29 @@ std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh) {
                 continue;
             }
             if (leaf_count(bvh, c) > gpu::BVH4_MAX_LEAF)
-                throw std::length_error("collapse_bvh4: a leaf of more than " + std::to_string(gpu::BVH4_MAX_LEAF) + " triangles");
-            if (!any_leaf) first_tri = leaf_offset(bvh, c);
+                throw std::length_error("collapse_bvh4: a leaf of more than " + std::to_string(gpu::BVH4_MAX_LEAF) +
+                                        " triangles");
+            if (!any_leaf)
+                first_tri = leaf_offset(bvh, c);
             else if (leaf_offset(bvh, c) != next_tri)
-                throw std::invalid_argument("collapse_bvh4: a node's leaf children do not hold consecutive triangles (build_bvh orders them so)");
+                throw std::invalid_argument(
+                    "collapse_bvh4: a node's leaf children do not hold consecutive triangles (build_bvh orders them "
+                    "so)");
             any_leaf = true;
             next_tri = leaf_offset(bvh, c) + leaf_count(bvh, c);
             code[k] = 1u + leaf_count(bvh, c);
         }
         const uint32_t first_node = static_cast<uint32_t>(out.size());
-        if (first_node + interior.size() >= kLimit) throw std::length_error("collapse_bvh4: too many nodes for the 4-wide encoding");
+        if (first_node + interior.size() >= kLimit)
+            throw std::length_error("collapse_bvh4: too many nodes for the 4-wide encoding");
         out.resize(first_node + interior.size());
         node.origin.w = std::bit_cast<float>(exponents | code[0] << 24 | code[1] << 28);
         node.q1[2] = (interior.empty() ? 0u : first_node) | code[2] << 28;
         node.q1[3] = first_tri | code[3] << 28;
         out[index] = node;
         for (size_t j = 0; j < interior.size(); ++j)
-            self(self, std::vector<uint32_t>{interior[j] + 1, leaf_offset(bvh, interior[j])}, first_node + static_cast<uint32_t>(j), depth + 1);
+            self(self, std::vector<uint32_t>{interior[j] + 1, leaf_offset(bvh, interior[j])},
+                 first_node + static_cast<uint32_t>(j), depth + 1);
     };
     out.emplace_back();
     emit(emit, bvh4_root_kids(bvh), 0u, 1u);
@@ -467,7 +476,8 @@ Bvh build_bvh(const std::vector<glm::vec3>& tri_positions, const BvhBuildOptions
 
 std::string validate_bvh(const Bvh& bvh, const std::vector<glm::vec3>& pos) {
     uint32_t n = static_cast<uint32_t>(pos.size() / 3);
-    if (bvh.order.size() != n) return "order has " + std::to_string(bvh.order.size()) + " entries for " + std::to_string(n) + " triangles";
+    if (bvh.order.size() != n)
+        return "order has " + std::to_string(bvh.order.size()) + " entries for " + std::to_string(n) + " triangles";
     std::vector<uint32_t> seen_order(n, 0);
     for (uint32_t t : bvh.order) {
         if (t >= n) return "order names triangle " + std::to_string(t) + " out of range";
@@ -500,7 +510,8 @@ std::string validate_bvh(const Bvh& bvh, const std::vector<glm::vec3>& pos) {
         } else {
             uint32_t a = i + 1, b = offset(i);
             for (uint32_t c : {a, b}) {
-                if (c >= nodes.size() || c <= i) return "node " + std::to_string(i) + " has a bad child " + std::to_string(c);
+                if (c >= nodes.size() || c <= i)
+                    return "node " + std::to_string(i) + " has a bad child " + std::to_string(c);
                 if (!contains(i, glm::vec3(nodes[c].bmin), glm::vec3(nodes[c].bmax)))
                     return "node " + std::to_string(i) + " does not contain child " + std::to_string(c);
                 stack.push_back(c);

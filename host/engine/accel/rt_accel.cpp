@@ -11,13 +11,16 @@ using BU = ::vk::BufferUsageFlagBits;
 }  // namespace
 
 RayTracingAccel::RayTracingAccel(const vk::Context& ctx, const vk::Buffer& positions, uint32_t triangle_count) {
-    if (!ctx.ray_query_enabled()) throw vk::VulkanError("ray-query acceleration requested on a device without VK_KHR_ray_query");
+    if (!ctx.ray_query_enabled())
+        throw vk::VulkanError("ray-query acceleration requested on a device without VK_KHR_ray_query");
     auto t0 = std::chrono::steady_clock::now();
     const auto& dev = ctx.device();
-    auto as_props = ctx.physical()
-                        .getProperties2<::vk::PhysicalDeviceProperties2, ::vk::PhysicalDeviceAccelerationStructurePropertiesKHR>()
-                        .get<::vk::PhysicalDeviceAccelerationStructurePropertiesKHR>();
-    const ::vk::DeviceSize scratch_align = std::max<::vk::DeviceSize>(as_props.minAccelerationStructureScratchOffsetAlignment, 16);
+    auto as_props =
+        ctx.physical()
+            .getProperties2<::vk::PhysicalDeviceProperties2, ::vk::PhysicalDeviceAccelerationStructurePropertiesKHR>()
+            .get<::vk::PhysicalDeviceAccelerationStructurePropertiesKHR>();
+    const ::vk::DeviceSize scratch_align =
+        std::max<::vk::DeviceSize>(as_props.minAccelerationStructureScratchOffsetAlignment, 16);
 
     // ---- BLAS ----
     ::vk::AccelerationStructureGeometryTrianglesDataKHR tri{
@@ -26,17 +29,18 @@ RayTracingAccel::RayTracingAccel(const vk::Context& ctx, const vk::Buffer& posit
         .vertexStride = sizeof(float) * 4,
         .maxVertex = triangle_count * 3 - 1,
         .indexType = ::vk::IndexType::eNoneKHR};
-    ::vk::AccelerationStructureGeometryKHR geom{.geometryType = ::vk::GeometryTypeKHR::eTriangles,
-                                                .geometry = ::vk::AccelerationStructureGeometryDataKHR{.triangles = tri},
-                                                .flags = ::vk::GeometryFlagBitsKHR::eOpaque};
+    ::vk::AccelerationStructureGeometryKHR geom{
+        .geometryType = ::vk::GeometryTypeKHR::eTriangles,
+        .geometry = ::vk::AccelerationStructureGeometryDataKHR{.triangles = tri},
+        .flags = ::vk::GeometryFlagBitsKHR::eOpaque};
     ::vk::AccelerationStructureBuildGeometryInfoKHR blas_info{
         .type = ::vk::AccelerationStructureTypeKHR::eBottomLevel,
         .flags = ::vk::BuildAccelerationStructureFlagBitsKHR::ePreferFastTrace,
         .mode = ::vk::BuildAccelerationStructureModeKHR::eBuild,
         .geometryCount = 1,
         .pGeometries = &geom};
-    auto blas_sizes = dev.getAccelerationStructureBuildSizesKHR(::vk::AccelerationStructureBuildTypeKHR::eDevice, blas_info,
-                                                                {triangle_count});
+    auto blas_sizes = dev.getAccelerationStructureBuildSizesKHR(::vk::AccelerationStructureBuildTypeKHR::eDevice,
+                                                                blas_info, {triangle_count});
     blas_buffer_ = vk::Buffer(ctx, blas_sizes.accelerationStructureSize,
                               BU::eAccelerationStructureStorageKHR | BU::eShaderDeviceAddress, vk::MemoryUse::Device);
     blas_ = std::make_unique<::vk::raii::AccelerationStructureKHR>(
@@ -50,17 +54,21 @@ RayTracingAccel::RayTracingAccel(const vk::Context& ctx, const vk::Buffer& posit
     inst.instanceCustomIndex = 0;
     inst.mask = 0xFF;
     inst.flags = static_cast<VkGeometryInstanceFlagsKHR>(::vk::GeometryInstanceFlagBitsKHR::eTriangleFacingCullDisable);
-    inst.accelerationStructureReference =
-        dev.getAccelerationStructureAddressKHR(::vk::AccelerationStructureDeviceAddressInfoKHR{.accelerationStructure = **blas_});
-    instances_ = vk::Buffer(ctx, sizeof(inst),
-                            BU::eAccelerationStructureBuildInputReadOnlyKHR | BU::eShaderDeviceAddress | BU::eTransferDst,
-                            vk::MemoryUse::Device);
+    inst.accelerationStructureReference = dev.getAccelerationStructureAddressKHR(
+        ::vk::AccelerationStructureDeviceAddressInfoKHR{.accelerationStructure = **blas_});
+    instances_ =
+        vk::Buffer(ctx, sizeof(inst),
+                   BU::eAccelerationStructureBuildInputReadOnlyKHR | BU::eShaderDeviceAddress | BU::eTransferDst,
+                   vk::MemoryUse::Device);
     instances_.upload(ctx, &inst, sizeof(inst));
     ::vk::AccelerationStructureGeometryKHR tgeom{
         .geometryType = ::vk::GeometryTypeKHR::eInstances,
-        .geometry = ::vk::AccelerationStructureGeometryDataKHR{
-            .instances = ::vk::AccelerationStructureGeometryInstancesDataKHR{
-                .arrayOfPointers = VK_FALSE, .data = ::vk::DeviceOrHostAddressConstKHR{.deviceAddress = instances_.address(ctx)}}},
+        .geometry =
+            ::vk::AccelerationStructureGeometryDataKHR{
+                .instances =
+                    ::vk::AccelerationStructureGeometryInstancesDataKHR{
+                        .arrayOfPointers = VK_FALSE,
+                        .data = ::vk::DeviceOrHostAddressConstKHR{.deviceAddress = instances_.address(ctx)}}},
         .flags = ::vk::GeometryFlagBitsKHR::eOpaque};
     ::vk::AccelerationStructureBuildGeometryInfoKHR tlas_info{
         .type = ::vk::AccelerationStructureTypeKHR::eTopLevel,
@@ -68,7 +76,8 @@ RayTracingAccel::RayTracingAccel(const vk::Context& ctx, const vk::Buffer& posit
         .mode = ::vk::BuildAccelerationStructureModeKHR::eBuild,
         .geometryCount = 1,
         .pGeometries = &tgeom};
-    auto tlas_sizes = dev.getAccelerationStructureBuildSizesKHR(::vk::AccelerationStructureBuildTypeKHR::eDevice, tlas_info, {1u});
+    auto tlas_sizes =
+        dev.getAccelerationStructureBuildSizesKHR(::vk::AccelerationStructureBuildTypeKHR::eDevice, tlas_info, {1u});
     tlas_buffer_ = vk::Buffer(ctx, tlas_sizes.accelerationStructureSize,
                               BU::eAccelerationStructureStorageKHR | BU::eShaderDeviceAddress, vk::MemoryUse::Device);
     tlas_ = std::make_unique<::vk::raii::AccelerationStructureKHR>(

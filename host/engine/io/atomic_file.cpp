@@ -61,7 +61,8 @@ void write_all_fd(int fd, const void* data, size_t n) {
     }
 }
 
-void write_file_atomic_with(const std::string& path, const std::function<void(int fd, const std::string& tmp_path)>& fill) {
+void write_file_atomic_with(const std::string& path,
+                            const std::function<void(int fd, const std::string& tmp_path)>& fill) {
     const std::string tmp = atomic_temp_path(path);
     int fd = -1;
     bool created = false;

@@ -27,7 +27,8 @@ void write_file_atomic(const std::string& path, const std::string& bytes);
 // failure by throwing). Then fsync, close, rename over `path`. Any exception
 // from `fill` or from the commit removes the temporary and is rethrown as
 // std::runtime_error("cannot write '<path>': <reason>").
-void write_file_atomic_with(const std::string& path, const std::function<void(int fd, const std::string& tmp_path)>& fill);
+void write_file_atomic_with(const std::string& path,
+                            const std::function<void(int fd, const std::string& tmp_path)>& fill);
 
 // Writes n bytes to fd, retrying on EINTR and short writes; throws
 // std::runtime_error (with strerror) on failure.

@@ -14,8 +14,12 @@ namespace vkmech {
 class Digest {
 public:
     Digest& bytes(const void* data, size_t n);
-    template <class T> Digest& pod(const T& v) { return bytes(&v, sizeof(T)); }
-    template <class T> Digest& vec(const std::vector<T>& v) {
+    template <class T>
+    Digest& pod(const T& v) {
+        return bytes(&v, sizeof(T));
+    }
+    template <class T>
+    Digest& vec(const std::vector<T>& v) {
         pod(static_cast<uint64_t>(v.size()));
         return bytes(v.data(), v.size() * sizeof(T));
     }

@@ -2,6 +2,7 @@
 
 #include "io/atomic_file.hpp"
 
+#include <Imath/half.h>
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
@@ -12,7 +13,6 @@
 #include <OpenEXR/ImfStringAttribute.h>
 #include <OpenEXR/ImfStringVectorAttribute.h>
 #include <OpenEXR/ImfThreading.h>
-#include <Imath/half.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -91,8 +91,7 @@ int exr_threads() {
 
 void write_exr_layers(const std::string& path, int width, int height, const std::vector<ExrChannel>& channels,
                       const std::map<std::string, std::vector<std::string>>& attributes) {
-    if (width <= 0 || height <= 0)
-        fail(path, "invalid size " + std::to_string(width) + "x" + std::to_string(height));
+    if (width <= 0 || height <= 0) fail(path, "invalid size " + std::to_string(width) + "x" + std::to_string(height));
     if (channels.empty()) fail(path, "no channels");
     const size_t n = static_cast<size_t>(width) * static_cast<size_t>(height);
 

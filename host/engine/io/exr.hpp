@@ -39,9 +39,9 @@ inline constexpr const char* kCapDateAttribute = "capDate";
 
 struct ExrImage {
     int width = 0, height = 0;
-    std::map<std::string, std::vector<float>> channels;  // every channel, converted to float
-    std::vector<std::string> order;                      // write order if recorded, else file (sorted) order
-    std::set<std::string> half_channels;                 // channels stored as HALF in the file
+    std::map<std::string, std::vector<float>> channels;          // every channel, converted to float
+    std::vector<std::string> order;                              // write order if recorded, else file (sorted) order
+    std::set<std::string> half_channels;                         // channels stored as HALF in the file
     std::map<std::string, std::vector<std::string>> attributes;  // string and string-vector header attributes
 };
 

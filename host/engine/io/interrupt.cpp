@@ -22,8 +22,9 @@ extern "C" void on_signal(int signo) {
 }  // namespace
 
 Interrupted::Interrupted(int signo)
-    : std::runtime_error(signo == SIGTERM ? "terminated (SIGTERM)" : signo == SIGINT ? "interrupted (SIGINT)"
-                                                                                      : "interrupted by a signal"),
+    : std::runtime_error(signo == SIGTERM  ? "terminated (SIGTERM)"
+                         : signo == SIGINT ? "interrupted (SIGINT)"
+                                           : "interrupted by a signal"),
       signo_(signo) {}
 
 SignalGuard::SignalGuard() {

@@ -31,7 +31,8 @@ public:
     SignalGuard& operator=(const SignalGuard&) = delete;
 
 private:
-    struct sigaction old_int_ {}, old_term_ {};
+    struct sigaction old_int_ {
+    }, old_term_{};
 };
 
 // The signal received since the outermost guard was installed, or 0.

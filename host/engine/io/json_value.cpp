@@ -149,8 +149,10 @@ private:
             return i_ - d;
         };
         if (t_[i_] == '-') ++i_;
-        if (i_ < t_.size() && t_[i_] == '0') ++i_;
-        else if (digits() == 0) fail("malformed number");
+        if (i_ < t_.size() && t_[i_] == '0')
+            ++i_;
+        else if (digits() == 0)
+            fail("malformed number");
         if (i_ < t_.size() && t_[i_] == '.') {
             ++i_;
             if (digits() == 0) fail("malformed number");
@@ -189,10 +191,14 @@ private:
         for (int k = 0; k < 4; ++k) {
             char h = t_[i_++];
             v <<= 4;
-            if (h >= '0' && h <= '9') v |= h - '0';
-            else if (h >= 'a' && h <= 'f') v |= h - 'a' + 10;
-            else if (h >= 'A' && h <= 'F') v |= h - 'A' + 10;
-            else fail("bad \\u escape");
+            if (h >= '0' && h <= '9')
+                v |= h - '0';
+            else if (h >= 'a' && h <= 'f')
+                v |= h - 'a' + 10;
+            else if (h >= 'A' && h <= 'F')
+                v |= h - 'A' + 10;
+            else
+                fail("bad \\u escape");
         }
         return v;
     }
@@ -212,14 +218,30 @@ private:
             if (i_ >= t_.size()) fail("unterminated string");
             char e = t_[i_++];
             switch (e) {
-                case '"': out += '"'; break;
-                case '\\': out += '\\'; break;
-                case '/': out += '/'; break;
-                case 'b': out += '\b'; break;
-                case 'f': out += '\f'; break;
-                case 'n': out += '\n'; break;
-                case 'r': out += '\r'; break;
-                case 't': out += '\t'; break;
+                case '"':
+                    out += '"';
+                    break;
+                case '\\':
+                    out += '\\';
+                    break;
+                case '/':
+                    out += '/';
+                    break;
+                case 'b':
+                    out += '\b';
+                    break;
+                case 'f':
+                    out += '\f';
+                    break;
+                case 'n':
+                    out += '\n';
+                    break;
+                case 'r':
+                    out += '\r';
+                    break;
+                case 't':
+                    out += '\t';
+                    break;
                 case 'u': {
                     uint32_t cp = hex4();
                     if (cp >= 0xd800 && cp < 0xdc00) {
@@ -234,7 +256,8 @@ private:
                     utf8(out, cp);
                     break;
                 }
-                default: fail(std::string("bad escape '\\") + e + "'");
+                default:
+                    fail(std::string("bad escape '\\") + e + "'");
             }
         }
     }

@@ -2,8 +2,8 @@
 
 #include "io/atomic_file.hpp"
 #include "io/digest.hpp"
-#include "io/json.hpp"
 #include "io/interrupt.hpp"
+#include "io/json.hpp"
 
 #include <algorithm>
 #include <cerrno>
@@ -70,7 +70,6 @@ std::string read_text(const fs::path& p) {
     return ss.str();
 }
 
-
 // The string value after `"key": "` starting at pos; advances pos past it.
 std::optional<std::string> string_field(const std::string& t, const std::string& key, size_t& pos) {
     const std::string pat = "\"" + key + "\": \"";
@@ -90,7 +89,10 @@ std::optional<std::string> string_field(const std::string& t, const std::string&
 std::string new_run_id() {
     std::random_device rd;
     Digest d;
-    d.pod(static_cast<long>(::getpid())).pod(std::chrono::system_clock::now().time_since_epoch().count()).pod(rd()).pod(rd());
+    d.pod(static_cast<long>(::getpid()))
+        .pod(std::chrono::system_clock::now().time_since_epoch().count())
+        .pod(rd())
+        .pod(rd());
     return d.hex().substr(0, 16);
 }
 
@@ -108,7 +110,8 @@ std::string check_files(const fs::path& dir, const Manifest& m) {
             return e.what();
         }
         if (size != f.size)
-            return "'" + f.name + "' has " + std::to_string(size) + " bytes, the manifest says " + std::to_string(f.size);
+            return "'" + f.name + "' has " + std::to_string(size) + " bytes, the manifest says " +
+                   std::to_string(f.size);
         if (digest != f.digest) return "'" + f.name + "' does not match its checksum";
     }
     return {};
@@ -148,7 +151,8 @@ void finish_commit(const fs::path& dir, const fs::path& commit_dir) {
         fs::path src = commit_dir / f.name;
         if (!fs::exists(src)) continue;  // moved before an interruption
         if (::rename(src.c_str(), (dir / f.name).c_str()) != 0)
-            throw std::runtime_error("cannot move '" + src.string() + "' into '" + dir.string() + "': " + std::strerror(errno));
+            throw std::runtime_error("cannot move '" + src.string() + "' into '" + dir.string() +
+                                     "': " + std::strerror(errno));
         fault_point("commit-moved-one");
     }
     if (auto old = parse_manifest(read_text(previous)))
@@ -168,11 +172,11 @@ std::string manifest_file_name(const std::string& set_name) { return set_name + 
 
 std::string manifest_json(const Manifest& m) {
     std::ostringstream o;
-    o << "{\n  \"vkmech_manifest\": 1,\n  \"set\": \"" << json_escape(m.set_name) << "\",\n  \"run_id\": \"" << json_escape(m.run_id)
-      << "\",\n  \"files\": [\n";
+    o << "{\n  \"vkmech_manifest\": 1,\n  \"set\": \"" << json_escape(m.set_name) << "\",\n  \"run_id\": \""
+      << json_escape(m.run_id) << "\",\n  \"files\": [\n";
     for (size_t i = 0; i < m.files.size(); ++i)
-        o << "    {\"name\": \"" << json_escape(m.files[i].name) << "\", \"size\": " << m.files[i].size << ", \"digest\": \""
-          << m.files[i].digest << "\"}" << (i + 1 < m.files.size() ? "," : "") << "\n";
+        o << "    {\"name\": \"" << json_escape(m.files[i].name) << "\", \"size\": " << m.files[i].size
+          << ", \"digest\": \"" << m.files[i].digest << "\"}" << (i + 1 < m.files.size() ? "," : "") << "\n";
     o << "  ],\n  \"count\": " << m.files.size() << "\n}\n";
     return o.str();
 }
@@ -241,8 +245,10 @@ size_t clean_stale_temporaries(const std::string& dir) {
     for (const auto& e : fs::directory_iterator(dir, ec)) {
         const std::string name = e.path().filename().string();
         long pid = -1;
-        if (name.rfind(kStagingPrefix, 0) == 0) pid = leading_pid(name, std::strlen(kStagingPrefix));
-        else pid = trailing_tmp_pid(name);
+        if (name.rfind(kStagingPrefix, 0) == 0)
+            pid = leading_pid(name, std::strlen(kStagingPrefix));
+        else
+            pid = trailing_tmp_pid(name);
         // Another machine's temporary (a shared filesystem): its pid means nothing here.
         const size_t host = name.rfind(".host-"), tmp = name.rfind(".tmp-");
         if (host != std::string::npos && tmp != std::string::npos && host < tmp &&

@@ -48,7 +48,8 @@ std::vector<uint8_t> tonemap_srgb(const std::vector<float>& rgb, float exposure)
     if (rgb.size() % 3 != 0) throw std::invalid_argument("tonemap_srgb: size is not a multiple of 3");
     std::vector<uint8_t> out(rgb.size());
     for (size_t i = 0; i < rgb.size(); i += 3) {
-        if (!std::isfinite(rgb[i]) || !std::isfinite(rgb[i + 1]) || !std::isfinite(rgb[i + 2]) || !std::isfinite(exposure)) {
+        if (!std::isfinite(rgb[i]) || !std::isfinite(rgb[i + 1]) || !std::isfinite(rgb[i + 2]) ||
+            !std::isfinite(exposure)) {
             put_magenta(&out[i]);
             continue;
         }

@@ -20,12 +20,12 @@ extern const std::array<std::array<uint8_t, 3>, kBucketCount> kBucketColors;
 struct Descriptor {
     int width = 0, height = 0;
     std::vector<std::array<float, kBucketCount>> bucket_energy;  // L_b: mean per-sample energy
-    std::vector<uint8_t> dominant;  // argmax_b L_b, ties to the lower index; kNoLabel when sum is 0
-    std::vector<float> purity;       // L_dominant / sum_b L_b (0 for unlabelled)
-    std::vector<float> glossy_frac;  // gamma
-    std::vector<float> caustic_frac; // L_delta_mediated / sum
-    std::vector<float> depth;        // energy-weighted mean n over n >= 1
-    std::vector<float> total_energy; // sum_b L_b
+    std::vector<uint8_t> dominant;    // argmax_b L_b, ties to the lower index; kNoLabel when sum is 0
+    std::vector<float> purity;        // L_dominant / sum_b L_b (0 for unlabelled)
+    std::vector<float> glossy_frac;   // gamma
+    std::vector<float> caustic_frac;  // L_delta_mediated / sum
+    std::vector<float> depth;         // energy-weighted mean n over n >= 1
+    std::vector<float> total_energy;  // sum_b L_b
     // docs/descriptor.md §3.4, only when the frame has the split (render --extra-output direct_glossy):
     // the part of L_direct whose events end at a glossy vertex (mean per-sample energy, <= L_direct).
     std::vector<float> direct_glossy;
@@ -41,7 +41,7 @@ struct DescriptorSummary {
     std::array<double, kBucketCount> energy_share{};  // share of total image energy per bucket
     uint64_t labelled_pixels = 0;
     uint64_t nonfinite_samples = 0;
-    double other_energy = 0.0;  // absolute energy in `other` (expected 0)
+    double other_energy = 0.0;          // absolute energy in `other` (expected 0)
     double max_bucket_sum_error = 0.0;  // max |sum_b L_b - lum_mean| / max(lum_mean, 1e-8)
     // docs/descriptor.md §3.4, when the descriptor has direct_glossy: the image's glossy-ended direct
     // energy as a share of all bucket energy and as a share of the direct bucket's (0 without any).

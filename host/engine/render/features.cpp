@@ -6,9 +6,12 @@ namespace vkmech {
 
 const char* to_string(Estimator e) {
     switch (e) {
-        case Estimator::Nee: return "nee";
-        case Estimator::MisRestricted: return "mis-restricted";
-        case Estimator::Mis: return "mis";
+        case Estimator::Nee:
+            return "nee";
+        case Estimator::MisRestricted:
+            return "mis-restricted";
+        case Estimator::Mis:
+            return "mis";
     }
     return "?";
 }
@@ -42,15 +45,30 @@ Features Features::from_scene(const Scene& scene, Estimator e, bool capture) {
     f.dielectric = f.rough = f.plastic = f.principled = f.conductor = f.textures = false;
     for (const auto& m : scene.materials) {
         switch (m.type) {
-            case BsdfType::Diffuse: break;
-            case BsdfType::Plastic: f.plastic = true; break;
-            case BsdfType::RoughPlastic: f.plastic = f.rough = true; break;
-            case BsdfType::Conductor: f.conductor = true; break;
-            case BsdfType::RoughConductor: f.conductor = f.rough = true; break;
+            case BsdfType::Diffuse:
+                break;
+            case BsdfType::Plastic:
+                f.plastic = true;
+                break;
+            case BsdfType::RoughPlastic:
+                f.plastic = f.rough = true;
+                break;
+            case BsdfType::Conductor:
+                f.conductor = true;
+                break;
+            case BsdfType::RoughConductor:
+                f.conductor = f.rough = true;
+                break;
             case BsdfType::Dielectric:
-            case BsdfType::ThinDielectric: f.dielectric = true; break;
-            case BsdfType::RoughDielectric: f.dielectric = f.rough = true; break;
-            case BsdfType::Principled: f.principled = f.rough = true; break;
+            case BsdfType::ThinDielectric:
+                f.dielectric = true;
+                break;
+            case BsdfType::RoughDielectric:
+                f.dielectric = f.rough = true;
+                break;
+            case BsdfType::Principled:
+                f.principled = f.rough = true;
+                break;
         }
         if (m.reflectance.texture >= 0 || m.specular_reflectance_texture >= 0 || m.specular_transmittance_texture >= 0)
             f.textures = true;

@@ -31,7 +31,7 @@ struct Features {
     bool principled = true;
     bool conductor = true;
     bool textures = true;
-    bool capture = true;  // the mechanism descriptor
+    bool capture = true;        // the mechanism descriptor
     bool debug_events = false;  // record one pixel's contribution events (tests)
     // `render --extra-output direct_glossy` (docs/descriptor.md §3.4): the pipeline built from the
     // path tracer's second SPIR-V module, which also sums the `direct` bucket's energy whose end

@@ -46,8 +46,9 @@ void Frame::merge(const std::vector<gpu::GpuPixelAccum>& batch) {
 
 void Frame::merge(const Frame& other) {
     if (other.width != width || other.height != height || other.pixels.size() != pixels.size())
-        throw std::invalid_argument("Frame::merge: a " + std::to_string(other.width) + "x" + std::to_string(other.height) +
-                                    " frame merged into a " + std::to_string(width) + "x" + std::to_string(height) + " one");
+        throw std::invalid_argument("Frame::merge: a " + std::to_string(other.width) + "x" +
+                                    std::to_string(other.height) + " frame merged into a " + std::to_string(width) +
+                                    "x" + std::to_string(height) + " one");
     for (size_t i = 0; i < pixels.size(); ++i) {
         PixelStats& x = pixels[i];
         const PixelStats& y = other.pixels[i];

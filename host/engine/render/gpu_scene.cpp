@@ -11,9 +11,12 @@ namespace vkmech {
 
 const char* to_string(Traversal t) {
     switch (t) {
-        case Traversal::Auto: return "auto";
-        case Traversal::RayQuery: return "rayquery";
-        case Traversal::Bvh: return "bvh";
+        case Traversal::Auto:
+            return "auto";
+        case Traversal::RayQuery:
+            return "rayquery";
+        case Traversal::Bvh:
+            return "bvh";
     }
     return "?";
 }
@@ -41,7 +44,8 @@ Traversal resolve_traversal(const vk::Context& ctx, Traversal requested) {
 namespace {
 
 float luminance(const glm::vec3& c) {
-    return static_cast<float>(gpu::LUM_R) * c.r + static_cast<float>(gpu::LUM_G) * c.g + static_cast<float>(gpu::LUM_B) * c.b;
+    return static_cast<float>(gpu::LUM_R) * c.r + static_cast<float>(gpu::LUM_G) * c.g +
+           static_cast<float>(gpu::LUM_B) * c.b;
 }
 
 glm::vec3 texture_mean(const Texture& t) {
@@ -61,14 +65,15 @@ gpu::GpuMaterial pack_material(const Material& m, const std::vector<Texture>& te
     gpu::GpuMaterial g{};
     g.header = glm::uvec4(static_cast<uint32_t>(m.type),
                           (m.twosided ? 1u : 0u) | texture_slot(m.specular_transmittance_texture) << gpu::MAT_TEX_SHIFT,
-                          texture_slot(m.reflectance.texture) |
-                              texture_slot(m.specular_reflectance_texture) << gpu::MAT_TEX_SHIFT,
+                          texture_slot(m.reflectance.texture) | texture_slot(m.specular_reflectance_texture)
+                                                                    << gpu::MAT_TEX_SHIFT,
                           static_cast<uint32_t>(m.distribution));
     // A texture's mean stands in where a single value is needed (plastic
     // sampling weights, Fresnel tints), as Mitsuba takes the texture mean.
-    glm::vec3 refl = m.reflectance.texture >= 0 ? texture_mean(textures.at(m.reflectance.texture)) : m.reflectance.value;
+    glm::vec3 refl =
+        m.reflectance.texture >= 0 ? texture_mean(textures.at(m.reflectance.texture)) : m.reflectance.value;
     glm::vec3 spec = m.specular_reflectance_texture >= 0 ? texture_mean(textures.at(m.specular_reflectance_texture))
-                                                          : m.specular_reflectance;
+                                                         : m.specular_reflectance;
     glm::vec3 trans = m.specular_transmittance_texture >= 0
                           ? texture_mean(textures.at(m.specular_transmittance_texture))
                           : m.specular_transmittance;
@@ -135,9 +140,11 @@ SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
                         (t.nearest ? gpu::TEX_NEAREST_BIT : 0u);
         a.textures.push_back(glm::uvec4(static_cast<uint32_t>(a.texels.size()), t.width, t.height, kind));
         for (int r = 0; r < 2; ++r)  // rows of the affine uv transform (glm: to_uv[column][row])
-            a.textures.push_back(glm::uvec4(std::bit_cast<uint32_t>(t.to_uv[0][r]), std::bit_cast<uint32_t>(t.to_uv[1][r]),
+            a.textures.push_back(glm::uvec4(std::bit_cast<uint32_t>(t.to_uv[0][r]),
+                                            std::bit_cast<uint32_t>(t.to_uv[1][r]),
                                             std::bit_cast<uint32_t>(t.to_uv[2][r]), 0u));
-        for (size_t i = 0; i + 2 < t.rgb.size(); i += 3) a.texels.push_back(glm::vec4(t.rgb[i], t.rgb[i + 1], t.rgb[i + 2], 1.0f));
+        for (size_t i = 0; i + 2 < t.rgb.size(); i += 3)
+            a.texels.push_back(glm::vec4(t.rgb[i], t.rgb[i + 1], t.rgb[i + 2], 1.0f));
     }
 
     a.bvh = build_bvh(pos3);
@@ -286,9 +293,9 @@ size_t texels_of(const std::vector<T>& v) {
 std::vector<vk::BindingDesc> scene_bindings(Traversal t, vk::KernelClass k) {
     using DT = ::vk::DescriptorType;
     const DT type = k == vk::KernelClass::Gpu ? DT::eStorageBuffer : DT::eUniformTexelBuffer;
-    std::vector<vk::BindingDesc> b = {{gpu::BINDING_VERTICES, type},   {gpu::BINDING_TRIANGLES, type},
-                                      {gpu::BINDING_MATERIALS, type},  {gpu::BINDING_LIGHT_TRIS, type},
-                                      {gpu::BINDING_EMITTERS, type},   {gpu::BINDING_TEXELS, type},
+    std::vector<vk::BindingDesc> b = {{gpu::BINDING_VERTICES, type},  {gpu::BINDING_TRIANGLES, type},
+                                      {gpu::BINDING_MATERIALS, type}, {gpu::BINDING_LIGHT_TRIS, type},
+                                      {gpu::BINDING_EMITTERS, type},  {gpu::BINDING_TEXELS, type},
                                       {gpu::BINDING_TEXTURES, type}};
     for (const auto& x : traversal_bindings(t, k)) b.push_back(x);
     return b;
@@ -339,9 +346,10 @@ namespace {
 void check_storage_range(const vk::Context& ctx, const vk::Buffer& b, const char* what) {
     const uint64_t limit = ctx.info().max_storage_buffer_range;
     if (limit > 0 && b.size() > limit)
-        throw SceneError("", 0, std::string("the scene needs ") + vk::byte_size_text(b.size()) + " of " + what +
-                                    ", more than this device's limit of " + vk::byte_size_text(limit) +
-                                    " (maxStorageBufferRange); make the scene smaller (fewer triangles, smaller textures)");
+        throw SceneError("", 0,
+                         std::string("the scene needs ") + vk::byte_size_text(b.size()) + " of " + what +
+                             ", more than this device's limit of " + vk::byte_size_text(limit) +
+                             " (maxStorageBufferRange); make the scene smaller (fewer triangles, smaller textures)");
 }
 
 }  // namespace
@@ -350,8 +358,8 @@ GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal trave
     : traversal_(resolve_traversal(ctx, traversal)), kernel_(kernel == vk::KernelClass::Auto ? ctx.kernel() : kernel) {
     using BU = ::vk::BufferUsageFlagBits;
     const bool gpu_kernel = kernel_ == vk::KernelClass::Gpu;
-    const ::vk::BufferUsageFlags usage = gpu_kernel ? ::vk::BufferUsageFlags(BU::eStorageBuffer)
-                                                    : ::vk::BufferUsageFlags(BU::eUniformTexelBuffer);
+    const ::vk::BufferUsageFlags usage =
+        gpu_kernel ? ::vk::BufferUsageFlags(BU::eStorageBuffer) : ::vk::BufferUsageFlags(BU::eUniformTexelBuffer);
     vertices = vk::Buffer::from_vector(ctx, a.vertices, usage);
     triangles = vk::Buffer::from_vector(ctx, a.triangles, usage);
     materials = vk::Buffer::from_vector(ctx, a.materials, usage);
@@ -361,8 +369,8 @@ GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal trave
     textures = vk::Buffer::from_vector(ctx, a.textures, usage);
     ::vk::BufferUsageFlags pos_usage = usage;
     if (traversal_ == Traversal::RayQuery)
-        pos_usage = pos_usage | BU::eStorageBuffer | BU::eAccelerationStructureBuildInputReadOnlyKHR |
-                    BU::eShaderDeviceAddress;
+        pos_usage =
+            pos_usage | BU::eStorageBuffer | BU::eAccelerationStructureBuildInputReadOnlyKHR | BU::eShaderDeviceAddress;
     // The GPU kernel's software BVH reads the positions in its own tree's order
     // (shaders/trace_bvh_gpu.glsl); everything else in the scene arrays' order.
     std::optional<GpuKernelTree> gpu_tree;
@@ -374,8 +382,8 @@ GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal trave
             {gpu::BINDING_MATERIALS, &materials}, {gpu::BINDING_LIGHT_TRIS, &light_triangles},
             {gpu::BINDING_EMITTERS, &emitters},   {gpu::BINDING_TEXELS, &texels},
             {gpu::BINDING_TEXTURES, &textures}};
-        const char* what[] = {"vertices", "triangles", "materials", "emissive triangles", "emitters",
-                              "texture texels", "texture records"};
+        const char* what[] = {"vertices", "triangles",      "materials",      "emissive triangles",
+                              "emitters", "texture texels", "texture records"};
         for (size_t i = 0; i < std::size(arrays); ++i) {
             check_storage_range(ctx, *arrays[i].second, what[i]);
             storage_.emplace_back(arrays[i].first, arrays[i].second->handle());
@@ -398,7 +406,8 @@ GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal trave
         check_storage_range(ctx, tri_positions, "triangle positions");
     } else {
         bvh_nodes = vk::Buffer::from_vector(ctx, a.bvh4, usage);
-        traversal_views_.emplace_back(gpu::BINDING_BVH_NODES, texel_view(ctx, bvh_nodes, texels_of(a.bvh4), "BVH nodes"));
+        traversal_views_.emplace_back(gpu::BINDING_BVH_NODES,
+                                      texel_view(ctx, bvh_nodes, texels_of(a.bvh4), "BVH nodes"));
         traversal_views_.emplace_back(gpu::BINDING_BVH_TRIS,
                                       texel_view(ctx, tri_positions, texels_of(a.tri_positions), "triangle positions"));
     }

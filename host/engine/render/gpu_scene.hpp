@@ -35,11 +35,11 @@ struct SceneArrays {
     std::vector<gpu::GpuMaterial> materials;
     std::vector<gpu::GpuEmitter> emitters;
     std::vector<gpu::GpuLightTriangle> light_triangles;
-    std::vector<glm::vec4> texels;        // every texture's linear RGB texels
-    std::vector<glm::uvec4> textures;     // gpu::TEX_WORDS per texture (shared/types.h)
+    std::vector<glm::vec4> texels;     // every texture's linear RGB texels
+    std::vector<glm::uvec4> textures;  // gpu::TEX_WORDS per texture (shared/types.h)
     Bvh bvh;
     std::vector<gpu::GpuBvh4Node> bvh4;  // collapse_bvh4(bvh): what the software traversal reads
-    float light_weight_total = 0.0f;  // sum of the light-selection weights (power: luminance x area)
+    float light_weight_total = 0.0f;     // sum of the light-selection weights (power: luminance x area)
     LightSelection light_selection = LightSelection::Uniform;
     glm::vec3 bbox_lo{0.0f}, bbox_hi{0.0f};
 };

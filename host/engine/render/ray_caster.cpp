@@ -18,12 +18,13 @@ std::vector<gpu::GpuHit> RayCaster::trace(const std::vector<gpu::GpuRay>& rays, 
     if (schedule == RaySchedule::Slices && !slices_supported())
         throw std::invalid_argument(scene_.traversal() != Traversal::Bvh
                                         ? "the ray kernel's slices exist for the software BVH only"
-                                        : scene_.kernel() != vk::KernelClass::Cpu
+                                    : scene_.kernel() != vk::KernelClass::Cpu
                                         ? "the ray kernel's slices are the CPU kernel's (--kernel cpu)"
                                         : "the ray kernel's slices need subgroup ballot in compute shaders, which " +
                                               ctx_.info().name + " does not report");
-    const bool slices = schedule == RaySchedule::Slices ||
-                        (schedule == RaySchedule::Auto && scene_.kernel() == vk::KernelClass::Cpu && slices_supported());
+    const bool slices =
+        schedule == RaySchedule::Slices ||
+        (schedule == RaySchedule::Auto && scene_.kernel() == vk::KernelClass::Cpu && slices_supported());
     return dispatch(rays, any_hit, false, slices, seconds);
 }
 
@@ -55,8 +56,8 @@ std::vector<gpu::GpuHit> RayCaster::dispatch(const std::vector<gpu::GpuRay>& ray
     vk::ComputePipeline pipe(ctx_, tracerays_spirv(scene_.traversal(), scene_.kernel(), counters, slices), bindings,
                              kTraceraysPushBytes);
     vk::Buffer in = vk::Buffer::from_vector(ctx_, rays, ::vk::BufferUsageFlagBits::eStorageBuffer);
-    vk::Buffer out(ctx_, std::max<size_t>(16, rays.size() * sizeof(gpu::GpuHit)), ::vk::BufferUsageFlagBits::eStorageBuffer,
-                   vk::MemoryUse::Readback);
+    vk::Buffer out(ctx_, std::max<size_t>(16, rays.size() * sizeof(gpu::GpuHit)),
+                   ::vk::BufferUsageFlagBits::eStorageBuffer, vk::MemoryUse::Readback);
     pipe.bind_buffer(BINDING_RAYS, in.handle());
     pipe.bind_buffer(BINDING_HITS, out.handle());
     scene_.bind_traversal(pipe);

@@ -35,7 +35,8 @@ std::vector<std::string> exr_channel_names(bool capture, bool direct_glossy) {
 
 namespace {
 
-void fill_rect(std::vector<uint8_t>& img, int w, int h, int x0, int y0, int x1, int y1, const std::array<uint8_t, 3>& c) {
+void fill_rect(std::vector<uint8_t>& img, int w, int h, int x0, int y0, int x1, int y1,
+               const std::array<uint8_t, 3>& c) {
     for (int y = std::max(0, y0); y < std::min(h, y1); ++y)
         for (int x = std::max(0, x0); x < std::min(w, x1); ++x)
             for (int k = 0; k < 3; ++k) img[3 * (static_cast<size_t>(y) * w + x) + k] = c[k];
@@ -44,8 +45,8 @@ void fill_rect(std::vector<uint8_t>& img, int w, int h, int x0, int y0, int x1, 
 // Rasterizes stb_easy_font's axis-aligned quads.
 void draw_text(std::vector<uint8_t>& img, int w, int h, int x, int y, const char* text) {
     static char buffer[60000];
-    int quads = stb_easy_font_print(static_cast<float>(x), static_cast<float>(y), const_cast<char*>(text), nullptr, buffer,
-                                    sizeof(buffer));
+    int quads = stb_easy_font_print(static_cast<float>(x), static_cast<float>(y), const_cast<char*>(text), nullptr,
+                                    buffer, sizeof(buffer));
     const float* v = reinterpret_cast<const float*>(buffer);
     for (int q = 0; q < quads; ++q) {
         const float* p = v + q * 16;  // 4 vertices of (x, y, z, color)
@@ -175,10 +176,10 @@ std::string summary_json(const RenderInfo& info, const Frame& frame, const Descr
             return out + "]";
         };
         o << ",\n  \"provenance\": {\"version\": \"" << json_escape(p.version) << "\", \"code_digest\": \""
-          << p.code_digest << "\", \"scene_sha256\": \"" << p.scene_sha256 << "\", \"scene_files\": "
-          << strings(p.scene_files) << ", \"defines\": " << strings(p.defines) << ", \"sample_range\": \""
-          << p.sample_range << "\", \"driver\": \"" << json_escape(p.driver) << "\", \"date_utc\": \"" << p.date_utc
-          << "\"}";
+          << p.code_digest << "\", \"scene_sha256\": \"" << p.scene_sha256
+          << "\", \"scene_files\": " << strings(p.scene_files) << ", \"defines\": " << strings(p.defines)
+          << ", \"sample_range\": \"" << p.sample_range << "\", \"driver\": \"" << json_escape(p.driver)
+          << "\", \"date_utc\": \"" << p.date_utc << "\"}";
     }
     for (const auto& [key, value] : info.extra_json) o << ",\n  \"" << json_escape(key) << "\": " << value;
     if (s) {
@@ -221,8 +222,9 @@ std::vector<ExrChannel> render_channels(const Frame& frame, const Descriptor* d)
         // Every render with the capture has them; a frame without them (the render cache keeps the
         // luminance only) is not an output to write.
         if (frame.bucket_rgb_sum.size() != n * Frame::kBucketRgb)
-            throw std::invalid_argument("render_channels: the frame has no per-bucket RGB (a frame from the render "
-                                        "cache, or merged with one) and cannot be written as a render's EXR");
+            throw std::invalid_argument(
+                "render_channels: the frame has no per-bucket RGB (a frame from the render "
+                "cache, or merged with one) and cannot be written as a render's EXR");
         for (uint32_t b = 0; b < kBucketCount; ++b)
             for (int c = 0; c < 3; ++c)
                 channel(std::string("bucket.") + kBucketNames[b] + "." + "RGB"[c], [&](size_t i) {
@@ -252,12 +254,16 @@ std::vector<ExrChannel> render_channels(const Frame& frame, const Descriptor* d)
 std::map<std::string, std::vector<std::string>> render_attributes(const RenderInfo& info,
                                                                   const std::vector<std::string>& warnings,
                                                                   const std::string& run_id, bool capture) {
-    std::map<std::string, std::vector<std::string>> attrs = {
-        {"vkmech.scene", {info.scene_path}},          {"vkmech.estimator", {info.estimator}},
-        {"vkmech.lightSelection", {info.light_selection}}, {"vkmech.endVertex", {info.end_vertex}},
-        {"vkmech.spp", {std::to_string(info.spp)}},   {"vkmech.seed", {std::to_string(info.seed)}},
-        {"vkmech.device", {info.device}},              {"vkmech.features", {info.features}},
-        {"vkmech.warnings", warnings},                 {"vkmech.substitutions", info.substitutions}};
+    std::map<std::string, std::vector<std::string>> attrs = {{"vkmech.scene", {info.scene_path}},
+                                                             {"vkmech.estimator", {info.estimator}},
+                                                             {"vkmech.lightSelection", {info.light_selection}},
+                                                             {"vkmech.endVertex", {info.end_vertex}},
+                                                             {"vkmech.spp", {std::to_string(info.spp)}},
+                                                             {"vkmech.seed", {std::to_string(info.seed)}},
+                                                             {"vkmech.device", {info.device}},
+                                                             {"vkmech.features", {info.features}},
+                                                             {"vkmech.warnings", warnings},
+                                                             {"vkmech.substitutions", info.substitutions}};
     if (!run_id.empty()) attrs["vkmech.runId"] = {run_id};
     if (capture) attrs["vkmech.dominantLegend"] = {dominant_legend_json()};
     if (const Provenance& p = info.provenance; !p.version.empty()) {
@@ -312,7 +318,8 @@ WrittenFiles write_render_outputs(OutputSet& set, const RenderInfo& info, const 
     const auto attrs = render_attributes(info, reported.warnings, set.run_id(), d != nullptr);
     stage(out.exr, name + ".exr", [&](const std::string& p) { write_exr_layers(p, w, h, ch, attrs); });
     stage(out.png, name + ".png", [&](const std::string& p) {
-        write_png_rgb8(p, w, h, tonemap_srgb(rgb, static_cast<float>(std::exp2(static_cast<double>(info.exposure_ev)))));
+        write_png_rgb8(p, w, h,
+                       tonemap_srgb(rgb, static_cast<float>(std::exp2(static_cast<double>(info.exposure_ev)))));
     });
     if (d) {
         stage(out.dominant_png, name + "_dominant.png", [&](const std::string& p) {

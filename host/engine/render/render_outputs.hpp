@@ -4,10 +4,10 @@
 // the files appear as a set, with a manifest written last).
 #pragma once
 
-#include "render/descriptor.hpp"
-#include "render/frame.hpp"
 #include "io/exr.hpp"
 #include "io/output_set.hpp"
+#include "render/descriptor.hpp"
+#include "render/frame.hpp"
 
 #include <map>
 #include <string>
@@ -40,18 +40,18 @@ struct RenderInfo {
     uint32_t spp = 0;
     uint32_t seed = 0;
     bool capture = true;
-    std::string light_selection = "uniform";     // docs/descriptor.md §1
-    std::string end_vertex = "last-nondelta";    // docs/descriptor.md §2 reading
-    float exposure_ev = 0.0f;                    // PNG preview exposure (the EXR is never scaled)
-    std::vector<std::string> warnings;           // the loader's (Scene::warnings)
-    std::vector<std::string> substitutions;      // user-requested substitutions (Scene::substitutions)
+    std::string light_selection = "uniform";   // docs/descriptor.md §1
+    std::string end_vertex = "last-nondelta";  // docs/descriptor.md §2 reading
+    float exposure_ev = 0.0f;                  // PNG preview exposure (the EXR is never scaled)
+    std::vector<std::string> warnings;         // the loader's (Scene::warnings)
+    std::vector<std::string> substitutions;    // user-requested substitutions (Scene::substitutions)
     // Creating (and compiling) the pipeline, outside the render time; < 0: not measured.
     double pipeline_seconds = -1.0;
     std::string pipeline_cache;  // vk::pipeline_cache_outcome
     // Further top-level members of the JSON summary, each a key and its value
     // as JSON text, written after "substitutions" (render --adaptive: "adaptive").
     std::vector<std::pair<std::string, std::string>> extra_json;
-    std::string kernel;  // the device-class kernel (vk::KernelClass): cpu or gpu; empty: not recorded
+    std::string kernel;     // the device-class kernel (vk::KernelClass): cpu or gpu; empty: not recorded
     Provenance provenance;  // empty version: not recorded
 };
 

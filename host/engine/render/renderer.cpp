@@ -5,9 +5,9 @@
 #include "shared/bindings.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
-#include <cerrno>
 #include <cstdlib>
 #include <numeric>
 #include <optional>
@@ -39,7 +39,6 @@ std::vector<vk::SpecConstant> spec_constants(const Features& f) {
             {SPEC_ORTHOGRAPHIC, f.orthographic}};
 }
 
-
 // docs/reliability.md: what a film costs, said before (or instead of) a raw allocation failure.
 uint64_t film_device_bytes(uint64_t pixels) { return pixels * (sizeof(gpu::GpuPixelAccum) + 2 * sizeof(uint32_t)); }
 uint64_t film_host_bytes(uint64_t pixels) {
@@ -51,8 +50,10 @@ uint64_t film_host_bytes(uint64_t pixels) {
     throw vk::OutOfMemoryError("a " + std::to_string(cam.width) + "x" + std::to_string(cam.height) + " film needs " +
                                    vk::byte_size_text(film_device_bytes(px)) +
                                    " of device memory (accumulation and sample-count buffers) and " +
-                                   vk::byte_size_text(film_host_bytes(px)) + " of host memory (the frame and its "
-                                   "readback); " + why + "; lower --res",
+                                   vk::byte_size_text(film_host_bytes(px)) +
+                                   " of host memory (the frame and its "
+                                   "readback); " +
+                                   why + "; lower --res",
                                film_device_bytes(px));
 }
 
@@ -112,29 +113,34 @@ glm::vec2 camera_tangents(const Camera& cam) {
 }
 
 Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Features& features)
-    : on_device_(std::move(on_device)), ctx_(on_device_->ctx), scene_(on_device_->scene), arrays_(on_device_->arrays),
-      gpu_(on_device_->gpu), features_(features) {
+    : on_device_(std::move(on_device)),
+      ctx_(on_device_->ctx),
+      scene_(on_device_->scene),
+      arrays_(on_device_->arrays),
+      gpu_(on_device_->gpu),
+      features_(features) {
     const vk::Context& ctx = ctx_;
     const Scene& scene = scene_;
     // The projection is the camera's, whatever pipeline was asked for.
     features_.orthographic = scene.camera.type == CameraType::Orthographic;
     using DT = ::vk::DescriptorType;
     using namespace gpu;
-    std::vector<vk::BindingDesc> bindings = {{BINDING_PARAMS, DT::eUniformBuffer},
-                                             {BINDING_ACCUM, DT::eStorageBuffer},
-                                             {BINDING_DEBUG, DT::eStorageBuffer},
-                                             {BINDING_SAMPLE_COUNTS, DT::eStorageBuffer},
-                                             {BINDING_COUNTERS, DT::eStorageBuffer},
-                                             {BINDING_WORK, DT::eStorageBuffer}};
+    std::vector<vk::BindingDesc> bindings = {
+        {BINDING_PARAMS, DT::eUniformBuffer},   {BINDING_ACCUM, DT::eStorageBuffer},
+        {BINDING_DEBUG, DT::eStorageBuffer},    {BINDING_SAMPLE_COUNTS, DT::eStorageBuffer},
+        {BINDING_COUNTERS, DT::eStorageBuffer}, {BINDING_WORK, DT::eStorageBuffer}};
     for (const auto& b : scene_bindings(gpu_.traversal(), gpu_.kernel())) bindings.push_back(b);
     if (features_.direct_glossy && !features_.capture)
         throw std::invalid_argument("the direct_glossy output needs the mechanism capture on");
     if (features_.counters && !ctx.shader_clock_enabled())
-        throw std::invalid_argument("the path tracer's counters time its phases with VK_KHR_shader_clock's subgroup "
-                                    "clock, which " + ctx.info().name + " does not have");
+        throw std::invalid_argument(
+            "the path tracer's counters time its phases with VK_KHR_shader_clock's subgroup "
+            "clock, which " +
+            ctx.info().name + " does not have");
     // The direct-glossy variant is another SPIR-V module, so another pipeline (and pipeline-cache entry).
-    pipeline_ = std::make_unique<vk::ComputePipeline>(ctx, pathtrace_spirv(gpu_.traversal(), gpu_.kernel(), features_.direct_glossy, features_.counters),
-                                                      bindings, 0, spec_constants(features_));
+    pipeline_ = std::make_unique<vk::ComputePipeline>(
+        ctx, pathtrace_spirv(gpu_.traversal(), gpu_.kernel(), features_.direct_glossy, features_.counters), bindings, 0,
+        spec_constants(features_));
     size_t pixels = static_cast<size_t>(scene.camera.width) * scene.camera.height;
     // The limit first: the same refusal on every machine.
     if (const auto limit = memory_limit_bytes();
@@ -194,7 +200,8 @@ Frame Renderer::render(const RenderSpec& spec) {
     glm::vec2 tans = camera_tangents(cam);
     p.camera = glm::vec4(tans, cam.type == CameraType::ThinLens ? cam.aperture_radius : 0.0f, cam.focus_distance);
     p.sampling = glm::uvec4(0, scene_.integrator.max_depth, scene_.integrator.rr_depth, 0);
-    p.scene = glm::uvec4(static_cast<uint32_t>(arrays_.light_triangles.size()), static_cast<uint32_t>(arrays_.emitters.size()),
+    p.scene = glm::uvec4(static_cast<uint32_t>(arrays_.light_triangles.size()),
+                         static_cast<uint32_t>(arrays_.emitters.size()),
                          static_cast<uint32_t>(arrays_.triangles.size()), spec.mode);
     p.lights = glm::vec4(arrays_.light_weight_total, 0.0f, 0.0f, 0.0f);
     p.debug = glm::uvec4(debug_pixel_, debug_capacity_, 0u, 0u);
@@ -226,7 +233,8 @@ Frame Renderer::render(const RenderSpec& spec) {
     // The CPU kernel claims pixels and spreads its tiles (lavapipe's threads);
     // the GPU kernel dispatches 8 x 8 tiles in image order (docs/gpu.md).
     const bool cpu_kernel = gpu_.kernel() == vk::KernelClass::Cpu;
-    const bool claimed = spec.pixel_order == PixelOrder::Claimed || (spec.pixel_order == PixelOrder::Auto && cpu_kernel);
+    const bool claimed =
+        spec.pixel_order == PixelOrder::Claimed || (spec.pixel_order == PixelOrder::Auto && cpu_kernel);
     p.adaptive.w = claimed ? 1u : 0u;
     uint32_t batch_spp = std::max(1u, spec.batch_spp);
     for (uint32_t done = 0; done < total_spp;) {
@@ -235,9 +243,10 @@ Frame Renderer::render(const RenderSpec& spec) {
         p.sampling.x = done;
         size_t active = pixels;
         if (!order.empty()) {  // the pixels with n(p) > done form a prefix of `order`
-            active = static_cast<size_t>(std::partition_point(order.begin(), order.end(), [&](uint32_t q) {
-                                             return spec.sample_counts[q] > done;
-                                         }) - order.begin());
+            active =
+                static_cast<size_t>(std::partition_point(order.begin(), order.end(),
+                                                         [&](uint32_t q) { return spec.sample_counts[q] > done; }) -
+                                    order.begin());
             p.adaptive.y = static_cast<uint32_t>(active);
         }
         using clk = std::chrono::steady_clock;
@@ -270,16 +279,15 @@ Frame Renderer::render(const RenderSpec& spec) {
             counter_buffer_.upload(ctx_, zeros, sizeof(zeros));
         }
         lap(&RenderProfile::upload);
-        ctx_.submit_and_wait([&](::vk::CommandBuffer cmd) {
-            pipeline_->record(cmd, gx, gy, 1);
-        });
+        ctx_.submit_and_wait([&](::vk::CommandBuffer cmd) { pipeline_->record(cmd, gx, gy, 1); });
         lap(&RenderProfile::dispatch);
         if (features_.counters) {
             uint32_t c[kCounterWords];
             counter_buffer_.download(ctx_, c, sizeof(c));
             if (c[gpu::COUNTER_WRAPPED] != 0)
-                throw std::runtime_error("traversal counters: a 32-bit total overflowed in one batch; render the "
-                                         "counters with fewer samples per batch or a smaller film");
+                throw std::runtime_error(
+                    "traversal counters: a 32-bit total overflowed in one batch; render the "
+                    "counters with fewer samples per batch or a smaller film");
             counters_.rays += c[gpu::COUNTER_RAYS];
             counters_.nodes += c[gpu::COUNTER_NODES];
             counters_.leaves += c[gpu::COUNTER_LEAVES];

@@ -28,7 +28,8 @@ struct RenderProfile {
 // The software BVH's work over every render of a Renderer built with
 // Features::counters (the instrumented shader), summed over its batches.
 struct TraversalCounters {
-    double rays = 0, nodes = 0, leaves = 0, triangles = 0;  // traces; interior nodes, leaves, triangles per trace summed
+    double rays = 0, nodes = 0, leaves = 0,
+           triangles = 0;  // traces; interior nodes, leaves, triangles per trace summed
     uint32_t deepest_stack = 0;
     // Subgroup-clock ticks per phase (gpu::PHASE_*), summed over the invocations: an
     // invocation's ticks include the time its SIMD vector or warp spends on the other

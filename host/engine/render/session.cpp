@@ -13,8 +13,8 @@ SceneOnDevice::SceneOnDevice(const vk::Context& c, Scene s, SceneArrays a, Trave
     : ctx(c), scene(std::move(s)), arrays(std::move(a)), gpu(c, arrays, traversal) {
     if (arrays.triangle_mesh.size() != scene.triangle_count())
         throw std::invalid_argument("RenderSession: the scene arrays (" + std::to_string(arrays.triangle_mesh.size()) +
-                                    " triangles) do not belong to the scene (" + std::to_string(scene.triangle_count()) +
-                                    " triangles)");
+                                    " triangles) do not belong to the scene (" +
+                                    std::to_string(scene.triangle_count()) + " triangles)");
 }
 
 RenderSession::RenderSession(const vk::Context& ctx, Scene scene, Traversal traversal, LightSelection selection,

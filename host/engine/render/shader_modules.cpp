@@ -33,7 +33,8 @@ bool gpu_kernel(vk::KernelClass k) {
 
 std::span<const uint32_t> pathtrace_spirv(Traversal t, vk::KernelClass k) {
     const bool g = gpu_kernel(k);
-    if (t == Traversal::RayQuery) return g ? std::span<const uint32_t>(spv_pathtrace_rayquery_gpu) : spv_pathtrace_rayquery;
+    if (t == Traversal::RayQuery)
+        return g ? std::span<const uint32_t>(spv_pathtrace_rayquery_gpu) : spv_pathtrace_rayquery;
     return g ? std::span<const uint32_t>(spv_pathtrace_bvh_gpu) : spv_pathtrace_bvh;
 }
 
@@ -46,7 +47,8 @@ std::span<const uint32_t> pathtrace_spirv(Traversal t, vk::KernelClass k, bool d
     }
     if (!direct_glossy) return pathtrace_spirv(t, k);
     if (t == Traversal::RayQuery)
-        return g ? std::span<const uint32_t>(spv_pathtrace_direct_glossy_rayquery_gpu) : spv_pathtrace_direct_glossy_rayquery;
+        return g ? std::span<const uint32_t>(spv_pathtrace_direct_glossy_rayquery_gpu)
+                 : spv_pathtrace_direct_glossy_rayquery;
     return g ? std::span<const uint32_t>(spv_pathtrace_direct_glossy_bvh_gpu) : spv_pathtrace_direct_glossy_bvh;
 }
 

@@ -19,8 +19,9 @@ std::string size_text(uint64_t bytes) {
 }
 
 [[noreturn]] void too_large(const std::string& path, const std::string& what, uint64_t max_bytes) {
-    throw SceneError(path, 0, what + " is larger than " + size_text(max_bytes) +
-                                  ", more than the loader accepts for it (a wrong file name?)");
+    throw SceneError(path, 0,
+                     what + " is larger than " + size_text(max_bytes) +
+                         ", more than the loader accepts for it (a wrong file name?)");
 }
 
 // Closes the descriptor on every path out.
@@ -43,9 +44,10 @@ Fd open_regular(const std::string& path, const std::string& what, struct stat& s
     if (f.fd < 0) throw SceneError(path, 0, "cannot open " + what + " (" + std::strerror(errno) + ")");
     if (::fstat(f.fd, &st) != 0) throw SceneError(path, 0, "cannot stat " + what + " (" + std::strerror(errno) + ")");
     if (!S_ISREG(st.st_mode))
-        throw SceneError(path, 0, what + " is not a regular file (" +
-                                      (S_ISDIR(st.st_mode) ? "a directory" : "a device, pipe or socket") +
-                                      "); give the path of a file");
+        throw SceneError(path, 0,
+                         what + " is not a regular file (" +
+                             (S_ISDIR(st.st_mode) ? "a directory" : "a device, pipe or socket") +
+                             "); give the path of a file");
     return f;
 }
 

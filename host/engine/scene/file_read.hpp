@@ -15,8 +15,7 @@ constexpr uint64_t kMaxDataFileBytes = uint64_t(16) << 30;     // a mesh, image 
 // The bytes of `path`. Throws SceneError(path, 0, reason) when it cannot be
 // opened, is not a regular file, or is larger than `max_bytes`; the reason
 // names the file as `what` ("cannot open mesh file (No such file ...)").
-std::string read_regular_file(const std::string& path, const std::string& what,
-                              uint64_t max_bytes = kMaxDataFileBytes);
+std::string read_regular_file(const std::string& path, const std::string& what, uint64_t max_bytes = kMaxDataFileBytes);
 
 // The same checks without reading, for files another library reads (EXR).
 void require_regular_file(const std::string& path, const std::string& what);

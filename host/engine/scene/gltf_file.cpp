@@ -62,8 +62,10 @@ void check_json_nesting(const unsigned char* json, size_t size, const std::strin
     for (size_t i = 0; i < size; ++i) {
         const unsigned char c = json[i];
         if (in_string) {
-            if (c == '\\') ++i;
-            else if (c == '"') in_string = false;
+            if (c == '\\')
+                ++i;
+            else if (c == '"')
+                in_string = false;
         } else if (c == '"') {
             in_string = true;
         } else if (c == '[' || c == '{') {
@@ -96,8 +98,8 @@ size_t check_glb(const std::vector<unsigned char>& b, const std::string& path) {
         if (length - at < 8) fail("truncated .glb: chunk " + std::to_string(chunk) + " has no complete header");
         uint32_t clen = read_u32(b, at), ctype = read_u32(b, at + 4);
         if (clen > length - at - 8)
-            fail("truncated .glb: chunk " + std::to_string(chunk) + " (" + std::to_string(clen) +
-                 " bytes at offset " + std::to_string(at) + ") runs past the end of the file");
+            fail("truncated .glb: chunk " + std::to_string(chunk) + " (" + std::to_string(clen) + " bytes at offset " +
+                 std::to_string(at) + ") runs past the end of the file");
         if (chunk == 0 && ctype != 0x4E4F534Au) fail("malformed .glb: the first chunk is not JSON");
         at += 8 + static_cast<size_t>(clen);
     }
@@ -107,25 +109,37 @@ size_t check_glb(const std::vector<unsigned char>& b, const std::string& path) {
 int component_size(int type) {
     switch (type) {
         case TINYGLTF_COMPONENT_TYPE_BYTE:
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+            return 1;
         case TINYGLTF_COMPONENT_TYPE_SHORT:
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+            return 2;
         case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
-        case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
-        default: return 0;  // INT and DOUBLE are not glTF 2.0 accessor types
+        case TINYGLTF_COMPONENT_TYPE_FLOAT:
+            return 4;
+        default:
+            return 0;  // INT and DOUBLE are not glTF 2.0 accessor types
     }
 }
 
 const char* type_name(int type) {
     switch (type) {
-        case TINYGLTF_TYPE_SCALAR: return "SCALAR";
-        case TINYGLTF_TYPE_VEC2: return "VEC2";
-        case TINYGLTF_TYPE_VEC3: return "VEC3";
-        case TINYGLTF_TYPE_VEC4: return "VEC4";
-        case TINYGLTF_TYPE_MAT2: return "MAT2";
-        case TINYGLTF_TYPE_MAT3: return "MAT3";
-        case TINYGLTF_TYPE_MAT4: return "MAT4";
-        default: return "unknown";
+        case TINYGLTF_TYPE_SCALAR:
+            return "SCALAR";
+        case TINYGLTF_TYPE_VEC2:
+            return "VEC2";
+        case TINYGLTF_TYPE_VEC3:
+            return "VEC3";
+        case TINYGLTF_TYPE_VEC4:
+            return "VEC4";
+        case TINYGLTF_TYPE_MAT2:
+            return "MAT2";
+        case TINYGLTF_TYPE_MAT3:
+            return "MAT3";
+        case TINYGLTF_TYPE_MAT4:
+            return "MAT4";
+        default:
+            return "unknown";
     }
 }
 
@@ -137,7 +151,8 @@ float component(const unsigned char* p, int type, bool normalized) {
             std::memcpy(&v, p, 1);
             return normalized ? std::max(v / 127.0f, -1.0f) : v;
         }
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return normalized ? p[0] / 255.0f : p[0];
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+            return normalized ? p[0] / 255.0f : p[0];
         case TINYGLTF_COMPONENT_TYPE_SHORT: {
             int16_t v;
             std::memcpy(&v, p, 2);
@@ -178,8 +193,8 @@ void GltfLoader::parse() {
 
     tinygltf::TinyGLTF gltf;
     gltf.SetImageLoader(&keep_encoded_image, nullptr);
-    gltf.SetFsCallbacks({&tinygltf::FileExists, &tinygltf::ExpandFilePath, &read_referenced_file,
-                         &tinygltf::WriteWholeFile, nullptr});
+    gltf.SetFsCallbacks(
+        {&tinygltf::FileExists, &tinygltf::ExpandFilePath, &read_referenced_file, &tinygltf::WriteWholeFile, nullptr});
     std::string err, warn_text;
     std::string base_dir = fs::path(path_).parent_path().string();
     bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
@@ -203,8 +218,9 @@ void GltfLoader::parse() {
     } catch (const std::bad_alloc&) {
         // Seen with a malformed image URI ("%!QAAAQAAA5"): tinygltf's decoder
         // asks for an absurd allocation.
-        fail("cannot load the glTF file: tinygltf ran out of memory decoding it, which means a malformed URI or "
-             "buffer (check the file with the Khronos glTF validator)");
+        fail(
+            "cannot load the glTF file: tinygltf ran out of memory decoding it, which means a malformed URI or "
+            "buffer (check the file with the Khronos glTF validator)");
     } catch (const std::exception& e) {
         // tinygltf throws on some malformed input (e.g. an empty data URI).
         fail(std::string("cannot load the glTF file: ") + e.what());
@@ -228,9 +244,9 @@ void GltfLoader::parse() {
 // substitute it; KHR_mesh_quantization's integer attributes are read like
 // any other accessor).
 void GltfLoader::check_extensions() {
-    static const std::set<std::string> handled = {
-        "KHR_materials_transmission", "KHR_materials_ior",   "KHR_materials_clearcoat",
-        "KHR_materials_emissive_strength", "KHR_lights_punctual", "KHR_mesh_quantization"};
+    static const std::set<std::string> handled = {"KHR_materials_transmission", "KHR_materials_ior",
+                                                  "KHR_materials_clearcoat",    "KHR_materials_emissive_strength",
+                                                  "KHR_lights_punctual",        "KHR_mesh_quantization"};
     std::string missing;
     for (const auto& e : model_.extensionsRequired)
         if (!handled.count(e)) missing += (missing.empty() ? "" : ", ") + e;
@@ -261,8 +277,8 @@ std::pair<const unsigned char*, size_t> GltfLoader::view_bytes(int view, const s
     const auto& data = model_.buffers[v.buffer].data;
     if (v.byteOffset > data.size() || v.byteLength > data.size() - v.byteOffset)
         fail(labelled("bufferView", view, v.name) + " (bytes " + std::to_string(v.byteOffset) + " to " +
-             std::to_string(v.byteOffset + v.byteLength) + ") runs past the end of buffer " +
-             std::to_string(v.buffer) + " (" + std::to_string(data.size()) + " bytes)");
+             std::to_string(v.byteOffset + v.byteLength) + ") runs past the end of buffer " + std::to_string(v.buffer) +
+             " (" + std::to_string(data.size()) + " bytes)");
     return {data.data() + v.byteOffset, v.byteLength};
 }
 
@@ -272,7 +288,8 @@ GltfLoader::AccessorData GltfLoader::accessor(int index, int type, const std::st
              std::to_string(model_.accessors.size()) + ")");
     const auto& a = model_.accessors[index];
     std::string name = what + " (" + labelled("accessor", index, a.name) + ")";
-    if (a.sparse.isSparse) fail(name + " is sparse; sparse accessors are not supported (re-export the file without them)");
+    if (a.sparse.isSparse)
+        fail(name + " is sparse; sparse accessors are not supported (re-export the file without them)");
     if (a.type != type) fail(name + " has type " + type_name(a.type) + ", expected " + type_name(type));
     int csize = component_size(a.componentType);
     if (csize == 0)
@@ -292,13 +309,12 @@ GltfLoader::AccessorData GltfLoader::accessor(int index, int type, const std::st
     const auto& view = model_.bufferViews[a.bufferView];
     d.stride = view.byteStride ? view.byteStride : elem;
     if (d.stride < elem)
-        fail(name + ": the byteStride " + std::to_string(view.byteStride) + " of its bufferView is shorter than an element (" +
-             std::to_string(elem) + " bytes)");
+        fail(name + ": the byteStride " + std::to_string(view.byteStride) +
+             " of its bufferView is shorter than an element (" + std::to_string(elem) + " bytes)");
     if (a.count == 0) return d;
     // The last element must end inside the view: offset + stride (count - 1)
     // + elem <= size, written so that nothing overflows.
-    if (a.byteOffset > size || elem > size - a.byteOffset ||
-        (a.count - 1) > (size - a.byteOffset - elem) / d.stride)
+    if (a.byteOffset > size || elem > size - a.byteOffset || (a.count - 1) > (size - a.byteOffset - elem) / d.stride)
         fail(name + " (" + std::to_string(a.count) + " elements from byte " + std::to_string(a.byteOffset) +
              ") runs past the end of its bufferView (" + std::to_string(size) + " bytes)");
     d.base = bytes + a.byteOffset;
@@ -312,12 +328,17 @@ std::vector<glm::vec<N, float>> GltfLoader::read_vec(int index, const std::strin
     int cs = component_size(d.component_type);
     if (d.base)
         for (size_t i = 0; i < d.count; ++i)
-            for (int c = 0; c < N; ++c) out[i][c] = component(d.base + i * d.stride + c * cs, d.component_type, d.normalized);
+            for (int c = 0; c < N; ++c)
+                out[i][c] = component(d.base + i * d.stride + c * cs, d.component_type, d.normalized);
     return out;
 }
 
-std::vector<glm::vec3> GltfLoader::read_vec3(int index, const std::string& what) const { return read_vec<3>(index, what); }
-std::vector<glm::vec2> GltfLoader::read_vec2(int index, const std::string& what) const { return read_vec<2>(index, what); }
+std::vector<glm::vec3> GltfLoader::read_vec3(int index, const std::string& what) const {
+    return read_vec<3>(index, what);
+}
+std::vector<glm::vec2> GltfLoader::read_vec2(int index, const std::string& what) const {
+    return read_vec<2>(index, what);
+}
 
 std::vector<uint32_t> GltfLoader::read_indices(int index, const std::string& what) const {
     AccessorData d = accessor(index, TINYGLTF_TYPE_SCALAR, what);

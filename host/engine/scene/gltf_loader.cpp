@@ -40,10 +40,9 @@ Scene GltfLoader::load() {
     check_extensions();
     walk_nodes();
     if (scene_.meshes.empty())
-        fail(skipped_primitives_ > 0
-                 ? "nothing to render: every primitive uses a mode other than TRIANGLES (" +
-                       std::to_string(skipped_primitives_) + " skipped)"
-                 : "nothing to render: the scene has no mesh");
+        fail(skipped_primitives_ > 0 ? "nothing to render: every primitive uses a mode other than TRIANGLES (" +
+                                           std::to_string(skipped_primitives_) + " skipped)"
+                                     : "nothing to render: the scene has no mesh");
     add_light_spheres();
     if (!have_camera_) framing_camera();
     return std::move(scene_);
@@ -75,8 +74,7 @@ glm::dmat4 GltfLoader::local_transform(int index) const {
     std::string label = labelled("node", index, n.name);
     glm::dmat4 m(1.0);
     if (!n.matrix.empty()) {
-        if (n.matrix.size() != 16)
-            fail(label + ": 'matrix' needs 16 numbers, got " + std::to_string(n.matrix.size()));
+        if (n.matrix.size() != 16) fail(label + ": 'matrix' needs 16 numbers, got " + std::to_string(n.matrix.size()));
         for (int c = 0; c < 4; ++c)
             for (int r = 0; r < 4; ++r) m[c][r] = n.matrix[4 * c + r];  // column-major (glTF 2.0 §3.5.3)
     } else {
@@ -132,8 +130,10 @@ void GltfLoader::walk_nodes() {
         seen[n] = 1;
         glm::dmat4 world = item.parent * local_transform(n);
         if (node.camera >= 0) {
-            if (!have_camera_) set_camera(n, world);
-            else warn_once("cameras", "only the first camera in the node hierarchy is used");
+            if (!have_camera_)
+                set_camera(n, world);
+            else
+                warn_once("cameras", "only the first camera in the node hierarchy is used");
         }
         if (node.mesh >= 0) add_mesh(n, world);
         if (node.skin >= 0 || !model_.skins.empty())
@@ -165,7 +165,8 @@ void GltfLoader::add_primitive(int n, int mi, int pi, const glm::dmat4& world) {
     std::string label = labelled("mesh", mi, gm.name) + " primitive " + std::to_string(pi) + " (on " +
                         labelled("node", n, node.name) + ")";
     if (prim.mode != TINYGLTF_MODE_TRIANGLES) {
-        warn(label + " has mode " + std::to_string(prim.mode) + ", not TRIANGLES (4): skipped (docs/descriptor.md §8: triangles only)");
+        warn(label + " has mode " + std::to_string(prim.mode) +
+             ", not TRIANGLES (4): skipped (docs/descriptor.md §8: triangles only)");
         ++skipped_primitives_;
         return;
     }
@@ -187,14 +188,16 @@ void GltfLoader::add_primitive(int n, int mi, int pi, const glm::dmat4& world) {
     if (int a = attr("NORMAL"); a >= 0) {
         m.normals = read_vec3(a, label + " NORMAL");
         if (m.normals.size() != nv)
-            fail(label + ": NORMAL has " + std::to_string(m.normals.size()) + " elements, POSITION " + std::to_string(nv));
+            fail(label + ": NORMAL has " + std::to_string(m.normals.size()) + " elements, POSITION " +
+                 std::to_string(nv));
     }
     if (int a = attr("TEXCOORD_0"); a >= 0) {
         // glTF's uv (0, 0) is the image's top-left corner, as in vkmech
         // (Mesh::uvs), so no flip.
         m.uvs = read_vec2(a, label + " TEXCOORD_0");
         if (m.uvs.size() != nv)
-            fail(label + ": TEXCOORD_0 has " + std::to_string(m.uvs.size()) + " elements, POSITION " + std::to_string(nv));
+            fail(label + ": TEXCOORD_0 has " + std::to_string(m.uvs.size()) + " elements, POSITION " +
+                 std::to_string(nv));
     }
     if (attr("COLOR_0") >= 0) warn_once("color0", "vertex colours (COLOR_0) are ignored");
     if (attr("JOINTS_0") >= 0 || attr("WEIGHTS_0") >= 0)
@@ -277,7 +280,8 @@ void GltfLoader::set_camera(int n, const glm::dmat4& world) {
     cam.width = 256;
     if (p.aspectRatio > 0.0) {
         double w = std::round(256.0 * p.aspectRatio);
-        if (!(w >= 1.0 && w <= 32768.0)) fail(label + ": aspectRatio " + std::to_string(p.aspectRatio) + " is implausible");
+        if (!(w >= 1.0 && w <= 32768.0))
+            fail(label + ": aspectRatio " + std::to_string(p.aspectRatio) + " is implausible");
         cam.width = static_cast<int>(w);
     }
 
@@ -298,7 +302,8 @@ void GltfLoader::set_camera(int n, const glm::dmat4& world) {
     glm::dmat3 lin(world);
     if (!(std::abs(glm::length(x) - 1.0) < 1e-3 && std::abs(glm::length(y) - 1.0) < 1e-3 &&
           std::abs(glm::length(z) - 1.0) < 1e-3 && std::abs(glm::determinant(lin) - 1.0) < 1e-3))
-        warn(label + ": its node transform scales, shears or mirrors (glTF 2.0 §3.10.2 forbids it); the camera "
+        warn(label +
+             ": its node transform scales, shears or mirrors (glTF 2.0 §3.10.2 forbids it); the camera "
              "uses the orthonormalised frame");
     cam.to_world = glm::mat4(1.0f);
     cam.to_world[0] = glm::vec4(glm::vec3(left), 0.0f);
@@ -356,16 +361,18 @@ void GltfLoader::note_light(int n, const glm::dmat4& world) {
              std::to_string(model_.lights.size()) + ")");
     int index = static_cast<int>(li);
     const auto& light = model_.lights[index];
-    std::string label = "KHR_lights_punctual " + labelled("light", index, light.name) + " (" + light.type + ", on " +
-                        where + ")";
+    std::string label =
+        "KHR_lights_punctual " + labelled("light", index, light.name) + " (" + light.type + ", on " + where + ")";
     // docs/descriptor.md §1: only area emitters are in the model.
     if (light.type == "directional")
-        fail(label + ": directional lights are outside vkmech's model (docs/descriptor.md §1) and cannot be substituted, even "
+        fail(label +
+             ": directional lights are outside vkmech's model (docs/descriptor.md §1) and cannot be substituted, even "
              "with --substitute (a light at infinity has no place for a small emitter); use an emissive mesh");
     if (light.type != "point" && light.type != "spot")
         fail(label + ": unknown light type (expected point, spot or directional)");
     if (!options_.substitute_unsupported)
-        fail(label + ": punctual lights are outside vkmech's model (docs/descriptor.md §1: area emitters only); pass "
+        fail(label +
+             ": punctual lights are outside vkmech's model (docs/descriptor.md §1: area emitters only); pass "
              "--substitute to replace point and spot lights by small spherical emitters of the same power");
     if (!(light.intensity >= 0.0) || !std::isfinite(light.intensity))
         fail(label + ": the intensity must be a non-negative number");
@@ -392,8 +399,8 @@ void GltfLoader::add_light_spheres() {
     scene_.materials.push_back(black);
     for (const auto& pl : lights_) {
         const auto& light = model_.lights[pl.light];
-        glm::vec3 color = light.color.empty() ? glm::vec3(1.0f)
-                                              : glm::vec3(light.color[0], light.color[1], light.color[2]);
+        glm::vec3 color =
+            light.color.empty() ? glm::vec3(1.0f) : glm::vec3(light.color[0], light.color[1], light.color[2]);
         Mesh s = make_sphere(pl.position, radius, glm::mat4(1.0f), false, SphereTessellation{16, 32});
         budget_.charge(s.indices.size(), path_, 0, "the sphere standing in for light " + std::to_string(pl.light));
         // Equal power: a point light of intensity I (W/sr in vkmech's units)
@@ -409,7 +416,8 @@ void GltfLoader::add_light_spheres() {
         scene_.emitters.push_back({radiance, static_cast<int>(scene_.meshes.size())});
         scene_.meshes.push_back(std::move(s));
         if (light.type == "spot")
-            warn("KHR_lights_punctual " + name + ": a spot light becomes a sphere emitting in every direction "
+            warn("KHR_lights_punctual " + name +
+                 ": a spot light becomes a sphere emitting in every direction "
                  "(its cone is ignored)");
         std::ostringstream sub;
         sub << path_ << ": KHR_lights_punctual " << name << " (" << light.type << ", intensity " << light.intensity

@@ -148,7 +148,8 @@ Material GltfLoader::convert_material(const tinygltf::Material& g, const std::st
         m.specular_transmittance_texture = tex;
         if (trans < 1.0)
             warn(label + ": transmissionFactor " + fmt(trans) + " < 1 is treated as fully transmissive (dielectric)");
-        if (metallic > 0.0) warn(label + ": metallicFactor " + fmt(metallic) + " is ignored on a transmissive material");
+        if (metallic > 0.0)
+            warn(label + ": metallicFactor " + fmt(metallic) + " is ignored on a transmissive material");
     } else if (metallic >= 0.5) {
         // metallic 1 -> conductor family (docs/descriptor.md §8): a perfect mirror
         // (eta 0, k 1, Material's "none") tinted by the base colour.
@@ -189,7 +190,8 @@ glm::vec3 GltfLoader::emission(int index) {
         e[c] = static_cast<float>(g.emissiveFactor[c]);
     }
     double strength = 1.0;
-    if (const tinygltf::Value* s = extension(g.extensions, "KHR_materials_emissive_strength"); s && s->Has("emissiveStrength")) {
+    if (const tinygltf::Value* s = extension(g.extensions, "KHR_materials_emissive_strength");
+        s && s->Has("emissiveStrength")) {
         const tinygltf::Value& v = s->Get("emissiveStrength");
         strength = v.IsNumber() ? v.GetNumberAsDouble() : -1.0;
         if (!(strength >= 0.0) || !std::isfinite(strength))
@@ -197,13 +199,14 @@ glm::vec3 GltfLoader::emission(int index) {
     }
     e *= static_cast<float>(strength);
     if ((e.x > 0.0f || e.y > 0.0f || e.z > 0.0f) && g.doubleSided)
-        warn_once("emit2:" + std::to_string(index),
-            label + " is emissive and doubleSided; vkmech's area emitters emit from the front face only (docs/descriptor.md §1)");
+        warn_once("emit2:" + std::to_string(index), label +
+                                                        " is emissive and doubleSided; vkmech's area emitters emit "
+                                                        "from the front face only (docs/descriptor.md §1)");
     return e;
 }
 
-int GltfLoader::base_color_texture(const tinygltf::TextureInfo& info, const glm::vec3& factor,
-                                   const std::string& label, glm::vec3& mean) {
+int GltfLoader::base_color_texture(const tinygltf::TextureInfo& info, const glm::vec3& factor, const std::string& label,
+                                   glm::vec3& mean) {
     if (info.index < 0 || static_cast<size_t>(info.index) >= model_.textures.size())
         fail(label + ": baseColorTexture refers to texture " + std::to_string(info.index) +
              ", which does not exist (the file has " + std::to_string(model_.textures.size()) + ")");
@@ -245,7 +248,8 @@ int GltfLoader::base_color_texture(const tinygltf::TextureInfo& info, const glm:
                 std::error_code ec;
                 fs::path abs = fs::absolute(p, ec);
                 where = (ec ? p : abs).lexically_normal().string();
-                if (size == 0) fail(label + ": cannot read " + img_label + " '" + img.uri + "' (looked for " + where + ")");
+                if (size == 0)
+                    fail(label + ": cannot read " + img_label + " '" + img.uri + "' (looked for " + where + ")");
             } else {
                 where = path_ + "#images[" + std::to_string(t.source) + "]";
             }

@@ -20,9 +20,7 @@ namespace vkmech {
 namespace {
 
 // IEC 61966-2-1 sRGB transfer function, inverse.
-float srgb_to_linear(float c) {
-    return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
-}
+float srgb_to_linear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
 
 // An image's header may claim any size; stb would try to allocate it.
 constexpr int kMaxImageSide = 16384;
@@ -56,7 +54,7 @@ Texture decode_image_texture(const unsigned char* bytes, size_t size, bool raw) 
     } else {
         // 16-bit PNGs keep their precision; 8-bit images go through the same path.
         std::unique_ptr<stbi_us, void (*)(void*)> px(stbi_load_16_from_memory(bytes, len, &w, &h, &channels, 3),
-                                                      stbi_image_free);
+                                                     stbi_image_free);
         if (!px) throw std::runtime_error(stbi_failure_reason() ? stbi_failure_reason() : "cannot decode image");
         size_t n = static_cast<size_t>(w) * h * 3;
         t.rgb.resize(n);

@@ -1,8 +1,8 @@
 // OBJ reader and the mesh-file dispatch; the PLY reader is in ply_io.cpp.
 #include "scene/mesh_io.hpp"
 
-#include "scene/mesh_ops.hpp"
 #include "scene/file_read.hpp"
+#include "scene/mesh_ops.hpp"
 #include "scene/text_parse.hpp"
 #include "scene/triangle_budget.hpp"
 
@@ -13,7 +13,6 @@
 namespace vkmech {
 
 namespace {
-
 
 struct Corner {
     long long v = -1, vt = -1, vn = -1;
@@ -74,7 +73,8 @@ private:
             if (tok.size() < 4) fail("a face needs at least 3 vertices");
             std::vector<uint32_t> poly;
             for (size_t i = 1; i < tok.size(); ++i) poly.push_back(vertex(tok[i]));
-            if (tris_.size() + poly.size() - 2 > max_triangles_) fail(triangle_limit_message(max_triangles_, "the mesh"));
+            if (tris_.size() + poly.size() - 2 > max_triangles_)
+                fail(triangle_limit_message(max_triangles_, "the mesh"));
             for (size_t i = 1; i + 1 < poly.size(); ++i) tris_.push_back({poly[0], poly[i], poly[i + 1]});
         }
         // Everything else (o, g, s, usemtl, mtllib, l, p, ...) is irrelevant

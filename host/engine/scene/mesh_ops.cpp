@@ -6,9 +6,7 @@
 
 namespace vkmech {
 
-glm::mat3 normal_matrix(const glm::mat4& to_world) {
-    return glm::transpose(glm::inverse(glm::mat3(to_world)));
-}
+glm::mat3 normal_matrix(const glm::mat4& to_world) { return glm::transpose(glm::inverse(glm::mat3(to_world))); }
 
 bool is_similarity(const glm::mat4& m, float rel_tol) {
     glm::mat3 a(m);
@@ -115,9 +113,10 @@ namespace {
 
 void check_attribute_count(const Mesh& m, size_t n, const char* what, const std::string& file) {
     if (n != 0 && n != m.positions.size())
-        throw SceneError(file, 0, "mesh '" + m.name + "' has " + std::to_string(n) + " " + what + " for " +
-                                      std::to_string(m.positions.size()) +
-                                      " positions (each vertex needs one, or none at all): a corrupt mesh file");
+        throw SceneError(file, 0,
+                         "mesh '" + m.name + "' has " + std::to_string(n) + " " + what + " for " +
+                             std::to_string(m.positions.size()) +
+                             " positions (each vertex needs one, or none at all): a corrupt mesh file");
 }
 
 bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
@@ -136,8 +135,8 @@ void check_mesh(const Mesh& m, const std::string& file) {
     for (size_t t = 0; t < m.indices.size(); ++t)
         for (int k = 0; k < 3; ++k)
             if (m.indices[t][k] >= m.positions.size())
-                fail("triangle " + std::to_string(t) + " refers to vertex " + std::to_string(m.indices[t][k]) +
-                     " of " + std::to_string(m.positions.size()));
+                fail("triangle " + std::to_string(t) + " refers to vertex " + std::to_string(m.indices[t][k]) + " of " +
+                     std::to_string(m.positions.size()));
 }
 
 }  // namespace vkmech

@@ -40,8 +40,10 @@ float ior(const XProps& p, std::initializer_list<const char*> names, float fallb
     if (n->tag() == "string") {
         std::string name = n->as_string();
         auto named = dielectric_ior(name);
-        if (!named) n->fail("unknown IOR name '" + name + "' (expected a number or a Mitsuba name: vacuum, air, water, "
-                            "bk7, acrylic glass, polypropylene, diamond, ...)");
+        if (!named)
+            n->fail("unknown IOR name '" + name +
+                    "' (expected a number or a Mitsuba name: vacuum, air, water, "
+                    "bk7, acrylic glass, polypropylene, diamond, ...)");
         v = *named;
     } else {
         v = *p.opt_float(names);
@@ -54,9 +56,12 @@ void distribution(const XProps& p, Material& m) {
     auto d = p.opt_string({"distribution"});
     if (!d) return;  // Mitsuba's default: beckmann
     std::string s = text::lower(*d);
-    if (s == "beckmann") m.distribution = MicrofacetDistribution::Beckmann;
-    else if (s == "ggx") m.distribution = MicrofacetDistribution::GGX;
-    else p.find({"distribution"})->fail("unknown microfacet distribution '" + *d + "' (expected beckmann or ggx)");
+    if (s == "beckmann")
+        m.distribution = MicrofacetDistribution::Beckmann;
+    else if (s == "ggx")
+        m.distribution = MicrofacetDistribution::GGX;
+    else
+        p.find({"distribution"})->fail("unknown microfacet distribution '" + *d + "' (expected beckmann or ggx)");
 }
 
 // Microfacet roughness: `alpha`, or `alpha_u` and `alpha_v` together.
@@ -152,10 +157,14 @@ int MitsubaLoader::default_material() {
 
 const char* MitsubaLoader::to_string(IdKind k) {
     switch (k) {
-        case IdKind::Bsdf: return "bsdf";
-        case IdKind::Texture: return "texture";
-        case IdKind::Emitter: return "emitter";
-        case IdKind::Ignored: return "sampler, film or rfilter";
+        case IdKind::Bsdf:
+            return "bsdf";
+        case IdKind::Texture:
+            return "texture";
+        case IdKind::Emitter:
+            return "emitter";
+        case IdKind::Ignored:
+            return "sampler, film or rfilter";
     }
     return "?";
 }
@@ -194,9 +203,10 @@ int MitsubaLoader::bsdf(const XNode& n) {
     Material m;
     // Textured float parameters (roughness, metallic, ...) are outside the
     // model: --substitute uses the texture's mean.
-    static const char* float_params[] = {"alpha", "alpha_u", "alpha_v", "alphaU", "alphaV", "roughness", "metallic",
-                                         "specular", "spec_tint", "anisotropic", "sheen", "sheen_tint", "clearcoat",
-                                         "clearcoat_gloss", "spec_trans", "exponent", "opacity", "weight"};
+    static const char* float_params[] = {"alpha",     "alpha_u",    "alpha_v",   "alphaU",          "alphaV",
+                                         "roughness", "metallic",   "specular",  "spec_tint",       "anisotropic",
+                                         "sheen",     "sheen_tint", "clearcoat", "clearcoat_gloss", "spec_trans",
+                                         "exponent",  "opacity",    "weight"};
     for (const char* name : float_params) {
         const XNode* t = p.peek(name);
         if (!t || (t->tag() != "texture" && t->tag() != "ref") || type == "mask" || type == "blendbsdf") continue;
@@ -239,16 +249,19 @@ int MitsubaLoader::bsdf(const XNode& n) {
         if (!textured && opacity >= 1.0f) {
             warn(n, "bsdf 'mask' with opacity 1 changes nothing: its nested bsdf is used");
         } else {
-            record_substitution(n, "bsdf", "its nested bsdf, fully opaque (the mask's " +
-                                              std::string(textured ? "opacity texture" : "opacity") + " is ignored)");
+            record_substitution(n, "bsdf",
+                                "its nested bsdf, fully opaque (the mask's " +
+                                    std::string(textured ? "opacity texture" : "opacity") + " is ignored)");
         }
     } else if (type == "blendbsdf") {
         // The nearest model material: the component with the larger weight.
         require_substitute(n, "bsdf", "its component of larger weight");
         float w = 0.5f;
         if (const XNode* wn = p.find({"weight"})) {
-            if (wn->tag() == "texture" || wn->tag() == "ref") w = 0.5f;
-            else w = wn->as_float();
+            if (wn->tag() == "texture" || wn->tag() == "ref")
+                w = 0.5f;
+            else
+                w = wn->as_float();
         }
         std::vector<const XNode*> parts;
         for (const XNode& o : p.objects()) {
@@ -257,8 +270,9 @@ int MitsubaLoader::bsdf(const XNode& n) {
         }
         if (parts.size() != 2) n.fail(n.describe() + " needs exactly two nested bsdfs");
         int a = bsdf(*parts[0]), b = bsdf(*parts[1]);
-        record_substitution(n, "bsdf", std::string("its ") + (w > 0.5f ? "second" : "first") +
-                                          " component (weight " + fmt_weight(w > 0.5f ? w : 1.0f - w) + ")");
+        record_substitution(n, "bsdf",
+                            std::string("its ") + (w > 0.5f ? "second" : "first") + " component (weight " +
+                                fmt_weight(w > 0.5f ? w : 1.0f - w) + ")");
         m = scene_.materials[w > 0.5f ? b : a];
     } else if (type == "mixturebsdf") {
         // Mitsuba 0.6's weighted mixture: the component of largest weight.
@@ -272,10 +286,12 @@ int MitsubaLoader::bsdf(const XNode& n) {
         }
         if (parts.empty()) n.fail(n.describe() + " needs nested bsdfs");
         if (w.size() != parts.size())
-            n.fail(n.describe() + ": 'weights' must give one weight per nested bsdf (" + std::to_string(parts.size()) + ")");
+            n.fail(n.describe() + ": 'weights' must give one weight per nested bsdf (" + std::to_string(parts.size()) +
+                   ")");
         size_t best = static_cast<size_t>(std::max_element(w.begin(), w.end()) - w.begin());
-        record_substitution(n, "bsdf", "its component " + std::to_string(best + 1) + " of " +
-                                           std::to_string(parts.size()) + " (weight " + fmt_weight(float(w[best])) + ")");
+        record_substitution(n, "bsdf",
+                            "its component " + std::to_string(best + 1) + " of " + std::to_string(parts.size()) +
+                                " (weight " + fmt_weight(float(w[best])) + ")");
         m = scene_.materials[parts[best]];
     } else if (type == "roughdiffuse") {
         // Oren-Nayar: the nearest model is Lambertian with its reflectance.
@@ -325,8 +341,9 @@ int MitsubaLoader::bsdf(const XNode& n) {
             std::string name = material.value_or("none");
             auto c = conductor_ior(name);
             if (!c)
-                p.find({"material"})->fail("unknown conductor material '" + name +
-                                           "' (expected none, Au, Ag, Al, Cu, Cr, Fe, Ni, Pt, Ti or W)");
+                p.find({"material"})
+                    ->fail("unknown conductor material '" + name +
+                           "' (expected none, Au, Ag, Al, Cu, Cr, Fe, Ni, Pt, Ti or W)");
             m.eta = c->eta;
             m.k = c->k;
         }
@@ -348,9 +365,9 @@ int MitsubaLoader::bsdf(const XNode& n) {
         m.type = BsdfType::Principled;
         m.reflectance = reflectance(p, {"base_color", "baseColor"}, glm::vec3(0.5f));
         principled(p, m);
-    } else if (type == "measured" || type == "hair" || type == "pplastic" || type == "polarizer" || type == "retarder" ||
-               type == "circular" || type == "null" || type == "roughcoating" || type == "coating" ||
-               type == "difftrans" || type == "principledthin" || type == "ward" ||
+    } else if (type == "measured" || type == "hair" || type == "pplastic" || type == "polarizer" ||
+               type == "retarder" || type == "circular" || type == "null" || type == "roughcoating" ||
+               type == "coating" || type == "difftrans" || type == "principledthin" || type == "ward" ||
                type == "irawan" || type == "dipole" || type == "hk" || type == "sssbrdf") {
         require_substitute(n, "bsdf", "its nested bsdf, or diffuse 0.5");
         m.type = BsdfType::Diffuse;
@@ -360,9 +377,9 @@ int MitsubaLoader::bsdf(const XNode& n) {
                 m = scene_.materials[bsdf(o)];
                 break;
             }
-        record_substitution(n, "bsdf", m.type == BsdfType::Diffuse && p.objects().empty()
-                                          ? std::string("diffuse 0.5")
-                                          : std::string("its nested bsdf"));
+        record_substitution(n, "bsdf",
+                            m.type == BsdfType::Diffuse && p.objects().empty() ? std::string("diffuse 0.5")
+                                                                               : std::string("its nested bsdf"));
         for (const XNode& u : p.unused()) p.find({u.raw().attribute("name").as_string()});
     } else {
         unsupported(n, "bsdf",
@@ -447,9 +464,11 @@ int MitsubaLoader::texture(const XNode& n) {
         scene_.files.push_back(t.path);
         if (auto filter = p.opt_string({"filter_type", "filterType"})) {
             std::string f = text::lower(*filter);
-            if (f == "nearest") t.nearest = true;
+            if (f == "nearest")
+                t.nearest = true;
             else if (f != "bilinear" && f != "ewa" && f != "trilinear")
-                p.find({"filter_type", "filterType"})->fail("unknown filter_type '" + *filter + "' (expected bilinear or nearest)");
+                p.find({"filter_type", "filterType"})
+                    ->fail("unknown filter_type '" + *filter + "' (expected bilinear or nearest)");
         }
         if (auto wrap = p.opt_string({"wrap_mode", "wrapMode"}); wrap && text::lower(*wrap) != "repeat")
             warn(n, n.describe() + ": wrap_mode '" + *wrap + "' is not supported; the texture repeats");

@@ -64,9 +64,9 @@ private:
     [[noreturn]] void unsupported(const XNode& n, const std::string& kind, const std::string& extra = {}) const;
 
     // ---- materials (mitsuba_bsdf.cpp) ----
-    int bsdf(const XNode& n);            // <bsdf> or <ref>: index into scene_.materials
-    int bsdf_ref(const XNode& n);        // <ref id=...> to a bsdf
-    int texture(const XNode& n);         // <texture> or <ref>: index into scene_.textures
+    int bsdf(const XNode& n);      // <bsdf> or <ref>: index into scene_.materials
+    int bsdf_ref(const XNode& n);  // <ref id=...> to a bsdf
+    int texture(const XNode& n);   // <texture> or <ref>: index into scene_.textures
     // A colour-valued BSDF parameter: a constant, or a bitmap / checkerboard
     // texture (Spectrum3::value then holds the texture's mean).
     Spectrum3 reflectance(const XProps& p, std::initializer_list<const char*> names, glm::vec3 fallback);
@@ -74,7 +74,6 @@ private:
     int default_material();
     void register_id(const XNode& n, IdKind kind, int index);
     const IdEntry& lookup_ref(const XNode& n);  // <ref id=...>: its entry, or an error naming what exists
-
 
     std::string path_;
     LoadOptions options_;
@@ -113,7 +112,7 @@ private:
         int uses = 0;
     };
     std::vector<DeclaredEmitter> declared_emitters_;
-    std::vector<std::string> search_paths_;  // <path value=...>, Mitsuba's file resolver
+    std::vector<std::string> search_paths_;               // <path value=...>, Mitsuba's file resolver
     std::map<std::string, const XmlDocument*> included_;  // "file:line" of an <include> -> its document
 };
 

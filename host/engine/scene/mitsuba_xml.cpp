@@ -92,14 +92,34 @@ void MitsubaLoader::scene_element(const XmlDocument& doc, int depth, Pass pass) 
 [[noreturn]] void MitsubaLoader::unsupported(const XNode& n, const std::string& kind, const std::string& extra) const {
     const std::string type = n.raw().attribute("type").value();
     // Plugin names are case-sensitive; a capitalized known name gets a hint.
-    static const char* known[] = {"obj",         "ply",        "serialized",     "rectangle",   "cube",
-                                  "sphere",      "disk",       "cylinder",       "perspective", "thinlens",
-                                  "orthographic", "diffuse",   "plastic",        "roughplastic", "conductor",
-                                  "roughconductor", "dielectric", "roughdielectric", "thindielectric", "principled",
-                                  "twosided",    "area",       "bitmap",         "checkerboard"};
+    static const char* known[] = {"obj",
+                                  "ply",
+                                  "serialized",
+                                  "rectangle",
+                                  "cube",
+                                  "sphere",
+                                  "disk",
+                                  "cylinder",
+                                  "perspective",
+                                  "thinlens",
+                                  "orthographic",
+                                  "diffuse",
+                                  "plastic",
+                                  "roughplastic",
+                                  "conductor",
+                                  "roughconductor",
+                                  "dielectric",
+                                  "roughdielectric",
+                                  "thindielectric",
+                                  "principled",
+                                  "twosided",
+                                  "area",
+                                  "bitmap",
+                                  "checkerboard"};
     std::string hint;
     for (const char* k : known)
-        if (type != k && text::lower(type) == k) hint = " (plugin names are lowercase: did you mean '" + std::string(k) + "'?)";
+        if (type != k && text::lower(type) == k)
+            hint = " (plugin names are lowercase: did you mean '" + std::string(k) + "'?)";
     n.fail("unsupported " + kind + " plugin '" + type + "'" + extra + hint);
 }
 
@@ -111,7 +131,8 @@ void MitsubaLoader::warn_unused(const XProps& p) {
     std::vector<XNode> unused = p.unused();
     if (unused.empty()) return;
     std::string names;
-    for (const XNode& u : unused) names += std::string(names.empty() ? "'" : ", '") + u.raw().attribute("name").as_string() + "'";
+    for (const XNode& u : unused)
+        names += std::string(names.empty() ? "'" : ", '") + u.raw().attribute("name").as_string() + "'";
     warn(p.plugin(), p.plugin().describe() + ": " + (unused.size() == 1 ? "property " : "properties ") + names +
                          (unused.size() == 1 ? " is" : " are") + " not used by vkmech");
 }
@@ -119,14 +140,14 @@ void MitsubaLoader::warn_unused(const XProps& p) {
 void MitsubaLoader::require_substitute(const XNode& n, const std::string& kind, const std::string& replacement) const {
     if (!options_.substitute_unsupported)
         n.fail("unsupported " + kind + " plugin '" + n.raw().attribute("type").value() +
-               "' (outside vkmech's model, docs/descriptor.md §8; the --substitute option replaces it by " + replacement + ")");
+               "' (outside vkmech's model, docs/descriptor.md §8; the --substitute option replaces it by " +
+               replacement + ")");
 }
 
 void MitsubaLoader::record_substitution(const XNode& n, const std::string& kind, const std::string& replacement) {
     scene_.substitutions.push_back(n.file() + ":" + std::to_string(n.line()) + ": " + kind + " '" +
                                    n.raw().attribute("type").value() + "' replaced by " + replacement);
 }
-
 
 void MitsubaLoader::child_of_scene(const XNode& n, int depth, Pass pass) {
     const std::string t = n.tag();
@@ -141,7 +162,9 @@ void MitsubaLoader::child_of_scene(const XNode& n, int depth, Pass pass) {
         // the sensor: vkmech uses none of them (its sampler, box filter and
         // outputs are its own), so they are said and skipped.
         warn(n, "<" + t + " type=\"" + n.raw().attribute("type").value() + "\"> is not used" +
-                    (t == "sampler" ? " (set the samples with --spp)" : t == "rfilter" ? " (vkmech uses a box filter)" : ""));
+                    (t == "sampler"   ? " (set the samples with --spp)"
+                     : t == "rfilter" ? " (vkmech uses a box filter)"
+                                      : ""));
         register_id(n, IdKind::Ignored, -1);
     } else if (t == "bsdf") {
         bsdf(n);
@@ -169,7 +192,8 @@ void MitsubaLoader::child_of_scene(const XNode& n, int depth, Pass pass) {
         if (!inserted) n.fail("<alias as=\"" + as + "\">: the id '" + as + "' is already defined");
     } else if (t == "medium" || t == "phase" || t == "volume") {
         if (!options_.substitute_unsupported)
-            n.fail("unsupported <" + t + "> (participating media are outside vkmech's model; --substitute ignores "
+            n.fail("unsupported <" + t +
+                   "> (participating media are outside vkmech's model; --substitute ignores "
                    "them)");
         scene_.substitutions.push_back(n.file() + ":" + std::to_string(n.line()) + ": <" + t + "> ignored (no media)");
     } else {
@@ -206,7 +230,8 @@ void MitsubaLoader::include(const XNode& n, int depth, Pass pass) {
         if (std::find(include_stack_.begin(), include_stack_.end(), canon) != include_stack_.end())
             n.fail("include cycle: '" + path + "' includes itself");
         if (docs_.size() > kMaxIncludes)
-            n.fail("more than " + std::to_string(kMaxIncludes) + " includes in one scene (files that include "
+            n.fail("more than " + std::to_string(kMaxIncludes) +
+                   " includes in one scene (files that include "
                    "others many times over?)");
         docs_.push_back(std::make_unique<XmlDocument>(path, n.file(), n.line()));
         scene_.files.push_back(path);
@@ -247,9 +272,9 @@ void MitsubaLoader::shape(const XNode& n) {
                 mesh = type == "obj" ? load_obj(path, budget_.left()) : load_ply(path, budget_.left());
         } catch (const SceneError& e) {
             // Keep the mesh file's position; say which shape asked for it.
-            throw SceneError(e.file(), e.line(),
-                             e.reason() + " (mesh of " + n.describe() + " at " + n.file() + ":" +
-                                 std::to_string(n.line()) + ")");
+            throw SceneError(
+                e.file(), e.line(),
+                e.reason() + " (mesh of " + n.describe() + " at " + n.file() + ":" + std::to_string(n.line()) + ")");
         }
         bool face_normals = p.get_bool({"face_normals", "faceNormals"}, false);
         if (face_normals) mesh.normals.clear();
@@ -322,9 +347,12 @@ void MitsubaLoader::shape_bsdf_and_emitter(const XNode& n, const XProps& p, Mesh
         if (t == "ref") {
             // A reference names a bsdf or an area emitter declared at top level.
             const IdEntry& e = lookup_ref(o);
-            if (e.kind == IdKind::Bsdf) set_material(o, e.index);
-            else if (e.kind == IdKind::Emitter) use_declared_emitter(o, e.index);
-            else o.fail("'" + o.required("id") + "' is a texture; a shape takes a bsdf or an emitter");
+            if (e.kind == IdKind::Bsdf)
+                set_material(o, e.index);
+            else if (e.kind == IdKind::Emitter)
+                use_declared_emitter(o, e.index);
+            else
+                o.fail("'" + o.required("id") + "' is a texture; a shape takes a bsdf or an emitter");
         } else if (t == "bsdf") {
             set_material(o, bsdf(o));
         } else if (t == "emitter") {
@@ -333,8 +361,9 @@ void MitsubaLoader::shape_bsdf_and_emitter(const XNode& n, const XProps& p, Mesh
             set_emitter(o, area_emitter(o, mesh_index));
         } else if (t == "medium") {
             if (!options_.substitute_unsupported)
-                o.fail("unsupported <medium> (participating media are outside vkmech's model; --substitute ignores "
-                       "them)");
+                o.fail(
+                    "unsupported <medium> (participating media are outside vkmech's model; --substitute ignores "
+                    "them)");
             scene_.substitutions.push_back(o.file() + ":" + std::to_string(o.line()) + ": <medium> of " + n.describe() +
                                            " ignored (no media)");
         } else {
@@ -353,8 +382,8 @@ void MitsubaLoader::shape_bsdf_and_emitter(const XNode& n, const XProps& p, Mesh
             if (!options_.substitute_unsupported)
                 r->fail(std::string("unsupported ") + medium +
                         " medium (participating media are outside vkmech's model; --substitute ignores them)");
-            scene_.substitutions.push_back(r->file() + ":" + std::to_string(r->line()) + ": " + medium +
-                                           " medium of " + n.describe() + " ignored (no media)");
+            scene_.substitutions.push_back(r->file() + ":" + std::to_string(r->line()) + ": " + medium + " medium of " +
+                                           n.describe() + " ignored (no media)");
         }
     // Mitsuba gives a shape without a bsdf a diffuse 0.5 one.
     mesh.material = material >= 0 ? material : default_material();
@@ -383,7 +412,8 @@ void MitsubaLoader::emitter_top(const XNode& n) {
         if (!n.attr("id"))
             n.fail("an 'area' emitter outside a <shape> needs an id, and shapes use it with <ref id=\"...\"/>");
         glm::vec3 radiance = p.get_color({"radiance"}, glm::vec3(1.0f));
-        if (radiance.x < 0.0f || radiance.y < 0.0f || radiance.z < 0.0f) n.fail("negative radiance " + fmt_vec(radiance));
+        if (radiance.x < 0.0f || radiance.y < 0.0f || radiance.z < 0.0f)
+            n.fail("negative radiance " + fmt_vec(radiance));
         warn_unused(p);
         declared_emitters_.push_back({radiance, 0});
         register_id(n, IdKind::Emitter, static_cast<int>(declared_emitters_.size()) - 1);
@@ -437,7 +467,8 @@ void MitsubaLoader::emitter_top(const XNode& n) {
         return;
     }
     unsupported(n, "emitter",
-                " (docs/descriptor.md §1: area emitters; envmap, constant, point, spot and directional only with --substitute)");
+                " (docs/descriptor.md §1: area emitters; envmap, constant, point, spot and directional only with "
+                "--substitute)");
 }
 
 glm::vec3 MitsubaLoader::envmap_mean_radiance(const XNode& n, const XProps& p) {
@@ -480,8 +511,9 @@ void MitsubaLoader::sensor(const XNode& n) {
         return;
     }
     Camera cam;
-    cam.type = type == "thinlens" ? CameraType::ThinLens : type == "orthographic" ? CameraType::Orthographic
-                                                                                  : CameraType::Perspective;
+    cam.type = type == "thinlens"       ? CameraType::ThinLens
+               : type == "orthographic" ? CameraType::Orthographic
+                                        : CameraType::Perspective;
     cam.to_world = p.get_transform({"to_world", "toWorld"});
     if (cam.type == CameraType::Orthographic) {
         // The scale of to_world sizes the orthographic view (Mitsuba).
@@ -512,7 +544,8 @@ void MitsubaLoader::sensor(const XNode& n) {
         if (fv.size() > 2 && fv.substr(fv.size() - 2) == "mm") fv.remove_suffix(2);
         double mm = n.number(fv, "focal_length");
         if (!(mm > 0.0)) n.fail(n.describe() + ": focal_length must be positive");
-        cam.fov_deg = static_cast<float>(2.0 * glm::degrees(std::atan(std::sqrt(36.0 * 36.0 + 24.0 * 24.0) / (2.0 * mm))));
+        cam.fov_deg =
+            static_cast<float>(2.0 * glm::degrees(std::atan(std::sqrt(36.0 * 36.0 + 24.0 * 24.0) / (2.0 * mm))));
         cam.fov_axis = "diagonal";
     }
     cam.near_clip = p.get_float({"near_clip", "nearClip"}, 0.01f);
@@ -550,8 +583,8 @@ void MitsubaLoader::sensor(const XNode& n) {
             // A typo like width="256000" must not become a multi-gigabyte framebuffer.
             constexpr int kMaxFilmSide = 1 << 15;
             if (cam.width > kMaxFilmSide || cam.height > kMaxFilmSide)
-                o.fail("the film size " + std::to_string(cam.width) + " x " + std::to_string(cam.height) +
-                       " exceeds " + std::to_string(kMaxFilmSide) + " per side");
+                o.fail("the film size " + std::to_string(cam.width) + " x " + std::to_string(cam.height) + " exceeds " +
+                       std::to_string(kMaxFilmSide) + " per side");
             warn_unused(fp);
         } else if (o.tag() == "sampler") {
             // Sampling is the renderer's (docs/descriptor.md §4): say what was not used.
@@ -595,8 +628,9 @@ void MitsubaLoader::integrator(const XNode& n) {
         XProps p(node);
         const std::string type = node.required("type");
         if (type != "path" && type != "volpath" && type != "volpathmis")
-            warn(node, "integrator '" + type + "' is not what vkmech renders: it renders its own unidirectional path "
-                       "tracer (--estimator), reading only max_depth and rr_depth from the scene");
+            warn(node, "integrator '" + type +
+                           "' is not what vkmech renders: it renders its own unidirectional path "
+                           "tracer (--estimator), reading only max_depth and rr_depth from the scene");
         if (!max_depth) {
             max_depth = p.opt_int({"max_depth", "maxDepth"});
             if (max_depth && *max_depth < -1) node.fail("max_depth must be -1 (unlimited) or >= 0");
@@ -606,8 +640,10 @@ void MitsubaLoader::integrator(const XNode& n) {
             if (rr_depth && *rr_depth < 0) node.fail("rr_depth must be >= 0");
         }
         for (const XNode& o : p.objects())
-            if (o.tag() == "integrator") self(self, o);
-            else warn(o, "<" + o.tag() + "> inside " + node.describe() + " is not used");
+            if (o.tag() == "integrator")
+                self(self, o);
+            else
+                warn(o, "<" + o.tag() + "> inside " + node.describe() + " is not used");
         warn_unused(p);
     };
     read(read, n);
@@ -654,8 +690,8 @@ void MitsubaLoader::add_substituted_directional_lights() {
         mesh.emitter = static_cast<int>(scene_.emitters.size());
         scene_.emitters.push_back({radiance, static_cast<int>(scene_.meshes.size())});
         scene_.meshes.push_back(std::move(mesh));
-        scene_.substitutions.push_back(l.what + " replaced by a distant square emitter (side " + fmt_num(diag) +
-                                       ", " + fmt_num(dist) + " away, radiance " + fmt_vec(radiance) +
+        scene_.substitutions.push_back(l.what + " replaced by a distant square emitter (side " + fmt_num(diag) + ", " +
+                                       fmt_num(dist) + " away, radiance " + fmt_vec(radiance) +
                                        ") giving the same irradiance");
     }
 }
@@ -697,8 +733,7 @@ void MitsubaLoader::add_substituted_panels() {
         scene_.meshes.push_back(std::move(mesh));
         std::ostringstream s;
         s << panels_[i].what << " replaced by an overhead area panel of the environment's mean radiance x scale ("
-          << 2 * hb << " x " << 2 * hv
-          << ", centre " << fmt_vec(pos) << ", facing " << fmt_vec(n) << ", radiance "
+          << 2 * hb << " x " << 2 * hv << ", centre " << fmt_vec(pos) << ", facing " << fmt_vec(n) << ", radiance "
           << fmt_vec(panels_[i].radiance) << ")";
         scene_.substitutions.push_back(s.str());
     }
@@ -725,8 +760,9 @@ void MitsubaLoader::add_substituted_point_lights() {
         mesh.emitter = static_cast<int>(scene_.emitters.size());
         scene_.emitters.push_back({radiance, static_cast<int>(scene_.meshes.size())});
         scene_.meshes.push_back(std::move(mesh));
-        scene_.substitutions.push_back(l.what + " replaced by a sphere emitter of the same power, radius " + fmt_num(radius) + ", at " +
-                                       fmt_vec(l.position) + " with radiance " + fmt_vec(radiance));
+        scene_.substitutions.push_back(l.what + " replaced by a sphere emitter of the same power, radius " +
+                                       fmt_num(radius) + ", at " + fmt_vec(l.position) + " with radiance " +
+                                       fmt_vec(radiance));
     }
 }
 

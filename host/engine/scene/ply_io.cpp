@@ -31,10 +31,18 @@ std::optional<Type> type_from_name(std::string_view s) {
 
 size_t type_size(Type t) {
     switch (t) {
-        case Type::I8: case Type::U8: return 1;
-        case Type::I16: case Type::U16: return 2;
-        case Type::I32: case Type::U32: case Type::F32: return 4;
-        case Type::F64: return 8;
+        case Type::I8:
+        case Type::U8:
+            return 1;
+        case Type::I16:
+        case Type::U16:
+            return 2;
+        case Type::I32:
+        case Type::U32:
+        case Type::F32:
+            return 4;
+        case Type::F64:
+            return 8;
     }
     return 1;
 }
@@ -66,9 +74,12 @@ public:
         parse_header();
         for (const Element& e : elements_) {
             check_count(e);
-            if (e.name == "vertex") read_vertices(e);
-            else if (e.name == "face") read_faces(e);
-            else skip_element(e);
+            if (e.name == "vertex")
+                read_vertices(e);
+            else if (e.name == "face")
+                read_faces(e);
+            else
+                skip_element(e);
         }
         return build();
     }
@@ -97,10 +108,14 @@ private:
             if (tok[0] == "comment" || tok[0] == "obj_info") continue;
             if (tok[0] == "format") {
                 if (tok.size() < 2) fail(line_, "'format' needs a value");
-                if (tok[1] == "ascii") format_ = Format::Ascii;
-                else if (tok[1] == "binary_little_endian") format_ = Format::BinaryLE;
-                else if (tok[1] == "binary_big_endian") format_ = Format::BinaryBE;
-                else fail(line_, "unsupported PLY format '" + std::string(tok[1]) + "'");
+                if (tok[1] == "ascii")
+                    format_ = Format::Ascii;
+                else if (tok[1] == "binary_little_endian")
+                    format_ = Format::BinaryLE;
+                else if (tok[1] == "binary_big_endian")
+                    format_ = Format::BinaryBE;
+                else
+                    fail(line_, "unsupported PLY format '" + std::string(tok[1]) + "'");
                 have_format = true;
             } else if (tok[0] == "element") {
                 auto n = tok.size() == 3 ? text::to_int(tok[2]) : std::nullopt;
@@ -177,14 +192,43 @@ private:
         if (file_le != (std::endian::native == std::endian::little))
             for (size_t i = 0; i < n / 2; ++i) std::swap(b[i], b[n - 1 - i]);
         switch (t) {
-            case Type::I8: { int8_t v; std::memcpy(&v, b, 1); return v; }
-            case Type::U8: return b[0];
-            case Type::I16: { int16_t v; std::memcpy(&v, b, 2); return v; }
-            case Type::U16: { uint16_t v; std::memcpy(&v, b, 2); return v; }
-            case Type::I32: { int32_t v; std::memcpy(&v, b, 4); return v; }
-            case Type::U32: { uint32_t v; std::memcpy(&v, b, 4); return v; }
-            case Type::F32: { float v; std::memcpy(&v, b, 4); return v; }
-            case Type::F64: { double v; std::memcpy(&v, b, 8); return v; }
+            case Type::I8: {
+                int8_t v;
+                std::memcpy(&v, b, 1);
+                return v;
+            }
+            case Type::U8:
+                return b[0];
+            case Type::I16: {
+                int16_t v;
+                std::memcpy(&v, b, 2);
+                return v;
+            }
+            case Type::U16: {
+                uint16_t v;
+                std::memcpy(&v, b, 2);
+                return v;
+            }
+            case Type::I32: {
+                int32_t v;
+                std::memcpy(&v, b, 4);
+                return v;
+            }
+            case Type::U32: {
+                uint32_t v;
+                std::memcpy(&v, b, 4);
+                return v;
+            }
+            case Type::F32: {
+                float v;
+                std::memcpy(&v, b, 4);
+                return v;
+            }
+            case Type::F64: {
+                double v;
+                std::memcpy(&v, b, 8);
+                return v;
+            }
         }
         return 0.0;
     }
@@ -203,8 +247,7 @@ private:
         std::string why;
         auto v = text::to_finite_float(tok, why);
         if (!v) fail(line_, why);
-        if (is_integer(t) && *v != std::floor(*v))
-            fail(line_, "expected an integer, got '" + std::string(tok) + "'");
+        if (is_integer(t) && *v != std::floor(*v)) fail(line_, "expected an integer, got '" + std::string(tok) + "'");
         return *v;
     }
 
@@ -257,7 +300,8 @@ private:
             if (has_normals_) normals_.push_back(glm::vec3(vals[nx], vals[ny], vals[nz]));
             if (has_uvs_) uvs_.push_back(glm::vec2(vals[u], vals[v]));
             if (has_uvs_ && !(std::isfinite(uvs_.back().x) && std::isfinite(uvs_.back().y)))
-                fail(format_ == Format::Ascii ? line_ : 0, "non-finite texture coordinate of vertex " + std::to_string(i));
+                fail(format_ == Format::Ascii ? line_ : 0,
+                     "non-finite texture coordinate of vertex " + std::to_string(i));
         }
     }
 

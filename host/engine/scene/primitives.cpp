@@ -141,8 +141,8 @@ Mesh make_disk(const glm::mat4& to_world, bool flip_normals, int segments) {
     return finish(std::move(m), to_world, flip_normals);
 }
 
-Mesh make_cylinder(const glm::vec3& p0, const glm::vec3& p1, float radius, const glm::mat4& to_world,
-                   bool flip_normals, int segments) {
+Mesh make_cylinder(const glm::vec3& p0, const glm::vec3& p1, float radius, const glm::mat4& to_world, bool flip_normals,
+                   int segments) {
     const int ns = segments < 3 ? 3 : segments;
     Mesh m;
     m.kind = ShapeKind::Cylinder;

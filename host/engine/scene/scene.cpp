@@ -15,27 +15,42 @@ namespace vkmech {
 
 const char* to_string(BsdfType t) {
     switch (t) {
-        case BsdfType::Diffuse: return "diffuse";
-        case BsdfType::Plastic: return "plastic";
-        case BsdfType::RoughPlastic: return "roughplastic";
-        case BsdfType::Conductor: return "conductor";
-        case BsdfType::RoughConductor: return "roughconductor";
-        case BsdfType::Dielectric: return "dielectric";
-        case BsdfType::RoughDielectric: return "roughdielectric";
-        case BsdfType::ThinDielectric: return "thindielectric";
-        case BsdfType::Principled: return "principled";
+        case BsdfType::Diffuse:
+            return "diffuse";
+        case BsdfType::Plastic:
+            return "plastic";
+        case BsdfType::RoughPlastic:
+            return "roughplastic";
+        case BsdfType::Conductor:
+            return "conductor";
+        case BsdfType::RoughConductor:
+            return "roughconductor";
+        case BsdfType::Dielectric:
+            return "dielectric";
+        case BsdfType::RoughDielectric:
+            return "roughdielectric";
+        case BsdfType::ThinDielectric:
+            return "thindielectric";
+        case BsdfType::Principled:
+            return "principled";
     }
     return "unknown";
 }
 
 const char* to_string(ShapeKind k) {
     switch (k) {
-        case ShapeKind::Mesh: return "mesh";
-        case ShapeKind::Rectangle: return "rectangle";
-        case ShapeKind::Cube: return "cube";
-        case ShapeKind::Sphere: return "sphere";
-        case ShapeKind::Disk: return "disk";
-        case ShapeKind::Cylinder: return "cylinder";
+        case ShapeKind::Mesh:
+            return "mesh";
+        case ShapeKind::Rectangle:
+            return "rectangle";
+        case ShapeKind::Cube:
+            return "cube";
+        case ShapeKind::Sphere:
+            return "sphere";
+        case ShapeKind::Disk:
+            return "disk";
+        case ShapeKind::Cylinder:
+            return "cylinder";
     }
     return "unknown";
 }
@@ -86,7 +101,8 @@ Scene load_by_extension(const std::string& path, const LoadOptions& options) {
     std::string ext = text::lower(std::filesystem::path(path).extension().string());
     if (ext == ".xml") return load_mitsuba_xml(path, options);
     if (ext == ".gltf" || ext == ".glb") return load_gltf(path, options);
-    throw SceneError(path, 0, "unsupported scene format '" + ext + "' (expected .xml (Mitsuba), .gltf or .glb (glTF 2.0))");
+    throw SceneError(path, 0,
+                     "unsupported scene format '" + ext + "' (expected .xml (Mitsuba), .gltf or .glb (glTF 2.0))");
 }
 
 }  // namespace
@@ -96,9 +112,10 @@ Scene load_scene(const std::string& path, const LoadOptions& options) {
     try {
         scene = load_by_extension(path, options);
     } catch (const std::bad_alloc&) {
-        throw SceneError(path, 0, "out of memory while loading the scene (lower --max-triangles, now " +
-                                      std::to_string(max_triangles(options, path)) +
-                                      " triangles, or free memory; a corrupt count in a mesh or image?)");
+        throw SceneError(path, 0,
+                         "out of memory while loading the scene (lower --max-triangles, now " +
+                             std::to_string(max_triangles(options, path)) +
+                             " triangles, or free memory; a corrupt count in a mesh or image?)");
     } catch (const std::length_error&) {
         throw SceneError(path, 0, "a size in the scene is too large to hold in memory (a corrupt count?)");
     }

@@ -160,7 +160,7 @@ struct Camera {
     float far_clip = 10000.0f;
     float aperture_radius = 0.0f;  // thinlens only
     float focus_distance = 0.0f;   // thinlens only
-    int width = 256;                // docs/descriptor.md §1 default film
+    int width = 256;               // docs/descriptor.md §1 default film
     int height = 256;
 
     // Resizes the film to `w` pixels wide, keeping the aspect ratio (--res).

@@ -62,8 +62,8 @@ public:
                 if (r == Z_STREAM_END && zs_.avail_out > 0)
                     fail(std::string("the compressed data ends before the ") + what);
                 if (r == Z_DATA_ERROR || r == Z_NEED_DICT)
-                    fail(std::string("corrupt compressed data in the ") + what + " (zlib: " +
-                         (zs_.msg ? zs_.msg : "invalid data") + ")");
+                    fail(std::string("corrupt compressed data in the ") + what +
+                         " (zlib: " + (zs_.msg ? zs_.msg : "invalid data") + ")");
                 if (r == Z_MEM_ERROR) fail("zlib ran out of memory");
                 if (r == Z_BUF_ERROR && zs_.avail_in == 0 && rest_in_ == 0)
                     fail(std::string("truncated compressed data: it stops inside the ") + what);
@@ -128,7 +128,6 @@ std::string hex(uint64_t v) {
     return h.str();
 }
 
-
 }  // namespace
 
 Mesh load_serialized(const std::string& path, int shape_index, size_t max_triangles) {
@@ -152,8 +151,9 @@ Mesh load_serialized(const std::string& path, int shape_index, size_t max_triang
              " meshes, more than the file can hold (truncated or not a serialized file?)");
     const uint64_t dict_start = size - 4 - count * entry;
     if (shape_index < 0 || static_cast<uint64_t>(shape_index) >= count)
-        fail("shape_index " + std::to_string(shape_index) + " is out of range: the file holds " + std::to_string(count) +
-             (count == 1 ? " mesh" : " meshes") + " (shape_index 0 to " + std::to_string(count - 1) + ")");
+        fail("shape_index " + std::to_string(shape_index) + " is out of range: the file holds " +
+             std::to_string(count) + (count == 1 ? " mesh" : " meshes") + " (shape_index 0 to " +
+             std::to_string(count - 1) + ")");
     auto offset = [&](uint64_t i) { return read_le(data, dict_start + i * entry, static_cast<int>(entry)); };
     const uint64_t start = offset(shape_index);
     // The mesh's compressed bytes end where the next mesh (or the dictionary) starts.
@@ -198,11 +198,13 @@ Mesh load_serialized(const std::string& path, int shape_index, size_t max_triang
         if (vertices == 0) zfail("the mesh has no vertices");
         if (triangles == 0) zfail("the mesh has no faces");
         if (vertices > 0xFFFFFFFFull)
-            zfail(std::to_string(vertices) + " vertices: more than 32-bit indices can address (and than this file holds)");
-        if (triangles > (1ull << 31)) zfail(std::to_string(triangles) + " triangles: more than this loader accepts (2^31)");
+            zfail(std::to_string(vertices) +
+                  " vertices: more than 32-bit indices can address (and than this file holds)");
+        if (triangles > (1ull << 31))
+            zfail(std::to_string(triangles) + " triangles: more than this loader accepts (2^31)");
         if (triangles > max_triangles) zfail(triangle_limit_message(max_triangles, "the mesh"));
-        const uint64_t per_vertex = 3 + ((flags & kHasNormals) ? 3 : 0) + ((flags & kHasUvs) ? 2 : 0) +
-                                    ((flags & kHasColors) ? 3 : 0);
+        const uint64_t per_vertex =
+            3 + ((flags & kHasNormals) ? 3 : 0) + ((flags & kHasUvs) ? 2 : 0) + ((flags & kHasColors) ? 3 : 0);
         const uint64_t expected = vertices * per_vertex * real + triangles * 3 * 4;
         if (expected > compressed * kMaxInflateRatio + 1024)
             zfail(std::to_string(vertices) + " vertices and " + std::to_string(triangles) + " triangles need " +

@@ -31,10 +31,14 @@ std::optional<double> to_double(std::string_view s) {
 std::optional<double> to_finite_float(std::string_view s, std::string& why) {
     const std::string tok(trim(s));
     auto v = to_double(tok);
-    if (!v) why = "cannot parse '" + tok + "' as a number";
-    else if (!std::isfinite(*v)) why = "non-finite number '" + tok + "'";
-    else if (!std::isfinite(static_cast<float>(*v))) why = "value " + tok + " overflows a 32-bit float";
-    else return v;
+    if (!v)
+        why = "cannot parse '" + tok + "' as a number";
+    else if (!std::isfinite(*v))
+        why = "non-finite number '" + tok + "'";
+    else if (!std::isfinite(static_cast<float>(*v)))
+        why = "value " + tok + " overflows a 32-bit float";
+    else
+        return v;
     return std::nullopt;
 }
 

@@ -23,7 +23,8 @@ std::string triangle_limit_message(size_t limit, const std::string& what) {
 }
 
 void TriangleBudget::charge(size_t n, const std::string& file, int line, const std::string& what) {
-    if (n > left()) throw SceneError(file, line, triangle_limit_message(limit_, what + " (" + std::to_string(n) + " triangles)"));
+    if (n > left())
+        throw SceneError(file, line, triangle_limit_message(limit_, what + " (" + std::to_string(n) + " triangles)"));
     used_ += n;
 }
 

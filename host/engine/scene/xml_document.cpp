@@ -39,7 +39,8 @@ void XmlDocument::check_nesting() const {
         if (depth > kMaxNesting)
             throw SceneError(path_, line_of(n),
                              "nesting deeper than " + std::to_string(kMaxNesting) + " elements at line " +
-                                 std::to_string(line_of(n)) + " (a scene needs far fewer; a corrupt or generated file?)");
+                                 std::to_string(line_of(n)) +
+                                 " (a scene needs far fewer; a corrupt or generated file?)");
         if (pugi::xml_node c = n.first_child()) {
             n = c;
             ++depth;

@@ -77,7 +77,8 @@ std::string XNode::substitute(std::string_view raw) const {
         while (j < raw.size() && is_ident_char(raw[j])) ++j;
         std::string name(raw.substr(i + 1, j - i - 1));
         const std::string* v = params_->find(name);
-        if (!v) fail("unbound parameter '$" + name + "' (no <default name=\"" + name + "\"> and no -D " + name + "=...)");
+        if (!v)
+            fail("unbound parameter '$" + name + "' (no <default name=\"" + name + "\"> and no -D " + name + "=...)");
         out += *v;
         i = j - 1;
     }
@@ -155,7 +156,8 @@ glm::vec3 XNode::as_color() const {
         };
         glm::dvec3 rgb(planck(650.0), planck(550.0), planck(450.0));
         double lum = gpu::LUM_R * rgb.x + gpu::LUM_G * rgb.y + gpu::LUM_B * rgb.z;
-        if (!(lum > 0.0) || !std::isfinite(lum)) fail("<blackbody> temperature " + required("temperature") + " K gives no visible light");
+        if (!(lum > 0.0) || !std::isfinite(lum))
+            fail("<blackbody> temperature " + required("temperature") + " K gives no visible light");
         return glm::vec3(rgb / lum * scale);
     }
     if (t == "spectrum" && attr("filename")) fail("<spectrum filename=...> is not supported (give an <rgb> value)");
@@ -181,7 +183,8 @@ glm::vec3 XNode::as_color() const {
         for (auto tok : text::split_list(sv)) {
             size_t colon = tok.find(':');
             if (colon == std::string_view::npos) fail("cannot parse spectrum entry '" + std::string(tok) + "'");
-            pts.push_back({number(tok.substr(0, colon), "wavelength"), number(tok.substr(colon + 1), "spectrum value")});
+            pts.push_back(
+                {number(tok.substr(0, colon), "wavelength"), number(tok.substr(colon + 1), "spectrum value")});
         }
         std::sort(pts.begin(), pts.end());
         auto at = [&](double l) {
@@ -198,11 +201,13 @@ glm::vec3 XNode::as_color() const {
     }
     std::vector<double> n = numbers(v, describe());
     glm::vec3 c;
-    if (n.size() == 1) c = glm::vec3(static_cast<float>(n[0]));
+    if (n.size() == 1)
+        c = glm::vec3(static_cast<float>(n[0]));
     else if (n.size() == 3 && t != "spectrum" && t != "float" && t != "integer")
         c = glm::vec3(n[0], n[1], n[2]);
-    else fail(describe() + (t == "rgb" || t == "srgb" ? " needs 1 or 3 values" : " needs 1 value") + ", got " +
-              std::to_string(n.size()));
+    else
+        fail(describe() + (t == "rgb" || t == "srgb" ? " needs 1 or 3 values" : " needs 1 value") + ", got " +
+             std::to_string(n.size()));
     if (t == "srgb") c = glm::vec3(srgb_to_linear(c.x), srgb_to_linear(c.y), srgb_to_linear(c.z));
     return c;
 }
@@ -262,7 +267,8 @@ glm::mat4 XNode::transform_step(const XNode& op) const {
             auto a = required ? std::optional<std::string>(op.required(name)) : op.attr(name);
             if (!a) return std::nullopt;
             auto n = op.numbers(*a, std::string("<lookat ") + name + ">");
-            if (n.size() != 3) op.fail(std::string("<lookat> '") + name + "' needs 3 values, got " + std::to_string(n.size()));
+            if (n.size() != 3)
+                op.fail(std::string("<lookat> '") + name + "' needs 3 values, got " + std::to_string(n.size()));
             return glm::vec3(n[0], n[1], n[2]);
         };
         glm::vec3 origin = *vec("origin", true), target = *vec("target", true);
@@ -305,11 +311,11 @@ glm::mat4 XNode::as_transform() const {
 // ---- XProps ----
 
 XProps::XProps(const XNode& plugin) : plugin_(plugin) {
-    static const std::set<std::string> value_tags = {"float", "integer", "boolean", "string", "rgb", "srgb",
-                                                     "spectrum", "blackbody", "point", "vector", "transform"};
-    static const std::set<std::string> object_tags = {"bsdf", "emitter", "shape", "film", "sampler",
+    static const std::set<std::string> value_tags = {"float",    "integer",   "boolean", "string", "rgb",      "srgb",
+                                                     "spectrum", "blackbody", "point",   "vector", "transform"};
+    static const std::set<std::string> object_tags = {"bsdf",    "emitter",    "shape",  "film",   "sampler",
                                                       "rfilter", "integrator", "sensor", "medium", "phase",
-                                                      "volume", "texture", "ref"};
+                                                      "volume",  "texture",    "ref"};
     for (const XNode& c : plugin.children()) {
         const std::string t = c.tag();
         bool named_object = (t == "texture" || t == "ref") && c.raw().attribute("name");
@@ -317,7 +323,8 @@ XProps::XProps(const XNode& plugin) : plugin_(plugin) {
             std::string name = c.required("name");
             auto [it, inserted] = props_.try_emplace(name, c);
             if (!inserted)
-                c.fail("duplicate property '" + name + "' (first given at line " + std::to_string(it->second.line()) + ")");
+                c.fail("duplicate property '" + name + "' (first given at line " + std::to_string(it->second.line()) +
+                       ")");
         } else if (object_tags.count(t)) {
             objects_.push_back(c);
         } else {

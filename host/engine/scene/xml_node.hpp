@@ -65,13 +65,13 @@ public:
     std::vector<double> numbers(std::string_view s, std::string_view what) const;
 
     // Value elements (the element is this node):
-    float as_float() const;         // <float>, <integer>
-    int as_int() const;             // <integer>
-    bool as_bool() const;           // <boolean>
-    std::string as_string() const;  // <string>
-    glm::vec3 as_color() const;     // <rgb>, <srgb>, <spectrum>, <float>, <integer>
-    glm::vec3 as_vector() const;    // <point>, <vector>: x/y/z or value="x y z"
-    glm::mat4 as_transform() const; // <transform>: children applied in order
+    float as_float() const;          // <float>, <integer>
+    int as_int() const;              // <integer>
+    bool as_bool() const;            // <boolean>
+    std::string as_string() const;   // <string>
+    glm::vec3 as_color() const;      // <rgb>, <srgb>, <spectrum>, <float>, <integer>
+    glm::vec3 as_vector() const;     // <point>, <vector>: x/y/z or value="x y z"
+    glm::mat4 as_transform() const;  // <transform>: children applied in order
 
     // "<tag type="t">" for messages.
     std::string describe() const;

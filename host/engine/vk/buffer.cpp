@@ -6,10 +6,14 @@ namespace vkmech::vk {
 
 std::string byte_size_text(uint64_t b) {
     char buf[32];
-    if (b >= (1ull << 30)) std::snprintf(buf, sizeof buf, "%.1f GiB", static_cast<double>(b) / (1ull << 30));
-    else if (b >= (1ull << 20)) std::snprintf(buf, sizeof buf, "%.1f MiB", static_cast<double>(b) / (1ull << 20));
-    else if (b >= (1ull << 10)) std::snprintf(buf, sizeof buf, "%.1f KiB", static_cast<double>(b) / (1ull << 10));
-    else std::snprintf(buf, sizeof buf, "%llu B", static_cast<unsigned long long>(b));
+    if (b >= (1ull << 30))
+        std::snprintf(buf, sizeof buf, "%.1f GiB", static_cast<double>(b) / (1ull << 30));
+    else if (b >= (1ull << 20))
+        std::snprintf(buf, sizeof buf, "%.1f MiB", static_cast<double>(b) / (1ull << 20));
+    else if (b >= (1ull << 10))
+        std::snprintf(buf, sizeof buf, "%.1f KiB", static_cast<double>(b) / (1ull << 10));
+    else
+        std::snprintf(buf, sizeof buf, "%llu B", static_cast<unsigned long long>(b));
     return buf;
 }
 
@@ -27,7 +31,8 @@ Buffer::Buffer(const Context& ctx, ::vk::DeviceSize size, ::vk::BufferUsageFlags
 
 void Buffer::allocate(const Context& ctx, ::vk::BufferUsageFlags usage, MemoryUse use) {
     const ::vk::DeviceSize size = size_;
-    if (use == MemoryUse::Device) usage |= ::vk::BufferUsageFlagBits::eTransferDst | ::vk::BufferUsageFlagBits::eTransferSrc;
+    if (use == MemoryUse::Device)
+        usage |= ::vk::BufferUsageFlagBits::eTransferDst | ::vk::BufferUsageFlagBits::eTransferSrc;
     buffer_ = std::make_unique<::vk::raii::Buffer>(ctx.device(), ::vk::BufferCreateInfo{.size = size, .usage = usage});
     auto req = buffer_->getMemoryRequirements();
     using MP = ::vk::MemoryPropertyFlagBits;
@@ -49,7 +54,8 @@ void Buffer::allocate(const Context& ctx, ::vk::BufferUsageFlags usage, MemoryUs
     bool wants_address = static_cast<bool>(usage & ::vk::BufferUsageFlagBits::eShaderDeviceAddress);
     ::vk::MemoryDedicatedAllocateInfo dedicated{.pNext = wants_address ? &flags_info : nullptr, .buffer = **buffer_};
     memory_ = std::make_unique<::vk::raii::DeviceMemory>(
-        ctx.device(), ::vk::MemoryAllocateInfo{.pNext = &dedicated, .allocationSize = req.size, .memoryTypeIndex = type});
+        ctx.device(),
+        ::vk::MemoryAllocateInfo{.pNext = &dedicated, .allocationSize = req.size, .memoryTypeIndex = type});
     buffer_->bindMemory(**memory_, 0);
     if (flags & MP::eHostVisible) {
         mapped_ = memory_->mapMemory(0, VK_WHOLE_SIZE);
@@ -74,7 +80,8 @@ void Buffer::upload(const Context& ctx, const void* data, ::vk::DeviceSize bytes
     Buffer staging(ctx, bytes, ::vk::BufferUsageFlagBits::eTransferSrc, MemoryUse::Upload);
     staging.upload(ctx, data, bytes);
     ctx.submit_and_wait([&](::vk::CommandBuffer cmd) {
-        cmd.copyBuffer(staging.handle(), handle(), ::vk::BufferCopy{.srcOffset = 0, .dstOffset = offset, .size = bytes});
+        cmd.copyBuffer(staging.handle(), handle(),
+                       ::vk::BufferCopy{.srcOffset = 0, .dstOffset = offset, .size = bytes});
     });
 }
 
@@ -90,7 +97,8 @@ void Buffer::download(const Context& ctx, void* data, ::vk::DeviceSize bytes, ::
     }
     Buffer staging(ctx, bytes, ::vk::BufferUsageFlagBits::eTransferDst, MemoryUse::Readback);
     ctx.submit_and_wait([&](::vk::CommandBuffer cmd) {
-        cmd.copyBuffer(handle(), staging.handle(), ::vk::BufferCopy{.srcOffset = offset, .dstOffset = 0, .size = bytes});
+        cmd.copyBuffer(handle(), staging.handle(),
+                       ::vk::BufferCopy{.srcOffset = offset, .dstOffset = 0, .size = bytes});
     });
     staging.download(ctx, data, bytes);
 }

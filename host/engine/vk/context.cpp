@@ -17,9 +17,12 @@ void check(VkResult r, const char* call) { check(static_cast<::vk::Result>(r), c
 
 const char* to_string(KernelClass k) {
     switch (k) {
-        case KernelClass::Cpu: return "cpu";
-        case KernelClass::Gpu: return "gpu";
-        default: return "auto";
+        case KernelClass::Cpu:
+            return "cpu";
+        case KernelClass::Gpu:
+            return "gpu";
+        default:
+            return "auto";
     }
 }
 
@@ -40,21 +43,31 @@ constexpr const char* kValidationLayer = "VK_LAYER_KHRONOS_validation";
 
 const char* device_type_name(::vk::PhysicalDeviceType t) {
     switch (t) {
-        case ::vk::PhysicalDeviceType::eDiscreteGpu: return "discrete";
-        case ::vk::PhysicalDeviceType::eIntegratedGpu: return "integrated";
-        case ::vk::PhysicalDeviceType::eVirtualGpu: return "virtual";
-        case ::vk::PhysicalDeviceType::eCpu: return "cpu";
-        default: return "other";
+        case ::vk::PhysicalDeviceType::eDiscreteGpu:
+            return "discrete";
+        case ::vk::PhysicalDeviceType::eIntegratedGpu:
+            return "integrated";
+        case ::vk::PhysicalDeviceType::eVirtualGpu:
+            return "virtual";
+        case ::vk::PhysicalDeviceType::eCpu:
+            return "cpu";
+        default:
+            return "other";
     }
 }
 
 int type_rank(::vk::PhysicalDeviceType t) {
     switch (t) {
-        case ::vk::PhysicalDeviceType::eDiscreteGpu: return 0;
-        case ::vk::PhysicalDeviceType::eIntegratedGpu: return 1;
-        case ::vk::PhysicalDeviceType::eVirtualGpu: return 2;
-        case ::vk::PhysicalDeviceType::eCpu: return 3;
-        default: return 4;
+        case ::vk::PhysicalDeviceType::eDiscreteGpu:
+            return 0;
+        case ::vk::PhysicalDeviceType::eIntegratedGpu:
+            return 1;
+        case ::vk::PhysicalDeviceType::eVirtualGpu:
+            return 2;
+        case ::vk::PhysicalDeviceType::eCpu:
+            return 3;
+        default:
+            return 4;
     }
 }
 
@@ -156,7 +169,8 @@ std::vector<DeviceInfo> Context::list_devices() {
 }
 
 Context::Context(const ContextOptions& options) : messages_(std::make_unique<Messages>()) {
-    instance_ = std::make_unique<::vk::raii::Instance>(make_instance(context_, options.validation, &validation_enabled_));
+    instance_ =
+        std::make_unique<::vk::raii::Instance>(make_instance(context_, options.validation, &validation_enabled_));
     if (validation_enabled_) {
         ::vk::DebugUtilsMessengerCreateInfoEXT mci{
             .messageSeverity = ::vk::DebugUtilsMessageSeverityFlagBitsEXT::eWarning |
@@ -170,8 +184,7 @@ Context::Context(const ContextOptions& options) : messages_(std::make_unique<Mes
     }
 
     ::vk::raii::PhysicalDevices devices(*instance_);
-    if (devices.empty())
-        throw VulkanError("no Vulkan device found (install Mesa lavapipe: ci/install-deps.sh)");
+    if (devices.empty()) throw VulkanError("no Vulkan device found (install Mesa lavapipe: ci/install-deps.sh)");
     uint32_t chosen = 0;
     if (options.device_index) {
         if (*options.device_index >= devices.size())
@@ -241,7 +254,8 @@ Context::Context(const ContextOptions& options) : messages_(std::make_unique<Mes
         creation_feedback_ = has_extension(available, VK_EXT_PIPELINE_CREATION_FEEDBACK_EXTENSION_NAME);
         if (creation_feedback_) exts.push_back(VK_EXT_PIPELINE_CREATION_FEEDBACK_EXTENSION_NAME);
         if (has_extension(available, VK_KHR_SHADER_CLOCK_EXTENSION_NAME)) {
-            auto chain = physical_->getFeatures2<::vk::PhysicalDeviceFeatures2, ::vk::PhysicalDeviceShaderClockFeaturesKHR>();
+            auto chain =
+                physical_->getFeatures2<::vk::PhysicalDeviceFeatures2, ::vk::PhysicalDeviceShaderClockFeaturesKHR>();
             shader_clock_enabled_ = chain.get<::vk::PhysicalDeviceShaderClockFeaturesKHR>().shaderSubgroupClock;
             if (shader_clock_enabled_) exts.push_back(VK_KHR_SHADER_CLOCK_EXTENSION_NAME);
         }
@@ -252,7 +266,8 @@ Context::Context(const ContextOptions& options) : messages_(std::make_unique<Mes
     auto supported = physical_->getFeatures2<::vk::PhysicalDeviceFeatures2, ::vk::PhysicalDeviceVulkan12Features>();
     const auto& sup12 = supported.get<::vk::PhysicalDeviceVulkan12Features>();
     ::vk::PhysicalDeviceRayQueryFeaturesKHR rq_features{.rayQuery = VK_TRUE};
-    ::vk::PhysicalDeviceAccelerationStructureFeaturesKHR as_features{.pNext = &rq_features, .accelerationStructure = VK_TRUE};
+    ::vk::PhysicalDeviceAccelerationStructureFeaturesKHR as_features{.pNext = &rq_features,
+                                                                     .accelerationStructure = VK_TRUE};
     ::vk::PhysicalDeviceVulkan12Features f12{.pNext = ray_query_enabled_ ? &as_features : nullptr,
                                              .bufferDeviceAddress = ray_query_enabled_ ? VK_TRUE : VK_FALSE};
     (void)sup12;
@@ -287,7 +302,8 @@ Context::Context(const ContextOptions& options) : messages_(std::make_unique<Mes
         ci.pNext = &feedback;
     }
     auto t0 = std::chrono::steady_clock::now();
-    ::vk::raii::Pipeline pipeline(*device_, ::vk::Optional<const ::vk::raii::PipelineCache>(pipeline_cache_->raii()), ci);
+    ::vk::raii::Pipeline pipeline(*device_, ::vk::Optional<const ::vk::raii::PipelineCache>(pipeline_cache_->raii()),
+                                  ci);
     double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     bool hit = (whole.flags & ::vk::PipelineCreationFeedbackFlagBits::eValid) &&
                (whole.flags & ::vk::PipelineCreationFeedbackFlagBits::eApplicationPipelineCacheHit);
@@ -314,19 +330,19 @@ uint32_t Context::find_memory_type(uint32_t type_bits, ::vk::MemoryPropertyFlags
 }
 
 ::vk::raii::CommandBuffer Context::begin_one_shot() const {
-    ::vk::raii::CommandBuffers cmds(*device_, ::vk::CommandBufferAllocateInfo{.commandPool = **pool_,
-                                                                             .level = ::vk::CommandBufferLevel::ePrimary,
-                                                                             .commandBufferCount = 1});
+    ::vk::raii::CommandBuffers cmds(
+        *device_, ::vk::CommandBufferAllocateInfo{
+                      .commandPool = **pool_, .level = ::vk::CommandBufferLevel::ePrimary, .commandBufferCount = 1});
     ::vk::raii::CommandBuffer cmd = std::move(cmds[0]);
     cmd.begin(::vk::CommandBufferBeginInfo{.flags = ::vk::CommandBufferUsageFlagBits::eOneTimeSubmit});
     // Earlier submissions' writes (a dispatch's results, a copy) become
     // visible to these commands: a barrier's first scope covers every
     // command submitted before it, and a fence alone orders execution only.
-    cmd.pipelineBarrier(::vk::PipelineStageFlagBits::eAllCommands, ::vk::PipelineStageFlagBits::eAllCommands, {},
-                        ::vk::MemoryBarrier{.srcAccessMask = ::vk::AccessFlagBits::eMemoryWrite,
-                                            .dstAccessMask = ::vk::AccessFlagBits::eMemoryRead |
-                                                             ::vk::AccessFlagBits::eMemoryWrite},
-                        {}, {});
+    cmd.pipelineBarrier(
+        ::vk::PipelineStageFlagBits::eAllCommands, ::vk::PipelineStageFlagBits::eAllCommands, {},
+        ::vk::MemoryBarrier{.srcAccessMask = ::vk::AccessFlagBits::eMemoryWrite,
+                            .dstAccessMask = ::vk::AccessFlagBits::eMemoryRead | ::vk::AccessFlagBits::eMemoryWrite},
+        {}, {});
     return cmd;
 }
 

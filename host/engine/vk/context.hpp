@@ -57,7 +57,6 @@ struct ContextOptions {
     KernelClass kernel = KernelClass::Auto;  // --kernel
 };
 
-
 class Context {
 public:
     explicit Context(const ContextOptions& options = {});

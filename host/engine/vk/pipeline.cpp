@@ -19,7 +19,8 @@ ComputePipeline::ComputePipeline(const Context& ctx, std::span<const uint32_t> s
         counts[b.type] += 1;
     }
     set_layout_ = std::make_unique<::vk::raii::DescriptorSetLayout>(
-        dev, ::vk::DescriptorSetLayoutCreateInfo{.bindingCount = static_cast<uint32_t>(lb.size()), .pBindings = lb.data()});
+        dev,
+        ::vk::DescriptorSetLayoutCreateInfo{.bindingCount = static_cast<uint32_t>(lb.size()), .pBindings = lb.data()});
     ::vk::PushConstantRange range{.stageFlags = ::vk::ShaderStageFlagBits::eCompute, .offset = 0, .size = push_bytes_};
     ::vk::DescriptorSetLayout raw_layout = **set_layout_;
     layout_ = std::make_unique<::vk::raii::PipelineLayout>(
@@ -27,13 +28,13 @@ ComputePipeline::ComputePipeline(const Context& ctx, std::span<const uint32_t> s
                                             .pSetLayouts = &raw_layout,
                                             .pushConstantRangeCount = push_bytes_ ? 1u : 0u,
                                             .pPushConstantRanges = push_bytes_ ? &range : nullptr});
-    ::vk::raii::ShaderModule module(dev, ::vk::ShaderModuleCreateInfo{.codeSize = spirv.size_bytes(), .pCode = spirv.data()});
+    ::vk::raii::ShaderModule module(
+        dev, ::vk::ShaderModuleCreateInfo{.codeSize = spirv.size_bytes(), .pCode = spirv.data()});
     std::vector<::vk::SpecializationMapEntry> entries;
     std::vector<uint32_t> values;
     for (size_t i = 0; i < spec.size(); ++i) {
-        entries.push_back(::vk::SpecializationMapEntry{.constantID = spec[i].id,
-                                                       .offset = static_cast<uint32_t>(i * sizeof(uint32_t)),
-                                                       .size = sizeof(uint32_t)});
+        entries.push_back(::vk::SpecializationMapEntry{
+            .constantID = spec[i].id, .offset = static_cast<uint32_t>(i * sizeof(uint32_t)), .size = sizeof(uint32_t)});
         values.push_back(spec[i].value);
     }
     ::vk::SpecializationInfo spec_info{.mapEntryCount = static_cast<uint32_t>(entries.size()),
@@ -56,7 +57,8 @@ ComputePipeline::ComputePipeline(const Context& ctx, std::span<const uint32_t> s
                                             .poolSizeCount = static_cast<uint32_t>(sizes.size()),
                                             .pPoolSizes = sizes.data()});
     ::vk::raii::DescriptorSets sets(
-        dev, ::vk::DescriptorSetAllocateInfo{.descriptorPool = **pool_, .descriptorSetCount = 1, .pSetLayouts = &raw_layout});
+        dev, ::vk::DescriptorSetAllocateInfo{
+                 .descriptorPool = **pool_, .descriptorSetCount = 1, .pSetLayouts = &raw_layout});
     set_ = std::make_unique<::vk::raii::DescriptorSet>(std::move(sets[0]));
 }
 
@@ -80,7 +82,8 @@ void ComputePipeline::bind_buffer(uint32_t binding, ::vk::Buffer buffer, ::vk::D
 }
 
 void ComputePipeline::bind_acceleration_structure(uint32_t binding, ::vk::AccelerationStructureKHR as) {
-    ::vk::WriteDescriptorSetAccelerationStructureKHR as_info{.accelerationStructureCount = 1, .pAccelerationStructures = &as};
+    ::vk::WriteDescriptorSetAccelerationStructureKHR as_info{.accelerationStructureCount = 1,
+                                                             .pAccelerationStructures = &as};
     write(binding, ::vk::WriteDescriptorSet{.pNext = &as_info});
 }
 

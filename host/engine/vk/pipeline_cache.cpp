@@ -41,12 +41,15 @@ std::string check_pipeline_cache_header(std::span<const uint8_t> data, const Pip
         return "truncated header (" + std::to_string(data.size()) + " bytes, need " + std::to_string(kHeader) + ")";
     const uint32_t header_size = read_le32(data.data());
     if (header_size < kHeader || header_size > data.size())
-        return "bad header length " + std::to_string(header_size) + " (file of " + std::to_string(data.size()) + " bytes)";
+        return "bad header length " + std::to_string(header_size) + " (file of " + std::to_string(data.size()) +
+               " bytes)";
     const uint32_t version = read_le32(data.data() + 4);
     if (version != VK_PIPELINE_CACHE_HEADER_VERSION_ONE) return "unknown header version " + std::to_string(version);
     const uint32_t vendor = read_le32(data.data() + 8), device = read_le32(data.data() + 12);
-    if (vendor != id.vendor_id) return "written for vendor 0x" + hex(vendor) + ", this device is 0x" + hex(id.vendor_id);
-    if (device != id.device_id) return "written for device 0x" + hex(device) + ", this device is 0x" + hex(id.device_id);
+    if (vendor != id.vendor_id)
+        return "written for vendor 0x" + hex(vendor) + ", this device is 0x" + hex(id.vendor_id);
+    if (device != id.device_id)
+        return "written for device 0x" + hex(device) + ", this device is 0x" + hex(id.device_id);
     if (std::memcmp(data.data() + 16, id.uuid.data(), VK_UUID_SIZE) != 0)
         return "written by another driver build (pipelineCacheUUID differs)";
     return {};
@@ -90,8 +93,10 @@ PipelineCache::PipelineCache(const ::vk::raii::Device& device, const ::vk::raii:
     path_ = (fs::path(dir) / pipeline_cache_file_name(id_, props.driverVersion)).string();
     std::error_code ec;
     fs::create_directories(dir, ec);
-    if (ec) note("cannot create directory '" + dir + "' (" + ec.message() + "); compiling without a stored cache");
-    else can_save_ = true;
+    if (ec)
+        note("cannot create directory '" + dir + "' (" + ec.message() + "); compiling without a stored cache");
+    else
+        can_save_ = true;
 
     std::vector<uint8_t> data = ec ? std::vector<uint8_t>{} : read_valid_file(/*quiet=*/false);
     try {
@@ -111,7 +116,9 @@ PipelineCache::~PipelineCache() = default;
 
 ::vk::PipelineCache PipelineCache::handle() const { return cache_ ? **cache_ : ::vk::PipelineCache{}; }
 
-void PipelineCache::note(const std::string& what) const { std::fprintf(stderr, "vkmech: pipeline cache: %s\n", what.c_str()); }
+void PipelineCache::note(const std::string& what) const {
+    std::fprintf(stderr, "vkmech: pipeline cache: %s\n", what.c_str());
+}
 
 std::vector<uint8_t> PipelineCache::read_valid_file(bool quiet) const {
     std::error_code ec;
@@ -150,8 +157,8 @@ void PipelineCache::save() {
         // Keep what another run saved since we loaded (best effort).
         if (std::vector<uint8_t> disk = read_valid_file(/*quiet=*/true); !disk.empty()) {
             try {
-                ::vk::raii::PipelineCache theirs(
-                    *device_, ::vk::PipelineCacheCreateInfo{.initialDataSize = disk.size(), .pInitialData = disk.data()});
+                ::vk::raii::PipelineCache theirs(*device_, ::vk::PipelineCacheCreateInfo{.initialDataSize = disk.size(),
+                                                                                         .pInitialData = disk.data()});
                 cache_->merge(*theirs);
             } catch (const std::exception&) {
                 // Their file is not mergeable: ours replaces it.
