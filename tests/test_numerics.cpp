@@ -3,6 +3,7 @@
 // beyond float's range.
 #include "gpu_fixture.hpp"
 #include "io/exr.hpp"
+#include "io/invariant.hpp"
 #include "io/output_set.hpp"
 #include "render/render_outputs.hpp"
 #include "render_fixture.hpp"
@@ -120,8 +121,22 @@ TEST_CASE(
     CHECK(g.pixels[0].bucket_sum[6] == doctest::Approx(3.0 * f.pixels[0].bucket_sum[6]));
     // Such a frame (the render cache keeps no RGB) is not written as a render's EXR.
     const Descriptor d = derive_descriptor(g);
-    CHECK_THROWS_AS(render_channels(g, &d), std::invalid_argument);
+    CHECK_THROWS_AS(render_channels(g, &d), InternalError);  // a bug in the caller, not bad input
     CHECK(render_channels(f, &d).size() == exr_channel_names(true).size());
+}
+
+TEST_CASE("invariant: VKM_ASSERT passes a true condition and names file, line and condition of a false one") {
+    int checked = 0;
+    VKM_ASSERT(++checked == 1, "not reached");
+    CHECK(checked == 1);  // the condition is evaluated once
+    const int line = __LINE__ + 2;
+    try {
+        VKM_ASSERT(checked == 2, "the message");
+        FAIL("a false condition must throw");
+    } catch (const InternalError& e) {
+        CHECK(std::string(e.what()) ==
+              "tests/test_numerics.cpp:" + std::to_string(line) + ": checked == 2 failed: the message");
+    }
 }
 
 TEST_CASE("render outputs: an EXR value beyond float range is counted in the JSON and warned of") {

@@ -1,6 +1,7 @@
 // vkmech: the command-line entry. Exit codes (docs/architecture.md, "Errors say what,
 // where and what to do"): 0 ok, 1 runtime failure, 2 bad usage or bad input.
 #include "cli/commands.hpp"
+#include "io/invariant.hpp"
 
 #include "scene/scene.hpp"
 #include "study/study_runner.hpp"
@@ -86,6 +87,10 @@ int main(int argc, char** argv) {
         return e.exit_code();
     } catch (const vkmech::vk::OutOfMemoryError& e) {
         std::cerr << "vkmech: out of memory: " << e.what() << "\n";
+        return 1;
+    } catch (const InternalError& e) {
+        std::cerr << "vkmech: internal error (a bug in vkmech; please report it with the command line): " << e.what()
+                  << "\n";
         return 1;
     } catch (const SceneError& e) {
         std::cerr << "vkmech: error: " << e.what() << "\n";

@@ -1,4 +1,5 @@
 #include "render/gpu_scene.hpp"
+#include "io/invariant.hpp"
 
 #include "bsdf.glsl"
 
@@ -241,11 +242,11 @@ SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
 
 std::vector<vk::BindingDesc> traversal_bindings(Traversal t, vk::KernelClass k) {
     using DT = ::vk::DescriptorType;
-    if (k == vk::KernelClass::Auto) throw std::invalid_argument("traversal_bindings: the kernel is not resolved");
+    VKM_ASSERT(k != vk::KernelClass::Auto, "traversal_bindings: the kernel is not resolved");
     if (t == Traversal::RayQuery) return {{gpu::BINDING_TLAS, DT::eAccelerationStructureKHR}};
     const DT type = k == vk::KernelClass::Gpu ? DT::eStorageBuffer : DT::eUniformTexelBuffer;
-    if (t == Traversal::Bvh) return {{gpu::BINDING_BVH_NODES, type}, {gpu::BINDING_BVH_TRIS, type}};
-    throw std::invalid_argument("traversal_bindings: the traversal is not resolved");
+    VKM_ASSERT(t == Traversal::Bvh, "traversal_bindings: the traversal is not resolved");
+    return {{gpu::BINDING_BVH_NODES, type}, {gpu::BINDING_BVH_TRIS, type}};
 }
 
 void GpuScene::bind_traversal(vk::ComputePipeline& pipeline) const {

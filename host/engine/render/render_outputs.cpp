@@ -1,4 +1,5 @@
 #include "render/render_outputs.hpp"
+#include "io/invariant.hpp"
 
 #include "io/atomic_file.hpp"
 #include "io/exr.hpp"
@@ -221,10 +222,9 @@ std::vector<ExrChannel> render_channels(const Frame& frame, const Descriptor* d)
         // Each bucket's linear RGB: the seven add up to R, G, B (the same mean over the finite samples).
         // Every render with the capture has them; a frame without them (the render cache keeps the
         // luminance only) is not an output to write.
-        if (frame.bucket_rgb_sum.size() != n * Frame::kBucketRgb)
-            throw std::invalid_argument(
-                "render_channels: the frame has no per-bucket RGB (a frame from the render "
-                "cache, or merged with one) and cannot be written as a render's EXR");
+        VKM_ASSERT(frame.bucket_rgb_sum.size() == n * Frame::kBucketRgb,
+                   "render_channels: the frame has no per-bucket RGB (a frame from the render "
+                   "cache, or merged with one) and cannot be written as a render's EXR");
         for (uint32_t b = 0; b < kBucketCount; ++b)
             for (int c = 0; c < 3; ++c)
                 channel(std::string("bucket.") + kBucketNames[b] + "." + "RGB"[c], [&](size_t i) {

@@ -1,4 +1,5 @@
 #include "render/renderer.hpp"
+#include "io/invariant.hpp"
 
 #include "render/session.hpp"
 #include "render/shader_modules.hpp"
@@ -317,7 +318,7 @@ Frame Renderer::render(const RenderSpec& spec) {
 
 std::vector<gpu::GpuDebugEvent> Renderer::render_debug_events(const RenderSpec& spec, uint32_t pixel, uint32_t capacity,
                                                               Frame* frame) {
-    if (!features_.debug_events) throw std::logic_error("render_debug_events needs Features::debug_events");
+    VKM_ASSERT(features_.debug_events, "render_debug_events needs a renderer made with Features::debug_events");
     capacity = std::min<uint32_t>(capacity, 65536);
     uint32_t zero[4] = {0, 0, 0, 0};
     debug_.upload(ctx_, zero, sizeof(zero));

@@ -1,4 +1,5 @@
 #include "render/session.hpp"
+#include "io/invariant.hpp"
 
 #include <stdexcept>
 #include <string>
@@ -11,10 +12,9 @@ SceneOnDevice::SceneOnDevice(const vk::Context& c, Scene s, Traversal traversal,
 
 SceneOnDevice::SceneOnDevice(const vk::Context& c, Scene s, SceneArrays a, Traversal traversal)
     : ctx(c), scene(std::move(s)), arrays(std::move(a)), gpu(c, arrays, traversal) {
-    if (arrays.triangle_mesh.size() != scene.triangle_count())
-        throw std::invalid_argument("RenderSession: the scene arrays (" + std::to_string(arrays.triangle_mesh.size()) +
-                                    " triangles) do not belong to the scene (" +
-                                    std::to_string(scene.triangle_count()) + " triangles)");
+    VKM_ASSERT(arrays.triangle_mesh.size() == scene.triangle_count(),
+               "RenderSession: the scene arrays (" + std::to_string(arrays.triangle_mesh.size()) +
+                   " triangles) do not belong to the scene (" + std::to_string(scene.triangle_count()) + " triangles)");
 }
 
 RenderSession::RenderSession(const vk::Context& ctx, Scene scene, Traversal traversal, LightSelection selection,

@@ -1,4 +1,5 @@
 #include "render/shader_modules.hpp"
+#include "io/invariant.hpp"
 
 #include <cstdint>
 #include <stdexcept>
@@ -25,7 +26,7 @@ namespace vkmech {
 namespace {
 
 bool gpu_kernel(vk::KernelClass k) {
-    if (k == vk::KernelClass::Auto) throw std::invalid_argument("shader modules: the kernel class is not resolved");
+    VKM_ASSERT(k != vk::KernelClass::Auto, "shader modules: the kernel class is not resolved");
     return k == vk::KernelClass::Gpu;
 }
 
