@@ -164,14 +164,18 @@ PyRender prepare(const PyScene& s, std::optional<uint32_t> res, const std::strin
 
 using ProgressFn = std::optional<std::function<void(uint32_t, uint32_t)>>;
 
-// Renders with the GIL released; between batches: the progress callback, and Ctrl-C
-// (KeyboardInterrupt).
-Frame render_spec(Renderer& renderer, RenderSpec spec, const ProgressFn& progress) {
-    spec.progress = [&](uint32_t done, uint32_t total) {
+// Between batches of a render that runs with the GIL released: Ctrl-C (KeyboardInterrupt),
+// then the progress callback, if any.
+std::function<void(uint32_t, uint32_t)> between_batches(const ProgressFn& progress) {
+    return [&progress](uint32_t done, uint32_t total) {
         py::gil_scoped_acquire gil;
         if (PyErr_CheckSignals() != 0) throw py::error_already_set();
         if (progress) (*progress)(done, total);
     };
+}
+
+Frame render_spec(Renderer& renderer, RenderSpec spec, const ProgressFn& progress) {
+    spec.progress = between_batches(progress);
     py::gil_scoped_release nogil;
     return renderer.render(spec);
 }
@@ -297,10 +301,11 @@ PyFrame adaptive(const PyScene& s, const std::string& strategy_name, uint32_t pi
     PyRender r = prepare(s, res, estimator, light_selection, end_vertex, true, device, kernel);
     Pilot p;
     {
+        const ProgressFn none;  // the pilot checks for Ctrl-C; progress() reports the final render
+        const auto check = between_batches(none);
         py::gil_scoped_release nogil;
-        p = render_pilot(*r.renderer, pilot, downstream_seeds::pilot(pilot_draw), robust);
+        p = render_pilot(*r.renderer, pilot, downstream_seeds::pilot(pilot_draw), robust, check);
     }
-    if (PyErr_CheckSignals() != 0) throw py::error_already_set();
     const alloc::PilotDiagnosis diag = alloc::diagnose_pilot(p);
     const AdaptivePlan plan = plan_from_pilot(strategy, p, diag, pilot, budget, floor, pilot_draw);
     Frame frame = render_spec(*r.renderer, adaptive_render_spec(plan, batch), progress);

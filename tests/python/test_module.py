@@ -144,11 +144,13 @@ def test_bad_arguments_raise():
         vkmech.read(str(ROOT) + "/README.md")
 
 
-def test_ctrl_c_raises_keyboard_interrupt_and_writes_nothing(tmp_path):
+@pytest.mark.parametrize("call", ["vkmech.render(s, spp=100000, res=64, batch=1)",
+                                  "vkmech.adaptive(s, 'bucket-floor', pilot=4096, res=128)"])  # Ctrl-C in the pilot (~13 s)
+def test_ctrl_c_raises_keyboard_interrupt_and_writes_nothing(tmp_path, call):
     code = ("import sys, vkmech\n"
             "s = vkmech.load('cubes_dof')\n"
             "print('rendering', flush=True)\n"
-            "f = vkmech.render(s, spp=100000, res=64, batch=1)\n"
+            "f = " + call + "\n"
             "f.write(sys.argv[1])\n")
     out = tmp_path / "out"
     p = subprocess.Popen([sys.executable, "-c", code, str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -158,7 +160,10 @@ def test_ctrl_c_raises_keyboard_interrupt_and_writes_nothing(tmp_path):
     import time
     time.sleep(1.0)
     p.send_signal(signal.SIGINT)
+    sent = time.monotonic()
     _, err = p.communicate(timeout=60)
+    # within a batch or two, not at the end of the render (either call takes tens of seconds)
+    assert time.monotonic() - sent < 5.0
     assert p.returncode != 0
     assert b"KeyboardInterrupt" in err
     assert not out.exists() or not any(out.iterdir())

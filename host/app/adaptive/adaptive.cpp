@@ -5,11 +5,13 @@
 
 namespace vkmech {
 
-Pilot render_pilot(Renderer& r, uint32_t n0, uint32_t seed, bool robust) {
+Pilot render_pilot(Renderer& r, uint32_t n0, uint32_t seed, bool robust,
+                   const std::function<void(uint32_t, uint32_t)>& progress) {
     RenderSpec spec;
     spec.spp = n0;
     spec.seed = seed;
     spec.batch_spp = 8;
+    spec.progress = progress;
     std::vector<std::vector<alloc::BlockMoments>> blocks;
     int k = 0, size = 0;
     if (robust) {

@@ -12,6 +12,7 @@
 #include "render/descriptor.hpp"
 #include "render/renderer.hpp"
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -22,7 +23,9 @@ namespace vkmech {
 // the median-of-means blocks (k = ceil(sqrt(n0)) contiguous blocks; the
 // remainder is rendered but left out of the MoM) — throws std::invalid_argument
 // where MoM is not defined (N0 = 4).
-Pilot render_pilot(Renderer& r, uint32_t n0, uint32_t seed, bool robust);
+// `progress`, when given, is called between batches (done, total) and may throw to stop.
+Pilot render_pilot(Renderer& r, uint32_t n0, uint32_t seed, bool robust,
+                   const std::function<void(uint32_t, uint32_t)>& progress = {});
 
 // Strategy `s`'s allocation from a pilot of n0 samples and its diagnosis (allocation/guard.hpp):
 // 1 + extra_spp samples per pixel on average, at least `floor` each; `pilot_draw` seeds the

@@ -387,7 +387,12 @@ int cmd_render_adaptive(const RenderOptions& o) {
                  o.floor, ctx.info().name.c_str());
 
     throw_if_interrupted();
-    Pilot pilot = render_pilot(renderer, o.pilot, downstream_seeds::pilot(o.pilot_draw), robust);
+    Progress pilot_progress("pilot " + name);
+    Pilot pilot =
+        render_pilot(renderer, o.pilot, downstream_seeds::pilot(o.pilot_draw), robust, [&](uint32_t d, uint32_t t) {
+            throw_if_interrupted();  // Ctrl-C stops the pilot at its next batch
+            pilot_progress(d, t);
+        });
     throw_if_interrupted();
     std::printf("pilot: %u spp (seed %u), %.2f s\n", o.pilot, downstream_seeds::pilot(o.pilot_draw), pilot.seconds);
 
