@@ -216,12 +216,6 @@ PyFrame make_frame(const PyScene& s, const PyRender& r, Frame frame, uint32_t sp
     return out;
 }
 
-std::string adaptive_range(const std::vector<uint32_t>& n) {
-    uint32_t max_n = 0;
-    for (uint32_t v : n) max_n = std::max(max_n, v);
-    return "0:" + std::to_string(max_n) + " (adaptive: samples 0:n(p) at pixel p, n(p) in the spp channel)";
-}
-
 uint32_t mean_spp(const std::vector<uint32_t>& n) {
     uint64_t total = 0;
     for (uint32_t v : n) total += v;
@@ -272,7 +266,7 @@ PyFrame render(const PyScene& s, uint32_t spp, uint32_t seed, std::optional<uint
         Camera cam = s.scene.camera;
         if (res) cam.set_film_width(static_cast<int>(*res));
         spec.sample_counts = sample_counts_of(*sample_counts, cam.width, cam.height);
-        range = adaptive_range(spec.sample_counts);
+        range = adaptive_sample_range(spec.sample_counts);
         spp = mean_spp(spec.sample_counts);
     }
     PyRender r = prepare(s, res, estimator, light_selection, end_vertex, capture, device, kernel);
@@ -309,7 +303,7 @@ PyFrame adaptive(const PyScene& s, const std::string& strategy_name, uint32_t pi
     const alloc::PilotDiagnosis diag = alloc::diagnose_pilot(p);
     const AdaptivePlan plan = plan_from_pilot(strategy, p, diag, pilot, budget, floor, pilot_draw);
     Frame frame = render_spec(*r.renderer, adaptive_render_spec(plan, batch), progress);
-    return make_frame(s, r, std::move(frame), mean_spp(plan.n), downstream_seeds::kPool, adaptive_range(plan.n),
+    return make_frame(s, r, std::move(frame), mean_spp(plan.n), downstream_seeds::kPool, adaptive_sample_range(plan.n),
                       std::string(" adaptive=") + alloc::to_string(strategy));
 }
 

@@ -1,5 +1,6 @@
 #include "adaptive/adaptive.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 #include <utility>
 
@@ -38,6 +39,11 @@ AdaptivePlan plan_from_pilot(alloc::Strategy s, const Pilot& pilot, const alloc:
     in.untrusted = &diag.untrusted_map;
     in.pilot_spp = n0;
     return plan_allocation(s, in, extra_spp, floor, pilot_draw);
+}
+
+std::string adaptive_sample_range(const std::vector<uint32_t>& n) {
+    const uint32_t max_n = n.empty() ? 0u : *std::max_element(n.begin(), n.end());
+    return "0:" + std::to_string(max_n) + " (adaptive: samples 0:n(p) at pixel p, n(p) in the spp channel)";
 }
 
 RenderSpec adaptive_render_spec(const AdaptivePlan& plan, uint32_t batch_spp) {

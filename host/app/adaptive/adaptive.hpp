@@ -33,6 +33,9 @@ Pilot render_pilot(Renderer& r, uint32_t n0, uint32_t seed, bool robust,
 AdaptivePlan plan_from_pilot(alloc::Strategy s, const Pilot& pilot, const alloc::PilotDiagnosis& diag, uint32_t n0,
                              uint32_t extra_spp, uint32_t floor, uint32_t pilot_draw);
 
+// The provenance's sample range of a render with per-pixel counts n(p): "0:max n (adaptive: ...)".
+std::string adaptive_sample_range(const std::vector<uint32_t>& n);
+
 // The final render of a plan: pixel p takes exactly samples [0, n(p)) of the pool seed.
 RenderSpec adaptive_render_spec(const AdaptivePlan& plan, uint32_t batch_spp);
 

@@ -443,8 +443,7 @@ int cmd_render_adaptive(const RenderOptions& o) {
     RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene,
                                   static_cast<uint32_t>(plan.total / pixels), downstream_seeds::kPool, true);
     info.features += std::string(" adaptive=") + alloc::to_string(strategy);
-    info.provenance.sample_range =
-        "0:" + std::to_string(max_n) + " (adaptive: samples 0:n(p) at pixel p, n(p) in the spp channel)";
+    info.provenance.sample_range = adaptive_sample_range(plan.n);
     info.pipeline_seconds = pipes.seconds;
     info.pipeline_cache = pipe_outcome;
     info.extra_json.emplace_back("adaptive", adaptive_json(strategy, o, diag, pred, plan, untrusted_n));
