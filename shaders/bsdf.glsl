@@ -32,6 +32,10 @@
 #include "lobes.glsl"
 
 #ifdef __cplusplus
+// Every model has the signatures the material table's dispatch calls
+// (shared/materials.h), so some leave a parameter unused.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunused-parameter"
 namespace vkmech::shader {
 using namespace vkmech::gpu;
 #endif
@@ -105,24 +109,34 @@ SHARED_FN vec3 mat_conductor_fresnel(GpuMaterial m, float cos_theta_i) {
 
 // ---- diffuse (Mitsuba `diffuse`) ----
 
-SHARED_FN vec3 diffuse_eval_pdf(vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
+SHARED_FN vec3 diffuse_eval_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
     pdf = 0.0;
     if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
     pdf = wi.z * VKM_INV_PI;
     return albedo * pdf;
 }
 
-SHARED_FN BsdfSample diffuse_sample(vec3 albedo, vec3 wo, vec2 u) {
+SHARED_FN BsdfSample diffuse_sample(GpuMaterial m, vec3 albedo, vec3 wo, float u_lobe, vec2 u) {
     if (wo.z <= 0.0) return bsdf_sample_none();
     vec3 wi = square_to_cosine_hemisphere(u);
     float pdf;
-    vec3 f = diffuse_eval_pdf(albedo, wo, wi, pdf);
+    vec3 f = diffuse_eval_pdf(m, albedo, wo, wi, pdf);
     return bsdf_make_sample(wi, f, pdf, LOBE_D, 1.0);
+}
+
+// A delta-only model has no non-delta component to evaluate.
+SHARED_FN vec3 delta_only_eval_pdf(OUT(float) pdf) {
+    pdf = 0.0;
+    return vec3(0.0);
 }
 
 // ---- conductor (smooth; delta) ----
 
-SHARED_FN BsdfSample conductor_sample(GpuMaterial m, vec3 wo) {
+SHARED_FN vec3 conductor_eval_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
+    return delta_only_eval_pdf(pdf);
+}
+
+SHARED_FN BsdfSample conductor_sample(GpuMaterial m, vec3 albedo, vec3 wo, float u_lobe, vec2 u) {
     if (wo.z <= 0.0) return bsdf_sample_none();
     vec3 weight = mat_specular_reflectance(m) * mat_conductor_fresnel(m, wo.z);
     return bsdf_make_delta(reflect_z(wo), weight, 1.0);
@@ -130,7 +144,7 @@ SHARED_FN BsdfSample conductor_sample(GpuMaterial m, vec3 wo) {
 
 // ---- roughconductor (microfacet reflection, VNDF sampling) ----
 
-SHARED_FN vec3 roughconductor_eval_pdf(GpuMaterial m, vec3 wo, vec3 wi, OUT(float) pdf) {
+SHARED_FN vec3 roughconductor_eval_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
     pdf = 0.0;
     if (wo.z < MF_MIN_COS || wi.z <= 0.0) return vec3(0.0);
     vec3 h = wo + wi;
@@ -149,19 +163,23 @@ SHARED_FN vec3 roughconductor_eval_pdf(GpuMaterial m, vec3 wo, vec3 wi, OUT(floa
     return mat_specular_reflectance(m) * mat_conductor_fresnel(m, dot(wo, h)) * scale;
 }
 
-SHARED_FN BsdfSample roughconductor_sample(GpuMaterial m, vec3 wo, vec2 u) {
+SHARED_FN BsdfSample roughconductor_sample(GpuMaterial m, vec3 albedo, vec3 wo, float u_lobe, vec2 u) {
     if (wo.z < MF_MIN_COS) return bsdf_sample_none();
     vec3 h = mf_sample_visible(mat_microfacet(m), wo, u);
     vec3 wi = reflect_about(wo, h);
     if (wi.z <= 0.0) return bsdf_sample_none();
     float pdf;
-    vec3 f = roughconductor_eval_pdf(m, wo, wi, pdf);
+    vec3 f = roughconductor_eval_pdf(m, albedo, wo, wi, pdf);
     return bsdf_make_sample(wi, f, pdf, LOBE_G, 1.0);
 }
 
 // ---- dielectric (smooth; delta; both sides) ----
 
-SHARED_FN BsdfSample dielectric_sample(GpuMaterial m, vec3 wo, float u_lobe) {
+SHARED_FN vec3 dielectric_eval_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
+    return delta_only_eval_pdf(pdf);
+}
+
+SHARED_FN BsdfSample dielectric_sample(GpuMaterial m, vec3 albedo, vec3 wo, float u_lobe, vec2 u) {
     float cos_t;
     float eta_it;
     float eta_ti;
@@ -175,7 +193,11 @@ SHARED_FN BsdfSample dielectric_sample(GpuMaterial m, vec3 wo, float u_lobe) {
 
 // ---- thindielectric (delta reflection or straight pass-through) ----
 
-SHARED_FN BsdfSample thindielectric_sample(GpuMaterial m, vec3 wo, float u_lobe) {
+SHARED_FN vec3 thindielectric_eval_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
+    return delta_only_eval_pdf(pdf);
+}
+
+SHARED_FN BsdfSample thindielectric_sample(GpuMaterial m, vec3 albedo, vec3 wo, float u_lobe, vec2 u) {
     float f = fresnel_dielectric_r(abs(wo.z), mat_eta(m));
     // All the bounces inside the sheet: R = F + (1-F)^2 F / (1 - F^2) = 2F / (1+F).
     float r = 2.0 * f / (1.0 + f);
@@ -185,7 +207,7 @@ SHARED_FN BsdfSample thindielectric_sample(GpuMaterial m, vec3 wo, float u_lobe)
 
 // ---- roughdielectric (Walter et al. 2007, VNDF sampling; both sides) ----
 
-SHARED_FN vec3 roughdielectric_eval_pdf(GpuMaterial m, vec3 wo, vec3 wi, OUT(float) pdf) {
+SHARED_FN vec3 roughdielectric_eval_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
     pdf = 0.0;
     float co = wo.z;
     float ci = wi.z;
@@ -221,7 +243,7 @@ SHARED_FN vec3 roughdielectric_eval_pdf(GpuMaterial m, vec3 wo, vec3 wi, OUT(flo
     return mat_specular_transmittance(m) * v;
 }
 
-SHARED_FN BsdfSample roughdielectric_sample(GpuMaterial m, vec3 wo, float u_lobe, vec2 u) {
+SHARED_FN BsdfSample roughdielectric_sample(GpuMaterial m, vec3 albedo, vec3 wo, float u_lobe, vec2 u) {
     float co = wo.z;
     if (abs(co) < MF_MIN_COS) return bsdf_sample_none();
     vec3 h = mf_sample_visible(mat_microfacet(m), co > 0.0 ? wo : -wo, u);
@@ -240,7 +262,7 @@ SHARED_FN BsdfSample roughdielectric_sample(GpuMaterial m, vec3 wo, float u_lobe
         eta_out = eta_it;
     }
     float pdf;
-    vec3 fv = roughdielectric_eval_pdf(m, wo, wi, pdf);
+    vec3 fv = roughdielectric_eval_pdf(m, albedo, wo, wi, pdf);
     return bsdf_make_sample(wi, fv, pdf, LOBE_G, eta_out);
 }
 
@@ -668,12 +690,13 @@ SHARED_FN uint bsdf_nee_lobe(GpuMaterial m) {
     return LOBE_NONE;
 }
 
-// Whether the material lets light through (and so sees both sides itself).
+// Whether the material lets light through (and so sees both sides itself):
+// the table's VKM_MATF_TRANSMISSIVE, and for principled its spec_trans.
 SHARED_FN bool bsdf_is_transmissive(GpuMaterial m) {
     uint t = m.header.x;
-    if (t == MAT_DIELECTRIC || t == MAT_ROUGHDIELECTRIC || t == MAT_THINDIELECTRIC) return true;
+    if ((material_flags(t) & VKM_MATF_TRANSMISSIVE) == 0u) return false;
     if (t == MAT_PRINCIPLED) return principled_transmissive(m);
-    return false;
+    return true;
 }
 
 // Mitsuba's `twosided`: a back-side query is answered by the front side with
@@ -684,23 +707,20 @@ SHARED_FN bool bsdf_mirrors(GpuMaterial m, vec3 wo) {
 
 SHARED_FN vec3 flip_z(vec3 v) { return vec3(v.x, v.y, -v.z); }
 
-// f |cos wi| and pdf of the non-delta components, without the twosided rule.
+// f |cos wi| and pdf of the non-delta components, without the twosided rule:
+// <name>_eval_pdf of the material table's row (shared/materials.h), if its
+// features are compiled in.
 SHARED_FN vec3 bsdf_eval_pdf_front(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
     pdf = 0.0;
     uint t = m.header.x;
-    if (t == MAT_DIFFUSE) return diffuse_eval_pdf(albedo, wo, wi, pdf);
-    if (t == MAT_ROUGHCONDUCTOR) {
-        if (FEATURE_CONDUCTOR && FEATURE_ROUGH) return roughconductor_eval_pdf(m, wo, wi, pdf);
-    } else if (t == MAT_ROUGHDIELECTRIC) {
-        if (FEATURE_DIELECTRIC && FEATURE_ROUGH) return roughdielectric_eval_pdf(m, wo, wi, pdf);
-    } else if (t == MAT_PLASTIC) {
-        if (FEATURE_PLASTIC) return plastic_eval_pdf(m, albedo, wo, wi, pdf);
-    } else if (t == MAT_ROUGHPLASTIC) {
-        if (FEATURE_PLASTIC && FEATURE_ROUGH) return roughplastic_eval_pdf(m, albedo, wo, wi, pdf);
-    } else if (t == MAT_PRINCIPLED) {
-        if (FEATURE_PRINCIPLED) return principled_eval_pdf(m, albedo, wo, wi, pdf);
+#define VKM_X(code, NAME, Name, name, features, lobes, flags) \
+    if (t == (code)) {                                         \
+        if (features_on(features)) return name##_eval_pdf(m, albedo, wo, wi, pdf); \
+        return vec3(0.0);                                      \
     }
-    return vec3(0.0);  // delta-only materials and compiled-out families
+    VKM_MATERIALS(VKM_X)
+#undef VKM_X
+    return vec3(0.0);  // unknown types and compiled-out families
 }
 
 SHARED_FN vec3 bsdf_eval_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
@@ -719,36 +739,25 @@ SHARED_FN float bsdf_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi) {
     return pdf;
 }
 
+// One sample of <name>_sample of the material table's row, if its features are compiled in.
 SHARED_FN BsdfSample bsdf_sample(GpuMaterial m, vec3 albedo, vec3 wo, float u_lobe, vec2 u) {
     bool mirror = bsdf_mirrors(m, wo);
     vec3 w = mirror ? flip_z(wo) : wo;
     uint t = m.header.x;
     BsdfSample s = bsdf_sample_none();
-    if (t == MAT_DIFFUSE) {
-        s = diffuse_sample(albedo, w, u);
-    } else if (t == MAT_CONDUCTOR) {
-        if (FEATURE_CONDUCTOR) s = conductor_sample(m, w);
-    } else if (t == MAT_ROUGHCONDUCTOR) {
-        if (FEATURE_CONDUCTOR && FEATURE_ROUGH) s = roughconductor_sample(m, w, u);
-    } else if (t == MAT_DIELECTRIC) {
-        if (FEATURE_DIELECTRIC) s = dielectric_sample(m, w, u_lobe);
-    } else if (t == MAT_THINDIELECTRIC) {
-        if (FEATURE_DIELECTRIC) s = thindielectric_sample(m, w, u_lobe);
-    } else if (t == MAT_ROUGHDIELECTRIC) {
-        if (FEATURE_DIELECTRIC && FEATURE_ROUGH) s = roughdielectric_sample(m, w, u_lobe, u);
-    } else if (t == MAT_PLASTIC) {
-        if (FEATURE_PLASTIC) s = plastic_sample(m, albedo, w, u_lobe, u);
-    } else if (t == MAT_ROUGHPLASTIC) {
-        if (FEATURE_PLASTIC && FEATURE_ROUGH) s = roughplastic_sample(m, albedo, w, u_lobe, u);
-    } else if (t == MAT_PRINCIPLED) {
-        if (FEATURE_PRINCIPLED) s = principled_sample(m, albedo, w, u_lobe, u);
+#define VKM_X(code, NAME, Name, name, features, lobes, flags) \
+    if (t == (code)) {                                         \
+        if (features_on(features)) s = name##_sample(m, albedo, w, u_lobe, u); \
     }
+    VKM_MATERIALS(VKM_X)
+#undef VKM_X
     if (mirror && s.ok) s.wi = flip_z(s.wi);
     return s;
 }
 
 #ifdef __cplusplus
 }  // namespace vkmech::shader
+#pragma GCC diagnostic pop
 #endif
 
 #endif

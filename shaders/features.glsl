@@ -5,16 +5,27 @@
 #define VKMECH_FEATURES_GLSL
 #include "glsl_cpp.h"
 #include "shared/bindings.h"
+#include "shared/types.h"
 #ifdef __cplusplus
 namespace vkmech::shader {
+using namespace vkmech::gpu;
 #endif
-SPEC_CONST_BOOL(SPEC_DIELECTRIC, FEATURE_DIELECTRIC, true)   // dielectric, thindielectric, roughdielectric
-SPEC_CONST_BOOL(SPEC_ROUGH, FEATURE_ROUGH, true)             // microfacet lobes: roughconductor, roughdielectric, roughplastic
-SPEC_CONST_BOOL(SPEC_PLASTIC, FEATURE_PLASTIC, true)         // plastic, roughplastic
-SPEC_CONST_BOOL(SPEC_PRINCIPLED, FEATURE_PRINCIPLED, true)   // principled
-SPEC_CONST_BOOL(SPEC_CONDUCTOR, FEATURE_CONDUCTOR, true)     // conductor, roughconductor
+// FEATURE_<NAME> of every material feature (shared/materials.h).
+#define VKM_X(NAME, name, bit, spec_id) SPEC_CONST_BOOL(SPEC_##NAME, FEATURE_##NAME, true)
+VKM_MATERIAL_FEATURES(VKM_X)
+#undef VKM_X
 SPEC_CONST_BOOL(SPEC_TEXTURES, FEATURE_TEXTURES, true)       // bitmap reflectance
 SPEC_CONST_BOOL(SPEC_CAPTURE, FEATURE_CAPTURE, true)         // mechanism capture (the descriptor)
+
+// Whether every feature of `mask` (FEATURE_BIT_*) is compiled in: the guard of
+// a material's code (material_features(type), shaders/bsdf.glsl).
+SHARED_FN bool features_on(uint mask) {
+#define VKM_X(NAME, name, bit, spec_id) \
+    if ((mask & FEATURE_BIT_##NAME) != 0u && !FEATURE_##NAME) return false;
+    VKM_MATERIAL_FEATURES(VKM_X)
+#undef VKM_X
+    return true;
+}
 #ifdef __cplusplus
 }
 #endif

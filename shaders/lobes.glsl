@@ -19,8 +19,9 @@ using namespace vkmech::gpu;
 #endif
 
 // type: MAT_*; metallic and spec_trans: the principled parameters (unused by
-// the other types). Each entry follows what the type's sampling routine in
-// bsdf.glsl can return:
+// the other types). The classes of each type are the `lobes` column of the
+// material table (shared/materials.h), which follows what the type's sampling
+// routine in bsdf.glsl can return:
 // - diffuse: D.
 // - plastic: S (the smooth dielectric coat, a mirror reflection: bsdf_make_delta)
 //   and D (the base).
@@ -30,21 +31,17 @@ using namespace vkmech::gpu;
 //   MF_MIN_ALPHA, so the lobe is never a delta in disguise).
 // - principled: G always (the GGX specular lobe, alpha >= 0.001, and the
 //   GTR1 clearcoat; never a delta lobe), plus D while the diffuse weight
-//   (1 - metallic)(1 - spec_trans) is positive.
+//   (1 - metallic)(1 - spec_trans) is positive: the one row its parameters refine.
 // Unknown types: no lobe (0u).
 // Flags describe what a material can sample, not with what weight: a plastic
 // whose specular_reflectance is 0 still has its S bit, as in Mitsuba.
 SHARED_FN uint material_lobe_flags(uint type, float metallic, float spec_trans) {
-    if (type == MAT_DIFFUSE) return LOBE_BIT_D;
-    if (type == MAT_PLASTIC) return LOBE_BIT_S | LOBE_BIT_D;
-    if (type == MAT_ROUGHPLASTIC) return LOBE_BIT_G | LOBE_BIT_D;
-    if (type == MAT_CONDUCTOR || type == MAT_DIELECTRIC || type == MAT_THINDIELECTRIC) return LOBE_BIT_S;
-    if (type == MAT_ROUGHCONDUCTOR || type == MAT_ROUGHDIELECTRIC) return LOBE_BIT_G;
+    uint flags = material_lobes(type);
     if (type == MAT_PRINCIPLED) {
         float w_brdf = (1.0 - saturate(metallic)) * (1.0 - saturate(spec_trans));
-        return w_brdf > 0.0 ? (LOBE_BIT_G | LOBE_BIT_D) : LOBE_BIT_G;
+        if (!(w_brdf > 0.0)) flags &= ~LOBE_BIT_D;
     }
-    return 0u;
+    return flags;
 }
 
 #ifdef __cplusplus

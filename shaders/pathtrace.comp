@@ -88,8 +88,7 @@ vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
     vec3 ng = front ? s.ng : -s.ng;
     vec3 ns = dot(s.ns, ng) < 0.0 ? -s.ns : s.ns;
     GpuMaterial m = material_at(s.material);
-    vec3 albedo = (m.header.x == MAT_DIFFUSE || m.header.x == MAT_PLASTIC || m.header.x == MAT_ROUGHPLASTIC ||
-                   m.header.x == MAT_PRINCIPLED) ? m.reflectance.rgb : vec3(0.5);
+    vec3 albedo = (material_flags(m.header.x) & VKM_MATF_ALBEDO) != 0u ? m.reflectance.rgb : vec3(0.5);
     vec3 lu = vec3(rng_next(rng), rng_next(rng), rng_next(rng));
     LightSample ls = sample_light(lu);
     vec3 to_light = ls.p - s.p;

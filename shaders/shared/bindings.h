@@ -34,13 +34,9 @@ VKM_ID BINDING_COUNTERS = 16u;  // pathtrace.comp's VKMECH_COUNTERS variant only
 VKM_ID BINDING_WORK = 17u;      // pathtrace.comp: the pixel-slot counter of claimed pixels (params.adaptive.w)
 
 // Specialization-constant ids (layout(constant_id = ...)).
+// 1..5 and 12 on: the material features, SPEC_<NAME> of shared/materials.h.
 VKM_ID SPEC_THIN_LENS = 0u;             // camera.glsl
-VKM_ID SPEC_DIELECTRIC = 1u;            // features.glsl, 1..7
-VKM_ID SPEC_ROUGH = 2u;
-VKM_ID SPEC_PLASTIC = 3u;
-VKM_ID SPEC_PRINCIPLED = 4u;
-VKM_ID SPEC_CONDUCTOR = 5u;
-VKM_ID SPEC_TEXTURES = 6u;
+VKM_ID SPEC_TEXTURES = 6u;              // features.glsl, 6..7
 VKM_ID SPEC_CAPTURE = 7u;
 VKM_ID SPEC_ESTIMATOR = 8u;             // pathtrace.comp, 8..10
 VKM_ID SPEC_DEBUG_EVENTS = 9u;

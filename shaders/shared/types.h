@@ -50,16 +50,7 @@ VKM_CONST LOBE_BIT_D = 1u << LOBE_D;
 VKM_CONST LOBE_BIT_G = 1u << LOBE_G;
 VKM_CONST LOBE_BIT_S = 1u << LOBE_S;
 
-// Material types (host BsdfType values).
-VKM_CONST MAT_DIFFUSE = 0u;
-VKM_CONST MAT_PLASTIC = 1u;
-VKM_CONST MAT_ROUGHPLASTIC = 2u;
-VKM_CONST MAT_CONDUCTOR = 3u;
-VKM_CONST MAT_ROUGHCONDUCTOR = 4u;
-VKM_CONST MAT_DIELECTRIC = 5u;
-VKM_CONST MAT_ROUGHDIELECTRIC = 6u;
-VKM_CONST MAT_THINDIELECTRIC = 7u;
-VKM_CONST MAT_PRINCIPLED = 8u;
+// Material types MAT_*: shared/materials.h, the material table (included at the end).
 
 // Estimators (host Estimator values, docs/descriptor.md §1).
 VKM_CONST EST_NEE = 0u;
@@ -235,6 +226,11 @@ struct GpuHit {
 
 #ifdef __cplusplus
 }  // namespace vkmech::gpu
+#endif
+
+#include "shared/materials.h"
+
+#ifdef __cplusplus
 #undef VKM_CONST
 #undef VKM_REAL
 #endif

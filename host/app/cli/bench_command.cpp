@@ -270,17 +270,19 @@ int bench_render_ablation(const BenchOptions& o, const std::vector<std::string>&
             std::fflush(stdout);
         };
         row("specialized", base);
-        const std::pair<const char*, bool Features::*> effects[] = {
-            {"+thin-lens", &Features::thin_lens},   {"+dielectric", &Features::dielectric},
-            {"+rough", &Features::rough},           {"+plastic", &Features::plastic},
-            {"+principled", &Features::principled}, {"+conductor", &Features::conductor},
-            {"+textures", &Features::textures}};
-        for (const auto& [what, member] : effects) {
-            if (spec.*member) continue;
+        auto ablate = [&](const char* what, bool on, auto&& compile_in) {
+            if (on) return;
             Features f = spec;
-            f.*member = true;
+            compile_in(f);
             row(what, measure_paths_per_second(session, f, o));
-        }
+        };
+        ablate("+thin-lens", spec.thin_lens, [](Features& f) { f.thin_lens = true; });
+#define VKM_X(NAME, name, bit, spec_id)                                 \
+    ablate("+" #name, (spec.materials & gpu::FEATURE_BIT_##NAME) != 0u, \
+           [](Features& f) { f.materials |= gpu::FEATURE_BIT_##NAME; });
+        VKM_MATERIAL_FEATURES(VKM_X)
+#undef VKM_X
+        ablate("+textures", spec.textures, [](Features& f) { f.textures = true; });
         Features generic = Features::generic();
         generic.orthographic = spec.orthographic;
         row("generic", measure_paths_per_second(session, generic, o));

@@ -42,34 +42,10 @@ Features Features::from_scene(const Scene& scene, Estimator e, bool capture) {
     Features f;
     f.thin_lens = scene.camera.type == CameraType::ThinLens && scene.camera.aperture_radius > 0.0f;
     f.orthographic = scene.camera.type == CameraType::Orthographic;
-    f.dielectric = f.rough = f.plastic = f.principled = f.conductor = f.textures = false;
+    f.materials = 0u;
+    f.textures = false;
     for (const auto& m : scene.materials) {
-        switch (m.type) {
-            case BsdfType::Diffuse:
-                break;
-            case BsdfType::Plastic:
-                f.plastic = true;
-                break;
-            case BsdfType::RoughPlastic:
-                f.plastic = f.rough = true;
-                break;
-            case BsdfType::Conductor:
-                f.conductor = true;
-                break;
-            case BsdfType::RoughConductor:
-                f.conductor = f.rough = true;
-                break;
-            case BsdfType::Dielectric:
-            case BsdfType::ThinDielectric:
-                f.dielectric = true;
-                break;
-            case BsdfType::RoughDielectric:
-                f.dielectric = f.rough = true;
-                break;
-            case BsdfType::Principled:
-                f.principled = f.rough = true;
-                break;
-        }
+        f.materials |= gpu::material_features(static_cast<uint32_t>(m.type));
         if (m.reflectance.texture >= 0 || m.specular_reflectance_texture >= 0 || m.specular_transmittance_texture >= 0)
             f.textures = true;
     }
@@ -85,11 +61,9 @@ std::string Features::describe() const {
     };
     add(thin_lens, "thin-lens");
     add(orthographic, "orthographic");
-    add(dielectric, "dielectric");
-    add(rough, "rough");
-    add(plastic, "plastic");
-    add(principled, "principled");
-    add(conductor, "conductor");
+#define VKM_X(NAME, name, bit, spec_id) add((materials & gpu::FEATURE_BIT_##NAME) != 0u, #name);
+    VKM_MATERIAL_FEATURES(VKM_X)
+#undef VKM_X
     add(textures, "textures");
     add(capture, "capture");
     add(debug_events, "debug-events");

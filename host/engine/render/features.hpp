@@ -25,11 +25,9 @@ EndVertex parse_end_vertex(const std::string& s);  // throws std::invalid_argume
 struct Features {
     bool thin_lens = true;
     bool orthographic = false;  // a camera type, not an effect: never in the generic pipeline
-    bool dielectric = true;
-    bool rough = true;
-    bool plastic = true;
-    bool principled = true;
-    bool conductor = true;
+    // The material features compiled in (gpu::FEATURE_BIT_*, shared/materials.h): from_scene sets
+    // the features of the scene's materials (gpu::material_features of each).
+    uint32_t materials = gpu::FEATURE_BITS_ALL;
     bool textures = true;
     bool capture = true;        // the mechanism descriptor
     bool debug_events = false;  // record one pixel's contribution events (tests)

@@ -26,18 +26,15 @@ constexpr uint32_t kCounterWords = gpu::COUNTER_CLOCK + 2 * gpu::PHASE_COUNT;
 // The pipeline specialization of one Features value.
 std::vector<vk::SpecConstant> spec_constants(const Features& f) {
     using namespace gpu;
-    return {{SPEC_THIN_LENS, f.thin_lens},
-            {SPEC_DIELECTRIC, f.dielectric},
-            {SPEC_ROUGH, f.rough},
-            {SPEC_PLASTIC, f.plastic},
-            {SPEC_PRINCIPLED, f.principled},
-            {SPEC_CONDUCTOR, f.conductor},
-            {SPEC_TEXTURES, f.textures},
-            {SPEC_CAPTURE, f.capture},
-            {SPEC_ESTIMATOR, static_cast<uint32_t>(f.estimator)},
-            {SPEC_DEBUG_EVENTS, f.debug_events},
-            {SPEC_END_VERTEX_LITERAL, f.end_vertex == EndVertex::Literal},
-            {SPEC_ORTHOGRAPHIC, f.orthographic}};
+    std::vector<vk::SpecConstant> c = {
+        {SPEC_THIN_LENS, f.thin_lens},       {SPEC_TEXTURES, f.textures},
+        {SPEC_CAPTURE, f.capture},           {SPEC_ESTIMATOR, static_cast<uint32_t>(f.estimator)},
+        {SPEC_DEBUG_EVENTS, f.debug_events}, {SPEC_END_VERTEX_LITERAL, f.end_vertex == EndVertex::Literal},
+        {SPEC_ORTHOGRAPHIC, f.orthographic}};
+#define VKM_X(NAME, name, bit, spec_id) c.push_back({SPEC_##NAME, (f.materials & FEATURE_BIT_##NAME) != 0u});
+    VKM_MATERIAL_FEATURES(VKM_X)
+#undef VKM_X
+    return c;
 }
 
 // docs/reliability.md: what a film costs, said before (or instead of) a raw allocation failure.

@@ -14,27 +14,19 @@
 namespace vkmech {
 
 const char* to_string(BsdfType t) {
-    switch (t) {
-        case BsdfType::Diffuse:
-            return "diffuse";
-        case BsdfType::Plastic:
-            return "plastic";
-        case BsdfType::RoughPlastic:
-            return "roughplastic";
-        case BsdfType::Conductor:
-            return "conductor";
-        case BsdfType::RoughConductor:
-            return "roughconductor";
-        case BsdfType::Dielectric:
-            return "dielectric";
-        case BsdfType::RoughDielectric:
-            return "roughdielectric";
-        case BsdfType::ThinDielectric:
-            return "thindielectric";
-        case BsdfType::Principled:
-            return "principled";
-    }
+#define VKM_X(code, NAME, Name, name, features, lobes, flags) \
+    if (t == BsdfType::Name) return #name;
+    VKM_MATERIALS(VKM_X)
+#undef VKM_X
     return "unknown";
+}
+
+std::optional<BsdfType> bsdf_type_of(const std::string& plugin) {
+#define VKM_X(code, NAME, Name, name, features, lobes, flags) \
+    if (plugin == #name) return BsdfType::Name;
+    VKM_MATERIALS(VKM_X)
+#undef VKM_X
+    return std::nullopt;
 }
 
 const char* to_string(ShapeKind k) {

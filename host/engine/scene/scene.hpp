@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -37,19 +38,16 @@ private:
     std::string reason_;
 };
 
-// Material models of docs/descriptor.md §2 (Mitsuba 3 plugin names); values: MAT_* (shared/types.h).
+// Material models of docs/descriptor.md §2: one per row of the material table
+// (shared/materials.h); values MAT_*.
 enum class BsdfType : uint32_t {
-    Diffuse = gpu::MAT_DIFFUSE,
-    Plastic = gpu::MAT_PLASTIC,
-    RoughPlastic = gpu::MAT_ROUGHPLASTIC,
-    Conductor = gpu::MAT_CONDUCTOR,
-    RoughConductor = gpu::MAT_ROUGHCONDUCTOR,
-    Dielectric = gpu::MAT_DIELECTRIC,
-    RoughDielectric = gpu::MAT_ROUGHDIELECTRIC,
-    ThinDielectric = gpu::MAT_THINDIELECTRIC,
-    Principled = gpu::MAT_PRINCIPLED,
+#define VKM_X(code, NAME, Name, name, features, lobes, flags) Name = gpu::MAT_##NAME,
+    VKM_MATERIALS(VKM_X)
+#undef VKM_X
 };
-const char* to_string(BsdfType t);
+const char* to_string(BsdfType t);  // the Mitsuba plugin name (material table)
+// The model of a Mitsuba plugin name in the material table, or nullopt.
+std::optional<BsdfType> bsdf_type_of(const std::string& plugin);
 
 enum class MicrofacetDistribution : uint32_t { Beckmann = 0, GGX = 1 };
 
