@@ -333,9 +333,9 @@ SHARED_FN BsdfSample plastic_sample(GpuMaterial m, vec3 albedo, vec3 wo, float u
 //
 // Mitsuba precomputes, per material, the rough coat's transmittance T(mu)
 // (64 nodes in mu) and the base's internal reflectance. Here the host stores
-// them in the principled fields, which roughplastic does not use:
-// principled0.xyzw, principled1.xyzw, principled2.xyz = T at
-// sqrt(mu) = 0, 0.1, ..., 1 (linear in between), principled2.w =
+// them in the material's own block (GpuMaterial.model0..2):
+// model0.xyzw, model1.xyzw, model2.xyz = T at
+// sqrt(mu) = 0, 0.1, ..., 1 (linear in between), model2.w =
 // 1 + internal reflectance (0 = not prepared). roughplastic_prepare() fills
 // them; an unprepared material falls back to the smooth-coat values
 // 1 - F(mu) and the diffuse Fresnel reflectance.
@@ -343,12 +343,12 @@ SHARED_FN BsdfSample plastic_sample(GpuMaterial m, vec3 albedo, vec3 wo, float u
 const int RP_TABLE_NODES = 11;
 
 SHARED_FN float rp_table_get(GpuMaterial m, int i) {
-    if (i < 4) return m.principled0[i];
-    if (i < 8) return m.principled1[i - 4];
-    return m.principled2[i - 8];
+    if (i < 4) return m.model0[i];
+    if (i < 8) return m.model1[i - 4];
+    return m.model2[i - 8];
 }
 
-SHARED_FN bool roughplastic_prepared(GpuMaterial m) { return m.principled2.w >= 1.0; }
+SHARED_FN bool roughplastic_prepared(GpuMaterial m) { return m.model2.w >= 1.0; }
 
 SHARED_FN Microfacet roughplastic_microfacet(GpuMaterial m) {
     return microfacet_make(m.header.w, m.reflectance.w, m.reflectance.w);  // isotropic, as Mitsuba
@@ -364,7 +364,7 @@ SHARED_FN float roughplastic_transmittance(GpuMaterial m, float mu) {
 
 SHARED_FN float roughplastic_internal_reflectance(GpuMaterial m) {
     if (!roughplastic_prepared(m)) return fresnel_diffuse_reflectance(1.0 / mat_eta(m));
-    return m.principled2.w - 1.0;
+    return m.model2.w - 1.0;
 }
 
 SHARED_FN vec3 roughplastic_eval_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
@@ -454,11 +454,11 @@ SHARED_FN GpuMaterial roughplastic_prepare(GpuMaterial m) {
         float s = float(i) / float(RP_TABLE_NODES - 1);
         float t = rough_interface_average(d, eta, max(s * s, float(1e-6)), 64, true);
         if (i < 4) {
-            r.principled0[i] = t;
+            r.model0[i] = t;
         } else if (i < 8) {
-            r.principled1[i - 4] = t;
+            r.model1[i - 4] = t;
         } else {
-            r.principled2[i - 8] = t;
+            r.model2[i - 8] = t;
         }
     }
     // Internal reflectance: 2 int_0^1 R(mu, 1/eta) mu dmu = int_0^1 R(sqrt(x)) dx.
@@ -468,7 +468,7 @@ SHARED_FN GpuMaterial roughplastic_prepare(GpuMaterial m) {
         float x = (float(k) + 0.5) / float(NX);
         sum += rough_interface_average(d, 1.0 / eta, sqrt(x), 48, false);
     }
-    r.principled2.w = 1.0 + saturate(sum / float(NX));
+    r.model2.w = 1.0 + saturate(sum / float(NX));
     return r;
 }
 
@@ -506,16 +506,16 @@ struct Principled {
 SHARED_FN Principled principled_params(GpuMaterial m, vec3 albedo) {
     Principled p;
     p.base = albedo;
-    p.metallic = saturate(m.principled0.x);
-    p.roughness = saturate(m.principled0.y);
-    p.spec_tint = saturate(m.principled0.w);
-    float anisotropic = saturate(m.principled1.x);
-    p.sheen = max(m.principled1.y, float(0.0));
-    p.sheen_tint = saturate(m.principled1.z);
-    p.clearcoat = max(m.principled1.w, float(0.0));
-    float clearcoat_gloss = saturate(m.principled2.x);
-    float spec_trans = saturate(m.principled2.y);
-    p.eta = m.principled2.z > 0.0 ? m.principled2.z : 1.5;
+    p.metallic = saturate(m.model0.x);
+    p.roughness = saturate(m.model0.y);
+    p.spec_tint = saturate(m.model0.w);
+    float anisotropic = saturate(m.model1.x);
+    p.sheen = max(m.model1.y, float(0.0));
+    p.sheen_tint = saturate(m.model1.z);
+    p.clearcoat = max(m.model1.w, float(0.0));
+    float clearcoat_gloss = saturate(m.model2.x);
+    float spec_trans = saturate(m.model2.y);
+    p.eta = m.model2.z > 0.0 ? m.model2.z : 1.5;
     p.w_brdf = (1.0 - p.metallic) * (1.0 - spec_trans);
     p.w_bsdf = (1.0 - p.metallic) * spec_trans;
     // Mitsuba's calc_dist_params: alpha = roughness^2, stretched by the aspect.
@@ -532,7 +532,7 @@ SHARED_FN Principled principled_params(GpuMaterial m, vec3 albedo) {
 }
 
 SHARED_FN bool principled_transmissive(GpuMaterial m) {
-    return (1.0 - saturate(m.principled0.x)) * saturate(m.principled2.y) > 0.0;
+    return (1.0 - saturate(m.model0.x)) * saturate(m.model2.y) > 0.0;
 }
 
 // Reflectance of the main specular lobe on the outside: dielectric Fresnel
@@ -675,7 +675,7 @@ SHARED_FN BsdfSample principled_sample(GpuMaterial m, vec3 albedo, vec3 wo, floa
 
 // The lobe classes the material can sample (lobes.glsl, docs/descriptor.md §2).
 SHARED_FN uint bsdf_lobe_flags(GpuMaterial m) {
-    return material_lobe_flags(m.header.x, m.principled0.x, m.principled2.y);
+    return material_lobe_flags(m.header.x, m.model0.x, m.model2.y);
 }
 
 // Delta-only: every lobe is S (conductor, dielectric, thindielectric).

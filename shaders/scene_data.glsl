@@ -58,9 +58,9 @@ GpuMaterial material_at(uint i) {
         m.eta = SCENE_FETCH_F(material_buf, b + 4u);
         if (FEATURE_CONDUCTOR || FEATURE_PLASTIC) m.k = SCENE_FETCH_F(material_buf, b + 5u);
         if (FEATURE_PRINCIPLED || (FEATURE_PLASTIC && FEATURE_ROUGH)) {
-            m.principled0 = SCENE_FETCH_F(material_buf, b + 6u);
-            m.principled1 = SCENE_FETCH_F(material_buf, b + 7u);
-            m.principled2 = SCENE_FETCH_F(material_buf, b + 8u);
+            m.model0 = SCENE_FETCH_F(material_buf, b + 6u);
+            m.model1 = SCENE_FETCH_F(material_buf, b + 7u);
+            m.model2 = SCENE_FETCH_F(material_buf, b + 8u);
         }
     }
     return m;

@@ -59,9 +59,9 @@ GpuMaterial base_material(uint32_t type) {
     m.specular_transmittance = glm::vec4(1.0f, 1.0f, 1.0f, 1.5f);
     m.eta = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);
     m.k = glm::vec4(1.0f, 1.0f, 1.0f, 0.0f);
-    m.principled0 = glm::vec4(0.0f, 0.5f, 0.5f, 0.0f);
-    m.principled1 = glm::vec4(0.0f);
-    m.principled2 = glm::vec4(0.0f, 0.0f, 1.5f, 0.0f);
+    m.model0 = glm::vec4(0.0f, 0.5f, 0.5f, 0.0f);
+    m.model1 = glm::vec4(0.0f);
+    m.model2 = glm::vec4(0.0f, 0.0f, 1.5f, 0.0f);
     return m;
 }
 void set_albedo(GpuMaterial& m, glm::vec3 a) { m.reflectance = glm::vec4(a, m.reflectance.w); }
@@ -128,9 +128,9 @@ GpuMaterial mat_principled(const PrincipledParams& p, glm::vec3 base) {
     GpuMaterial m = base_material(MAT_PRINCIPLED);
     set_albedo(m, base);
     float r = (p.eta - 1.0f) / (p.eta + 1.0f);
-    m.principled0 = glm::vec4(p.metallic, p.roughness, r * r / 0.08f, p.spec_tint);
-    m.principled1 = glm::vec4(p.anisotropic, p.sheen, p.sheen_tint, p.clearcoat);
-    m.principled2 = glm::vec4(p.clearcoat_gloss, p.spec_trans, p.eta, 0.0f);
+    m.model0 = glm::vec4(p.metallic, p.roughness, r * r / 0.08f, p.spec_tint);
+    m.model1 = glm::vec4(p.anisotropic, p.sheen, p.sheen_tint, p.clearcoat);
+    m.model2 = glm::vec4(p.clearcoat_gloss, p.spec_trans, p.eta, 0.0f);
     return m;
 }
 

@@ -100,9 +100,13 @@ struct GpuMaterial {
     vec4 specular_transmittance;  // rgb, w: int_ior
     vec4 eta;            // rgb (conductor), w: ext_ior
     vec4 k;              // rgb (conductor), w: nonlinear (0/1)
-    vec4 principled0;    // metallic, roughness, specular, spec_tint
-    vec4 principled1;    // anisotropic, sheen, sheen_tint, clearcoat
-    vec4 principled2;    // clearcoat_gloss, spec_trans, eta, unused
+    // The model's own block, read by the model's named parameter block in shaders/bsdf.glsl:
+    // principled (Principled, principled_params): metallic, roughness, specular, spec_tint |
+    // anisotropic, sheen, sheen_tint, clearcoat | clearcoat_gloss, spec_trans, eta, unused;
+    // roughplastic (roughplastic_transmittance): its coat table, filled by roughplastic_prepare.
+    vec4 model0;
+    vec4 model1;
+    vec4 model2;
 };
 
 struct GpuEmitter {

@@ -83,9 +83,9 @@ gpu::GpuMaterial pack_material(const Material& m, const std::vector<Texture>& te
     g.specular_transmittance = glm::vec4(trans, m.int_ior);
     g.eta = glm::vec4(m.eta, m.ext_ior);
     g.k = glm::vec4(m.k, m.nonlinear ? 1.0f : 0.0f);
-    g.principled0 = glm::vec4(m.metallic, m.roughness, m.specular, m.spec_tint);
-    g.principled1 = glm::vec4(m.anisotropic, m.sheen, m.sheen_tint, m.clearcoat);
-    g.principled2 = glm::vec4(m.clearcoat_gloss, m.spec_trans, m.eta_principled, 0.0f);
+    g.model0 = glm::vec4(m.metallic, m.roughness, m.specular, m.spec_tint);
+    g.model1 = glm::vec4(m.anisotropic, m.sheen, m.sheen_tint, m.clearcoat);
+    g.model2 = glm::vec4(m.clearcoat_gloss, m.spec_trans, m.eta_principled, 0.0f);
     // roughplastic: precomputed coat transmittance table in the unused fields.
     if (m.type == BsdfType::RoughPlastic) g = shader::roughplastic_prepare(g);
     return g;
