@@ -86,9 +86,8 @@ TEST_CASE("material table: every material renders the same through the specializ
     std::vector<Case> cases;
     for (uint32_t t = 0; t < gpu::MAT_COUNT; ++t) cases.push_back({to_string(static_cast<BsdfType>(t)), ""});
     // FEATURE_TEXTURES: a textured reflectance.
-    cases.push_back({"diffuse",
-                     R"(<texture type="checkerboard" name="reflectance"><rgb name="color0" value="0.1"/>)"
-                     R"(<rgb name="color1" value="0.8, 0.4, 0.2"/></texture>)"});
+    cases.push_back({"diffuse", R"(<texture type="checkerboard" name="reflectance"><rgb name="color0" value="0.1"/>)"
+                                R"(<rgb name="color1" value="0.8, 0.4, 0.2"/></texture>)"});
     for (const Case& c : cases) {
         CAPTURE(c.plugin);
         CAPTURE(c.body);
@@ -111,7 +110,8 @@ TEST_CASE("material table: every material renders the same through the specializ
         REQUIRE(total > 0.0);
         CHECK(std::abs(luminance_sum(a) - total) <= 1e-5 * total);
         double worst = 0.0;
-        for (size_t i = 0; i < va.size(); ++i) worst = std::max(worst, std::abs(va[i] - vb[i]) / (std::abs(vb[i]) + 1e-3));
+        for (size_t i = 0; i < va.size(); ++i)
+            worst = std::max(worst, std::abs(va[i] - vb[i]) / (std::abs(vb[i]) + 1e-3));
         CHECK(worst <= 1e-4);
     }
 }
