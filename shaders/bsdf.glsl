@@ -671,6 +671,74 @@ SHARED_FN BsdfSample principled_sample(GpuMaterial m, vec3 albedo, vec3 wo, floa
     return bsdf_make_sample(wi, f, pdf, lobe, eta_out);
 }
 
+// ---- roughdiffuse (Oren-Nayar, as Mitsuba 0.6's `roughdiffuse`) ----
+//
+// Oren and Nayar's (1994) model of a surface of Lambertian V-cavities, in full:
+// single scattering with the C1..C3 terms plus the interreflection term C4, as
+// Mitsuba evaluates it by default (its `use_fast_approx` drops C3 and C4; the
+// loader warns and renders the full model). The roughness is Mitsuba's alpha,
+// a Beckmann-style RMS slope, converted to the Oren-Nayar angular deviation
+// sigma = alpha / sqrt(2); alpha 0 is Lambertian. Sampling is cosine-weighted.
+// The full model is not exactly energy conserving: with albedo 1 it reflects
+// up to about 1.7 % more than it receives at grazing incidence (measured:
+// tests/test_bsdf.cpp, white furnace), as Mitsuba's does.
+// Mitsuba declares the one component glossy reflection, so its samples are of
+// class G (docs/descriptor.md §2 reduces Mitsuba's flags; shared/materials.h).
+
+struct RoughDiffuse {
+    float sigma2;  // sigma^2, the variance of the facet angles
+};
+
+SHARED_FN RoughDiffuse roughdiffuse_params(GpuMaterial m) {
+    RoughDiffuse p;
+    float sigma = m.reflectance.w * 0.70710678;  // alpha (GpuMaterial.reflectance.w) / sqrt(2)
+    p.sigma2 = sigma * sigma;
+    return p;
+}
+
+SHARED_FN vec3 roughdiffuse_eval_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
+    pdf = 0.0;
+    if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
+    RoughDiffuse p = roughdiffuse_params(m);
+    float sin_o = safe_sqrt(1.0 - wo.z * wo.z);
+    float sin_i = safe_sqrt(1.0 - wi.z * wi.z);
+    // cos(phi_o - phi_i); 0 where either azimuth is undefined (at the normal).
+    float cos_phi = 0.0;
+    if (sin_o > 1e-4 && sin_i > 1e-4)
+        cos_phi = clamp((wo.x * wi.x + wo.y * wi.y) / (sin_o * sin_i), float(-1.0), float(1.0));
+    float theta_o = acos(min(wo.z, float(1.0)));
+    float theta_i = acos(min(wi.z, float(1.0)));
+    float a = max(theta_o, theta_i);  // Oren-Nayar's alpha and beta: the larger and the smaller angle
+    float b = min(theta_o, theta_i);
+    float sin_a = wo.z > wi.z ? sin_i : sin_o;
+    float sin_b = wo.z > wi.z ? sin_o : sin_i;
+    float tan_b = wo.z > wi.z ? sin_o / wo.z : sin_i / wi.z;
+    float s2 = p.sigma2;
+    float t1 = s2 / (s2 + 0.09);
+    float t2 = (4.0 * VKM_INV_PI * VKM_INV_PI) * a * b;
+    float t3 = 2.0 * b * VKM_INV_PI;
+    float c1 = 1.0 - 0.5 * s2 / (s2 + 0.33);
+    float c2 = 0.45 * t1 * (cos_phi > 0.0 ? sin_a : sin_a - t3 * t3 * t3);
+    float c3 = 0.125 * t1 * t2 * t2;
+    float c4 = 0.17 * s2 / (s2 + 0.13);
+    // tan((a + b) / 2) by the half-angle formula.
+    float tan_half = (sin_a + sin_b) / (safe_sqrt(1.0 - sin_a * sin_a) + safe_sqrt(1.0 - sin_b * sin_b));
+    float single_scattering = c1 + cos_phi * c2 * tan_b + (1.0 - abs(cos_phi)) * c3 * tan_half;
+    float interreflection = c4 * (1.0 - cos_phi * t3 * t3);
+    pdf = wi.z * VKM_INV_PI;
+    // Far from the normal on very rough surfaces (alpha above about 1) the
+    // fitted C2 term turns the single scattering negative; a BSDF cannot be.
+    return max(albedo * single_scattering + albedo * albedo * interreflection, vec3(0.0)) * pdf;
+}
+
+SHARED_FN BsdfSample roughdiffuse_sample(GpuMaterial m, vec3 albedo, vec3 wo, float u_lobe, vec2 u) {
+    BsdfSample lambert = diffuse_sample(m, albedo, wo, u_lobe, u);  // the cosine-weighted direction
+    if (!lambert.ok) return lambert;
+    float pdf;
+    vec3 f = roughdiffuse_eval_pdf(m, albedo, wo, lambert.wi, pdf);
+    return bsdf_make_sample(lambert.wi, f, pdf, LOBE_G, 1.0);
+}
+
 // ---- dispatch ----
 
 // The lobe classes the material can sample (lobes.glsl, docs/descriptor.md §2).

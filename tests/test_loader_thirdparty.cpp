@@ -7,6 +7,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -180,6 +181,30 @@ TEST_CASE("mitsuba third-party: bump and normal maps load with a warning, a cut-
     CHECK(sub.substitutions[0].find("cutout.xml:") != std::string::npos);
 }
 
+TEST_CASE("mitsuba third-party: roughdiffuse loads as Oren-Nayar, without --substitute") {
+    std::string path = write_scene("roughdiffuse", R"(
+  <shape type="cube"><bsdf type="roughdiffuse"><rgb name="reflectance" value="0.3"/><float name="alpha" value="0.6"/></bsdf></shape>
+  <shape type="sphere"><bsdf type="roughdiffuse"><boolean name="useFastApprox" value="true"/></bsdf></shape>
+  <shape type="disk"><bsdf type="roughdiffuse"><float name="alpha" value="-1"/></bsdf></shape>)");
+    CHECK_THROWS_WITH_AS(load_scene(path), doctest::Contains("'alpha' must be a finite number >= 0"), SceneError);
+    std::string ok = write_scene("roughdiffuse_ok", R"(
+  <shape type="cube"><bsdf type="roughdiffuse"><rgb name="reflectance" value="0.3"/><float name="alpha" value="0.6"/></bsdf></shape>
+  <shape type="sphere"><bsdf type="roughdiffuse"><boolean name="useFastApprox" value="true"/></bsdf></shape>)");
+    Scene s = load_scene(ok);
+    const Material& a = s.materials[s.meshes[0].material];
+    CHECK(a.type == BsdfType::RoughDiffuse);
+    CHECK(a.reflectance.value.x == doctest::Approx(0.3f));
+    CHECK(a.alpha_u == doctest::Approx(0.6f));
+    const Material& b = s.materials[s.meshes[1].material];
+    CHECK(b.type == BsdfType::RoughDiffuse);
+    CHECK(b.alpha_u == doctest::Approx(0.2f));  // Mitsuba's default
+    CHECK(b.lobe_flags() == gpu::LOBE_BIT_G);   // Mitsuba's flag: glossy reflection
+    CHECK(s.substitutions.empty());
+    CHECK(std::count_if(s.warnings.begin(), s.warnings.end(), [](const std::string& w) {
+              return w.find("use_fast_approx is ignored") != std::string::npos;
+          }) == 1);
+}
+
 TEST_CASE("mitsuba third-party: --substitute maps point lights, phong and blendbsdf to the model") {
     std::string path = write_scene("outside", R"(
   <emitter type="point"><point name="position" x="0" y="2" z="0"/><rgb name="intensity" value="10"/></emitter>
@@ -187,8 +212,7 @@ TEST_CASE("mitsuba third-party: --substitute maps point lights, phong and blendb
   <shape type="sphere"><bsdf type="blendbsdf"><float name="weight" value="0.8"/>
     <bsdf type="diffuse"/><bsdf type="roughconductor"/></bsdf></shape>
   <shape type="disk"><bsdf type="mixturebsdf"><string name="weights" value="0.2, 0.7, 0.1"/>
-    <bsdf type="diffuse"/><bsdf type="conductor"/><bsdf type="plastic"/></bsdf></shape>
-  <shape type="cylinder"><bsdf type="roughdiffuse"><rgb name="reflectance" value="0.3"/></bsdf></shape>)");
+    <bsdf type="diffuse"/><bsdf type="conductor"/><bsdf type="plastic"/></bsdf></shape>)");
     CHECK_THROWS_WITH_AS(load_scene(path), doctest::Contains("--substitute"), SceneError);
     LoadOptions o;
     o.substitute_unsupported = true;
@@ -206,11 +230,9 @@ TEST_CASE("mitsuba third-party: --substitute maps point lights, phong and blendb
     double r = bulb.radius;
     CHECK(r > 0.0);
     CHECK(s.emitters[0].radiance.x == doctest::Approx(10.0 / (M_PI * r * r)).epsilon(1e-4));
-    // mixturebsdf keeps its heaviest component; roughdiffuse becomes Lambertian.
+    // mixturebsdf keeps its heaviest component.
     CHECK(s.materials[s.meshes[2].material].type == BsdfType::Conductor);
-    CHECK(s.materials[s.meshes[3].material].type == BsdfType::Diffuse);
-    CHECK(s.materials[s.meshes[3].material].reflectance.value.x == doctest::Approx(0.3f));
-    CHECK(s.substitutions.size() == 5);
+    CHECK(s.substitutions.size() == 4);
 
     // A directional light: a distant square whose radiance times its solid
     // angle is the light's irradiance.

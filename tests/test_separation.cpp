@@ -133,8 +133,8 @@ TEST_CASE("separation: family rule by BSDF lobe flags for every material type") 
         {BsdfType::RoughPlastic, SeparationFamily::Glossy},    {BsdfType::Conductor, SeparationFamily::Delta},
         {BsdfType::RoughConductor, SeparationFamily::Glossy},  {BsdfType::Dielectric, SeparationFamily::Delta},
         {BsdfType::RoughDielectric, SeparationFamily::Glossy}, {BsdfType::ThinDielectric, SeparationFamily::Delta},
-        {BsdfType::Principled, SeparationFamily::Glossy}};
-    CHECK(std::size(rows) == gpu::MAT_PRINCIPLED + 1);  // a new BsdfType needs a row
+        {BsdfType::Principled, SeparationFamily::Glossy},      {BsdfType::RoughDiffuse, SeparationFamily::Glossy}};
+    CHECK(std::size(rows) == gpu::MAT_COUNT);  // a new BsdfType needs a row
     for (const Row& r : rows)
         for (bool twosided : {false, true}) {
             CAPTURE(to_string(r.type));
@@ -214,7 +214,7 @@ TEST_CASE("separation: the families follow the lobe flags the renderer uses") {
     // material reports the same flags as the host material, and the renderer's
     // NEE lobe and delta-only test agree with the family.
     Scene scene = sphere_scene(SphereSetup{});
-    for (uint32_t t = 0; t <= gpu::MAT_PRINCIPLED; ++t)
+    for (uint32_t t = 0; t < gpu::MAT_COUNT; ++t)
         for (float metallic : {0.0f, 1.0f}) {
             scene.materials[1].type = static_cast<BsdfType>(t);
             scene.materials[1].metallic = metallic;

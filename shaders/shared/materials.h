@@ -22,7 +22,8 @@
     X(ROUGH, rough, 1u, 2u)                   \
     X(PLASTIC, plastic, 2u, 3u)               \
     X(PRINCIPLED, principled, 3u, 4u)         \
-    X(CONDUCTOR, conductor, 4u, 5u)
+    X(CONDUCTOR, conductor, 4u, 5u)           \
+    X(ROUGHDIFFUSE, roughdiffuse, 5u, 12u)
 
 // Material properties (the `flags` column below).
 // MATF_ALBEDO: the model's colour is GpuMaterial.reflectance, which may be a
@@ -55,7 +56,8 @@
       LOBE_BIT_G, VKM_MATF_TRANSMISSIVE)                                                                            \
     X(7u, THINDIELECTRIC, ThinDielectric, thindielectric, FEATURE_BIT_DIELECTRIC, LOBE_BIT_S, VKM_MATF_TRANSMISSIVE) \
     X(8u, PRINCIPLED, Principled, principled, FEATURE_BIT_PRINCIPLED, LOBE_BIT_G | LOBE_BIT_D,                      \
-      VKM_MATF_ALBEDO | VKM_MATF_TRANSMISSIVE)
+      VKM_MATF_ALBEDO | VKM_MATF_TRANSMISSIVE)                                                                     \
+    X(9u, ROUGHDIFFUSE, RoughDiffuse, roughdiffuse, FEATURE_BIT_ROUGHDIFFUSE, LOBE_BIT_G, VKM_MATF_ALBEDO)
 
 #ifdef __cplusplus
 namespace vkmech::gpu {

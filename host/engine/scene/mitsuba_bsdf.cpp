@@ -294,13 +294,13 @@ int MitsubaLoader::bsdf(const XNode& n) {
                                 " (weight " + fmt_weight(float(w[best])) + ")");
         m = scene_.materials[parts[best]];
     } else if (type == "roughdiffuse") {
-        // Oren-Nayar: the nearest model is Lambertian with its reflectance.
-        require_substitute(n, "bsdf", "diffuse with the same reflectance");
-        m.type = BsdfType::Diffuse;
-        m.reflectance = reflectance(p, {"reflectance"}, glm::vec3(0.5f));
-        p.find({"alpha"});
-        p.find({"use_fast_approx", "useFastApprox"});
-        record_substitution(n, "bsdf", "diffuse with the same reflectance (the Oren-Nayar roughness is dropped)");
+        // Oren-Nayar (Mitsuba 0.6): reflectance and the RMS roughness alpha (default 0.2).
+        m.type = BsdfType::RoughDiffuse;
+        m.reflectance = reflectance(p, {"reflectance", "diffuseReflectance", "diffuse_reflectance"}, glm::vec3(0.5f));
+        m.alpha_u = m.alpha_v = p.get_float({"alpha"}, 0.2f);
+        if (!(m.alpha_u >= 0.0f) || !std::isfinite(m.alpha_u)) n.fail("'alpha' must be a finite number >= 0");
+        if (p.get_bool({"use_fast_approx", "useFastApprox"}, false))
+            warn(n, "use_fast_approx is ignored: the full Oren-Nayar model is rendered (Mitsuba's default)");
     } else if (type == "phong") {
         // The nearest model material: rough plastic whose Beckmann roughness
         // matches the Phong exponent (alpha = sqrt(2 / (n + 2)), Walter 2007).
