@@ -1,6 +1,5 @@
 #include "study/study_runner.hpp"
 
-#include "allocation/mom.hpp"
 #include "experiments/study_context.hpp"
 #include "io/atomic_file.hpp"
 #include "io/output_set.hpp"
