@@ -15,6 +15,7 @@
 #include <fstream>
 #include <functional>
 #include <sstream>
+#include <stdexcept>
 
 using namespace vkmech;
 using vkmech::testing::TempDir;
@@ -26,6 +27,11 @@ struct Sample {
     uint32_t bucket;
 };
 using SampleFn = std::function<Sample(size_t pixel, uint32_t index)>;
+
+// The allocation study reads its data from its own source, never a study render.
+struct NoFrames final : FrameSource {
+    Frame get(const RenderRequest&) override { throw std::logic_error("allocation study: asked for a study render"); }
+};
 
 double lum709(double r, double g, double b) { return 0.2126 * r + 0.7152 * g + 0.0722 * b; }
 
@@ -166,7 +172,8 @@ TEST_CASE(
     StudyConfig cfg = small_config();
     SyntheticSource src;
     StudyOutput out(tmp.path.string());
-    AllocationContext ctx{cfg, src, out, "no device"};
+    NoFrames no_frames;
+    StudyContext ctx{cfg, no_frames, out, "no device", {}, &src};
     run_allocation(ctx);
 
     // One reference, one pool, K pilot draws per N0, in that order, then the timing renders.
@@ -267,7 +274,8 @@ TEST_CASE(
     cfg.equal_time_budgets = {8, 32};
     SyntheticSource src;
     StudyOutput out(tmp.path.string());
-    AllocationContext ctx{cfg, src, out, "no device"};
+    NoFrames no_frames;
+    StudyContext ctx{cfg, no_frames, out, "no device", {}, &src};
     run_allocation(ctx);
     // 13 timing renders (as above), then one render per equal-time strategy and budget at N0 = 4 and at N0 = 16.
     CHECK(src.final_totals.size() == 13 + 2 * 5 + 2 * 5);
@@ -289,7 +297,8 @@ TEST_CASE("allocation experiment: a pool that does not match the reference's fil
     SyntheticSource src;
     src.pool_pixels_offset = 1;
     StudyOutput out(tmp.path.string());
-    AllocationContext ctx{cfg, src, out, "no device"};
+    NoFrames no_frames;
+    StudyContext ctx{cfg, no_frames, out, "no device", {}, &src};
     CHECK_THROWS_WITH_AS(run_allocation(ctx), doctest::Contains("pool of synthetic"), std::runtime_error);
 }
 

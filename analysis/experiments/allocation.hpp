@@ -35,20 +35,15 @@ public:
     virtual double final_render_seconds(const SceneVariant& v, const std::vector<uint32_t>& n) = 0;
 };
 
-struct AllocationContext {
-    const StudyConfig& cfg;
-    AllocationSource& source;
-    StudyOutput& out;
-    std::string device;  // for "Wall time of each strategy on <device>"
-};
-
-void run_allocation(AllocationContext& a);
-
-// The strategies whose wall time run_allocation measures at pilot n0 (one
+// The strategies whose wall time run_allocation (study_context.hpp) measures at pilot n0 (one
 // final render each, tab alloc_time), and those of its equal-time table at n0
 // (one final render per equal-time budget each): at the smallest pilot the
 // plain-variance ones, where median-of-means is defined the robust ones.
 std::vector<alloc::Strategy> allocation_timed_strategies(uint32_t n0);
 std::vector<alloc::Strategy> allocation_equal_time_strategies(uint32_t n0);
+
+// Paths per pixel the allocation study traces for one scene (reference, pool,
+// pilots, timing renders), for the study's cost estimate.
+double allocation_paths_per_pixel(const StudyConfig& cfg);
 
 }  // namespace vkmech

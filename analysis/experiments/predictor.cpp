@@ -157,67 +157,113 @@ ReliabilityCurve ReliabilityCurve::load(const std::string& path) {
     return c;
 }
 
-void run_predictor(StudyContext& ctx) {
+namespace {
+
+constexpr int kPredictorBins = 20;
+
+// ---- new scenes: predicted agreement from their own pilot and a frozen curve ----
+
+struct NewScenePrediction {
+    std::string name;
+    PilotPrediction prediction;
+};
+
+void run_predictor_new_scenes(StudyContext& ctx) {
     const StudyConfig& cfg = ctx.cfg;
-    const int bins = 20;
-    const std::string sec = "Reliability predictor";
-    const std::string pilot = std::to_string(cfg.pilot_spp()), top = std::to_string(cfg.stability_reference_spp());
+    const ReliabilityCurve curve = ReliabilityCurve::load(cfg.predictor_curve);
+    std::vector<NewScenePrediction> predictions;
+    for (const auto& scene : cfg.scenes)
+        predictions.push_back(
+            {scene.name,
+             predict_from_pilot(curve, ctx.frames.get({scene, cfg.pilot_spp(), seeds::stability(0), Estimator::Nee}))});
 
-    if (!cfg.predictor_curve.empty()) {
-        // New scenes: predicted agreement from their own pilot and a frozen curve.
-        ReliabilityCurve curve = ReliabilityCurve::load(cfg.predictor_curve);
-        Table t{"predictor_new",
-                "Predicted label reliability from the pilot alone",
-                {"scene", "pilot SPP", "labelled px", "pred. (margin)", "pred. (purity)"},
-                {},
-                ""};
-        t.note = "Curve: " + cfg.predictor_curve + " (pilot " + std::to_string(curve.pilot_spp) + " SPP, reference " +
-                 std::to_string(curve.reference_spp) +
-                 " SPP). The prediction is the expected share of pixels whose pilot "
-                 "label matches a reference render.";
-        if (curve.pilot_spp != 0 && curve.pilot_spp != cfg.pilot_spp())
-            t.note += " Warning: this pilot has " + pilot + " SPP, the curve was fitted on " +
-                      std::to_string(curve.pilot_spp) + "-SPP pilots.";
-        for (const auto& scene : cfg.scenes) {
-            Frame p = ctx.frames.get({scene, cfg.pilot_spp(), seeds::stability(0), Estimator::Nee});
-            auto px = pilot_pixels(p, nullptr);
-            t.add({Cell::str(scene.name), Cell::integer(cfg.pilot_spp()),
-                   Cell::integer(static_cast<long long>(px.margin.size())),
-                   Cell::num(ReliabilityCurve::predict(curve.margin, px.margin)),
-                   Cell::num(ReliabilityCurve::predict(curve.purity, px.purity))});
-        }
-        ctx.out.table(sec, t, "the share of pixels expected to keep their pilot label at the reference budget.");
-        return;
+    Table t{"predictor_new",
+            "Predicted label reliability from the pilot alone",
+            {"scene", "pilot SPP", "labelled px", "pred. (margin)", "pred. (purity)"},
+            {},
+            ""};
+    t.note = "Curve: " + cfg.predictor_curve + " (pilot " + std::to_string(curve.pilot_spp) + " SPP, reference " +
+             std::to_string(curve.reference_spp) +
+             " SPP). The prediction is the expected share of pixels whose pilot "
+             "label matches a reference render.";
+    if (curve.pilot_spp != 0 && curve.pilot_spp != cfg.pilot_spp())
+        t.note += " Warning: this pilot has " + std::to_string(cfg.pilot_spp()) + " SPP, the curve was fitted on " +
+                  std::to_string(curve.pilot_spp) + "-SPP pilots.";
+    for (const NewScenePrediction& p : predictions)
+        t.add({Cell::str(p.name), Cell::integer(cfg.pilot_spp()),
+               Cell::integer(static_cast<long long>(p.prediction.labelled)), Cell::num(p.prediction.margin),
+               Cell::num(p.prediction.purity)});
+    ctx.out.table("Reliability predictor", t,
+                  "the share of pixels expected to keep their pilot label at the reference budget.");
+}
+
+// ---- the study's scenes: the pooled curve and each scene's leave-one-scene-out prediction ----
+
+struct PredictorScene {
+    std::string name;
+    size_t labelled = 0;
+    double actual = NAN, pred_margin = NAN, pred_purity = NAN;  // agreement: actual and predicted
+    stats::BinnedRate by_margin, by_purity;                     // agreement rate per pilot bin
+};
+
+struct PredictorResult {
+    ReliabilityCurve curve;  // fitted on every scene
+    std::vector<PredictorScene> scenes;
+};
+
+// Largest decrease between consecutive bins holding at least 20 pixels (monotonicity check).
+double largest_drop(const stats::BinnedRate& r) {
+    double drop = 0, prev = NAN;
+    for (size_t b = 0; b < r.rate.size(); ++b) {
+        if (r.count[b] < 20) continue;
+        if (std::isfinite(prev)) drop = std::max(drop, prev - r.rate[b]);
+        prev = r.rate[b];
     }
+    return drop;
+}
 
+PredictorResult compute_predictor(StudyContext& ctx) {
+    const StudyConfig& cfg = ctx.cfg;
+    const int bins = kPredictorBins;
+    PredictorResult r;
     std::vector<PilotPixels> px;
     std::vector<stats::BinnedRate> by_margin, by_purity;
     for (const auto& scene : cfg.scenes) {
         Frame p = ctx.frames.get({scene, cfg.pilot_spp(), seeds::stability(0), Estimator::Nee});
-        Frame r = ctx.frames.get(
+        Frame ref = ctx.frames.get(
             {scene, cfg.stability_reference_spp(), seeds::stability(cfg.stability_spp.size() - 1), Estimator::Nee});
-        px.push_back(pilot_pixels(p, &r));
+        px.push_back(pilot_pixels(p, &ref));
         by_margin.push_back(stats::binned_rate(px.back().margin, px.back().agree, bins, 0.0, 1.0));
         by_purity.push_back(stats::binned_rate(px.back().purity, px.back().agree, bins, 0.0, 1.0));
     }
     std::vector<size_t> all(cfg.scenes.size());
     for (size_t i = 0; i < all.size(); ++i) all[i] = i;
+    r.curve.bins = bins;
+    r.curve.margin = pooled_curve(by_margin, all, bins);
+    r.curve.purity = pooled_curve(by_purity, all, bins);
+    r.curve.pilot_spp = cfg.pilot_spp();
+    r.curve.reference_spp = cfg.stability_reference_spp();
+    for (const auto& s : cfg.scenes) r.curve.scenes.push_back(s.name);
+    for (size_t s = 0; s < cfg.scenes.size(); ++s) {
+        PredictorScene sc{cfg.scenes[s].name, px[s].agree.size(), NAN, NAN, NAN, by_margin[s], by_purity[s]};
+        std::vector<size_t> others;
+        for (size_t o : all)
+            if (o != s) others.push_back(o);
+        double actual = 0;
+        for (uint8_t a : px[s].agree) actual += a;
+        sc.actual = px[s].agree.empty() ? NAN : actual / px[s].agree.size();
+        if (!others.empty()) {
+            sc.pred_margin = ReliabilityCurve::predict(pooled_curve(by_margin, others, bins), px[s].margin);
+            sc.pred_purity = ReliabilityCurve::predict(pooled_curve(by_purity, others, bins), px[s].purity);
+        }
+        r.scenes.push_back(std::move(sc));
+    }
+    return r;
+}
 
-    ReliabilityCurve curve;
-    curve.bins = bins;
-    curve.margin = pooled_curve(by_margin, all, bins);
-    curve.purity = pooled_curve(by_purity, all, bins);
-    curve.pilot_spp = cfg.pilot_spp();
-    curve.reference_spp = cfg.stability_reference_spp();
-    for (const auto& s : cfg.scenes) curve.scenes.push_back(s.name);
-    write_file_atomic((std::filesystem::path(ctx.out.dir()) / "predictor_curve.json").string(), curve.json());
-
-    Table t{"predictor",
-            "Scene-level label reliability predicted from the pilot (leave-one-scene-out)",
-            {"scene", "labelled px", "actual " + pilot + " vs " + top, "pred. (margin)", "error", "pred. (purity)",
-             "error", "largest drop (margin)", "largest drop (purity)"},
-            {},
-            ""};
+// The three panels: agreement per margin bin, per purity bin, and predicted against actual.
+report::Figure predictor_figure(const PredictorResult& r) {
+    const int bins = kPredictorBins;
     report::Panel pm, pp, pa;
     pm.title = "agreement per pilot margin bin";
     pm.xlabel = "pilot argmax margin";
@@ -231,59 +277,48 @@ void run_predictor(StudyContext& ctx) {
     pa.diagonal = true;
     report::Series sa_m{"margin curve", {}, {}, {}, {}, "#D55E00", "o", "", 6, 0, {}};
     report::Series sa_p{"purity curve", {}, {}, {}, {}, "#0072B2", "s", "", 6, 0, {}};
-    double max_err_m = 0, max_err_p = 0;
-    auto centres = [&] {
-        std::vector<double> c(bins);
-        for (int b = 0; b < bins; ++b) c[b] = (b + 0.5) / bins;
-        return c;
-    }();
-    // Largest decrease between consecutive bins holding at least 20 pixels (monotonicity check).
-    auto largest_drop = [](const stats::BinnedRate& r) {
-        double drop = 0, prev = NAN;
-        for (size_t b = 0; b < r.rate.size(); ++b) {
-            if (r.count[b] < 20) continue;
-            if (std::isfinite(prev)) drop = std::max(drop, prev - r.rate[b]);
-            prev = r.rate[b];
-        }
-        return drop;
-    };
-    for (size_t s = 0; s < cfg.scenes.size(); ++s) {
-        std::vector<size_t> others;
-        for (size_t o : all)
-            if (o != s) others.push_back(o);
-        double actual = 0;
-        for (uint8_t a : px[s].agree) actual += a;
-        actual = px[s].agree.empty() ? NAN : actual / px[s].agree.size();
-        double pred_m = NAN, pred_p = NAN;
-        if (!others.empty()) {
-            pred_m = ReliabilityCurve::predict(pooled_curve(by_margin, others, bins), px[s].margin);
-            pred_p = ReliabilityCurve::predict(pooled_curve(by_purity, others, bins), px[s].purity);
-        }
-        if (std::isfinite(pred_m)) max_err_m = std::max(max_err_m, std::fabs(pred_m - actual));
-        if (std::isfinite(pred_p)) max_err_p = std::max(max_err_p, std::fabs(pred_p - actual));
-        t.add({Cell::str(cfg.scenes[s].name), Cell::integer(static_cast<long long>(px[s].agree.size())),
-               Cell::num(actual), Cell::num(pred_m), Cell::num(pred_m - actual, "%+.3f"), Cell::num(pred_p),
-               Cell::num(pred_p - actual, "%+.3f"), Cell::num(largest_drop(by_margin[s]), "%.3f"),
-               Cell::num(largest_drop(by_purity[s]), "%.3f")});
-        sa_m.x.push_back(actual);
-        sa_m.y.push_back(pred_m);
-        sa_p.x.push_back(actual);
-        sa_p.y.push_back(pred_p);
-        auto thin = [&](const stats::BinnedRate& r) {
-            report::Series sr{cfg.scenes[s].name, {}, {}, {}, {}, "", "", "-", 0, 0.6, {}};
+    std::vector<double> centres(bins);
+    for (int b = 0; b < bins; ++b) centres[b] = (b + 0.5) / bins;
+    for (const PredictorScene& sc : r.scenes) {
+        sa_m.x.push_back(sc.actual);
+        sa_m.y.push_back(sc.pred_margin);
+        sa_p.x.push_back(sc.actual);
+        sa_p.y.push_back(sc.pred_purity);
+        auto thin = [&](const stats::BinnedRate& rate) {
+            report::Series sr{sc.name, {}, {}, {}, {}, "", "", "-", 0, 0.6, {}};
             for (int b = 0; b < bins; ++b)
-                if (r.count[b] >= 10) {
+                if (rate.count[b] >= 10) {
                     sr.x.push_back(centres[b]);
-                    sr.y.push_back(r.rate[b]);
+                    sr.y.push_back(rate.rate[b]);
                 }
             return sr;
         };
-        pm.series.push_back(thin(by_margin[s]));
-        pp.series.push_back(thin(by_purity[s]));
+        pm.series.push_back(thin(sc.by_margin));
+        pp.series.push_back(thin(sc.by_purity));
     }
-    pm.series.push_back({"pooled isotonic", centres, curve.margin, {}, {}, "#000000", "", "-", 0, 0, {}});
-    pp.series.push_back({"pooled isotonic", centres, curve.purity, {}, {}, "#000000", "", "-", 0, 0, {}});
+    pm.series.push_back({"pooled isotonic", centres, r.curve.margin, {}, {}, "#000000", "", "-", 0, 0, {}});
+    pp.series.push_back({"pooled isotonic", centres, r.curve.purity, {}, {}, "#000000", "", "-", 0, 0, {}});
     pa.series = {sa_m, sa_p};
+    return {"predictor", "Label-reliability predictor", "", 3, {pm, pp, pa}};
+}
+
+Table predictor_table(const StudyConfig& cfg, const PredictorResult& r) {
+    const std::string pilot = std::to_string(cfg.pilot_spp()), top = std::to_string(cfg.stability_reference_spp());
+    Table t{"predictor",
+            "Scene-level label reliability predicted from the pilot (leave-one-scene-out)",
+            {"scene", "labelled px", "actual " + pilot + " vs " + top, "pred. (margin)", "error", "pred. (purity)",
+             "error", "largest drop (margin)", "largest drop (purity)"},
+            {},
+            ""};
+    double max_err_m = 0, max_err_p = 0;
+    for (const PredictorScene& sc : r.scenes) {
+        if (std::isfinite(sc.pred_margin)) max_err_m = std::max(max_err_m, std::fabs(sc.pred_margin - sc.actual));
+        if (std::isfinite(sc.pred_purity)) max_err_p = std::max(max_err_p, std::fabs(sc.pred_purity - sc.actual));
+        t.add({Cell::str(sc.name), Cell::integer(static_cast<long long>(sc.labelled)), Cell::num(sc.actual),
+               Cell::num(sc.pred_margin), Cell::num(sc.pred_margin - sc.actual, "%+.3f"), Cell::num(sc.pred_purity),
+               Cell::num(sc.pred_purity - sc.actual, "%+.3f"), Cell::num(largest_drop(sc.by_margin), "%.3f"),
+               Cell::num(largest_drop(sc.by_purity), "%.3f")});
+    }
     t.note =
         "Pilot " + pilot + " SPP, reference " + top +
         " SPP. Each scene's prediction uses the curve pooled over the "
@@ -292,14 +327,29 @@ void run_predictor(StudyContext& ctx) {
         " (purity). \"largest drop\": the largest decrease of the agreement rate between consecutive bins with >= 20 "
         "pixels (0 = monotone). The curve fitted on all scenes is frozen in predictor_curve.json (use it with "
         "`vkmech study predictor --curve FILE --scenes NEW` to predict a new scene from its pilot).";
-    report::Figure fig{"predictor", "Label-reliability predictor", "", 3, {pm, pp, pa}};
-    ctx.out.table(sec, t,
-                  "how well a scene's own pilot predicts its pilot-vs-reference agreement before any reference "
-                  "exists (the paper reports LOSO errors of at most 0.061 purity, 0.079 margin).");
-    ctx.out.figure(sec, fig,
-                   "left and middle: agreement rate per pilot bin, one thin line per scene and the pooled monotone "
-                   "curve in black; right: leave-one-scene-out prediction against the actual agreement (diagonal = "
-                   "perfect).");
+    return t;
+}
+
+void write_predictor(StudyOutput& out, const StudyConfig& cfg, const PredictorResult& r) {
+    const std::string sec = "Reliability predictor";
+    write_file_atomic((std::filesystem::path(out.dir()) / "predictor_curve.json").string(), r.curve.json());
+    out.table(sec, predictor_table(cfg, r),
+              "how well a scene's own pilot predicts its pilot-vs-reference agreement before any reference "
+              "exists (the paper reports LOSO errors of at most 0.061 purity, 0.079 margin).");
+    out.figure(sec, predictor_figure(r),
+               "left and middle: agreement rate per pilot bin, one thin line per scene and the pooled monotone "
+               "curve in black; right: leave-one-scene-out prediction against the actual agreement (diagonal = "
+               "perfect).");
+}
+
+}  // namespace
+
+void run_predictor(StudyContext& ctx) {
+    if (!ctx.cfg.predictor_curve.empty()) {
+        run_predictor_new_scenes(ctx);
+        return;
+    }
+    write_predictor(ctx.out, ctx.cfg, compute_predictor(ctx));
 }
 
 }  // namespace vkmech

@@ -39,9 +39,7 @@ std::string verdict_band(double predicted, double measured, double tol) {
     return std::abs(measured - predicted) <= tol ? "PASS" : "FAIL";
 }
 
-}  // namespace
-
-Evaluation evaluate(const Record& r, const EvalInputs& in) {
+void check_inputs(const Record& r, const EvalInputs& in) {
     if (!in.reference || !in.pool) throw std::invalid_argument("sentinel evaluate: no reference or pool");
     const Frame& ref = *in.reference;
     const size_t P = static_cast<size_t>(ref.width) * ref.height;
@@ -56,16 +54,10 @@ Evaluation evaluate(const Record& r, const EvalInputs& in) {
                                     " pilot draws, the protocol has " + std::to_string(r.protocol.draws));
     for (const Pilot& p : in.pilots)
         if (p.var.size() != P) throw std::invalid_argument("sentinel evaluate: a pilot does not match the film");
+}
 
-    Evaluation e;
-    // The reference: unclamped RGB, the PSNR peak, its descriptor.
-    const std::vector<double> ref_rgb = mean_rgb(ref);
-    e.peak = psnr_peak(ref_rgb);
-    const Descriptor rd = derive_descriptor(ref);
-    const DescriptorSummary rs = summarize(ref, rd);
-
-    // Reproducibility: the registered pilot, rendered again, must give the registered diagnosis.
-    const alloc::PilotDiagnosis d0 = alloc::diagnose_pilot(in.pilots[0]);
+// Reproducibility: the registered pilot, rendered again, must give the registered diagnosis.
+void check_reproduced(const Record& r, const alloc::PilotDiagnosis& d0, Evaluation& e) {
     const alloc::PilotDiagnosis& rdg = r.diagnosis;
     e.pilot_reproduced = d0.pixels == rdg.pixels && d0.labelled == rdg.labelled && d0.seen == rdg.seen &&
                          d0.heavy == rdg.heavy && d0.floor_changed == rdg.floor_changed &&
@@ -79,14 +71,16 @@ Evaluation evaluate(const Record& r, const EvalInputs& in) {
                   std::to_string(d0.labelled) + " vs " + std::to_string(rdg.labelled) + ", untrusted " +
                   std::to_string(d0.untrusted) + " vs " + std::to_string(rdg.untrusted) +
                   "): another device or driver? the allocation outcomes below are for the pilot rendered now");
+}
 
-    // The allocation comparison at equal samples over the protocol's draws.
+// The allocation comparison at equal samples over the protocol's draws; the scores in e.strategies.
+Scores score_strategies(const Record& r, const EvalInputs& in, const alloc::PilotDiagnosis& d0,
+                        const std::vector<double>& ref_rgb, const std::vector<uint8_t>& ref_labels, Evaluation& e) {
     const bool robust = !in.pilots[0].mom_var.empty();
     std::vector<Strategy> strategies;
     for (Strategy s : {Strategy::Uniform, Strategy::ObservedVar, Strategy::BucketFloor, Strategy::RobustVar,
                        Strategy::RobustFloor, Strategy::Guarded, Strategy::Shrink, Strategy::Placebo, Strategy::Oracle})
         if (robust || !alloc::needs_mom(s)) strategies.push_back(s);
-    const std::vector<uint8_t> ref_labels = rd.dominant;
     Scores sc;
     for (uint32_t k = 0; k < r.protocol.draws; ++k) {
         const Pilot& pl = in.pilots[k];
@@ -120,6 +114,109 @@ Evaluation evaluate(const Record& r, const EvalInputs& in) {
         ss.identical_to_observed_var = sc.plans.at(ss.name)[0] == sc.plans.at("observed-var")[0];
         e.strategies.push_back(ss);
     }
+    return sc;
+}
+
+// coverage.<bucket>.<pixel_share|energy_share>: the reference's share.
+void measure_coverage(const Prediction& pr, const DescriptorSummary& rs, Outcome& o) {
+    const std::string rest = pr.name.substr(9);
+    const size_t dot = rest.find('.');
+    const std::string bucket = rest.substr(0, dot), what = dot == std::string::npos ? "" : rest.substr(dot + 1);
+    uint32_t b = 0;
+    while (b < kBucketCount && bucket != kBucketNames[b]) ++b;
+    double m = NAN;
+    if (b < kBucketCount)
+        m = what == "pixel_share" ? rs.pixel_share[b] : what == "energy_share" ? rs.energy_share[b] : NAN;
+    o.measured = fmt("%.4f", m);
+    o.verdict = verdict_band(pr.value, m, pr.tolerance);
+    o.detail =
+        "the reference's " + what + " of " + bucket + " (" + std::to_string(rs.labelled_pixels) + " labelled pixels)";
+}
+
+// allocation.<a>_vs_<b>: the paired comparison of two strategies.
+void measure_allocation(const Prediction& pr, const Scores& sc, Outcome& o) {
+    const std::string pair = pr.name.substr(11);
+    const size_t vs = pair.find("_vs_");
+    const std::string a = pair.substr(0, vs), b = vs == std::string::npos ? "" : pair.substr(vs + 4);
+    if (!sc.by_name.count(a) || !sc.by_name.count(b)) {
+        o.measured = "not measured";
+        o.verdict = "INDETERMINATE";
+        o.detail = "the comparison lacks " + (sc.by_name.count(a) ? b : a);
+        return;
+    }
+    const StrategyScore& A = sc.by_name.at(a);
+    const StrategyScore& B = sc.by_name.at(b);
+    const double diff = A.psnr_mean - B.psnr_mean;
+    const alloc::Paired pw = alloc::paired_wins(A.mse, B.mse);
+    size_t same = 0;
+    for (size_t k = 0; k < sc.plans.at(a).size(); ++k) same += sc.plans.at(a)[k] == sc.plans.at(b)[k];
+    const bool same0 = sc.plans.at(a)[0] == sc.plans.at(b)[0];
+    if (pr.outcome == "no-op") {
+        o.measured = same0 ? "identical" : "differs";
+        o.verdict = same0 ? "PASS" : "FAIL";
+    } else {
+        o.measured = fmt("%+.3f dB", diff);
+        const double n = static_cast<double>(A.mse.size());
+        const alloc::Paired losses = alloc::paired_wins(B.mse, A.mse);  // draws where A's MSE is higher
+        if (pr.outcome == "helps")
+            o.verdict = !(diff > 0) ? "FAIL" : pw.wins >= kWinShare * n ? "PASS" : "INDETERMINATE";
+        else if (pr.outcome == "fails")
+            o.verdict = !(diff < 0) ? "FAIL" : losses.wins >= kWinShare * n ? "PASS" : "INDETERMINATE";
+        else
+            o.verdict = "INDETERMINATE";
+    }
+    o.detail = a + " " + fmt("%.2f", A.psnr_mean) + " dB vs " + b + " " + fmt("%.2f", B.psnr_mean) + " dB (mean over " +
+               std::to_string(A.mse.size()) + " draws); lower MSE on " + std::to_string(pw.wins) + "/" +
+               std::to_string(pw.draws) + " draws; identical allocation on " + std::to_string(same) + "/" +
+               std::to_string(A.mse.size()) + " draws";
+}
+
+// structure.rho_CG_sign: the sign of the caustic/glossy correlation, with its tile-bootstrap interval.
+void measure_structure(const Prediction& pr, const Frame& ref, const Descriptor& rd, Outcome& o) {
+    const size_t P = static_cast<size_t>(ref.width) * ref.height;
+    std::vector<double> cx, gx, cf(P, NAN), gf(P, NAN);
+    bool cnz = false, gnz = false;
+    for (size_t p = 0; p < P; ++p) {
+        if (rd.dominant[p] == kNoLabel) continue;
+        cx.push_back(rd.caustic_frac[p]);
+        gx.push_back(rd.glossy_frac[p]);
+        cf[p] = rd.caustic_frac[p];
+        gf[p] = rd.glossy_frac[p];
+        cnz = cnz || rd.caustic_frac[p] != 0.0f;
+        gnz = gnz || rd.glossy_frac[p] != 0.0f;
+    }
+    if (!cnz || !gnz) {
+        o.measured = "degenerate";
+        o.verdict = "INDETERMINATE";
+        o.detail =
+            std::string("the reference has no ") + (cnz ? "glossy" : "delta-mediated") + " energy in a labelled pixel";
+        return;
+    }
+    const double rho = stats::spearman(cx, gx);
+    const stats::Interval ci = stats::tile_bootstrap_spearman(cf, gf, ref.width, 8, 1000, 0);
+    o.measured = fmt("%+.3f", rho) + " [" + fmt("%+.3f", ci.lo) + ", " + fmt("%+.3f", ci.hi) + "]";
+    const bool pos = ci.lo > 0, neg = ci.hi < 0;
+    const bool want_pos = pr.outcome == "positive";
+    o.verdict = (want_pos && pos) || (!want_pos && neg) ? "PASS" : (pos || neg) ? "FAIL" : "INDETERMINATE";
+    o.detail = "Spearman rho of caustic_frac and glossy_frac over the reference's " + std::to_string(cx.size()) +
+               " labelled pixels, 95% tile-bootstrap interval";
+}
+
+}  // namespace
+
+Evaluation evaluate(const Record& r, const EvalInputs& in) {
+    check_inputs(r, in);
+    const Frame& ref = *in.reference;
+    Evaluation e;
+    // The reference: unclamped RGB, the PSNR peak, its descriptor.
+    const std::vector<double> ref_rgb = mean_rgb(ref);
+    e.peak = psnr_peak(ref_rgb);
+    const Descriptor rd = derive_descriptor(ref);
+    const DescriptorSummary rs = summarize(ref, rd);
+    const alloc::PilotDiagnosis d0 = alloc::diagnose_pilot(in.pilots[0]);
+    check_reproduced(r, d0, e);
+    const std::vector<uint8_t> ref_labels = rd.dominant;
+    const Scores sc = score_strategies(r, in, d0, ref_rgb, ref_labels, e);
 
     // Every prediction, by the rule it was registered with.
     std::vector<uint8_t> pilot_labels = derive_descriptor(in.pilots[0].frame).dominant;
@@ -137,81 +234,11 @@ Evaluation evaluate(const Record& r, const EvalInputs& in) {
                        std::to_string(static_cast<uint64_t>(conf.total())) + " pixels labelled in both; |error| " +
                        fmt("%.4f", std::abs(agree - pr.value)) + " (band " + fmt("%.3f", pr.tolerance) + ")";
         } else if (pr.name.rfind("coverage.", 0) == 0) {
-            const std::string rest = pr.name.substr(9);
-            const size_t dot = rest.find('.');
-            const std::string bucket = rest.substr(0, dot), what = dot == std::string::npos ? "" : rest.substr(dot + 1);
-            uint32_t b = 0;
-            while (b < kBucketCount && bucket != kBucketNames[b]) ++b;
-            double m = NAN;
-            if (b < kBucketCount)
-                m = what == "pixel_share" ? rs.pixel_share[b] : what == "energy_share" ? rs.energy_share[b] : NAN;
-            o.measured = fmt("%.4f", m);
-            o.verdict = verdict_band(pr.value, m, pr.tolerance);
-            o.detail = "the reference's " + what + " of " + bucket + " (" + std::to_string(rs.labelled_pixels) +
-                       " labelled pixels)";
+            measure_coverage(pr, rs, o);
         } else if (pr.name.rfind("allocation.", 0) == 0) {
-            const std::string pair = pr.name.substr(11);
-            const size_t vs = pair.find("_vs_");
-            const std::string a = pair.substr(0, vs), b = vs == std::string::npos ? "" : pair.substr(vs + 4);
-            if (!sc.by_name.count(a) || !sc.by_name.count(b)) {
-                o.measured = "not measured";
-                o.verdict = "INDETERMINATE";
-                o.detail = "the comparison lacks " + (sc.by_name.count(a) ? b : a);
-            } else {
-                const StrategyScore& A = sc.by_name.at(a);
-                const StrategyScore& B = sc.by_name.at(b);
-                const double diff = A.psnr_mean - B.psnr_mean;
-                const alloc::Paired pw = alloc::paired_wins(A.mse, B.mse);
-                size_t same = 0;
-                for (size_t k = 0; k < sc.plans.at(a).size(); ++k) same += sc.plans.at(a)[k] == sc.plans.at(b)[k];
-                const bool same0 = sc.plans.at(a)[0] == sc.plans.at(b)[0];
-                if (pr.outcome == "no-op") {
-                    o.measured = same0 ? "identical" : "differs";
-                    o.verdict = same0 ? "PASS" : "FAIL";
-                } else {
-                    o.measured = fmt("%+.3f dB", diff);
-                    const double n = static_cast<double>(A.mse.size());
-                    const alloc::Paired losses = alloc::paired_wins(B.mse, A.mse);  // draws where A's MSE is higher
-                    if (pr.outcome == "helps")
-                        o.verdict = !(diff > 0) ? "FAIL" : pw.wins >= kWinShare * n ? "PASS" : "INDETERMINATE";
-                    else if (pr.outcome == "fails")
-                        o.verdict = !(diff < 0) ? "FAIL" : losses.wins >= kWinShare * n ? "PASS" : "INDETERMINATE";
-                    else
-                        o.verdict = "INDETERMINATE";
-                }
-                o.detail = a + " " + fmt("%.2f", A.psnr_mean) + " dB vs " + b + " " + fmt("%.2f", B.psnr_mean) +
-                           " dB (mean over " + std::to_string(A.mse.size()) + " draws); lower MSE on " +
-                           std::to_string(pw.wins) + "/" + std::to_string(pw.draws) +
-                           " draws; identical allocation on " + std::to_string(same) + "/" +
-                           std::to_string(A.mse.size()) + " draws";
-            }
+            measure_allocation(pr, sc, o);
         } else if (pr.name == "structure.rho_CG_sign") {
-            std::vector<double> cx, gx, cf(P, NAN), gf(P, NAN);
-            bool cnz = false, gnz = false;
-            for (size_t p = 0; p < P; ++p) {
-                if (rd.dominant[p] == kNoLabel) continue;
-                cx.push_back(rd.caustic_frac[p]);
-                gx.push_back(rd.glossy_frac[p]);
-                cf[p] = rd.caustic_frac[p];
-                gf[p] = rd.glossy_frac[p];
-                cnz = cnz || rd.caustic_frac[p] != 0.0f;
-                gnz = gnz || rd.glossy_frac[p] != 0.0f;
-            }
-            if (!cnz || !gnz) {
-                o.measured = "degenerate";
-                o.verdict = "INDETERMINATE";
-                o.detail = std::string("the reference has no ") + (cnz ? "glossy" : "delta-mediated") +
-                           " energy in a labelled pixel";
-            } else {
-                const double rho = stats::spearman(cx, gx);
-                const stats::Interval ci = stats::tile_bootstrap_spearman(cf, gf, ref.width, 8, 1000, 0);
-                o.measured = fmt("%+.3f", rho) + " [" + fmt("%+.3f", ci.lo) + ", " + fmt("%+.3f", ci.hi) + "]";
-                const bool pos = ci.lo > 0, neg = ci.hi < 0;
-                const bool want_pos = pr.outcome == "positive";
-                o.verdict = (want_pos && pos) || (!want_pos && neg) ? "PASS" : (pos || neg) ? "FAIL" : "INDETERMINATE";
-                o.detail = "Spearman rho of caustic_frac and glossy_frac over the reference's " +
-                           std::to_string(cx.size()) + " labelled pixels, 95% tile-bootstrap interval";
-            }
+            measure_structure(pr, ref, rd, o);
         } else {
             o.measured = "not measured";
             o.verdict = "INDETERMINATE";

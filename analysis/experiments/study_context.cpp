@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 
 namespace fs = std::filesystem;
 
@@ -84,6 +85,21 @@ const std::vector<bool>& light_tailed_buckets() {
 const std::vector<bool>& heavy_buckets() {
     static const std::vector<bool> v = bucket_family(gpu::HEAVY_BUCKETS);
     return v;
+}
+
+StudyFn study_function(StudyKind k) {
+    static const std::vector<std::pair<StudyKind, StudyFn>> kRunners = {
+        {StudyKind::Stability, run_stability},
+        {StudyKind::Variance, run_variance},
+        {StudyKind::Cost, run_cost},
+        {StudyKind::Structure, run_structure},
+        {StudyKind::SweepRoughness, run_sweep_roughness},
+        {StudyKind::SweepLights, run_sweep_lights},
+        {StudyKind::Predictor, run_predictor},
+        {StudyKind::Allocation, run_allocation}};
+    for (const auto& [kind, fn] : kRunners)
+        if (kind == k) return fn;
+    throw std::logic_error(std::string("study: no runner for the study kind ") + to_string(k));
 }
 
 std::string build_report(const StudyOutput& out, const std::string& header) {

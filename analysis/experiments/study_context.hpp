@@ -17,6 +17,7 @@
 namespace vkmech {
 
 struct SeparationMeasures;
+class AllocationSource;
 
 class FrameSource {
 public:
@@ -53,6 +54,8 @@ struct StudyContext {
     std::string device;  // device name, for "ms on <device>"
     // Separation measures of a scene variant (needs the device); may be empty.
     std::function<SeparationMeasures(const SceneVariant&)> separation;
+    // The allocation study's data (experiments/allocation.hpp); null where no study needs it.
+    AllocationSource* allocation = nullptr;
 };
 
 // ---- per-pixel fields shared by the experiments ----
@@ -69,7 +72,8 @@ std::vector<double> bucket_field(const Frame& f, uint32_t bucket);
 const std::vector<bool>& light_tailed_buckets();
 const std::vector<bool>& heavy_buckets();
 
-// One function per study (docs/descriptor.md §5); each writes tables, figures and images.
+// One function per study (docs/descriptor.md §5); each computes a typed result
+// and hands it to its writers (tables, figures, images, checks).
 void run_stability(StudyContext& ctx);
 void run_variance(StudyContext& ctx);
 void run_cost(StudyContext& ctx);
@@ -77,6 +81,11 @@ void run_structure(StudyContext& ctx);
 void run_sweep_roughness(StudyContext& ctx);
 void run_sweep_lights(StudyContext& ctx);
 void run_predictor(StudyContext& ctx);
+void run_allocation(StudyContext& ctx);  // needs ctx.allocation
+
+// The runner of a study kind.
+using StudyFn = void (*)(StudyContext&);
+StudyFn study_function(StudyKind k);
 
 // report.md: every table inline, every figure and image linked, each with its
 // reading guide, under `header` (command, preset, device, wall time).

@@ -1,6 +1,5 @@
 #include "study/study_runner.hpp"
 
-#include "allocation/mom.hpp"
 #include "experiments/study_context.hpp"
 #include "io/atomic_file.hpp"
 #include "io/output_set.hpp"
@@ -225,7 +224,6 @@ CacheState key_renders(const StudyPlan& p, const StudyDevice& dev, const RenderC
 double estimate(const StudyPlan& p, const StudyDevice& dev, const CacheState& cs) {
     const StudyConfig& cfg = p.cfg;
     const auto& plan = p.renders;
-    const auto& kinds = p.kinds;
     const vk::Context& ctx = dev.ctx;
     const Traversal trav = dev.trav;
     const auto& missing = cs.missing;
@@ -252,22 +250,8 @@ double estimate(const StudyPlan& p, const StudyDevice& dev, const CacheState& cs
         expected_s += static_cast<double>(r.spp) * w * h / probe(r.scene, cfg.res);
     }
     double alloc_paths = 0;
-    if (std::find(kinds.begin(), kinds.end(), StudyKind::Allocation) != kinds.end()) {
-        double per_pixel = cfg.alloc_ref_chunks * cfg.alloc_ref_chunk_spp + 256.0;
-        for (uint32_t n0 : cfg.alloc_pilots)
-            per_pixel += cfg.alloc_draws * n0 + allocation_timed_strategies(n0).size() * (1.0 + cfg.alloc_extra);
-        if (cfg.equal_time && !cfg.alloc_pilots.empty()) {
-            std::vector<uint32_t> eq_pilots = {
-                cfg.alloc_pilots.front()};  // the smallest pilot and the first robust one
-            for (uint32_t n0 : cfg.alloc_pilots)
-                if (alloc::mom_defined(static_cast<int>(n0))) {
-                    eq_pilots.push_back(n0);
-                    break;
-                }
-            for (uint32_t n0 : eq_pilots)
-                for (uint32_t e : cfg.equal_time_budgets)
-                    per_pixel += allocation_equal_time_strategies(n0).size() * (1.0 + e);
-        }
+    if (p.has(StudyKind::Allocation)) {
+        const double per_pixel = allocation_paths_per_pixel(cfg);
         for (const auto& sc : cfg.scenes) {
             LoadedScene ls = load_variant(sc, cfg.alloc_res);
             double paths = per_pixel * ls.scene.camera.width * ls.scene.camera.height;
@@ -352,52 +336,27 @@ RenderTally render_missing(const StudyPlan& p, const StudyDevice& dev, RenderCac
     return t;
 }
 
-void analyse(const StudyPlan& p, const StudyDevice& dev, RenderCache& cache, StudyOutput& out, FrameSource& frames,
-             bool offline) {
+void analyse(const StudyPlan& p, const StudyDevice& dev, StudyOutput& out, FrameSource& frames,
+             AllocationSource* allocation) {
     const StudyConfig& cfg = p.cfg;
     const vk::Context& ctx = dev.ctx;
     const Traversal trav = dev.trav;
-    const std::string& code_digest = dev.code_digest;
     std::map<SceneVariant, SeparationMeasures> separations;
-    StudyContext sc{cfg, frames, out, ctx.info().name, [&](const SceneVariant& v) {
+    StudyContext sc{cfg,
+                    frames,
+                    out,
+                    ctx.info().name,
+                    [&](const SceneVariant& v) {
                         auto it = separations.find(v);
                         if (it != separations.end()) return it->second;
                         LoadedScene ls = load_variant(v, cfg.res);
                         RenderSession session(ctx, std::move(ls.scene), std::move(ls.arrays), trav);
                         return separations[v] = measure_separation(session);
-                    }};
+                    },
+                    allocation};
     for (StudyKind k : p.kinds) {
         std::fprintf(stderr, "study: analysing %s\n", to_string(k));
-        switch (k) {
-            case StudyKind::Stability:
-                run_stability(sc);
-                break;
-            case StudyKind::Variance:
-                run_variance(sc);
-                break;
-            case StudyKind::Cost:
-                run_cost(sc);
-                break;
-            case StudyKind::Structure:
-                run_structure(sc);
-                break;
-            case StudyKind::SweepRoughness:
-                run_sweep_roughness(sc);
-                break;
-            case StudyKind::SweepLights:
-                run_sweep_lights(sc);
-                break;
-            case StudyKind::Predictor:
-                run_predictor(sc);
-                break;
-            case StudyKind::Allocation: {
-                RenderedAllocationSource source(cfg, ctx, trav, cache, code_digest, [] { return study_interrupted(); });
-                source.set_offline(offline);
-                AllocationContext ac{cfg, source, out, ctx.info().name};
-                run_allocation(ac);
-                break;
-            }
-        }
+        study_function(k)(sc);
     }
 }
 
@@ -574,9 +533,13 @@ int run_study(const StudyOptions& o) {
             missing_units.insert(unit_of.at(r));
             missing_lines.push_back(describe(r));
         }
+    // The allocation study renders its own data during its analysis (and its missing units for a shard).
     std::optional<RenderedAllocationSource> alloc_source;
-    if (p.has(StudyKind::Allocation) && scale_out) {
+    if (p.has(StudyKind::Allocation)) {
         alloc_source.emplace(p.cfg, dev.ctx, dev.trav, cache, dev.code_digest, [] { return study_interrupted(); });
+        alloc_source->set_offline(o.analyse_only);
+    }
+    if (alloc_source && scale_out) {
         for (size_t u = 0; u < units.size(); ++u)
             if (units[u].allocation && in_shard(u)) {
                 const auto m = alloc_source->missing(units[u].scene);
@@ -634,7 +597,7 @@ int run_study(const StudyOptions& o) {
     fs::create_directories(p.out_dir);
     StudyOutput out(p.out_dir);
     CacheFrames frames(cache, cs.keys);
-    analyse(p, dev, cache, out, frames, o.analyse_only);
+    analyse(p, dev, out, frames, alloc_source ? &*alloc_source : nullptr);
     const int rc = plot(o, p.out_dir);
 
     const std::string header = report_header(o, p, dev, frames, tally, cs.paths_total, alloc_paths, t_start);
