@@ -81,7 +81,7 @@ TEST_CASE("bvh: the validator detects a corrupted tree") {
 TEST_CASE("bvh: the BVH of every project scene is well formed") {
     for (const auto& path : testing::project_scene_paths()) {
         CAPTURE(path);
-        SceneArrays a = flatten_scene(load_scene(path));
+        SceneArrays a = flatten_scene(load_scene(path), Traversal::Bvh);
         std::vector<glm::vec3> pos(a.tri_positions.size());
         for (size_t i = 0; i < pos.size(); ++i) pos[i] = glm::vec3(a.tri_positions[i]);  // already in BVH order
         CHECK(validate_bvh(a.bvh, pos) == "");
@@ -326,7 +326,7 @@ TEST_CASE("bvh: the 4-wide checker detects a corrupted tree") {
 TEST_CASE("bvh: the 4-wide tree of every project scene and of a graded deep tree is well formed") {
     for (const auto& path : testing::project_scene_paths()) {
         CAPTURE(path);
-        SceneArrays a = flatten_scene(load_scene(path));
+        SceneArrays a = flatten_scene(load_scene(path), Traversal::Bvh);
         std::vector<glm::vec3> pos(a.tri_positions.size());
         for (size_t i = 0; i < pos.size(); ++i) pos[i] = glm::vec3(a.tri_positions[i]);
         CHECK(check_bvh4(a.bvh4, pos) == "");
