@@ -4,6 +4,7 @@
 #include "gpu_fixture.hpp"
 #include "scene_fixtures.hpp"
 
+#include "io/invariant.hpp"
 #include "render/gpu_scene.hpp"
 #include "render/ray_caster.hpp"
 #include "render/renderer.hpp"
@@ -292,6 +293,30 @@ TEST_SUITE("gpu") {
             RayCaster crq(*ctx, rq), cbvh(*ctx, bvh);
             check_casters_agree(path, arrays, crq, RaySchedule::Auto, cbvh);
         });
+        CHECK(ctx->validation_messages() == 0);
+    }
+
+    TEST_CASE("traversal: a session builds the software BVH only for the BVH traversal") {
+        VKMECH_REQUIRE_GPU(ctx);
+        const Scene scene = testing::quad_scene();
+        RenderSession bvh(*ctx, scene, Traversal::Bvh);
+        CHECK(bvh.arrays().has_bvh());
+        CHECK(bvh.arrays().bvh.order.size() == 2);
+        // The software BVH cannot traverse arrays that were only flattened.
+        CHECK_THROWS_AS(GpuScene(*ctx, flatten_scene(scene), Traversal::Bvh), InternalError);
+        if (!ctx->ray_query_enabled()) {
+            MESSAGE("skipped: device has no ray query");
+            return;
+        }
+        RenderSession rq(*ctx, scene, Traversal::RayQuery);
+        CHECK_FALSE(rq.arrays().has_bvh());
+        CHECK(rq.arrays().bvh.nodes.empty());
+        CHECK(rq.arrays().bvh4.empty());
+        // Ray query on the scene's own order finds the quad as on the BVH's.
+        RayCaster caster(*ctx, rq.gpu());
+        const std::vector<gpu::GpuRay> rays = {{glm::vec4(0.3f, 0.2f, 2.0f, 0.0f), glm::vec4(0, 0, -1, 1e30f)},
+                                               {glm::vec4(-0.3f, -0.2f, 2.0f, 0.0f), glm::vec4(0, 0, -1, 1e30f)}};
+        for (const auto& h : caster.trace(rays, false)) CHECK(h.hit.x == doctest::Approx(2.0f).epsilon(1e-6));
         CHECK(ctx->validation_messages() == 0);
     }
 
