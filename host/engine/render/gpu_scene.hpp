@@ -6,11 +6,11 @@
 #pragma once
 
 #include "accel/bvh.hpp"
-#include "accel/rt_accel.hpp"
 #include "scene/scene.hpp"
 #include "shared/types.h"
 #include "vk/buffer.hpp"
 #include "vk/pipeline.hpp"
+#include "vk/rt_accel.hpp"
 
 #include <memory>
 #include <optional>
