@@ -12,7 +12,13 @@ Frame render_scene(vk::Context& ctx, const std::string& path, const RenderSetup&
 
 Frame render_scene(vk::Context& ctx, Scene scene, const RenderSetup& setup) {
     scene.camera.set_film_width(setup.res);
-    RenderSession session(ctx, std::move(scene), setup.traversal, LightSelection::Uniform, setup.kernel);
+    auto session_of = [&](Scene sc) {
+        if (!setup.bvh_arrays)
+            return RenderSession(ctx, std::move(sc), setup.traversal, LightSelection::Uniform, setup.kernel);
+        SceneArrays arrays = flatten_scene(sc, Traversal::Bvh);
+        return RenderSession(ctx, std::move(sc), std::move(arrays), setup.traversal, setup.kernel);
+    };
+    RenderSession session = session_of(std::move(scene));
     Features f = setup.generic ? Features::generic(setup.estimator) : session.features(setup.estimator);
     Renderer r = session.renderer(f);
     RenderSpec spec;

@@ -25,6 +25,9 @@ struct RenderSetup {
     std::vector<uint32_t> sample_counts;  // adaptive: n(p) per pixel (docs/descriptor.md §6)
     PixelOrder pixel_order = PixelOrder::Auto;
     vk::KernelClass kernel = vk::KernelClass::Auto;  // the context's
+    // Ray query on the arrays the software BVH renders (its triangle order, so
+    // its light table and sample streams) instead of the scene's own order.
+    bool bvh_arrays = false;
 };
 
 Frame render_scene(vk::Context& ctx, const std::string& path, const RenderSetup& setup);

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cstring>
 #include <random>
 
 using namespace vkmech;
@@ -81,7 +82,7 @@ TEST_CASE("bvh: the validator detects a corrupted tree") {
 TEST_CASE("bvh: the BVH of every project scene is well formed") {
     for (const auto& path : testing::project_scene_paths()) {
         CAPTURE(path);
-        SceneArrays a = flatten_scene(load_scene(path));
+        SceneArrays a = flatten_scene(load_scene(path), Traversal::Bvh);
         std::vector<glm::vec3> pos(a.tri_positions.size());
         for (size_t i = 0; i < pos.size(); ++i) pos[i] = glm::vec3(a.tri_positions[i]);  // already in BVH order
         CHECK(validate_bvh(a.bvh, pos) == "");
@@ -110,7 +111,78 @@ bool same_bits(const glm::vec3& p, const glm::vec3& q) {
     return std::bit_cast<glm::uvec3>(p) == std::bit_cast<glm::uvec3>(q);
 }
 
+template <class T>
+bool same_bytes(const std::vector<T>& a, const std::vector<T>& b) {
+    return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+}
+
+// The scene arrays that do not depend on the triangle order, to the bit.
+bool same_unordered(const SceneArrays& a, const SceneArrays& b) {
+    return same_bytes(a.vertices, b.vertices) && same_bytes(a.materials, b.materials) &&
+           same_bytes(a.texels, b.texels) && same_bytes(a.textures, b.textures) && same_bits(a.bbox_lo, b.bbox_lo) &&
+           same_bits(a.bbox_hi, b.bbox_hi);
+}
+
+// Every scene array and the tree, to the bit.
+bool same_arrays(const SceneArrays& a, const SceneArrays& b) {
+    return same_unordered(a, b) && same_bytes(a.bvh.order, b.bvh.order) && same_bytes(a.bvh4, b.bvh4) &&
+           same_bytes(a.triangles, b.triangles) && same_bytes(a.triangle_mesh, b.triangle_mesh) &&
+           same_bytes(a.tri_positions, b.tri_positions) && same_bytes(a.light_triangles, b.light_triangles) &&
+           same_bytes(a.emitters, b.emitters) &&
+           std::bit_cast<uint32_t>(a.light_weight_total) == std::bit_cast<uint32_t>(b.light_weight_total);
+}
+
 }  // namespace
+
+TEST_CASE("bvh: flattening alone builds no BVH, the software BVH traversal's flattening builds it and reorders") {
+    for (const auto& path : testing::project_scene_paths()) {
+        CAPTURE(path);
+        const Scene scene = load_scene(path);
+        // Flattening alone, and for ray query: the scene's own triangle order, mesh by mesh, no tree.
+        const SceneArrays own = flatten_scene(scene);
+        CHECK_FALSE(own.has_bvh());
+        CHECK(own.bvh.nodes.empty());
+        CHECK(own.bvh.order.empty());
+        CHECK(std::is_sorted(own.triangle_mesh.begin(), own.triangle_mesh.end()));
+        CHECK(same_arrays(flatten_scene(scene, Traversal::RayQuery), own));
+
+        // The software BVH: the tree, and the same triangles in its order.
+        const SceneArrays bvh = flatten_scene(scene, Traversal::Bvh);
+        REQUIRE(bvh.has_bvh());
+        REQUIRE(bvh.bvh.order.size() == own.triangles.size());
+        CHECK(same_unordered(bvh, own));
+        size_t moved = 0;
+        for (size_t i = 0; i < bvh.bvh.order.size(); ++i) {
+            const uint32_t src = bvh.bvh.order[i];
+            moved += src != i;
+            REQUIRE(bvh.triangles[i] == own.triangles[src]);
+            REQUIRE(bvh.triangle_mesh[i] == own.triangle_mesh[src]);
+            for (int k = 0; k < 3; ++k)
+                REQUIRE(same_bits(glm::vec3(bvh.tri_positions[3 * i + k]), glm::vec3(own.tri_positions[3 * src + k])));
+        }
+        // The light table lists the same emissive triangles (in the arrays' order) with the same areas.
+        REQUIRE(bvh.light_triangles.size() == own.light_triangles.size());
+        std::vector<std::pair<uint32_t, float>> lights_bvh, lights_own;
+        for (const auto& lt : bvh.light_triangles) lights_bvh.emplace_back(bvh.bvh.order[lt.info.x], lt.cdf.y);
+        for (const auto& lt : own.light_triangles) lights_own.emplace_back(lt.info.x, lt.cdf.y);
+        std::sort(lights_bvh.begin(), lights_bvh.end());
+        std::sort(lights_own.begin(), lights_own.end());
+        CHECK(lights_bvh == lights_own);
+        REQUIRE(bvh.emitters.size() == own.emitters.size());
+        for (size_t e = 0; e < own.emitters.size(); ++e) {
+            CHECK(bvh.emitters[e].radiance.w == doctest::Approx(own.emitters[e].radiance.w).epsilon(1e-5));
+            CHECK(bvh.emitters[e].info.x == own.emitters[e].info.x);
+            CHECK(bvh.emitters[e].info.z == own.emitters[e].info.z);
+        }
+        CHECK(bvh.light_weight_total == doctest::Approx(own.light_weight_total).epsilon(1e-5));
+        if (own.triangles.size() > 100) CHECK(moved > 0);
+
+        // build_scene_bvh on flattened arrays is the software BVH's flattening, to the bit.
+        SceneArrays later = own;
+        build_scene_bvh(later, scene.source);
+        CHECK(same_arrays(later, bvh));
+    }
+}
 
 TEST_CASE("bvh: the two triangles of a quad end up next to each other in their leaf") {
     // A 24 x 24 height field of quads, each split as (a, b, c), (a, c, d), the
@@ -326,7 +398,7 @@ TEST_CASE("bvh: the 4-wide checker detects a corrupted tree") {
 TEST_CASE("bvh: the 4-wide tree of every project scene and of a graded deep tree is well formed") {
     for (const auto& path : testing::project_scene_paths()) {
         CAPTURE(path);
-        SceneArrays a = flatten_scene(load_scene(path));
+        SceneArrays a = flatten_scene(load_scene(path), Traversal::Bvh);
         std::vector<glm::vec3> pos(a.tri_positions.size());
         for (size_t i = 0; i < pos.size(); ++i) pos[i] = glm::vec3(a.tri_positions[i]);
         CHECK(check_bvh4(a.bvh4, pos) == "");

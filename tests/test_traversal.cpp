@@ -4,6 +4,7 @@
 #include "gpu_fixture.hpp"
 #include "scene_fixtures.hpp"
 
+#include "io/invariant.hpp"
 #include "render/gpu_scene.hpp"
 #include "render/ray_caster.hpp"
 #include "render/renderer.hpp"
@@ -73,13 +74,14 @@ double cpu_hit(const SceneArrays& a, uint32_t prim, const gpu::GpuRay& r, bool s
     return std::isnan(t) || margin < -edge_slack(scaled_slack, a, prim, r, t) ? -1.0 : t;
 }
 
-// Every project scene, loaded and flattened.
+// Every project scene, loaded and flattened with the software BVH (the ray
+// query cases trace the same arrays, so hits name the same triangles).
 void for_each_project_scene(const std::function<void(const std::string&, const SceneArrays&)>& fn) {
     auto paths = testing::project_scene_paths();
     REQUIRE(!paths.empty());
     for (const auto& path : paths) {
         CAPTURE(path);
-        fn(path, flatten_scene(load_scene(path)));
+        fn(path, flatten_scene(load_scene(path), Traversal::Bvh));
     }
 }
 
@@ -237,7 +239,7 @@ TEST_SUITE("gpu") {
         m.indices.clear();
         m.positions = testing::graded_triangles(3000, 0.995f, 0.1f);
         for (uint32_t i = 0; 3 * i < m.positions.size(); ++i) m.indices.push_back({3 * i, 3 * i + 1, 3 * i + 2});
-        SceneArrays arrays = flatten_scene(scene);
+        SceneArrays arrays = flatten_scene(scene, Traversal::Bvh);
         // Rays from around the cluster (unit distance) towards points near it, concentrated towards its small
         // end: they pass through level after level of boxes. The triangles they meet may be tiny against
         // their coordinates (down to 3e-7), so hits are judged with an edge slack scaled to float rounding.
@@ -294,6 +296,30 @@ TEST_SUITE("gpu") {
         CHECK(ctx->validation_messages() == 0);
     }
 
+    TEST_CASE("traversal: a session builds the software BVH only for the BVH traversal") {
+        VKMECH_REQUIRE_GPU(ctx);
+        const Scene scene = testing::quad_scene();
+        RenderSession bvh(*ctx, scene, Traversal::Bvh);
+        CHECK(bvh.arrays().has_bvh());
+        CHECK(bvh.arrays().bvh.order.size() == 2);
+        // The software BVH cannot traverse arrays that were only flattened.
+        CHECK_THROWS_AS(GpuScene(*ctx, flatten_scene(scene), Traversal::Bvh), InternalError);
+        if (!ctx->ray_query_enabled()) {
+            MESSAGE("skipped: device has no ray query");
+            return;
+        }
+        RenderSession rq(*ctx, scene, Traversal::RayQuery);
+        CHECK_FALSE(rq.arrays().has_bvh());
+        CHECK(rq.arrays().bvh.nodes.empty());
+        CHECK(rq.arrays().bvh4.empty());
+        // Ray query on the scene's own order finds the quad as on the BVH's.
+        RayCaster caster(*ctx, rq.gpu());
+        const std::vector<gpu::GpuRay> rays = {{glm::vec4(0.3f, 0.2f, 2.0f, 0.0f), glm::vec4(0, 0, -1, 1e30f)},
+                                               {glm::vec4(-0.3f, -0.2f, 2.0f, 0.0f), glm::vec4(0, 0, -1, 1e30f)}};
+        for (const auto& h : caster.trace(rays, false)) CHECK(h.hit.x == doctest::Approx(2.0f).epsilon(1e-6));
+        CHECK(ctx->validation_messages() == 0);
+    }
+
     TEST_CASE("traversal: the GPU kernel's tree gives the CPU kernel's hits on every scene (100k random rays)") {
         VKMECH_REQUIRE_GPU(ctx);
         // The two kernels' software traversals on one device: the 4-wide
@@ -316,7 +342,7 @@ TEST_SUITE("gpu") {
         // ray beside it fetches the root only; a ray pointing away fetches the root only.
         // The GPU kernel's binary tree is that one leaf: its root box test counts as the one
         // node step, then the same leaf and triangles.
-        SceneArrays arrays = flatten_scene(testing::quad_scene());
+        SceneArrays arrays = flatten_scene(testing::quad_scene(), Traversal::Bvh);
         REQUIRE(arrays.bvh4.size() == 1);
         REQUIRE(arrays.bvh.nodes.size() == 1);
         std::vector<gpu::GpuRay> rays = {{glm::vec4(0.3f, 0.2f, 2.0f, 0.0f), glm::vec4(0, 0, -1, 1e30f)},
@@ -432,7 +458,7 @@ TEST_SUITE("gpu") {
         for (const auto& p : testing::project_scene_paths())
             if (p.find("glass_caustic") != std::string::npos) path = p;
         REQUIRE(!path.empty());
-        SceneArrays arrays = flatten_scene(load_scene(path));
+        SceneArrays arrays = flatten_scene(load_scene(path), Traversal::Bvh);
         auto rays = random_rays(arrays, 6000, 11);
         GpuScene g(*ctx, arrays, Traversal::Bvh);
         RayCaster caster(*ctx, g);
@@ -488,7 +514,7 @@ TEST_SUITE("gpu") {
     TEST_CASE("traversal: the BVH finds the analytic hit on a unit quad") {
         VKMECH_REQUIRE_GPU(ctx);
         Scene scene = testing::quad_scene();
-        SceneArrays arrays = flatten_scene(scene);
+        SceneArrays arrays = flatten_scene(scene, Traversal::Bvh);
         for (Traversal t : {Traversal::Bvh, Traversal::RayQuery}) {
             if (t == Traversal::RayQuery && !ctx->ray_query_enabled()) continue;
             CAPTURE(to_string(t));

@@ -127,7 +127,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     options.max_triangles = 2'000'000;
     try {
         vkmech::Scene scene = vkmech::load_scene(scene_path, options);
-        vkmech::SceneArrays arrays = vkmech::flatten_scene(scene);
+        vkmech::SceneArrays arrays = vkmech::flatten_scene(scene, vkmech::Traversal::Bvh);
         (void)arrays;
     } catch (const vkmech::SceneError&) {
         // The loader's clear message for bad input.

@@ -116,7 +116,7 @@ int cmd_bench_traversal(const BenchOptions& o) {
                 "bvh 1 ray/inv Mray/s");
     for (const auto& n : names) {
         Scene scene = load_scene(resolve_scene_path(n));
-        SceneArrays arrays = flatten_scene(scene);
+        SceneArrays arrays = flatten_scene(scene, Traversal::Bvh);  // both traversals trace the BVH's order
         auto rays = random_rays(arrays, o.rays, kBenchTraversalSeed);
         std::vector<gpu::GpuHit> bvh_hits;
         auto measure = [&](Traversal t, RaySchedule schedule) -> double {

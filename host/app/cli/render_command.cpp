@@ -279,7 +279,7 @@ int cmd_render(const RenderOptions& o) {
     info.pipeline_seconds = pipes.seconds;
     info.pipeline_cache = vk::pipeline_cache_outcome(pipes, ctx.pipeline_cache().enabled());
     // Where the time before the first sample goes (docs/performance.md): parsing the scene and its meshes, then
-    // flattening, building the BVH and uploading.
+    // flattening, building the BVH (software BVH traversal only) and uploading.
     char timing[200];
     std::snprintf(timing, sizeof timing,
                   "{\"triangles\": %zu, \"load_seconds\": %.6f, \"build_and_upload_seconds\": %.6f}",

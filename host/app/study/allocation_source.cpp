@@ -27,7 +27,7 @@ RenderedAllocationSource::RenderedAllocationSource(const StudyConfig& cfg, const
 RenderedAllocationSource::Loaded& RenderedAllocationSource::load(const SceneVariant& v) {
     if (loaded_ && loaded_->variant == v) return *loaded_;
     loaded_.reset();  // one scene on the device at a time
-    LoadedScene ls = load_variant(v, cfg_.alloc_res);
+    LoadedScene ls = load_variant(v, cfg_.alloc_res, traversal_);
     Loaded l;
     l.variant = v;
     l.digest = ls.digest;
@@ -193,7 +193,7 @@ bool reads_pilot_samples(const StudyConfig& cfg, uint32_t n0) {
 
 std::vector<std::string> RenderedAllocationSource::missing(const SceneVariant& v) {
     // Keys from the scene's content at the allocation film, without the device.
-    const LoadedScene ls = load_variant(v, cfg_.alloc_res);
+    const LoadedScene ls = load_variant(v, cfg_.alloc_res, traversal_);
     auto key = [&](uint32_t spp, uint32_t seed, uint32_t batch) {
         return this->key(ls.digest, ls.scene.camera, spp, seed, batch);
     };

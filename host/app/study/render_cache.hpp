@@ -31,7 +31,10 @@
 
 namespace vkmech {
 
-// Digest of the rendered content of a scene variant at its film size.
+// Digest of the rendered content of a scene variant at its film size: every
+// array the shaders read, in the triangle order of the traversal the arrays
+// were flattened for (flatten_scene(scene, traversal)): the software BVH's
+// tree order, or ray query's scene order.
 std::string scene_digest(const Scene& scene, const SceneArrays& arrays);
 
 struct CacheKeyParts {

@@ -79,13 +79,13 @@ std::string now_utc() {
 
 }  // namespace
 
-LoadedScene load_variant(const SceneVariant& v, int res) {
+LoadedScene load_variant(const SceneVariant& v, int res, Traversal traversal) {
     LoadOptions lo;
     lo.params = v.params;
     LoadedScene ls;
     ls.scene = load_scene(v.path, lo);
     ls.scene.camera.set_film_width(res);
-    ls.arrays = flatten_scene(ls.scene);
+    ls.arrays = flatten_scene(ls.scene, traversal);
     ls.digest = scene_digest(ls.scene, ls.arrays);
     return ls;
 }
@@ -197,7 +197,7 @@ CacheState key_renders(const StudyPlan& p, const StudyDevice& dev, const RenderC
         std::map<SceneVariant, std::string> digests;
         for (const auto& r : plan) {
             if (!digests.count(r.scene)) {
-                LoadedScene ls = load_variant(r.scene, cfg.res);
+                LoadedScene ls = load_variant(r.scene, cfg.res, trav);
                 digests[r.scene] = ls.digest;
                 film[r.scene] = {ls.scene.camera.width, ls.scene.camera.height};
             }
@@ -234,7 +234,7 @@ double estimate(const StudyPlan& p, const StudyDevice& dev, const CacheState& cs
     std::map<std::string, double> rate;  // scene file -> paths/s
     auto probe = [&](const SceneVariant& v, int res) {
         if (rate.count(v.path)) return rate[v.path];
-        LoadedScene ls = load_variant(v, res);
+        LoadedScene ls = load_variant(v, res, trav);
         RenderSession session(ctx, std::move(ls.scene), std::move(ls.arrays), trav);
         Renderer r = session.renderer(session.features());
         RenderSpec spec;
@@ -253,7 +253,7 @@ double estimate(const StudyPlan& p, const StudyDevice& dev, const CacheState& cs
     if (p.has(StudyKind::Allocation)) {
         const double per_pixel = allocation_paths_per_pixel(cfg);
         for (const auto& sc : cfg.scenes) {
-            LoadedScene ls = load_variant(sc, cfg.alloc_res);
+            LoadedScene ls = load_variant(sc, cfg.alloc_res, trav);
             double paths = per_pixel * ls.scene.camera.width * ls.scene.camera.height;
             alloc_paths += paths;
             expected_s += paths / probe(sc, cfg.res);
@@ -290,7 +290,7 @@ RenderTally render_missing(const StudyPlan& p, const StudyDevice& dev, RenderCac
         for (const auto& r : missing)
             if (std::find(order.begin(), order.end(), r.scene) == order.end()) order.push_back(r.scene);
         for (const auto& variant : order) {
-            LoadedScene ls = load_variant(variant, cfg.res);
+            LoadedScene ls = load_variant(variant, cfg.res, trav);
             RenderSession session(ctx, std::move(ls.scene), std::move(ls.arrays), trav);
             std::map<std::pair<Estimator, EndVertex>, std::unique_ptr<Renderer>> renderers;
             for (const auto& r : missing) {
@@ -349,7 +349,7 @@ void analyse(const StudyPlan& p, const StudyDevice& dev, StudyOutput& out, Frame
                     [&](const SceneVariant& v) {
                         auto it = separations.find(v);
                         if (it != separations.end()) return it->second;
-                        LoadedScene ls = load_variant(v, cfg.res);
+                        LoadedScene ls = load_variant(v, cfg.res, trav);
                         RenderSession session(ctx, std::move(ls.scene), std::move(ls.arrays), trav);
                         return separations[v] = measure_separation(session);
                     },

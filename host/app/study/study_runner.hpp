@@ -61,13 +61,14 @@ public:
 // Returns the process exit code (0 ok; 1 when plotting failed).
 int run_study(const StudyOptions& options);
 
-// A scene variant loaded at a film width, with the digest of its content.
+// A scene variant loaded at a film width and flattened for a resolved
+// traversal (flatten_scene), with the digest of its content.
 struct LoadedScene {
     Scene scene;
     SceneArrays arrays;
     std::string digest;
 };
-LoadedScene load_variant(const SceneVariant& v, int res);
+LoadedScene load_variant(const SceneVariant& v, int res, Traversal traversal);
 
 // The digest of the code that renders with traversal t (version and
 // path-tracing SPIR-V): part of every render-cache key and of a sentinel record.

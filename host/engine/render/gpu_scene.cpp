@@ -101,17 +101,17 @@ LightSelection parse_light_selection(const std::string& s) {
     throw std::invalid_argument("unknown light selection '" + s + "' (expected uniform or power)");
 }
 
-SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
+namespace {
+
+// Geometry, materials and textures in the scene's own triangle order (mesh by
+// mesh), and the emitters' radiance and mesh; no light table yet.
+SceneArrays flatten_unlit(const Scene& scene, LightSelection selection) {
     SceneArrays a;
     if (scene.triangle_count() == 0) throw SceneError(scene.source, 0, "the scene has no geometry to render");
     scene.check();  // the arrays below index normals, uvs and positions by the mesh's indices
     if (scene.materials.size() > gpu::TRI_MATERIAL_MASK) throw SceneError(scene.source, 0, "too many materials");
     if (scene.emitters.size() >= gpu::TRI_EMITTER_MASK) throw SceneError(scene.source, 0, "too many emitters");
 
-    // Unordered triangles first; reordered into BVH order below.
-    std::vector<glm::uvec4> tris;
-    std::vector<uint32_t> tri_mesh;
-    std::vector<glm::vec3> pos3;
     for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
         const Mesh& mesh = scene.meshes[mi];
         uint32_t base = static_cast<uint32_t>(a.vertices.size());
@@ -125,9 +125,11 @@ SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
         uint32_t w = material | (static_cast<uint32_t>(mesh.emitter + 1) << gpu::TRI_EMITTER_SHIFT) |
                      (flat ? gpu::TRI_FLAT_BIT : 0u);
         for (const auto& t : mesh.indices) {
-            tris.push_back(glm::uvec4(base + t.x, base + t.y, base + t.z, w));
-            tri_mesh.push_back(static_cast<uint32_t>(mi));
-            for (int k = 0; k < 3; ++k) pos3.push_back(mesh.positions[t[k]]);
+            a.triangles.push_back(glm::uvec4(base + t.x, base + t.y, base + t.z, w));
+            a.triangle_mesh.push_back(static_cast<uint32_t>(mi));
+            // w: the first vertex again, the software BVH's "no quad" (build_scene_bvh).
+            const glm::vec3 first = mesh.positions[t[0]];
+            for (int k = 0; k < 3; ++k) a.tri_positions.push_back(glm::vec4(mesh.positions[t[k]], first[k]));
         }
     }
     if (scene.materials.empty()) {
@@ -148,63 +150,58 @@ SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
             a.texels.push_back(glm::vec4(t.rgb[i], t.rgb[i + 1], t.rgb[i + 2], 1.0f));
     }
 
-    a.bvh = build_bvh(pos3);
-    try {
-        a.bvh4 = collapse_bvh4(a.bvh);
-    } catch (const std::length_error& e) {
-        throw SceneError(scene.source, 0, std::string("the scene is too large for the software BVH: ") + e.what());
-    }
-    size_t n = tris.size();
-    a.triangles.resize(n);
-    a.triangle_mesh.resize(n);
-    a.tri_positions.resize(3 * n);
-    for (size_t i = 0; i < n; ++i) {
-        uint32_t src = a.bvh.order[i];
-        a.triangles[i] = tris[src];
-        a.triangle_mesh[i] = tri_mesh[src];
-        // The w components of the three texels: the fourth vertex d of the
-        // quad this triangle starts (Bvh::quad_next: the next one is (a, c, d)),
-        // else its own first vertex, so the traversal tests (a, c, d) as well
-        // exactly where the bits differ.
-        const glm::vec3 d = a.bvh.quad_next[i] ? pos3[3 * size_t{a.bvh.order[i + 1]} + 2] : pos3[3 * src];
-        for (int k = 0; k < 3; ++k) a.tri_positions[3 * i + k] = glm::vec4(pos3[3 * src + k], d[k]);
-    }
-
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-    for (const auto& p : pos3) {
-        lo = glm::min(lo, p);
-        hi = glm::max(hi, p);
+    for (const auto& p : a.tri_positions) {
+        lo = glm::min(lo, glm::vec3(p));
+        hi = glm::max(hi, glm::vec3(p));
     }
     a.bbox_lo = lo;
     a.bbox_hi = hi;
 
-    // Light table: every emissive triangle with its selection weight
-    // (docs/descriptor.md §1). Uniform: 1 / (emitters x the emitter's area) per unit area;
-    // power: luminance(L) x area. Each emitter records its area pdf (info.w)
-    // for the MIS weight of BSDF-sampled hits.
+    // The light table (build_light_table) reads each emitter's radiance and
+    // mesh from here; it fills in the area, the range and the pdf.
     a.emitters.resize(scene.emitters.size());
     a.light_selection = selection;
-    std::vector<std::vector<uint32_t>> per_emitter(scene.emitters.size());
+    for (size_t e = 0; e < scene.emitters.size(); ++e) {
+        a.emitters[e].radiance = glm::vec4(scene.emitters[e].radiance, 0.0f);
+        a.emitters[e].info = glm::uvec4(static_cast<uint32_t>(scene.emitters[e].mesh), 0u, 0u, 0u);
+    }
+    return a;
+}
+
+// Light table: every emissive triangle with its selection weight
+// (docs/descriptor.md §1), in the arrays' triangle order. Uniform: 1 /
+// (emitters x the emitter's area) per unit area; power: luminance(L) x area.
+// Each emitter records its area pdf (info.w) for the MIS weight of
+// BSDF-sampled hits. The sums run in triangle order, so the table (and the
+// image) follows the order the arrays are in.
+void build_light_table(SceneArrays& a) {
+    const size_t n = a.triangles.size();
+    const size_t emitter_count = a.emitters.size();
+    const LightSelection selection = a.light_selection;
+    a.light_triangles.clear();
+    std::vector<std::vector<uint32_t>> per_emitter(emitter_count);
     for (uint32_t i = 0; i < n; ++i) {
         uint32_t e = (a.triangles[i].w >> gpu::TRI_EMITTER_SHIFT) & gpu::TRI_EMITTER_MASK;
         if (e > 0) per_emitter[e - 1].push_back(i);
     }
     auto tri_area = [&](uint32_t t) {
-        glm::dvec3 p0(a.tri_positions[3 * t]), p1(a.tri_positions[3 * t + 1]), p2(a.tri_positions[3 * t + 2]);
+        glm::dvec3 p0(glm::vec3(a.tri_positions[3 * t])), p1(glm::vec3(a.tri_positions[3 * t + 1])),
+            p2(glm::vec3(a.tri_positions[3 * t + 2]));
         return 0.5 * glm::length(glm::cross(p1 - p0, p2 - p0));
     };
-    std::vector<double> emitter_area(scene.emitters.size(), 0.0);
+    auto radiance = [&](size_t e) { return glm::vec3(a.emitters[e].radiance); };
+    std::vector<double> emitter_area(emitter_count, 0.0);
     uint32_t lit_emitters = 0;
-    for (size_t e = 0; e < scene.emitters.size(); ++e) {
+    for (size_t e = 0; e < emitter_count; ++e) {
         for (uint32_t t : per_emitter[e]) emitter_area[e] += std::max(tri_area(t), 0.0);
-        if (emitter_area[e] > 0.0 && luminance(scene.emitters[e].radiance) > 0.0) ++lit_emitters;
+        if (emitter_area[e] > 0.0 && luminance(radiance(e)) > 0.0) ++lit_emitters;
     }
     double total = 0.0;
     std::vector<double> weights;
-    std::vector<double> emitter_weight(scene.emitters.size(), 0.0);
-    for (size_t e = 0; e < scene.emitters.size(); ++e) {
-        const auto& em = scene.emitters[e];
-        double lum = luminance(em.radiance);
+    std::vector<double> emitter_weight(emitter_count, 0.0);
+    for (size_t e = 0; e < emitter_count; ++e) {
+        double lum = luminance(radiance(e));
         uint32_t first = static_cast<uint32_t>(a.light_triangles.size());
         if (emitter_area[e] > 0.0 && lum > 0.0) {
             for (uint32_t t : per_emitter[e]) {
@@ -220,11 +217,11 @@ SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
                 emitter_weight[e] += w;
             }
         }
-        a.emitters[e].radiance = glm::vec4(em.radiance, static_cast<float>(emitter_area[e]));
-        a.emitters[e].info = glm::uvec4(static_cast<uint32_t>(em.mesh), first,
-                                        static_cast<uint32_t>(a.light_triangles.size()) - first, 0u);
+        a.emitters[e].radiance.w = static_cast<float>(emitter_area[e]);
+        a.emitters[e].info =
+            glm::uvec4(a.emitters[e].info.x, first, static_cast<uint32_t>(a.light_triangles.size()) - first, 0u);
     }
-    for (size_t e = 0; e < scene.emitters.size(); ++e) {
+    for (size_t e = 0; e < emitter_count; ++e) {
         double pdf_area = total > 0.0 && emitter_area[e] > 0.0 ? emitter_weight[e] / total / emitter_area[e] : 0.0;
         a.emitters[e].info.w = std::bit_cast<uint32_t>(static_cast<float>(pdf_area));
     }
@@ -237,6 +234,59 @@ SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
     }
     if (!a.light_triangles.empty()) a.light_triangles.back().cdf.x = 1.0f;
     a.light_weight_total = static_cast<float>(total);
+}
+
+// build_scene_bvh without the light table.
+void order_by_bvh(SceneArrays& a, const std::string& source) {
+    VKM_ASSERT(a.bvh4.empty(), "build_scene_bvh: the scene arrays already have a BVH");
+    const size_t n = a.triangles.size();
+    std::vector<glm::vec3> pos3(3 * n);
+    for (size_t i = 0; i < 3 * n; ++i) pos3[i] = glm::vec3(a.tri_positions[i]);
+    Bvh bvh = build_bvh(pos3);
+    std::vector<gpu::GpuBvh4Node> bvh4;
+    try {
+        bvh4 = collapse_bvh4(bvh);
+    } catch (const std::length_error& e) {
+        throw SceneError(source, 0, std::string("the scene is too large for the software BVH: ") + e.what());
+    }
+    const std::vector<glm::uvec4> tris = std::move(a.triangles);
+    const std::vector<uint32_t> tri_mesh = std::move(a.triangle_mesh);
+    a.triangles.resize(n);
+    a.triangle_mesh.resize(n);
+    a.tri_positions.resize(3 * n);
+    for (size_t i = 0; i < n; ++i) {
+        uint32_t src = bvh.order[i];
+        a.triangles[i] = tris[src];
+        a.triangle_mesh[i] = tri_mesh[src];
+        // The w components of the three texels: the fourth vertex d of the
+        // quad this triangle starts (Bvh::quad_next: the next one is (a, c, d)),
+        // else its own first vertex, so the traversal tests (a, c, d) as well
+        // exactly where the bits differ.
+        const glm::vec3 d = bvh.quad_next[i] ? pos3[3 * size_t{bvh.order[i + 1]} + 2] : pos3[3 * src];
+        for (int k = 0; k < 3; ++k) a.tri_positions[3 * i + k] = glm::vec4(pos3[3 * src + k], d[k]);
+    }
+    a.bvh = std::move(bvh);
+    a.bvh4 = std::move(bvh4);
+}
+
+}  // namespace
+
+SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
+    SceneArrays a = flatten_unlit(scene, selection);
+    build_light_table(a);
+    return a;
+}
+
+void build_scene_bvh(SceneArrays& a, const std::string& source) {
+    order_by_bvh(a, source);
+    build_light_table(a);
+}
+
+SceneArrays flatten_scene(const Scene& scene, Traversal traversal, LightSelection selection) {
+    VKM_ASSERT(traversal != Traversal::Auto, "flatten_scene: the traversal is not resolved");
+    SceneArrays a = flatten_unlit(scene, selection);
+    if (traversal == Traversal::Bvh) order_by_bvh(a, scene.source);
+    build_light_table(a);
     return a;
 }
 
@@ -357,6 +407,9 @@ void check_storage_range(const vk::Context& ctx, const vk::Buffer& b, const char
 
 GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal traversal, vk::KernelClass kernel)
     : traversal_(resolve_traversal(ctx, traversal)), kernel_(kernel == vk::KernelClass::Auto ? ctx.kernel() : kernel) {
+    VKM_ASSERT(
+        traversal_ != Traversal::Bvh || !a.bvh4.empty(),
+        "GpuScene: the software BVH traverses scene arrays without a BVH (flatten_scene(scene, Traversal::Bvh))");
     using BU = ::vk::BufferUsageFlagBits;
     const bool gpu_kernel = kernel_ == vk::KernelClass::Gpu;
     const ::vk::BufferUsageFlags usage =

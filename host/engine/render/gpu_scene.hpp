@@ -1,14 +1,16 @@
-// The scene flattened into GPU arrays (one vertex and one triangle list in
-// BVH order, materials, emitters, the light-selection table) and
-// uploaded with the chosen traversal's acceleration structure.
+// The scene flattened into GPU arrays (one vertex and one triangle list,
+// materials, textures, emitters, the light-selection table), apart from
+// acceleration: the software BVH traversal reorders the triangles into its
+// tree's order (build_scene_bvh); ray query takes them in the scene's order.
+// GpuScene uploads them with the chosen traversal's acceleration structure.
 #pragma once
 
 #include "accel/bvh.hpp"
-#include "accel/rt_accel.hpp"
 #include "scene/scene.hpp"
 #include "shared/types.h"
 #include "vk/buffer.hpp"
 #include "vk/pipeline.hpp"
+#include "vk/rt_accel.hpp"
 
 #include <memory>
 #include <optional>
@@ -27,30 +29,50 @@ enum class LightSelection : uint32_t { Uniform = 0, Power = 1 };
 const char* to_string(LightSelection s);
 LightSelection parse_light_selection(const std::string& s);  // throws std::invalid_argument
 
+// The triangle arrays (triangles, triangle_mesh, tri_positions) and the light
+// table are in one triangle order: the scene's own (mesh by mesh, as
+// flatten_scene writes them) or, once build_scene_bvh has run, the software
+// BVH's (bvh.order[i]: the scene's triangle at position i).
 struct SceneArrays {
     std::vector<gpu::GpuVertex> vertices;
-    std::vector<glm::uvec4> triangles;     // i0, i1, i2, material|emitter|flat (BVH order)
-    std::vector<uint32_t> triangle_mesh;   // mesh index of each triangle (BVH order)
-    std::vector<glm::vec4> tri_positions;  // 3 per triangle (BVH order); w: a quad's fourth vertex (flatten_scene)
+    std::vector<glm::uvec4> triangles;    // i0, i1, i2, material|emitter|flat
+    std::vector<uint32_t> triangle_mesh;  // mesh index of each triangle
+    // 3 per triangle; w: a quad's fourth vertex (build_scene_bvh), else the first vertex again.
+    std::vector<glm::vec4> tri_positions;
     std::vector<gpu::GpuMaterial> materials;
     std::vector<gpu::GpuEmitter> emitters;
     std::vector<gpu::GpuLightTriangle> light_triangles;
     std::vector<glm::vec4> texels;     // every texture's linear RGB texels
     std::vector<glm::uvec4> textures;  // gpu::TEX_WORDS per texture (shared/types.h)
+    // Empty until build_scene_bvh: the software BVH and what its traversal reads.
     Bvh bvh;
-    std::vector<gpu::GpuBvh4Node> bvh4;  // collapse_bvh4(bvh): what the software traversal reads
+    std::vector<gpu::GpuBvh4Node> bvh4;  // collapse_bvh4(bvh)
     float light_weight_total = 0.0f;     // sum of the light-selection weights (power: luminance x area)
     LightSelection light_selection = LightSelection::Uniform;
     glm::vec3 bbox_lo{0.0f}, bbox_hi{0.0f};
+    bool has_bvh() const { return !bvh4.empty(); }
 };
 
-// Throws SceneError for scenes that cannot be rendered (no triangles).
+// Flattening alone: the arrays in the scene's own triangle order, no BVH (what
+// ray query renders). Throws SceneError for scenes that cannot be rendered (no
+// triangles, too many materials or emitters).
 SceneArrays flatten_scene(const Scene& scene, LightSelection selection = LightSelection::Uniform);
+// Acceleration for the software BVH: builds the tree over the triangles in
+// the scene's order (as flatten_scene leaves them), reorders the triangle
+// arrays into the tree's order and rebuilds the light table in that order.
+// Throws SceneError (naming `source`) when the tree cannot be encoded
+// (collapse_bvh4).
+void build_scene_bvh(SceneArrays& arrays, const std::string& source);
+// What a resolved traversal renders: flatten_scene, then for Traversal::Bvh
+// build_scene_bvh (one light table, built once in the final order).
+SceneArrays flatten_scene(const Scene& scene, Traversal traversal, LightSelection selection = LightSelection::Uniform);
 
 class GpuScene {
 public:
     // `kernel`: the device-class kernel the arrays are laid out for; Auto = the
     // context's (vk::Context::kernel). Tests compare the two on one device.
+    // The software BVH traversal needs arrays with a BVH (SceneArrays::has_bvh);
+    // ray query takes either order.
     GpuScene(const vk::Context& ctx, const SceneArrays& arrays, Traversal traversal,
              vk::KernelClass kernel = vk::KernelClass::Auto);
     Traversal traversal() const { return traversal_; }

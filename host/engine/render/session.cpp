@@ -8,10 +8,13 @@ namespace vkmech {
 
 SceneOnDevice::SceneOnDevice(const vk::Context& c, Scene s, Traversal traversal, LightSelection selection,
                              vk::KernelClass kernel)
-    : ctx(c), scene(std::move(s)), arrays(flatten_scene(scene, selection)), gpu(c, arrays, traversal, kernel) {}
+    : ctx(c),
+      scene(std::move(s)),
+      arrays(flatten_scene(scene, resolve_traversal(c, traversal), selection)),
+      gpu(c, arrays, traversal, kernel) {}
 
-SceneOnDevice::SceneOnDevice(const vk::Context& c, Scene s, SceneArrays a, Traversal traversal)
-    : ctx(c), scene(std::move(s)), arrays(std::move(a)), gpu(c, arrays, traversal) {
+SceneOnDevice::SceneOnDevice(const vk::Context& c, Scene s, SceneArrays a, Traversal traversal, vk::KernelClass kernel)
+    : ctx(c), scene(std::move(s)), arrays(std::move(a)), gpu(c, arrays, traversal, kernel) {
     VKM_ASSERT(arrays.triangle_mesh.size() == scene.triangle_count(),
                "RenderSession: the scene arrays (" + std::to_string(arrays.triangle_mesh.size()) +
                    " triangles) do not belong to the scene (" + std::to_string(scene.triangle_count()) + " triangles)");
@@ -21,8 +24,9 @@ RenderSession::RenderSession(const vk::Context& ctx, Scene scene, Traversal trav
                              vk::KernelClass kernel)
     : data_(std::make_shared<const SceneOnDevice>(ctx, std::move(scene), traversal, selection, kernel)) {}
 
-RenderSession::RenderSession(const vk::Context& ctx, Scene scene, SceneArrays arrays, Traversal traversal)
-    : data_(std::make_shared<const SceneOnDevice>(ctx, std::move(scene), std::move(arrays), traversal)) {}
+RenderSession::RenderSession(const vk::Context& ctx, Scene scene, SceneArrays arrays, Traversal traversal,
+                             vk::KernelClass kernel)
+    : data_(std::make_shared<const SceneOnDevice>(ctx, std::move(scene), std::move(arrays), traversal, kernel)) {}
 
 Features RenderSession::features(Estimator estimator, bool capture) const {
     return Features::from_scene(data_->scene, estimator, capture);

@@ -23,22 +23,25 @@ namespace vkmech {
 struct SceneOnDevice {
     SceneOnDevice(const vk::Context& ctx, Scene scene, Traversal traversal, LightSelection selection,
                   vk::KernelClass kernel = vk::KernelClass::Auto);
-    SceneOnDevice(const vk::Context& ctx, Scene scene, SceneArrays arrays, Traversal traversal);
+    SceneOnDevice(const vk::Context& ctx, Scene scene, SceneArrays arrays, Traversal traversal,
+                  vk::KernelClass kernel = vk::KernelClass::Auto);
     const vk::Context& ctx;
     const Scene scene;
-    const SceneArrays arrays;  // flatten_scene(scene, ...)
+    const SceneArrays arrays;  // flatten_scene(scene, traversal, ...): with a BVH only for Traversal::Bvh
     const GpuScene gpu;        // built from arrays with the traversal asked for
 };
 
 class RenderSession {
 public:
-    // Flattens the scene (throws SceneError when it cannot be rendered) and
-    // uploads it. `traversal` must be resolved (resolve_traversal), not Auto.
-    // `kernel`: the device-class kernel; Auto = the context's (vk::Context::kernel).
+    // Flattens the scene for the traversal (throws SceneError when it cannot
+    // be rendered; only the software BVH builds a BVH) and uploads it. `traversal` must be resolved
+    // (resolve_traversal), not Auto. `kernel`: the device-class kernel; Auto = the context's (vk::Context::kernel).
     RenderSession(const vk::Context& ctx, Scene scene, Traversal traversal,
                   LightSelection selection = LightSelection::Uniform, vk::KernelClass kernel = vk::KernelClass::Auto);
-    // A scene already flattened (flatten_scene(scene), e.g. to digest it first).
-    RenderSession(const vk::Context& ctx, Scene scene, SceneArrays arrays, Traversal traversal);
+    // A scene already flattened for the traversal (flatten_scene(scene, traversal),
+    // e.g. to digest it first).
+    RenderSession(const vk::Context& ctx, Scene scene, SceneArrays arrays, Traversal traversal,
+                  vk::KernelClass kernel = vk::KernelClass::Auto);
 
     const vk::Context& context() const { return data_->ctx; }
     const Scene& scene() const { return data_->scene; }

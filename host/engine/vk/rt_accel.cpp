@@ -1,4 +1,4 @@
-#include "accel/rt_accel.hpp"
+#include "vk/rt_accel.hpp"
 
 #include <chrono>
 

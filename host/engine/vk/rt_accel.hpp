@@ -1,5 +1,6 @@
-// BLAS/TLAS for VK_KHR_ray_query: one BLAS over the scene's triangles in
-// scene (BVH) order, so gl_PrimitiveID == the software BVH's triangle index.
+// BLAS/TLAS for VK_KHR_ray_query: one BLAS over the scene arrays' triangles
+// in their order (the scene's own unless the arrays were built for the
+// software BVH), so gl_PrimitiveID indexes the scene arrays.
 #pragma once
 
 #include "vk/buffer.hpp"
