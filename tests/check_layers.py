@@ -22,7 +22,7 @@ Rules (exit 1 and one line per violation when broken):
      cycle.
 The build itself enforces rule 2: the Vulkan-free libraries (vkmech_io,
 vkmech_scene, vkmech_accel, vkmech_frame) and vkmech_analysis link no
-Vulkan and compile with cmake/vulkan_free/ first on their include path,
+Vulkan and compile with host/vulkan_free/ first on their include path,
 whose <vulkan/...> headers are #error. The CMake targets (each layer with
 its own include root) also refuse rule 1 at compile time for most includes;
 this script states all three rules in one place and runs as a ctest entry.
