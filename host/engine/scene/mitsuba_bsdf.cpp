@@ -1,6 +1,7 @@
 // Mitsuba BSDFs and bitmap textures -> Material / Texture (docs/descriptor.md §2's
 // material models, docs/descriptor.md §8). Parameter names: Mitsuba 3 first, then the
 // 0.5/0.6 camelCase spelling.
+#include "io/invariant.hpp"
 #include "scene/image_texture.hpp"
 #include "scene/mitsuba_loader.hpp"
 #include "scene/named_ior.hpp"
@@ -293,14 +294,6 @@ int MitsubaLoader::bsdf(const XNode& n) {
                             "its component " + std::to_string(best + 1) + " of " + std::to_string(parts.size()) +
                                 " (weight " + fmt_weight(float(w[best])) + ")");
         m = scene_.materials[parts[best]];
-    } else if (type == "roughdiffuse") {
-        // Oren-Nayar (Mitsuba 0.6): reflectance and the RMS roughness alpha (default 0.2).
-        m.type = BsdfType::RoughDiffuse;
-        m.reflectance = reflectance(p, {"reflectance", "diffuseReflectance", "diffuse_reflectance"}, glm::vec3(0.5f));
-        m.alpha_u = m.alpha_v = p.get_float({"alpha"}, 0.2f);
-        if (!(m.alpha_u >= 0.0f) || !std::isfinite(m.alpha_u)) n.fail("'alpha' must be a finite number >= 0");
-        if (p.get_bool({"use_fast_approx", "useFastApprox"}, false))
-            warn(n, "use_fast_approx is ignored: the full Oren-Nayar model is rendered (Mitsuba's default)");
     } else if (type == "phong") {
         // The nearest model material: rough plastic whose Beckmann roughness
         // matches the Phong exponent (alpha = sqrt(2 / (n + 2)), Walter 2007).
@@ -314,57 +307,9 @@ int MitsubaLoader::bsdf(const XNode& n) {
         m.int_ior = kPolypropylene;
         m.ext_ior = kAir;
         record_substitution(n, "bsdf", "roughplastic with alpha " + fmt_weight(m.alpha_u) + " (Beckmann)");
-    } else if (type == "diffuse") {
-        m.type = BsdfType::Diffuse;
-        m.reflectance = reflectance(p, {"reflectance"}, glm::vec3(0.5f));
-    } else if (type == "plastic" || type == "roughplastic") {
-        m.type = type == "plastic" ? BsdfType::Plastic : BsdfType::RoughPlastic;
-        m.reflectance = reflectance(p, {"diffuse_reflectance", "diffuseReflectance"}, glm::vec3(0.5f));
-        set_specular(m, reflectance(p, {"specular_reflectance", "specularReflectance"}, glm::vec3(1.0f)), false);
-        m.int_ior = ior(p, {"int_ior", "intIOR"}, kPolypropylene);
-        m.ext_ior = ior(p, {"ext_ior", "extIOR"}, kAir);
-        m.nonlinear = p.get_bool({"nonlinear"}, false);
-        if (m.type == BsdfType::RoughPlastic) roughness(p, m, /*anisotropic_allowed=*/false);
-    } else if (type == "conductor" || type == "roughconductor") {
-        m.type = type == "conductor" ? BsdfType::Conductor : BsdfType::RoughConductor;
-        auto material = p.opt_string({"material"});
-        auto eta = p.opt_color({"eta"});
-        auto k = p.opt_color({"k"});
-        if (material && (eta || k)) n.fail(n.describe() + ": give either 'material' or 'eta' and 'k', not both");
-        if (eta.has_value() != k.has_value()) n.fail(n.describe() + ": 'eta' and 'k' go together");
-        if (eta) {
-            if (eta->x < 0 || eta->y < 0 || eta->z < 0 || k->x < 0 || k->y < 0 || k->z < 0)
-                n.fail(n.describe() + ": 'eta' and 'k' must not be negative");
-            m.eta = *eta;
-            m.k = *k;
-        } else {
-            std::string name = material.value_or("none");
-            auto c = conductor_ior(name);
-            if (!c)
-                p.find({"material"})
-                    ->fail("unknown conductor material '" + name +
-                           "' (expected none, Au, Ag, Al, Cu, Cr, Fe, Ni, Pt, Ti or W)");
-            m.eta = c->eta;
-            m.k = c->k;
-        }
-        set_specular(m, reflectance(p, {"specular_reflectance", "specularReflectance"}, glm::vec3(1.0f)), false);
-        // Mitsuba 3's conductors have no exterior medium (eta is relative);
-        // 0.6's `extEta` divides it.
-        m.ext_ior = ior(p, {"ext_eta", "extEta"}, 1.0f);
-        if (m.type == BsdfType::RoughConductor) roughness(p, m, /*anisotropic_allowed=*/true);
-    } else if (type == "dielectric" || type == "roughdielectric" || type == "thindielectric") {
-        m.type = type == "dielectric"        ? BsdfType::Dielectric
-                 : type == "roughdielectric" ? BsdfType::RoughDielectric
-                                             : BsdfType::ThinDielectric;
-        m.int_ior = ior(p, {"int_ior", "intIOR"}, kBk7);
-        m.ext_ior = ior(p, {"ext_ior", "extIOR"}, kAir);
-        set_specular(m, reflectance(p, {"specular_reflectance", "specularReflectance"}, glm::vec3(1.0f)), false);
-        set_specular(m, reflectance(p, {"specular_transmittance", "specularTransmittance"}, glm::vec3(1.0f)), true);
-        if (m.type == BsdfType::RoughDielectric) roughness(p, m, /*anisotropic_allowed=*/true);
-    } else if (type == "principled") {
-        m.type = BsdfType::Principled;
-        m.reflectance = reflectance(p, {"base_color", "baseColor"}, glm::vec3(0.5f));
-        principled(p, m);
+    } else if (const std::optional<BsdfType> model = bsdf_type_of(type)) {
+        m.type = *model;  // a model of the material table (shared/materials.h)
+        model_parameters(p, n, m);
     } else if (type == "measured" || type == "hair" || type == "pplastic" || type == "polarizer" ||
                type == "retarder" || type == "circular" || type == "null" || type == "roughcoating" ||
                type == "coating" || type == "difftrans" || type == "principledthin" || type == "ward" ||
@@ -383,9 +328,8 @@ int MitsubaLoader::bsdf(const XNode& n) {
         for (const XNode& u : p.unused()) p.find({u.raw().attribute("name").as_string()});
     } else {
         unsupported(n, "bsdf",
-                    " (docs/descriptor.md §2: diffuse, plastic, roughplastic, conductor, roughconductor, dielectric, "
-                    "roughdielectric, thindielectric, principled, twosided; with --substitute also mask, bumpmap, "
-                    "normalmap, blendbsdf, phong)");
+                    " (docs/descriptor.md §2: " + bsdf_plugin_names() +
+                        ", twosided; with --substitute also mask, bumpmap, normalmap, blendbsdf, phong)");
     }
     warn_unused(p);
     if (type != "twosided" || !id.empty()) m.id = id.empty() ? type + "#" + std::to_string(bsdf_count_) : id;
@@ -394,6 +338,80 @@ int MitsubaLoader::bsdf(const XNode& n) {
     scene_.materials.push_back(m);
     register_id(n, IdKind::Bsdf, index);
     return index;
+}
+
+// The parameters of a model of the material table, by Mitsuba's names.
+void MitsubaLoader::model_parameters(const XProps& p, const XNode& n, Material& m) {
+    switch (m.type) {
+        case BsdfType::Diffuse:
+            m.reflectance = reflectance(p, {"reflectance"}, glm::vec3(0.5f));
+            return;
+        case BsdfType::Plastic:
+        case BsdfType::RoughPlastic:
+            m.reflectance = reflectance(p, {"diffuse_reflectance", "diffuseReflectance"}, glm::vec3(0.5f));
+            set_specular(m, reflectance(p, {"specular_reflectance", "specularReflectance"}, glm::vec3(1.0f)), false);
+            m.int_ior = ior(p, {"int_ior", "intIOR"}, kPolypropylene);
+            m.ext_ior = ior(p, {"ext_ior", "extIOR"}, kAir);
+            m.nonlinear = p.get_bool({"nonlinear"}, false);
+            if (m.type == BsdfType::RoughPlastic) roughness(p, m, /*anisotropic_allowed=*/false);
+            return;
+        case BsdfType::Conductor:
+        case BsdfType::RoughConductor:
+            conductor_parameters(p, n, m);
+            return;
+        case BsdfType::Dielectric:
+        case BsdfType::RoughDielectric:
+        case BsdfType::ThinDielectric:
+            m.int_ior = ior(p, {"int_ior", "intIOR"}, kBk7);
+            m.ext_ior = ior(p, {"ext_ior", "extIOR"}, kAir);
+            set_specular(m, reflectance(p, {"specular_reflectance", "specularReflectance"}, glm::vec3(1.0f)), false);
+            set_specular(m, reflectance(p, {"specular_transmittance", "specularTransmittance"}, glm::vec3(1.0f)), true);
+            if (m.type == BsdfType::RoughDielectric) roughness(p, m, /*anisotropic_allowed=*/true);
+            return;
+        case BsdfType::Principled:
+            m.reflectance = reflectance(p, {"base_color", "baseColor"}, glm::vec3(0.5f));
+            principled(p, m);
+            return;
+        case BsdfType::RoughDiffuse:
+            // Oren-Nayar (Mitsuba 0.6): reflectance and the RMS roughness alpha (default 0.2).
+            m.reflectance =
+                reflectance(p, {"reflectance", "diffuseReflectance", "diffuse_reflectance"}, glm::vec3(0.5f));
+            m.alpha_u = m.alpha_v = p.get_float({"alpha"}, 0.2f);
+            if (!(m.alpha_u >= 0.0f) || !std::isfinite(m.alpha_u)) n.fail("'alpha' must be a finite number >= 0");
+            if (p.get_bool({"use_fast_approx", "useFastApprox"}, false))
+                warn(n, "use_fast_approx is ignored: the full Oren-Nayar model is rendered (Mitsuba's default)");
+            return;
+    }
+    VKM_ASSERT(false, "BsdfType " + std::to_string(static_cast<uint32_t>(m.type)) + " has no parameter parsing");
+}
+
+// conductor, roughconductor: the complex IOR by 'material' or 'eta' and 'k'.
+void MitsubaLoader::conductor_parameters(const XProps& p, const XNode& n, Material& m) {
+    auto material = p.opt_string({"material"});
+    auto eta = p.opt_color({"eta"});
+    auto k = p.opt_color({"k"});
+    if (material && (eta || k)) n.fail(n.describe() + ": give either 'material' or 'eta' and 'k', not both");
+    if (eta.has_value() != k.has_value()) n.fail(n.describe() + ": 'eta' and 'k' go together");
+    if (eta) {
+        if (eta->x < 0 || eta->y < 0 || eta->z < 0 || k->x < 0 || k->y < 0 || k->z < 0)
+            n.fail(n.describe() + ": 'eta' and 'k' must not be negative");
+        m.eta = *eta;
+        m.k = *k;
+    } else {
+        std::string name = material.value_or("none");
+        auto c = conductor_ior(name);
+        if (!c)
+            p.find({"material"})
+                ->fail("unknown conductor material '" + name +
+                       "' (expected none, Au, Ag, Al, Cu, Cr, Fe, Ni, Pt, Ti or W)");
+        m.eta = c->eta;
+        m.k = c->k;
+    }
+    set_specular(m, reflectance(p, {"specular_reflectance", "specularReflectance"}, glm::vec3(1.0f)), false);
+    // Mitsuba 3's conductors have no exterior medium (eta is relative);
+    // 0.6's `extEta` divides it.
+    m.ext_ior = ior(p, {"ext_eta", "extEta"}, 1.0f);
+    if (m.type == BsdfType::RoughConductor) roughness(p, m, /*anisotropic_allowed=*/true);
 }
 
 Spectrum3 MitsubaLoader::reflectance(const XProps& p, std::initializer_list<const char*> names, glm::vec3 fallback) {

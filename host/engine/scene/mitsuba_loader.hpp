@@ -67,6 +67,9 @@ private:
     int bsdf(const XNode& n);      // <bsdf> or <ref>: index into scene_.materials
     int bsdf_ref(const XNode& n);  // <ref id=...> to a bsdf
     int texture(const XNode& n);   // <texture> or <ref>: index into scene_.textures
+    // The parameters of a model of the material table (m.type set): one case per BsdfType.
+    void model_parameters(const XProps& p, const XNode& n, Material& m);
+    void conductor_parameters(const XProps& p, const XNode& n, Material& m);
     // A colour-valued BSDF parameter: a constant, or a bitmap / checkerboard
     // texture (Spectrum3::value then holds the texture's mean).
     Spectrum3 reflectance(const XProps& p, std::initializer_list<const char*> names, glm::vec3 fallback);

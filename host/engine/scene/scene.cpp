@@ -21,6 +21,14 @@ const char* to_string(BsdfType t) {
     return "unknown";
 }
 
+std::string bsdf_plugin_names() {
+    std::string names;
+#define VKM_X(code, NAME, Name, name, features, lobes, flags) names += std::string(names.empty() ? "" : ", ") + #name;
+    VKM_MATERIALS(VKM_X)
+#undef VKM_X
+    return names;
+}
+
 std::optional<BsdfType> bsdf_type_of(const std::string& plugin) {
 #define VKM_X(code, NAME, Name, name, features, lobes, flags) \
     if (plugin == #name) return BsdfType::Name;

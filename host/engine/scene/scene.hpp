@@ -48,6 +48,8 @@ enum class BsdfType : uint32_t {
 const char* to_string(BsdfType t);  // the Mitsuba plugin name (material table)
 // The model of a Mitsuba plugin name in the material table, or nullopt.
 std::optional<BsdfType> bsdf_type_of(const std::string& plugin);
+// The plugin names of every model, comma-separated in table order ("diffuse, plastic, ...").
+std::string bsdf_plugin_names();
 
 enum class MicrofacetDistribution : uint32_t { Beckmann = 0, GGX = 1 };
 
