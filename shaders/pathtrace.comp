@@ -90,7 +90,9 @@ vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
     GpuMaterial m = material_at(s.material);
     vec3 albedo = (material_flags(m.header.x) & VKM_MATF_ALBEDO) != 0u ? m.reflectance.rgb : vec3(0.5);
     vec3 lu = vec3(rng_next(rng), rng_next(rng), rng_next(rng));
-    LightSample ls = sample_light(lu);
+    uint li = select_light_triangle(lu.x);
+    if (light_is_infinite(li)) return L;  // the preview samples emissive triangles only
+    LightSample ls = sample_light_triangle(li, lu);
     vec3 to_light = ls.p - s.p;
     float dist2 = dot(to_light, to_light);
     float dist = sqrt(dist2);
@@ -174,6 +176,45 @@ void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_be
     }
 }
 
+// Whether the segment from o along unit d is blocked before tmax (NEE's shadow ray).
+bool shadow_blocked(vec3 o, vec3 d, float tmax) {
+#ifdef VKMECH_COUNTERS
+    CLOCK_START(c_shadow);
+    bool occluded = trace_any(o, d, 0.0, tmax);
+    CLOCK_ADD(PHASE_SHADOW, c_shadow);
+    return occluded;
+#else
+    return trace_any(o, d, 0.0, tmax);
+#endif
+}
+
+// The state of the vertex a segment left from (V(k-1)), for labelling and
+// weighting what the segment's end emits.
+struct PrevVertex {
+    uint lobe;           // the lobe sampled there
+    float pdf;           // its solid-angle pdf (non-delta)
+    bool mis;            // its BSDF-sampled emitter hits use MIS
+    bool delta_before;   // any of V1..V(k-2) sampled a delta lobe
+    bool glossy_before;  // any of V1..V(k-2) sampled a glossy lobe
+    uint last_nondelta;  // lobe of the last non-delta vertex among V1..V(k-2)
+};
+
+// Emission `contrib` (throughput x radiance) seen by segment k, whose NEE
+// density (solid angle, selection included) is p_light: counted from the camera
+// (k = 1) and after a delta lobe; after a non-delta lobe MIS-weighted in the
+// MIS modes, else left to NEE (docs/descriptor.md §1).
+void emission_seen(inout Tally tally, vec3 contrib, uint k, float p_light, PrevVertex pv) {
+    if (k == 1u) {
+        add_event(tally, contrib, 0u, LOBE_NONE, false, false);
+    } else if (pv.lobe == LOBE_S) {
+        add_event(tally, contrib, k - 1u, bsdf_hit_end_lobe(END_VERTEX_LITERAL, pv.lobe, pv.last_nondelta),
+                  bsdf_hit_delta(END_VERTEX_LITERAL, pv.lobe, pv.last_nondelta, pv.delta_before), pv.glossy_before);
+    } else if (pv.mis && pv.pdf > 0.0) {
+        float w = power_heuristic(pv.pdf, p_light);
+        add_event(tally, contrib * w, k - 1u, pv.lobe, pv.delta_before, pv.glossy_before);
+    }
+}
+
 // The docs/descriptor.md §1 estimator: unidirectional path tracing with NEE at every
 // non-delta vertex, BSDF-sampled emitter hits accepted only from the camera
 // or after a delta lobe (or MIS-weighted in the MIS modes), Russian roulette
@@ -184,15 +225,9 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
     vec3 throughput = vec3(1.0);
     bool delta_before = false;   // any of V1..V(k-1) sampled a delta lobe
     bool glossy_before = false;  // any of V1..V(k-1) sampled a glossy lobe
-    uint prev_lobe = LOBE_NONE;  // lobe sampled at V(k-1)
-    float prev_pdf = 0.0;        // its solid-angle pdf (non-delta)
-    bool prev_mis = false;       // V(k-1) uses MIS for its BSDF-sampled emitter hits
-    bool prev_delta_before = false;
-    bool prev_glossy_before = false;
-    uint last_nondelta = LOBE_NONE;       // lobe of the last non-delta vertex among V1..V(k-1)
-    uint prev_last_nondelta = LOBE_NONE;  // the same among V1..V(k-2)
+    PrevVertex pv = PrevVertex(LOBE_NONE, 0.0, false, false, false, LOBE_NONE);
+    uint last_nondelta = LOBE_NONE;  // lobe of the last non-delta vertex among V1..V(k-1)
     float eta_path = 1.0;  // product of the relative IORs crossed (docs/descriptor.md §1 Russian roulette)
-    vec3 prev_p = o;
     CLOCK_START(c_busy);
     for (uint k = 1u; k <= max_depth; ++k) {
         Hit h;
@@ -200,32 +235,29 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
         CLOCK_START(c_trace);
         bool found = trace_closest(o, d, 0.0, RAY_TMAX, h);
         CLOCK_ADD(k == 1u ? PHASE_PRIMARY : PHASE_BOUNCE, c_trace);
-        if (!found) PATH_BREAK;
 #else
-        if (!trace_closest(o, d, 0.0, RAY_TMAX, h)) PATH_BREAK;
+        bool found = trace_closest(o, d, 0.0, RAY_TMAX, h);
 #endif
+        if (!found) {
+            // ---- the segment escapes: the environment's emission ----
+            if (FEATURE_ENVIRONMENT) {
+                GpuEnvironment env = environment_at();
+                if (env.map.x != ENV_NONE)
+                    emission_seen(tally, throughput * env_eval(env, d), k, env.radiance.w * env_pdf(env, d), pv);
+            }
+            PATH_BREAK;
+        }
         SurfaceHit s = surface_hit(h.prim, h.bary);
 
         // ---- emission seen by this segment ----
         if (s.emitter != 0u && dot(s.ng, d) < 0.0) {
             GpuEmitter em = emitter_at(s.emitter - 1u);
-            vec3 Le = em.radiance.rgb;
-            if (k == 1u) {
-                add_event(tally, throughput * Le, 0u, LOBE_NONE, false, false);
-            } else if (prev_lobe == LOBE_S) {
-                add_event(tally, throughput * Le, k - 1u,
-                          bsdf_hit_end_lobe(END_VERTEX_LITERAL, prev_lobe, prev_last_nondelta),
-                          bsdf_hit_delta(END_VERTEX_LITERAL, prev_lobe, prev_last_nondelta, prev_delta_before),
-                          prev_glossy_before);
-            } else if (prev_mis && prev_pdf > 0.0) {
-                float cos_l = -dot(s.ng, d);
-                float dist2 = h.t * h.t;
-                // NEE's area pdf of this point: the emitter's selection
-                // probability over its area (uniform or power selection).
-                float p_light = uintBitsToFloat(em.info.w) * dist2 / max(cos_l, 1e-12);
-                float w = power_heuristic(prev_pdf, p_light);
-                add_event(tally, throughput * Le * w, k - 1u, prev_lobe, prev_delta_before, prev_glossy_before);
-            }
+            float cos_l = -dot(s.ng, d);
+            float dist2 = h.t * h.t;
+            // NEE's area pdf of this point: the emitter's selection probability
+            // over its area (uniform or power selection), in solid angle.
+            float p_light = uintBitsToFloat(em.info.w) * dist2 / max(cos_l, 1e-12);
+            emission_seen(tally, throughput * em.radiance.rgb, k, p_light, pv);
         }
         if (k >= max_depth) PATH_BREAK;  // no segment left for NEE or a bounce
 
@@ -262,38 +294,51 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
         if (nee_lobe != LOBE_NONE && params.scene.x > 0u) {
             CLOCK_START(c_nee);
             vec3 lu = vec3(rng_next(rng), rng_next(rng), rng_next(rng));
-            LightSample ls = sample_light(lu);
-            vec3 to_light = ls.p - s.p;
-            float dist2 = dot(to_light, to_light);
-            float dist = sqrt(dist2);
-            vec3 wi_world = to_light / dist;
-            float cos_l = -dot(ls.n, wi_world);
-            vec3 wi = to_local(fr, wi_world);
-            if (cos_l > 0.0 && dist2 > 0.0 && wi.z * dot(wi_world, s.ng) > 0.0) {
-                vec3 f = bsdf_eval(m, albedo, wo, wi);
-                if (f.x > 0.0 || f.y > 0.0 || f.z > 0.0) {
-                    vec3 ng_side = dot(wi_world, s.ng) > 0.0 ? s.ng : -s.ng;
-                    vec3 po = offset_ray_origin(s.p, ng_side, s.scale);
-                    vec3 pl = offset_ray_origin(ls.p, ls.n, ls.scale);
-                    vec3 seg = pl - po;
-                    float seg_len = length(seg);
-#ifdef VKMECH_COUNTERS
-                    CLOCK_START(c_shadow);
-                    bool occluded = trace_any(po, seg / seg_len, 0.0, seg_len);
-                    CLOCK_ADD(PHASE_SHADOW, c_shadow);
-                    if (!occluded) {
-#else
-                    if (!trace_any(po, seg / seg_len, 0.0, seg_len)) {
-#endif
-                        float p_light = ls.pdf_area * dist2 / cos_l;
+            uint li = select_light_triangle(lu.x);
+            if (light_is_infinite(li)) {
+                // An emitter at infinity: a direction, and a shadow ray to the scene's end.
+                GpuLightTriangle lt = light_tri_at(li);
+                InfiniteSample is = sample_infinite(lt.info.y, lt.cdf.z, vec2(lu.y, lu.z));
+                vec3 wi = to_local(fr, is.wi);
+                if (is.pdf > 0.0 && wi.z * dot(is.wi, s.ng) > 0.0) {
+                    vec3 f = bsdf_eval(m, albedo, wo, wi);
+                    if ((f.x > 0.0 || f.y > 0.0 || f.z > 0.0) &&
+                        !shadow_blocked(offset_ray_origin(s.p, dot(is.wi, s.ng) > 0.0 ? s.ng : -s.ng, s.scale), is.wi,
+                                        RAY_TMAX)) {
                         float w = 1.0;
-                        if (vertex_mis) w = power_heuristic(p_light, bsdf_pdf(m, albedo, wo, wi));
-                        add_event(tally, throughput * f * ls.radiance * (w / p_light), k, nee_lobe, delta_before,
+                        if (vertex_mis && !is.delta) w = power_heuristic(is.pdf, bsdf_pdf(m, albedo, wo, wi));
+                        add_event(tally, throughput * f * is.radiance * (w / is.pdf), k, nee_lobe, delta_before,
                                   glossy_before);
                     }
                 }
+                CLOCK_ADD(PHASE_NEE, c_nee);
+            } else {
+                LightSample ls = sample_light_triangle(li, lu);
+                vec3 to_light = ls.p - s.p;
+                float dist2 = dot(to_light, to_light);
+                float dist = sqrt(dist2);
+                vec3 wi_world = to_light / dist;
+                float cos_l = -dot(ls.n, wi_world);
+                vec3 wi = to_local(fr, wi_world);
+                if (cos_l > 0.0 && dist2 > 0.0 && wi.z * dot(wi_world, s.ng) > 0.0) {
+                    vec3 f = bsdf_eval(m, albedo, wo, wi);
+                    if (f.x > 0.0 || f.y > 0.0 || f.z > 0.0) {
+                        vec3 ng_side = dot(wi_world, s.ng) > 0.0 ? s.ng : -s.ng;
+                        vec3 po = offset_ray_origin(s.p, ng_side, s.scale);
+                        vec3 pl = offset_ray_origin(ls.p, ls.n, ls.scale);
+                        vec3 seg = pl - po;
+                        float seg_len = length(seg);
+                        if (!shadow_blocked(po, seg / seg_len, seg_len)) {
+                            float p_light = ls.pdf_area * dist2 / cos_l;
+                            float w = 1.0;
+                            if (vertex_mis) w = power_heuristic(p_light, bsdf_pdf(m, albedo, wo, wi));
+                            add_event(tally, throughput * f * ls.radiance * (w / p_light), k, nee_lobe, delta_before,
+                                      glossy_before);
+                        }
+                    }
+                }
+                CLOCK_ADD(PHASE_NEE, c_nee);
             }
-            CLOCK_ADD(PHASE_NEE, c_nee);
         } else {
             // Keep the dimension count independent of the branch taken.
             rng.dim += 3u;
@@ -308,12 +353,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
         if (bs.wi.z * dot(wi_world, s.ng) <= 0.0) PATH_BREAK;
         throughput *= bs.weight;
 
-        prev_delta_before = delta_before;
-        prev_glossy_before = glossy_before;
-        prev_lobe = bs.lobe;
-        prev_pdf = bs.pdf;
-        prev_mis = vertex_mis && bs.lobe != LOBE_S;
-        prev_last_nondelta = last_nondelta;
+        pv = PrevVertex(bs.lobe, bs.pdf, vertex_mis && bs.lobe != LOBE_S, delta_before, glossy_before, last_nondelta);
         if (bs.lobe == LOBE_S) delta_before = true;
         else last_nondelta = bs.lobe;
         if (bs.lobe == LOBE_G) glossy_before = true;

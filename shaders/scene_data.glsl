@@ -22,6 +22,7 @@ layout(std430, set = 0, binding = BINDING_LIGHT_TRIS) readonly buffer LightTriBu
 layout(std430, set = 0, binding = BINDING_EMITTERS) readonly buffer EmitterBuf { uvec4 emitter_buf[]; };      // GpuEmitter: 2
 layout(std430, set = 0, binding = BINDING_TEXELS) readonly buffer TexelBuf { uvec4 texel_buf[]; };            // linear RGB
 layout(std430, set = 0, binding = BINDING_TEXTURES) readonly buffer TextureBuf { uvec4 texture_buf[]; };      // TEX_WORDS each
+layout(std430, set = 0, binding = BINDING_ENVIRONMENT) readonly buffer EnvBuf { uvec4 env_buf[]; };            // GpuEnvironment, GpuDirectional
 #define SCENE_FETCH(b, i) b[i]
 #define SCENE_FETCH_F(b, i) uintBitsToFloat(b[i])
 #else
@@ -32,6 +33,7 @@ layout(set = 0, binding = BINDING_LIGHT_TRIS) uniform utextureBuffer light_tri_b
 layout(set = 0, binding = BINDING_EMITTERS) uniform utextureBuffer emitter_buf;     // GpuEmitter: 2 texels
 layout(set = 0, binding = BINDING_TEXELS) uniform utextureBuffer texel_buf;         // vec4 (linear RGB)
 layout(set = 0, binding = BINDING_TEXTURES) uniform utextureBuffer texture_buf;     // uvec4, TEX_WORDS per texture
+layout(set = 0, binding = BINDING_ENVIRONMENT) uniform utextureBuffer env_buf;      // GpuEnvironment, GpuDirectional
 vec4 fetch_vec4(utextureBuffer b, uint i) { return uintBitsToFloat(texelFetch(b, int(i))); }
 #define SCENE_FETCH(b, i) texelFetch(b, int(i))
 #define SCENE_FETCH_F(b, i) fetch_vec4(b, i)
@@ -106,6 +108,17 @@ vec3 texture_lookup(uint tex, vec2 uv_in) {
     vec3 c01 = texel_at(info, f.x, f.y + 1.0);
     vec3 c11 = texel_at(info, f.x + 1.0, f.y + 1.0);
     return mix(mix(c00, c10, t.x), mix(c01, c11, t.x), t.y);
+}
+
+// Emitters at infinity (shaders/environment.glsl, shared/types.h GpuEnvironment).
+#define ENV_TEXEL(i) SCENE_FETCH_F(texel_buf, i)
+#include "environment.glsl"
+GpuEnvironment environment_at() {
+    return GpuEnvironment(SCENE_FETCH_F(env_buf, 0u), SCENE_FETCH_F(env_buf, 1u), SCENE_FETCH_F(env_buf, 2u),
+                          SCENE_FETCH_F(env_buf, 3u), SCENE_FETCH(env_buf, 4u));
+}
+GpuDirectional directional_at(uint i) {
+    return GpuDirectional(SCENE_FETCH_F(env_buf, ENV_WORDS + 2u * i), SCENE_FETCH_F(env_buf, ENV_WORDS + 2u * i + 1u));
 }
 
 // The largest |coordinate| of three points: the magnitude that bounds the
@@ -210,8 +223,9 @@ struct LightSample {
     float scale;    // max |coordinate| of the light triangle (ray offsets)
 };
 
-LightSample sample_light(vec3 u) {
-    uint li = select_light_triangle(u.x);
+// A point on light-table entry li (an emissive triangle, not an emitter at
+// infinity), with u.y, u.z.
+LightSample sample_light_triangle(uint li, vec3 u) {
     GpuLightTriangle lt = light_tri_at(li);
     uint prim = lt.info.x;
     uvec4 tri = triangle_at(prim);
@@ -235,6 +249,35 @@ LightSample sample_light(vec3 u) {
     s.scale = max_abs3(a, b, c);
     s.radiance = emitter_radiance(lt.info.y);
     s.pdf_area = lt.cdf.z;
+    return s;
+}
+
+// Whether light-table entry li is an emitter at infinity (shared/types.h LIGHT_INFINITE).
+bool light_is_infinite(uint li) { return FEATURE_ENVIRONMENT && SCENE_FETCH(light_tri_buf, 2u * li).x == LIGHT_INFINITE; }
+
+// A direction towards an emitter at infinity: `index` 0 the environment, 1 + i
+// directional light i; `selection` its selection probability.
+struct InfiniteSample {
+    vec3 wi;        // world direction towards the emitter
+    vec3 radiance;  // the environment's radiance, or the directional light's irradiance
+    float pdf;      // selection x solid-angle density; a directional light: the selection alone
+    bool delta;     // a directional light (no BSDF sample can reach it)
+};
+InfiniteSample sample_infinite(uint index, float selection, vec2 u) {
+    InfiniteSample s;
+    if (index == 0u) {
+        GpuEnvironment e = environment_at();
+        s.wi = env_sample(e, u);
+        s.pdf = selection * env_pdf(e, s.wi);
+        s.radiance = env_eval(e, s.wi);
+        s.delta = false;
+    } else {
+        GpuDirectional l = directional_at(index - 1u);
+        s.wi = -l.direction.xyz;
+        s.pdf = selection;
+        s.radiance = l.irradiance.rgb;
+        s.delta = true;
+    }
     return s;
 }
 

@@ -534,13 +534,12 @@ TEST_CASE("mitsuba: nested includes relative to the including file - bitmap text
     CHECK(raw.materials[raw.meshes[0].material].reflectance.texture == 0);
 }
 
-TEST_CASE("mitsuba: envmap/constant are errors unless substitution is asked for") {
+TEST_CASE("mitsuba: an envmap loads as the environment, or on request as the paper's overhead panel") {
+    // The map is read either way, so a missing map is an error either way.
     CHECK_THROWS_WITH_AS(load_mitsuba_xml(data("loader/envmap.xml")),
-                         doctest::Contains("unsupported emitter plugin 'envmap'"), SceneError);
-    // With --substitute the map is read to calibrate the panel, so a missing
-    // map is still an error.
+                         doctest::Contains("cannot open environment map 'sky.exr'"), SceneError);
     LoadOptions o;
-    o.substitute_unsupported = true;
+    o.environment_panel = true;
     CHECK_THROWS_WITH_AS(load_mitsuba_xml(data("loader/envmap.xml"), o),
                          doctest::Contains("cannot open environment map 'sky.exr'"), SceneError);
 
@@ -558,22 +557,24 @@ TEST_CASE("mitsuba: envmap/constant are errors unless substitution is asked for"
     std::string text = xml.str();
     text.replace(text.find("</emitter>"), 10, "<float name=\"scale\" value=\"0.5\"/></emitter>");
     std::ofstream(dir / "envmap.xml") << text;
+    Scene env = load_mitsuba_xml((dir / "envmap.xml").string());
+    CHECK(env.environment.kind == EnvironmentKind::Map);
+    CHECK(env.environment.scale == 0.5f);
+    CHECK(env.emitters.empty());
+    CHECK(env.substitutions.empty());
     Scene s = load_mitsuba_xml((dir / "envmap.xml").string(), o);
-    REQUIRE(s.substitutions.size() == 2);
+    CHECK(s.environment.kind == EnvironmentKind::None);
+    REQUIRE(s.substitutions.size() == 1);
     CHECK(s.substitutions[0].find("envmap") != std::string::npos);
-    CHECK(s.substitutions[1].find("constant") != std::string::npos);
-    REQUIRE(s.emitters.size() == 2);
+    REQUIRE(s.emitters.size() == 1);
     CHECK(near(s.emitters[0].radiance, glm::vec3(1.0f)));
-    CHECK(near(s.emitters[1].radiance, {0.25f, 0.5f, 1.0f}));
-    // The box spans y in [0, 2]; the panels hang above it, facing down, and
-    // cover its x/z extent.
-    for (const auto& e : s.emitters) {
-        const Mesh& panel = s.meshes[e.mesh];
-        CHECK(panel.emitter >= 0);
-        check_facing(panel, {0, -1, 0});
-        for (const auto& p : panel.positions) CHECK(p.y > 2.0f);
-        CHECK(surface_area(panel) >= 4.0 * 6.0 - 1e-3);
-    }
+    // The box spans y in [0, 2]; the panel hangs above it, facing down, and
+    // covers its x/z extent.
+    const Mesh& panel = s.meshes[s.emitters[0].mesh];
+    CHECK(panel.emitter >= 0);
+    check_facing(panel, {0, -1, 0});
+    for (const auto& p : panel.positions) CHECK(p.y > 2.0f);
+    CHECK(surface_area(panel) >= 4.0 * 6.0 - 1e-3);
     fs::remove_all(dir);
 }
 
@@ -656,7 +657,7 @@ const Fault kFaults[] = {
     {"unknown_distribution.xml", "unknown_distribution.xml", 8, "unknown microfacet distribution 'phong'"},
     {"missing_include.xml", "missing_include.xml", 6, "cannot open included file"},
     {"unbound_param.xml", "unbound_param.xml", 8, "unbound parameter '$roughness'"},
-    {"unsupported_emitter.xml", "unsupported_emitter.xml", 6, "unsupported emitter plugin 'envmap'"},
+    {"unsupported_emitter.xml", "unsupported_emitter.xml", 6, "unsupported emitter plugin 'sunsky'"},
     {"point_light.xml", "point_light.xml", 6, "unsupported emitter plugin 'point'"},
     {"unsupported_bsdf.xml", "unsupported_bsdf.xml", 7, "unsupported bsdf plugin 'blendbsdf'"},
     {"unsupported_shape.xml", "unsupported_shape.xml", 6, "unsupported shape plugin 'bsplinecurve'"},

@@ -11,6 +11,7 @@
 #include "render/features.hpp"
 #include "render/render_outputs.hpp"
 #include "render/session.hpp"
+#include "scene/environment.hpp"
 #include "scene/scene.hpp"
 #include "vk/context.hpp"
 
@@ -85,7 +86,8 @@ struct PyFrame {
     }
 };
 
-PyScene load(const std::string& path_or_name, const std::map<std::string, std::string>& defines, bool substitute) {
+PyScene load(const std::string& path_or_name, const std::map<std::string, std::string>& defines, bool substitute,
+             const std::string& environment, float environment_scale, bool environment_panel) {
     PyScene s;
     try {
         s.path = resolve_scene_path(path_or_name);
@@ -98,6 +100,9 @@ PyScene load(const std::string& path_or_name, const std::map<std::string, std::s
     LoadOptions lo;
     lo.params = defines;
     lo.substitute_unsupported = substitute;
+    lo.environment_file = environment;
+    lo.environment_scale = environment_scale;
+    lo.environment_panel = environment_panel;
     for (const auto& [k, v] : defines) s.defines.push_back(k + "=" + v);
     try {
         s.scene = load_scene(s.path, lo);
@@ -125,6 +130,8 @@ py::dict scene_info(const PyScene& s) {
     d["defines"] = s.defines;
     d["warnings"] = sc.warnings;
     d["substitutions"] = sc.substitutions;
+    d["environment"] = describe(sc.environment);
+    d["directional_lights"] = sc.directional_lights.size();
     return d;
 }
 
@@ -202,6 +209,7 @@ PyFrame make_frame(const PyScene& s, const PyRender& r, Frame frame, uint32_t sp
     info.end_vertex = r.end_vertex;
     info.warnings = r.scene.warnings;
     info.substitutions = r.scene.substitutions;
+    info.lights_at_infinity = describe_lights_at_infinity(r.scene);
     info.kernel = vkmech::vk::to_string(r.ctx->kernel());
     info.provenance = make_provenance(s.path, r.scene, s.defines, *r.ctx, r.trav, spp);
     if (!sample_range.empty()) info.provenance.sample_range = sample_range;
@@ -389,8 +397,11 @@ PYBIND11_MODULE(vkmech, m) {
              "Writes the CLI's output set (EXR, PNGs, JSON, manifest) into dir; returns the files");
 
     m.def("load", &load, py::arg("path_or_name"), py::arg("defines") = std::map<std::string, std::string>{},
-          py::arg("substitute") = false,
-          "Loads a scene file or a project scene by name; raises vkmech.SceneError (file:line: reason)");
+          py::arg("substitute") = false, py::arg("environment") = "", py::arg("environment_scale") = 1.0f,
+          py::arg("environment_panel") = false,
+          "Loads a scene file or a project scene by name; raises vkmech.SceneError (file:line: reason). "
+          "environment: a lat-long map (EXR, HDR) that lights the scene (as the CLI's --environment); "
+          "environment_panel: the paper's overhead panel for the scene's envmap/constant emitter");
     m.def("render", &render, py::arg("scene"), py::kw_only(), py::arg("spp") = 64, py::arg("seed") = 0,
           py::arg("res") = py::none(), py::arg("estimator") = "mis", py::arg("light_selection") = "uniform",
           py::arg("end_vertex") = "last-nondelta", py::arg("capture") = true, py::arg("device") = py::none(),

@@ -32,6 +32,7 @@ VKM_ID BINDING_DEBUG = 14u;
 VKM_ID BINDING_SAMPLE_COUNTS = 15u;
 VKM_ID BINDING_COUNTERS = 16u;  // pathtrace.comp's VKMECH_COUNTERS variant only (bench render --profile --counters)
 VKM_ID BINDING_WORK = 17u;      // pathtrace.comp: the pixel-slot counter of claimed pixels (params.adaptive.w)
+VKM_ID BINDING_ENVIRONMENT = 18u;  // the emitters at infinity (shared/types.h GpuEnvironment)
 
 // Specialization-constant ids (layout(constant_id = ...)).
 // 1..5 and 12 on: the material features, SPEC_<NAME> of shared/materials.h.
@@ -42,6 +43,7 @@ VKM_ID SPEC_ESTIMATOR = 8u;             // pathtrace.comp, 8..10
 VKM_ID SPEC_DEBUG_EVENTS = 9u;
 VKM_ID SPEC_END_VERTEX_LITERAL = 10u;
 VKM_ID SPEC_ORTHOGRAPHIC = 11u;         // camera.glsl
+VKM_ID SPEC_ENVIRONMENT = 13u;          // features.glsl: emitters at infinity
 
 #ifdef __cplusplus
 }  // namespace vkmech::gpu

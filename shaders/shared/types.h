@@ -122,6 +122,37 @@ struct GpuLightTriangle {
     vec4 cdf;    // x: cdf up to and including this triangle, y: area, z: pdf_area (selection / area)
 };
 
+// Emitters at infinity (docs/descriptor.md §1, beyond the paper): at most one
+// environment (Mitsuba's `constant` or lat-long `envmap`) and any number of
+// directional lights. A light-table entry whose info.x is LIGHT_INFINITE is one
+// of them: info.y = 0 the environment, 1 + i directional light i; its cdf.z is
+// the emitter's selection probability (not per unit area).
+VKM_CONST LIGHT_INFINITE = 0xFFFFFFFFu;
+VKM_CONST ENV_NONE = 0u;
+VKM_CONST ENV_CONSTANT = 1u;
+VKM_CONST ENV_MAP = 2u;
+
+// The environment array (BINDING_ENVIRONMENT): one GpuEnvironment (ENV_WORDS
+// uvec4 words), then one GpuDirectional (2 words) per directional light.
+// An ENV_MAP's texels follow the scene textures' in the texel array: row y of
+// the map at map.y + y * width, each texel rgb = radiance, w = the cdf of its
+// row up to and including it (1 at the row's end); then `height` texels whose
+// x is the marginal cdf of the rows up to and including row y. The cdfs are
+// of a piecewise-constant density over the pixels that bounds the bilinear
+// radiance from above (shaders/environment.glsl).
+VKM_CONST ENV_WORDS = 5u;
+struct GpuEnvironment {
+    vec4 radiance;  // rgb: the constant's radiance or the map's scale, w: the environment's selection probability
+    vec4 to_world0;  // rows 0..2 of the rotation from the environment's frame (Mitsuba: +y up) to world
+    vec4 to_world1;
+    vec4 to_world2;
+    uvec4 map;  // x: ENV_*, y: first texel of the map, z: width, w: height
+};
+struct GpuDirectional {
+    vec4 direction;   // xyz: the unit direction the light travels (world), w: selection probability
+    vec4 irradiance;  // rgb: irradiance on a surface facing the light, w: unused
+};
+
 // Flattened BVH node (depth-first): interior nodes have count == 0, their
 // first child is the next node and `offset` is the second child; leaves hold
 // `count` triangles starting at `offset` (in BVH triangle order).

@@ -3,6 +3,7 @@
 
 #include "render/features.hpp"
 #include "render/gpu_scene.hpp"
+#include "scene/environment.hpp"
 #include "scene/scene.hpp"
 
 #include <cstdio>
@@ -62,7 +63,15 @@ int cmd_check(const CommonOptions& o) {
         std::printf("  %-24s radiance (%g, %g, %g), area %g\n", scene.meshes[e.mesh].name.c_str(), e.radiance.x,
                     e.radiance.y, e.radiance.z, ge.radiance.w);
     }
-    if (scene.emitters.empty()) std::printf("  (none: the image will be black)\n");
+    std::printf("lights at infinity: %s\n",
+                scene.environment.kind == EnvironmentKind::None && scene.directional_lights.empty() ? "none" : "");
+    if (scene.environment.kind != EnvironmentKind::None)
+        std::printf("  environment: %s\n", describe(scene.environment).c_str());
+    for (const auto& l : scene.directional_lights)
+        std::printf("  directional: along (%g, %g, %g), irradiance (%g, %g, %g)\n", l.direction.x, l.direction.y,
+                    l.direction.z, l.irradiance.x, l.irradiance.y, l.irradiance.z);
+    if (scene.emitters.empty() && !arrays.has_infinite_lights())
+        std::printf("  (no light at all: the image will be black)\n");
     const Camera& c = scene.camera;
     glm::vec3 pos(c.to_world[3]), fwd(c.to_world[2]);
     std::printf("camera: %s, %d x %d, fov %g deg (%s), at (%g, %g, %g) looking along (%g, %g, %g)%s\n",

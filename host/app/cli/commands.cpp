@@ -26,10 +26,18 @@ void add_common_options(CLI::App* app, CommonOptions& o) {
     app->add_option("--traversal", o.traversal, "Ray traversal: auto, rayquery or bvh")
         ->check(CLI::IsMember({"auto", "rayquery", "bvh"}));
     app->add_flag("--substitute", o.substitute,
-                  "Replace what is outside the model by its nearest model, and record each replacement: environment "
-                  "maps by an overhead panel of their mean radiance, point/spot/directional lights by emitters of the "
-                  "same power or irradiance, phong/blendbsdf/cut-out masks/other BSDFs by the nearest material, media "
-                  "ignored (README: Your own scenes)");
+                  "Replace what is outside the model by its nearest model, and record each replacement: point/spot "
+                  "lights by small spherical emitters of the same power, phong/blendbsdf/cut-out masks/other BSDFs by "
+                  "the nearest material, media ignored (README: Your own scenes)");
+    app->add_option("--environment", o.environment,
+                    "Light the scene with a latitude-longitude environment map (OpenEXR or Radiance HDR, +y up as in "
+                    "Mitsuba), replacing any environment the scene has; recorded in the outputs")
+        ->check(CLI::ExistingFile);
+    app->add_option("--environment-scale", o.environment_scale, "Multiply --environment's map by this factor")
+        ->check(CLI::Range(0.0f, 1e30f));
+    app->add_flag("--environment-panel", o.environment_panel,
+                  "The paper's treatment of a scene's envmap/constant emitter: an overhead area panel of the "
+                  "environment's mean radiance x scale, recorded as a substitution (for reproductions)");
     app->add_option("--max-triangles", o.max_triangles,
                     "Most triangles the scene may expand to (default: $VKMECH_MAX_TRIANGLES, else 50000000)")
         ->check(CLI::PositiveNumber);
@@ -95,6 +103,9 @@ namespace {
 LoadOptions load_options(const CommonOptions& o) {
     LoadOptions lo;
     lo.substitute_unsupported = o.substitute;
+    lo.environment_file = o.environment;
+    lo.environment_scale = o.environment_scale;
+    lo.environment_panel = o.environment_panel;
     lo.max_triangles = o.max_triangles;
     lo.params = parse_defines(o.defines);
     return lo;

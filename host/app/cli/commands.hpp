@@ -30,6 +30,9 @@ struct CommonOptions {
     std::optional<uint32_t> device;             // --device N
     std::string traversal = "auto";             // auto | rayquery | bvh
     bool substitute = false;                    // replace unsupported emitters (docs/descriptor.md §8)
+    std::string environment;                    // --environment FILE: a lat-long map lights the scene
+    float environment_scale = 1.0f;             // --environment-scale s
+    bool environment_panel = false;             // --environment-panel: the paper's overhead panel (§8)
     size_t max_triangles = 0;                   // --max-triangles N (0: $VKMECH_MAX_TRIANGLES or the default)
     bool validation = false;                    // Vulkan validation layers
     std::optional<std::string> pipeline_cache;  // --pipeline-cache DIR|off (vk::ContextOptions)

@@ -14,6 +14,7 @@
 #include "render/render_outputs.hpp"
 #include "render/renderer.hpp"
 #include "render/session.hpp"
+#include "scene/environment.hpp"
 #include "scene/scene.hpp"
 #include "vk/context.hpp"
 
@@ -99,6 +100,7 @@ RenderInfo render_info(const std::string& name, const RenderOptions& o, const vk
     info.exposure_ev = o.exposure;
     info.warnings = scene.warnings;
     info.substitutions = scene.substitutions;
+    info.lights_at_infinity = describe_lights_at_infinity(scene);
     return info;
 }
 
@@ -258,11 +260,11 @@ int cmd_render(const RenderOptions& o) {
     const vk::PipelineStats pipes = ctx.pipeline_cache().stats() - before;
 
     std::fprintf(stderr,
-                 "vkmech: %s: %dx%d, %zu triangles, %zu emitters, %u spp on '%s' (%s traversal, %s kernel; %s; %s "
+                 "vkmech: %s: %dx%d, %zu triangles, %zu emitters%s, %u spp on '%s' (%s traversal, %s kernel; %s; %s "
                  "light selection)\n",
                  name.c_str(), scene.camera.width, scene.camera.height, arrays.triangles.size(), scene.emitters.size(),
-                 o.spp, ctx.info().name.c_str(), to_string(trav), vk::to_string(ctx.kernel()),
-                 features.describe().c_str(), o.light_selection.c_str());
+                 arrays.has_infinite_lights() ? " and lights at infinity" : "", o.spp, ctx.info().name.c_str(),
+                 to_string(trav), vk::to_string(ctx.kernel()), features.describe().c_str(), o.light_selection.c_str());
     RenderSpec spec;
     spec.spp = o.spp;
     spec.seed = o.seed;

@@ -66,6 +66,9 @@ std::string scene_digest(const Scene& scene, const SceneArrays& arrays) {
     Digest d;
     d.vec(arrays.vertices).vec(arrays.triangles).vec(arrays.triangle_mesh).vec(arrays.materials).vec(arrays.emitters);
     d.vec(arrays.light_triangles).vec(arrays.texels).vec(arrays.textures).pod(arrays.light_weight_total);
+    // The emitters at infinity (their texels are in `texels`); only where a scene has them, so
+    // that the keys of scenes without them are what they were.
+    if (arrays.has_infinite_lights()) d.pod(arrays.environment).vec(arrays.directional);
     const Camera& c = scene.camera;
     d.pod(static_cast<uint32_t>(c.type))
         .pod(c.to_world)

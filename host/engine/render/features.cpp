@@ -49,6 +49,7 @@ Features Features::from_scene(const Scene& scene, Estimator e, bool capture) {
         if (m.reflectance.texture >= 0 || m.specular_reflectance_texture >= 0 || m.specular_transmittance_texture >= 0)
             f.textures = true;
     }
+    f.environment = scene.environment.kind != EnvironmentKind::None || !scene.directional_lights.empty();
     f.capture = capture;
     f.estimator = e;
     return f;
@@ -65,6 +66,7 @@ std::string Features::describe() const {
     VKM_MATERIAL_FEATURES(VKM_X)
 #undef VKM_X
     add(textures, "textures");
+    add(environment, "environment");
     add(capture, "capture");
     add(debug_events, "debug-events");
     add(direct_glossy, "direct-glossy");

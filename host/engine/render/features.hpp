@@ -29,6 +29,7 @@ struct Features {
     // the features of the scene's materials (gpu::material_features of each).
     uint32_t materials = gpu::FEATURE_BITS_ALL;
     bool textures = true;
+    bool environment = true;    // emitters at infinity (Scene::environment, Scene::directional_lights)
     bool capture = true;        // the mechanism descriptor
     bool debug_events = false;  // record one pixel's contribution events (tests)
     // `render --extra-output direct_glossy` (docs/descriptor.md §3.4): the pipeline built from the

@@ -3,8 +3,10 @@
 
 #include "bsdf.glsl"
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <optional>
 #include <stdexcept>
 
@@ -103,6 +105,75 @@ LightSelection parse_light_selection(const std::string& s) {
 
 namespace {
 
+// The environment map's texels after the textures' (shared/types.h
+// GpuEnvironment): rgb the radiance, w the cdf of the pixel's row; then one
+// texel per row whose x is the marginal cdf. A pixel's sampling weight is the
+// largest luminance of its 3 x 3 neighbourhood (wrapping in x, clamped in y),
+// which bounds the bilinear radiance inside it (shaders/environment.glsl), times
+// sin(theta) at its centre. The sums run in double.
+void flatten_environment_map(const Environment& env, SceneArrays& a) {
+    const Texture& t = env.map;
+    const int w = t.width, h = t.height;
+    auto lum = [&](int x, int y) {
+        x = (x % w + w) % w;
+        y = std::clamp(y, 0, h - 1);
+        const float* c = &t.rgb[3 * (static_cast<size_t>(y) * w + x)];
+        return static_cast<double>(luminance(glm::vec3(c[0], c[1], c[2])));
+    };
+    const uint32_t first = static_cast<uint32_t>(a.texels.size());
+    std::vector<double> weight(static_cast<size_t>(w) * h), row_sum(h, 0.0);
+    double total = 0.0, lum_sum = 0.0, sin_sum = 0.0;
+    for (int y = 0; y < h; ++y) {
+        const double sin_t = std::sin(3.14159265358979323846 * (y + 0.5) / h);
+        for (int x = 0; x < w; ++x) {
+            double m = 0.0;
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) m = std::max(m, lum(x + dx, y + dy));
+            weight[static_cast<size_t>(y) * w + x] = m * sin_t;
+            row_sum[y] += m * sin_t;
+            lum_sum += lum(x, y) * sin_t;
+            sin_sum += sin_t;
+        }
+        total += row_sum[y];
+    }
+    for (int y = 0; y < h; ++y) {
+        double acc = 0.0;
+        for (int x = 0; x < w; ++x) {
+            const size_t i = static_cast<size_t>(y) * w + x;
+            acc += weight[i];
+            // A row that cannot be chosen still gets an increasing cdf.
+            float cdf = row_sum[y] > 0.0 ? static_cast<float>(acc / row_sum[y]) : static_cast<float>((x + 1.0) / w);
+            if (x == w - 1) cdf = 1.0f;
+            a.texels.push_back(glm::vec4(t.rgb[3 * i], t.rgb[3 * i + 1], t.rgb[3 * i + 2], cdf));
+        }
+    }
+    double acc = 0.0;
+    for (int y = 0; y < h; ++y) {
+        acc += row_sum[y];
+        float cdf = total > 0.0 ? static_cast<float>(acc / total) : static_cast<float>((y + 1.0) / h);
+        a.texels.push_back(glm::vec4(y == h - 1 ? 1.0f : cdf, 0.0f, 0.0f, 0.0f));
+    }
+    a.environment.radiance = glm::vec4(glm::vec3(env.scale), 0.0f);
+    a.environment.map = glm::uvec4(gpu::ENV_MAP, first, static_cast<uint32_t>(w), static_cast<uint32_t>(h));
+    a.environment_luminance = total > 0.0 && sin_sum > 0.0 ? lum_sum / sin_sum * env.scale : 0.0;
+}
+
+void flatten_environment(const Scene& scene, SceneArrays& a) {
+    const Environment& env = scene.environment;
+    if (env.kind == EnvironmentKind::Constant) {
+        a.environment.radiance = glm::vec4(env.radiance, 0.0f);
+        a.environment.map = glm::uvec4(gpu::ENV_CONSTANT, 0u, 0u, 0u);
+        a.environment_luminance = luminance(env.radiance);
+    } else if (env.kind == EnvironmentKind::Map) {
+        flatten_environment_map(env, a);
+    }
+    // Rows of the rotation (glm: to_world[column][row]).
+    glm::vec4* rows[] = {&a.environment.to_world0, &a.environment.to_world1, &a.environment.to_world2};
+    for (int r = 0; r < 3; ++r) *rows[r] = glm::vec4(env.to_world[0][r], env.to_world[1][r], env.to_world[2][r], 0.0f);
+    for (const auto& l : scene.directional_lights)
+        a.directional.push_back({glm::vec4(glm::normalize(l.direction), 0.0f), glm::vec4(l.irradiance, 0.0f)});
+}
+
 // Geometry, materials and textures in the scene's own triangle order (mesh by
 // mesh), and the emitters' radiance and mesh; no light table yet.
 SceneArrays flatten_unlit(const Scene& scene, LightSelection selection) {
@@ -149,6 +220,8 @@ SceneArrays flatten_unlit(const Scene& scene, LightSelection selection) {
         for (size_t i = 0; i + 2 < t.rgb.size(); i += 3)
             a.texels.push_back(glm::vec4(t.rgb[i], t.rgb[i + 1], t.rgb[i + 2], 1.0f));
     }
+
+    flatten_environment(scene, a);
 
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
     for (const auto& p : a.tri_positions) {
@@ -197,6 +270,18 @@ void build_light_table(SceneArrays& a) {
         for (uint32_t t : per_emitter[e]) emitter_area[e] += std::max(tri_area(t), 0.0);
         if (emitter_area[e] > 0.0 && luminance(radiance(e)) > 0.0) ++lit_emitters;
     }
+    // The emitters at infinity that emit: the environment (index 0), then directional light i (1 + i).
+    // Power selection weighs them by the power they deliver to the scene's bounding sphere of
+    // radius r, divided by pi as the area emitters' luminance x area is: r^2 x the integral of
+    // the environment's luminance over the sphere; r^2 x the directional light's irradiance.
+    const double r2 = 0.25 * glm::dot(glm::dvec3(a.bbox_hi - a.bbox_lo), glm::dvec3(a.bbox_hi - a.bbox_lo));
+    std::vector<std::pair<uint32_t, double>> infinite;  // (index, power weight)
+    if (a.environment.map.x != gpu::ENV_NONE && a.environment_luminance > 0.0)
+        infinite.push_back({0u, r2 * 4.0 * 3.14159265358979323846 * a.environment_luminance});
+    for (size_t i = 0; i < a.directional.size(); ++i)
+        if (double lum = luminance(glm::vec3(a.directional[i].irradiance)); lum > 0.0)
+            infinite.push_back({static_cast<uint32_t>(1 + i), r2 * lum});
+    const uint32_t selectable = lit_emitters + static_cast<uint32_t>(infinite.size());
     double total = 0.0;
     std::vector<double> weights;
     std::vector<double> emitter_weight(emitter_count, 0.0);
@@ -211,7 +296,7 @@ void build_light_table(SceneArrays& a) {
                 lt.info = glm::uvec4(t, static_cast<uint32_t>(e), 0u, 0u);
                 lt.cdf = glm::vec4(0.0f, static_cast<float>(area), 0.0f, 0.0f);
                 a.light_triangles.push_back(lt);
-                double w = selection == LightSelection::Power ? lum * area : area / emitter_area[e] / lit_emitters;
+                double w = selection == LightSelection::Power ? lum * area : area / emitter_area[e] / selectable;
                 weights.push_back(w);
                 total += w;
                 emitter_weight[e] += w;
@@ -221,6 +306,15 @@ void build_light_table(SceneArrays& a) {
         a.emitters[e].info =
             glm::uvec4(a.emitters[e].info.x, first, static_cast<uint32_t>(a.light_triangles.size()) - first, 0u);
     }
+    const size_t area_entries = a.light_triangles.size();
+    for (const auto& [index, power] : infinite) {
+        gpu::GpuLightTriangle lt{};
+        lt.info = glm::uvec4(gpu::LIGHT_INFINITE, index, 0u, 0u);
+        a.light_triangles.push_back(lt);
+        double w = selection == LightSelection::Power ? power : 1.0 / selectable;
+        weights.push_back(w);
+        total += w;
+    }
     for (size_t e = 0; e < emitter_count; ++e) {
         double pdf_area = total > 0.0 && emitter_area[e] > 0.0 ? emitter_weight[e] / total / emitter_area[e] : 0.0;
         a.emitters[e].info.w = std::bit_cast<uint32_t>(static_cast<float>(pdf_area));
@@ -229,8 +323,16 @@ void build_light_table(SceneArrays& a) {
     for (size_t i = 0; i < a.light_triangles.size(); ++i) {
         acc += weights[i];
         a.light_triangles[i].cdf.x = static_cast<float>(acc / total);
-        // pdf per unit area of choosing this triangle then a uniform point on it.
-        a.light_triangles[i].cdf.z = static_cast<float>(weights[i] / total / a.light_triangles[i].cdf.y);
+        // pdf per unit area of choosing this triangle then a uniform point on it; an emitter at
+        // infinity's selection probability.
+        a.light_triangles[i].cdf.z =
+            static_cast<float>(i < area_entries ? weights[i] / total / a.light_triangles[i].cdf.y : weights[i] / total);
+    }
+    a.environment.radiance.w = 0.0f;
+    for (auto& d : a.directional) d.direction.w = 0.0f;
+    for (size_t i = area_entries; i < a.light_triangles.size(); ++i) {
+        const uint32_t index = a.light_triangles[i].info.y;
+        (index == 0 ? a.environment.radiance.w : a.directional[index - 1].direction.w) = a.light_triangles[i].cdf.z;
     }
     if (!a.light_triangles.empty()) a.light_triangles.back().cdf.x = 1.0f;
     a.light_weight_total = static_cast<float>(total);
@@ -341,13 +443,22 @@ size_t texels_of(const std::vector<T>& v) {
 
 }  // namespace
 
+std::vector<glm::uvec4> environment_words(const SceneArrays& a) {
+    std::vector<glm::uvec4> words(gpu::ENV_WORDS + 2 * a.directional.size());
+    std::memcpy(words.data(), &a.environment, sizeof a.environment);
+    if (!a.directional.empty())
+        std::memcpy(words.data() + gpu::ENV_WORDS, a.directional.data(),
+                    a.directional.size() * sizeof(gpu::GpuDirectional));
+    return words;
+}
+
 std::vector<vk::BindingDesc> scene_bindings(Traversal t, vk::KernelClass k) {
     using DT = ::vk::DescriptorType;
     const DT type = k == vk::KernelClass::Gpu ? DT::eStorageBuffer : DT::eUniformTexelBuffer;
     std::vector<vk::BindingDesc> b = {{gpu::BINDING_VERTICES, type},  {gpu::BINDING_TRIANGLES, type},
                                       {gpu::BINDING_MATERIALS, type}, {gpu::BINDING_LIGHT_TRIS, type},
                                       {gpu::BINDING_EMITTERS, type},  {gpu::BINDING_TEXELS, type},
-                                      {gpu::BINDING_TEXTURES, type}};
+                                      {gpu::BINDING_TEXTURES, type},  {gpu::BINDING_ENVIRONMENT, type}};
     for (const auto& x : traversal_bindings(t, k)) b.push_back(x);
     return b;
 }
@@ -421,6 +532,8 @@ GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal trave
     light_triangles = vk::Buffer::from_vector(ctx, a.light_triangles, usage);
     texels = vk::Buffer::from_vector(ctx, a.texels, usage);
     textures = vk::Buffer::from_vector(ctx, a.textures, usage);
+    const std::vector<glm::uvec4> env_words = environment_words(a);
+    environment = vk::Buffer::from_vector(ctx, env_words, usage);
     ::vk::BufferUsageFlags pos_usage = usage;
     if (traversal_ == Traversal::RayQuery)
         pos_usage =
@@ -435,9 +548,9 @@ GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal trave
             {gpu::BINDING_VERTICES, &vertices},   {gpu::BINDING_TRIANGLES, &triangles},
             {gpu::BINDING_MATERIALS, &materials}, {gpu::BINDING_LIGHT_TRIS, &light_triangles},
             {gpu::BINDING_EMITTERS, &emitters},   {gpu::BINDING_TEXELS, &texels},
-            {gpu::BINDING_TEXTURES, &textures}};
-        const char* what[] = {"vertices", "triangles",      "materials",      "emissive triangles",
-                              "emitters", "texture texels", "texture records"};
+            {gpu::BINDING_TEXTURES, &textures},   {gpu::BINDING_ENVIRONMENT, &environment}};
+        const char* what[] = {"vertices", "triangles",      "materials",       "emissive triangles",
+                              "emitters", "texture texels", "texture records", "lights at infinity"};
         for (size_t i = 0; i < std::size(arrays); ++i) {
             check_storage_range(ctx, *arrays[i].second, what[i]);
             storage_.emplace_back(arrays[i].first, arrays[i].second->handle());
@@ -451,6 +564,8 @@ GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal trave
         views_.emplace_back(gpu::BINDING_EMITTERS, texel_view(ctx, emitters, texels_of(a.emitters), "emitters"));
         views_.emplace_back(gpu::BINDING_TEXELS, texel_view(ctx, texels, texels_of(a.texels), "texture texels"));
         views_.emplace_back(gpu::BINDING_TEXTURES, texel_view(ctx, textures, texels_of(a.textures), "texture records"));
+        views_.emplace_back(gpu::BINDING_ENVIRONMENT,
+                            texel_view(ctx, environment, texels_of(env_words), "lights at infinity"));
     }
     if (traversal_ == Traversal::RayQuery) {
         accel_ = std::make_unique<RayTracingAccel>(ctx, tri_positions, static_cast<uint32_t>(a.triangles.size()));

@@ -42,8 +42,15 @@ struct SceneArrays {
     std::vector<gpu::GpuMaterial> materials;
     std::vector<gpu::GpuEmitter> emitters;
     std::vector<gpu::GpuLightTriangle> light_triangles;
-    std::vector<glm::vec4> texels;     // every texture's linear RGB texels
+    std::vector<glm::vec4> texels;     // every texture's linear RGB texels, then the environment map's
     std::vector<glm::uvec4> textures;  // gpu::TEX_WORDS per texture (shared/types.h)
+    // The emitters at infinity (shared/types.h): the environment (map.x = ENV_NONE
+    // without one; its selection probability filled in by the light table) and
+    // the directional lights; the light table ends with an entry for each that emits.
+    gpu::GpuEnvironment environment{};
+    std::vector<gpu::GpuDirectional> directional;
+    double environment_luminance = 0.0;  // the environment's mean luminance over the sphere
+    bool has_infinite_lights() const { return environment.map.x != gpu::ENV_NONE || !directional.empty(); }
     // Empty until build_scene_bvh: the software BVH and what its traversal reads.
     Bvh bvh;
     std::vector<gpu::GpuBvh4Node> bvh4;  // collapse_bvh4(bvh)
@@ -52,6 +59,10 @@ struct SceneArrays {
     glm::vec3 bbox_lo{0.0f}, bbox_hi{0.0f};
     bool has_bvh() const { return !bvh4.empty(); }
 };
+
+// The environment array's words (BINDING_ENVIRONMENT): the GpuEnvironment, then
+// each GpuDirectional.
+std::vector<glm::uvec4> environment_words(const SceneArrays& a);
 
 // Flattening alone: the arrays in the scene's own triangle order, no BVH (what
 // ray query renders). Throws SceneError for scenes that cannot be rendered (no
@@ -82,7 +93,8 @@ public:
 
     // tri_positions: SceneArrays::tri_positions, or with the GPU kernel's software
     // BVH GpuKernelTree::positions (its tree's order).
-    vk::Buffer vertices, triangles, materials, emitters, light_triangles, bvh_nodes, tri_positions, texels, textures;
+    vk::Buffer vertices, triangles, materials, emitters, light_triangles, bvh_nodes, tri_positions, texels, textures,
+        environment;
     // The CPU kernel reads every scene array (and the software traversal its
     // 4-wide BVH nodes and triangle positions) as uniform texel buffers of
     // RGBA32 uint texels (shaders/scene_data.glsl, trace_bvh.glsl): on lavapipe

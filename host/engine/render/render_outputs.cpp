@@ -170,6 +170,8 @@ std::string summary_json(const RenderInfo& info, const Frame& frame, const Descr
     list("warnings", info.warnings);
     o << ",\n";
     list("substitutions", info.substitutions);
+    if (!info.lights_at_infinity.empty())
+        o << ",\n  \"lights_at_infinity\": \"" << json_escape(info.lights_at_infinity) << "\"";
     if (const Provenance& p = info.provenance; !p.version.empty()) {
         auto strings = [&](const std::vector<std::string>& v) {
             std::string out = "[";
@@ -265,6 +267,7 @@ std::map<std::string, std::vector<std::string>> render_attributes(const RenderIn
                                                              {"vkmech.warnings", warnings},
                                                              {"vkmech.substitutions", info.substitutions}};
     if (!run_id.empty()) attrs["vkmech.runId"] = {run_id};
+    if (!info.lights_at_infinity.empty()) attrs["vkmech.lightsAtInfinity"] = {info.lights_at_infinity};
     if (capture) attrs["vkmech.dominantLegend"] = {dominant_legend_json()};
     if (const Provenance& p = info.provenance; !p.version.empty()) {
         attrs["vkmech.version"] = {p.version};

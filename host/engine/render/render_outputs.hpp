@@ -45,6 +45,7 @@ struct RenderInfo {
     float exposure_ev = 0.0f;                  // PNG preview exposure (the EXR is never scaled)
     std::vector<std::string> warnings;         // the loader's (Scene::warnings)
     std::vector<std::string> substitutions;    // user-requested substitutions (Scene::substitutions)
+    std::string lights_at_infinity;            // describe_lights_at_infinity(scene); "" for none
     // Creating (and compiling) the pipeline, outside the render time; < 0: not measured.
     double pipeline_seconds = -1.0;
     std::string pipeline_cache;  // vk::pipeline_cache_outcome

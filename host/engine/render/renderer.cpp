@@ -30,7 +30,7 @@ std::vector<vk::SpecConstant> spec_constants(const Features& f) {
         {SPEC_THIN_LENS, f.thin_lens},       {SPEC_TEXTURES, f.textures},
         {SPEC_CAPTURE, f.capture},           {SPEC_ESTIMATOR, static_cast<uint32_t>(f.estimator)},
         {SPEC_DEBUG_EVENTS, f.debug_events}, {SPEC_END_VERTEX_LITERAL, f.end_vertex == EndVertex::Literal},
-        {SPEC_ORTHOGRAPHIC, f.orthographic}};
+        {SPEC_ORTHOGRAPHIC, f.orthographic}, {SPEC_ENVIRONMENT, f.environment}};
 #define VKM_X(NAME, name, bit, spec_id) c.push_back({SPEC_##NAME, (f.materials & FEATURE_BIT_##NAME) != 0u});
     VKM_MATERIAL_FEATURES(VKM_X)
 #undef VKM_X

@@ -46,7 +46,6 @@ private:
     void integrator(const XNode& n);
     void add_substituted_panels();
     void add_substituted_point_lights();
-    void add_substituted_directional_lights();
     // Bounds of the geometry so far (a unit box at the camera when empty).
     void bounds(glm::vec3& lo, glm::vec3& hi) const;
     void prune_unused();
@@ -59,7 +58,8 @@ private:
     void require_substitute(const XNode& n, const std::string& kind, const std::string& replacement) const;
     void record_substitution(const XNode& n, const std::string& kind, const std::string& replacement);
     int area_emitter(const XNode& n, int mesh_index);  // an <emitter type="area">: index into scene_.emitters
-    glm::vec3 envmap_mean_radiance(const XNode& n, const XProps& p);  // solid-angle mean of a lat-long map
+    // envmap / constant: Scene::environment, or with LoadOptions::environment_panel a pending panel.
+    void environment(const XNode& n, const XProps& p, const std::string& type);
     std::string resolve(const XNode& n, const std::string& filename) const;
     [[noreturn]] void unsupported(const XNode& n, const std::string& kind, const std::string& extra = {}) const;
 
@@ -103,12 +103,6 @@ private:
         glm::vec3 intensity{1.0f};  // W/sr (Mitsuba's `intensity`)
     };
     std::vector<PendingPointLight> point_lights_;
-    struct PendingDirectional {
-        std::string what;
-        glm::vec3 direction{0.0f, 0.0f, 1.0f};  // of propagation
-        glm::vec3 irradiance{1.0f};
-    };
-    std::vector<PendingDirectional> directional_;
     // Area emitters declared at top level with an id (used through <ref>).
     struct DeclaredEmitter {
         glm::vec3 radiance{1.0f};

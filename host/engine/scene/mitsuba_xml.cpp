@@ -3,6 +3,7 @@
 // mitsuba_bsdf.cpp.
 #include "scene/mitsuba_loader.hpp"
 
+#include "scene/environment.hpp"
 #include "scene/image_texture.hpp"
 #include "scene/mesh_io.hpp"
 #include "scene/mesh_ops.hpp"
@@ -71,7 +72,6 @@ Scene MitsubaLoader::load() {
                          "the scene has no <sensor> (docs/descriptor.md §8: perspective or thinlens)");
     add_substituted_panels();
     add_substituted_point_lights();
-    add_substituted_directional_lights();
     for (const auto& name : params_.unused_overrides())
         scene_.warnings.push_back(path_ + ": -D " + name + "=... is not used by the scene (no $" + name +
                                   " in it); check the name");
@@ -420,22 +420,7 @@ void MitsubaLoader::emitter_top(const XNode& n) {
         return;
     }
     if (type == "envmap" || type == "constant") {
-        // docs/descriptor.md §8 (the paper's matpreview treatment): an overhead area panel
-        // whose radiance keeps the environment's mean radiance times its scale.
-        require_substitute(n, "emitter", "an overhead area panel of the environment's mean radiance x scale");
-        PendingPanel panel;
-        if (type == "constant") {
-            panel.radiance = p.get_color({"radiance"}, glm::vec3(1.0f));
-        } else {
-            panel.radiance = envmap_mean_radiance(n, p);
-        }
-        float scale = p.get_float({"scale"}, 1.0f);
-        if (!(scale >= 0.0f)) n.fail("'scale' must not be negative");
-        panel.radiance *= scale;
-        p.find({"to_world", "toWorld"});  // orientation does not matter for a uniform panel
-        warn_unused(p);
-        panel.what = n.file() + ":" + std::to_string(n.line()) + ": emitter '" + type + "'";
-        panels_.push_back(panel);
+        environment(n, p, type);
         return;
     }
     if (type == "point" || type == "spot") {
@@ -453,52 +438,59 @@ void MitsubaLoader::emitter_top(const XNode& n) {
         return;
     }
     if (type == "directional" || type == "distant") {
-        require_substitute(n, "emitter", "a distant square emitter giving the same irradiance");
-        PendingDirectional l;
+        // docs/descriptor.md §1: a light at infinity, sampled by NEE.
+        DirectionalLight l;
         glm::mat4 m = p.get_transform({"to_world", "toWorld"});
-        l.direction = p.find({"direction"}) ? p.get_vector({"direction"}, glm::vec3(0, 0, 1))
-                                            : glm::vec3(m * glm::vec4(0, 0, 1, 0));
-        if (!(glm::length(l.direction) > 0.0f)) n.fail("the light's direction is zero");
+        glm::vec3 dir = p.find({"direction"}) ? p.get_vector({"direction"}, glm::vec3(0, 0, 1))
+                                              : glm::vec3(m * glm::vec4(0, 0, 1, 0));
+        if (!(glm::length(dir) > 0.0f) || !std::isfinite(glm::length(dir))) n.fail("the light's direction is zero");
+        l.direction = glm::normalize(dir);
         l.irradiance = p.get_color({"irradiance"}, glm::vec3(1.0f));
         if (l.irradiance.x < 0.0f || l.irradiance.y < 0.0f || l.irradiance.z < 0.0f) n.fail("negative irradiance");
         warn_unused(p);
-        l.what = n.file() + ":" + std::to_string(n.line()) + ": emitter '" + type + "'";
-        directional_.push_back(l);
+        scene_.directional_lights.push_back(l);
         return;
     }
     unsupported(n, "emitter",
-                " (docs/descriptor.md §1: area emitters; envmap, constant, point, spot and directional only with "
+                " (docs/descriptor.md §1: area, envmap, constant and directional emitters; point and spot only with "
                 "--substitute)");
 }
 
-glm::vec3 MitsubaLoader::envmap_mean_radiance(const XNode& n, const XProps& p) {
-    auto filename = p.opt_string({"filename"});
-    if (!filename) n.fail(n.describe() + " is missing the required property 'filename'");
-    std::string path = resolve(n, *filename);
-    if (!is_file(path)) n.fail("cannot open environment map '" + *filename + "' (looked for " + path + ")");
-    scene_.files.push_back(path);
-    Texture t;
-    try {
-        t = load_image_texture(path, /*raw=*/true);
-    } catch (const std::exception& e) {
-        n.fail("cannot decode environment map '" + *filename + "': " + e.what());
-    }
-    // Solid-angle mean of an equirectangular (latitude-longitude) map: row
-    // y covers polar angle theta = pi (y + 0.5) / h, weighted by sin(theta).
-    glm::dvec3 sum(0.0);
-    double wsum = 0.0;
-    for (int y = 0; y < t.height; ++y) {
-        double w = std::sin(3.14159265358979 * (y + 0.5) / t.height);
-        for (int x = 0; x < t.width; ++x) {
-            const float* c = &t.rgb[3 * (static_cast<size_t>(y) * t.width + x)];
-            glm::dvec3 v(c[0], c[1], c[2]);
-            if (!std::isfinite(v.x + v.y + v.z) || v.x < 0.0 || v.y < 0.0 || v.z < 0.0)
-                n.fail("environment map '" + *filename + "' has negative or non-finite pixels");
-            sum += w * v;
-            wsum += w;
+void MitsubaLoader::environment(const XNode& n, const XProps& p, const std::string& type) {
+    const std::string what = n.file() + ":" + std::to_string(n.line()) + ": emitter '" + type + "'";
+    if (scene_.environment.kind != EnvironmentKind::None || !panels_.empty())
+        n.fail("a second environment emitter (Mitsuba renders one per scene; the first is " +
+               (panels_.empty() ? scene_.environment.what : panels_.front().what) + ")");
+    float scale = p.get_float({"scale"}, 1.0f);
+    if (!(scale >= 0.0f)) n.fail("'scale' must not be negative");
+    glm::mat3 to_world(p.get_transform({"to_world", "toWorld"}));
+    Environment env;
+    if (type == "constant") {
+        env.kind = EnvironmentKind::Constant;
+        env.radiance = p.get_color({"radiance"}, glm::vec3(1.0f)) * scale;
+        if (env.radiance.x < 0.0f || env.radiance.y < 0.0f || env.radiance.z < 0.0f)
+            n.fail("negative radiance " + fmt_vec(env.radiance));
+    } else {
+        auto filename = p.opt_string({"filename"});
+        if (!filename) n.fail(n.describe() + " is missing the required property 'filename'");
+        std::string path = resolve(n, *filename);
+        if (!is_file(path)) n.fail("cannot open environment map '" + *filename + "' (looked for " + path + ")");
+        scene_.files.push_back(path);
+        try {
+            env = load_environment_map(path, scale, to_world);
+        } catch (const std::exception& e) {
+            n.fail(e.what());
         }
     }
-    return wsum > 0.0 ? glm::vec3(sum / wsum) : glm::vec3(0.0f);
+    warn_unused(p);
+    env.what = what;
+    if (options_.environment_panel) {
+        // docs/descriptor.md §8 (the paper's matpreview treatment): an overhead area panel
+        // whose radiance keeps the environment's mean radiance times its scale.
+        panels_.push_back({what, environment_mean_radiance(env)});
+        return;
+    }
+    scene_.environment = std::move(env);
 }
 
 void MitsubaLoader::sensor(const XNode& n) {
@@ -658,41 +650,6 @@ void MitsubaLoader::bounds(glm::vec3& lo, glm::vec3& hi) const {
         glm::vec3 c(scene_.camera.to_world[3]);
         lo = c - glm::vec3(1.0f);
         hi = c + glm::vec3(1.0f);
-    }
-}
-
-void MitsubaLoader::add_substituted_directional_lights() {
-    if (directional_.empty()) return;
-    glm::vec3 lo, hi;
-    bounds(lo, hi);
-    glm::vec3 center = 0.5f * (lo + hi);
-    float diag = std::max(glm::length(hi - lo), 1e-3f);
-    for (size_t i = 0; i < directional_.size(); ++i) {
-        const auto& l = directional_[i];
-        // A distant square facing along the light's direction: side = the
-        // scene's diagonal, at 10 diagonals, so its rays are within ~3 degrees
-        // of parallel; radiance = irradiance / its solid angle, so a surface
-        // facing it receives the light's irradiance.
-        glm::vec3 n = glm::normalize(l.direction);
-        float half = 0.5f * diag, dist = 10.0f * diag;
-        double omega = 4.0 * std::asin(double(half) * half / (double(half) * half + double(dist) * dist));
-        glm::vec3 radiance = l.irradiance / static_cast<float>(omega);
-        glm::vec3 helper = std::abs(n.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
-        glm::vec3 u = glm::normalize(glm::cross(helper, n)), v = glm::cross(n, u);
-        glm::mat4 m(1.0f);
-        m[0] = glm::vec4(u * half, 0.0f);
-        m[1] = glm::vec4(v * half, 0.0f);
-        m[2] = glm::vec4(n, 0.0f);
-        m[3] = glm::vec4(center - n * dist, 1.0f);
-        Mesh mesh = make_rectangle(m);
-        mesh.name = "substituted-directional#" + std::to_string(i);
-        mesh.material = default_material();
-        mesh.emitter = static_cast<int>(scene_.emitters.size());
-        scene_.emitters.push_back({radiance, static_cast<int>(scene_.meshes.size())});
-        scene_.meshes.push_back(std::move(mesh));
-        scene_.substitutions.push_back(l.what + " replaced by a distant square emitter (side " + fmt_num(diag) + ", " +
-                                       fmt_num(dist) + " away, radiance " + fmt_vec(radiance) +
-                                       ") giving the same irradiance");
     }
 }
 

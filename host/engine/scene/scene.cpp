@@ -1,5 +1,6 @@
 #include "scene/scene.hpp"
 
+#include "scene/environment.hpp"
 #include "scene/mesh_ops.hpp"
 #include "scene/text_parse.hpp"
 #include "scene/triangle_budget.hpp"
@@ -120,6 +121,20 @@ Scene load_scene(const std::string& path, const LoadOptions& options) {
         throw SceneError(path, 0, "a size in the scene is too large to hold in memory (a corrupt count?)");
     }
     scene.check();
+    if (!options.environment_file.empty()) {
+        // --environment: the map replaces whatever environment the scene has.
+        Environment env;
+        try {
+            env = load_environment_map(options.environment_file, options.environment_scale, glm::mat3(1.0f));
+        } catch (const std::exception& e) {
+            throw SceneError(options.environment_file, 0, e.what());
+        }
+        env.what = "--environment " + options.environment_file;
+        if (scene.environment.kind != EnvironmentKind::None)
+            scene.warnings.push_back(env.what + " replaces the scene's environment (" + scene.environment.what + ")");
+        scene.environment = std::move(env);
+        scene.files.push_back(options.environment_file);
+    }
     // Loads, but would render black: say so (glTF assets often carry no light).
     for (const auto& e : scene.emitters) {
         const Mesh& m = scene.meshes.at(static_cast<size_t>(e.mesh));
@@ -130,11 +145,12 @@ Scene load_scene(const std::string& path, const LoadOptions& options) {
             scene.warnings.push_back(path + ": the emitter on shape '" + m.name +
                                      "' has zero area (degenerate triangles): it emits nothing");
     }
-    if (scene.emitters.empty())
+    if (scene.emitters.empty() && scene.environment.kind == EnvironmentKind::None && scene.directional_lights.empty())
         scene.warnings.push_back(path + ": the scene has no emitter vkmech renders, so the image will be black" +
-                                 (options.substitute_unsupported ? std::string()
-                                                                 : " (--substitute turns punctual, point and "
-                                                                   "environment lights into emitters)"));
+                                 (options.substitute_unsupported
+                                      ? std::string(" (--environment FILE lights it with an environment map)")
+                                      : " (--environment FILE lights it with an environment map; --substitute "
+                                        "turns point and spot lights into emitters)"));
     return scene;
 }
 

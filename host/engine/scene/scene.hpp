@@ -148,6 +148,28 @@ struct AreaEmitter {
     int mesh = -1;
 };
 
+// Emitters at infinity (docs/descriptor.md §1, beyond the paper). An
+// environment is radiance arriving from every direction: a constant, or a
+// latitude-longitude map in Mitsuba 3's frame (+y up, to_world's rotation
+// turning it), times `scale`. A camera ray that escapes to it is an
+// emitter_direct event.
+enum class EnvironmentKind : uint32_t { None = 0, Constant = 1, Map = 2 };
+struct Environment {
+    EnvironmentKind kind = EnvironmentKind::None;
+    glm::vec3 radiance{1.0f};  // Constant: the radiance (scale applied)
+    Texture map;               // Map: linear RGB, top row first (to_uv unused)
+    float scale = 1.0f;        // Map: multiplies the map
+    glm::mat3 to_world{1.0f};  // a rotation
+    std::string what;          // where it came from ("file:line: emitter 'envmap'", "--environment FILE")
+};
+// A distant light: parallel rays along `direction` (the way the light
+// travels, unit), delivering `irradiance` to a surface facing it (Mitsuba's
+// `directional`). Sampled by NEE only: no ray can hit it.
+struct DirectionalLight {
+    glm::vec3 direction{0.0f, 0.0f, 1.0f};
+    glm::vec3 irradiance{1.0f};
+};
+
 enum class CameraType : uint32_t { Perspective = 0, ThinLens = 1, Orthographic = 2 };
 
 struct Camera {
@@ -182,6 +204,8 @@ struct Scene {
     std::vector<Material> materials;
     std::vector<AreaEmitter> emitters;
     std::vector<Texture> textures;
+    Environment environment;
+    std::vector<DirectionalLight> directional_lights;
     Camera camera;
     IntegratorSettings integrator;
     // Every further file a Mitsuba scene read (includes, meshes, textures,
@@ -204,7 +228,14 @@ struct Scene {
 // Options a loader takes from the command line.
 struct LoadOptions {
     std::map<std::string, std::string> params;  // -D name=value, overrides <default>
-    bool substitute_unsupported = false;        // e.g. envmap -> overhead area panel
+    bool substitute_unsupported = false;        // e.g. phong -> the nearest model material
+    // The paper's treatment of an environment (docs/descriptor.md §8): an overhead
+    // area panel of the environment's mean radiance x scale (--environment-panel).
+    bool environment_panel = false;
+    // --environment FILE [--environment-scale s]: a lat-long map (identity
+    // to_world) that lights the scene, replacing its own environment.
+    std::string environment_file;
+    float environment_scale = 1.0f;
     // Most triangles a scene may expand to (--max-triangles); 0: the
     // environment's VKMECH_MAX_TRIANGLES, else kDefaultMaxTriangles.
     size_t max_triangles = 0;
