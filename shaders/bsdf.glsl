@@ -116,9 +116,21 @@ SHARED_FN vec3 diffuse_eval_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi, OU
     return albedo * pdf;
 }
 
+// The direction diffuse and roughdiffuse sample: cosine-weighted (square_to_cosine_hemisphere,
+// whose density wi.z / pi is both models' pdf). False, with wi = +z, where neither model has
+// density: wo below the surface, or the warp landing on the horizon (the disk's rim).
+SHARED_FN bool cosine_weighted_wi(vec3 wo, vec2 u, OUT(vec3) wi) {
+    wi = vec3(0.0, 0.0, 1.0);
+    if (wo.z <= 0.0) return false;
+    vec3 w = square_to_cosine_hemisphere(u);
+    if (!(w.z > 0.0)) return false;
+    wi = w;
+    return true;
+}
+
 SHARED_FN BsdfSample diffuse_sample(GpuMaterial m, vec3 albedo, vec3 wo, float u_lobe, vec2 u) {
-    if (wo.z <= 0.0) return bsdf_sample_none();
-    vec3 wi = square_to_cosine_hemisphere(u);
+    vec3 wi;
+    if (!cosine_weighted_wi(wo, u, wi)) return bsdf_sample_none();
     float pdf;
     vec3 f = diffuse_eval_pdf(m, albedo, wo, wi, pdf);
     return bsdf_make_sample(wi, f, pdf, LOBE_D, 1.0);
@@ -732,11 +744,11 @@ SHARED_FN vec3 roughdiffuse_eval_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 w
 }
 
 SHARED_FN BsdfSample roughdiffuse_sample(GpuMaterial m, vec3 albedo, vec3 wo, float u_lobe, vec2 u) {
-    BsdfSample lambert = diffuse_sample(m, albedo, wo, u_lobe, u);  // the cosine-weighted direction
-    if (!lambert.ok) return lambert;
+    vec3 wi;
+    if (!cosine_weighted_wi(wo, u, wi)) return bsdf_sample_none();
     float pdf;
-    vec3 f = roughdiffuse_eval_pdf(m, albedo, wo, lambert.wi, pdf);
-    return bsdf_make_sample(lambert.wi, f, pdf, LOBE_G, 1.0);
+    vec3 f = roughdiffuse_eval_pdf(m, albedo, wo, wi, pdf);
+    return bsdf_make_sample(wi, f, pdf, LOBE_G, 1.0);
 }
 
 // ---- dispatch ----

@@ -3,6 +3,7 @@
 // count the rule picks per bucket, the single-bucket limits (robust-var at that
 // bucket's k, bit for bit) and a hand-computed pilot and allocation.
 #include "allocation/allocation.hpp"
+#include "io/invariant.hpp"
 #include "stats/split_half.hpp"
 
 #include <doctest/doctest.h>
@@ -135,5 +136,5 @@ TEST_CASE("robust-adaptive: a hand-computed pilot and allocation at N0 = 9") {
     ScoreInputs partial = in;
     partial.mom_var = nullptr;
     CHECK_THROWS_WITH_AS(strategy_score(Strategy::RobustAdaptive, partial, 0), doctest::Contains("mom_var"),
-                         std::invalid_argument);
+                         InternalError);
 }

@@ -4,6 +4,7 @@
 // (exact totals, class sizes, determinism) compare the code with invariants
 // that hold for every input.
 #include "allocation/allocation.hpp"
+#include "io/invariant.hpp"
 #include "stats/split_half.hpp"
 
 #include <doctest/doctest.h>
@@ -479,25 +480,25 @@ TEST_CASE("allocation: strategy scores dispatch to the right inputs") {
     CHECK(neyman_allocation(strategy_score(Strategy::BucketFloor, c, 0), study_total(v.size())) ==
           neyman_allocation(obs, study_total(v.size())));
 
-    // Missing inputs are named.
+    // Missing inputs are named (a bug in the caller: the front ends fill what each strategy needs).
     ScoreInputs none;
     CHECK_THROWS_WITH_AS(strategy_score(Strategy::Uniform, none, 0), doctest::Contains("uniform"),
-                         std::invalid_argument);
+                         vkmech::InternalError);
     CHECK_THROWS_WITH_AS(strategy_score(Strategy::ObservedVar, none, 0), doctest::Contains("pilot_var"),
-                         std::invalid_argument);
+                         vkmech::InternalError);
     ScoreInputs partial;
     partial.pilot_var = &pilot;
     CHECK(strategy_score(Strategy::Uniform, partial, 0).size() == 6);
     CHECK_THROWS_WITH_AS(strategy_score(Strategy::Oracle, partial, 0), doctest::Contains("oracle_var"),
-                         std::invalid_argument);
+                         vkmech::InternalError);
     CHECK_THROWS_WITH_AS(strategy_score(Strategy::BucketFloor, partial, 0), doctest::Contains("pilot_labels"),
-                         std::invalid_argument);
+                         vkmech::InternalError);
     CHECK_THROWS_WITH_AS(strategy_score(Strategy::LabelOracle, partial, 0), doctest::Contains("reference_labels"),
-                         std::invalid_argument);
+                         vkmech::InternalError);
     CHECK_THROWS_WITH_AS(strategy_score(Strategy::RobustVar, partial, 0), doctest::Contains("mom_var"),
-                         std::invalid_argument);
+                         vkmech::InternalError);
     CHECK_THROWS_WITH_AS(strategy_score(Strategy::RobustPlacebo, partial, 0), doctest::Contains("mom_var"),
-                         std::invalid_argument);
+                         vkmech::InternalError);
     // Size mismatch between variance and labels.
     const std::vector<uint8_t> short_lab = {3, 3};
     partial.pilot_labels = &short_lab;

@@ -6,6 +6,7 @@
 #include "allocation/allocation.hpp"
 #include "cli_run.hpp"
 #include "gpu_fixture.hpp"
+#include "io/invariant.hpp"
 #include "render_fixture.hpp"
 #include "temp_dir.hpp"
 
@@ -228,8 +229,7 @@ TEST_CASE("guard: the guarded score by hand") {
     const std::vector<uint8_t> labels = {1, 1};
     in.pilot_var = &var;
     in.pilot_labels = &labels;
-    CHECK_THROWS_WITH_AS(strategy_score(Strategy::Guarded, in, 0), doctest::Contains("untrusted"),
-                         std::invalid_argument);
+    CHECK_THROWS_WITH_AS(strategy_score(Strategy::Guarded, in, 0), doctest::Contains("untrusted"), InternalError);
     CHECK(parse_strategy("guarded") == Strategy::Guarded);
 }
 

@@ -1,6 +1,7 @@
 // Image output layer: multi-channel EXR, PNG previews, atomic writes.
 #include "io/atomic_file.hpp"
 #include "io/exr.hpp"
+#include "io/invariant.hpp"
 #include "io/png.hpp"
 #include "temp_dir.hpp"
 
@@ -265,7 +266,7 @@ TEST_CASE("io: tonemap_srgb and grey_to_rgb8 known values") {
     CHECK(t[11] == 255);
     auto e = vkmech::tonemap_srgb({0.25f, 0.25f, 0.25f}, 2.0f);
     CHECK(e == std::vector<uint8_t>{188, 188, 188});
-    CHECK_THROWS_AS(vkmech::tonemap_srgb({1.0f, 2.0f}), std::invalid_argument);
+    CHECK_THROWS_AS(vkmech::tonemap_srgb({1.0f, 2.0f}), vkmech::InternalError);  // every caller passes RGB
 
     auto g = vkmech::grey_to_rgb8({0.0f, 1.0f, 0.5f, -1.0f, 2.0f, nan}, 0.0f, 1.0f);
     CHECK(g == std::vector<uint8_t>{0, 0, 0, 255, 255, 255, 128, 128, 128, 0, 0, 0, 255, 255, 255, 255, 0, 255});

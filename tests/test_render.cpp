@@ -1,5 +1,6 @@
 // The docs/descriptor.md §1-§3 estimator and descriptor on the device (lavapipe in CI).
 #include "gpu_fixture.hpp"
+#include "io/invariant.hpp"
 #include "render/session.hpp"
 #include "render_fixture.hpp"
 #include "scene_fixtures.hpp"
@@ -47,8 +48,8 @@ ImageStats image_stats(const Frame& f) {
 }  // namespace
 
 TEST_CASE("render: the workgroup order is a permutation that spreads every thread's range over the image") {
-    CHECK_THROWS_AS(workgroup_stride(0), std::invalid_argument);
-    CHECK_THROWS_AS(workgroup_stride((uint64_t{1} << 24) + 1), std::invalid_argument);
+    CHECK_THROWS_AS(workgroup_stride(0), InternalError);
+    CHECK_THROWS_AS(workgroup_stride((uint64_t{1} << 24) + 1), InternalError);
     for (uint64_t n : {uint64_t{1}, uint64_t{2}, uint64_t{3}, uint64_t{15}, uint64_t{25}, uint64_t{1024},
                        uint64_t{4096}, uint64_t{65535} * 3, (uint64_t{1} << 24) - 1, uint64_t{1} << 24}) {
         uint64_t s = workgroup_stride(n);

@@ -4,6 +4,7 @@
 #include "allocation/floor.hpp"
 #include "allocation/guard.hpp"
 #include "allocation/shrink.hpp"
+#include "io/invariant.hpp"
 
 #include <stdexcept>
 #include <string>
@@ -60,9 +61,8 @@ namespace {
 
 template <class T>
 const std::vector<T>& need(const std::vector<T>* p, Strategy s, const char* field) {
-    if (!p)
-        throw std::invalid_argument(std::string("alloc::strategy_score: strategy '") + to_string(s) + "' needs " +
-                                    field + ", which is null");
+    VKM_ASSERT(p != nullptr, std::string("alloc::strategy_score: strategy '") + to_string(s) + "' needs " + field +
+                                 ", which is null");
     return *p;
 }
 
@@ -83,9 +83,9 @@ std::vector<double> strategy_score(Strategy s, const ScoreInputs& in, uint64_t p
             else if (in.mom_var)
                 n = in.mom_var->size();
             else
-                throw std::invalid_argument(
-                    "alloc::strategy_score: strategy 'uniform' needs at least one input for the pixel count, all are "
-                    "null");
+                VKM_ASSERT(false,
+                           "alloc::strategy_score: strategy 'uniform' needs at least one input for the pixel count, "
+                           "all are null");
             return std::vector<double>(n, 1.0);
         }
         case Strategy::ObservedVar:
@@ -124,7 +124,7 @@ std::vector<double> strategy_score(Strategy s, const ScoreInputs& in, uint64_t p
             return adaptive_mom_score(need(in.pilot_var, s, "pilot_var"), need(in.mom_var, s, "mom_var"),
                                       need(in.pilot_labels, s, "pilot_labels"));
     }
-    throw std::invalid_argument("alloc::strategy_score: unknown strategy");
+    VKM_ASSERT(false, "alloc::strategy_score: unknown strategy " + std::to_string(static_cast<int>(s)));
 }
 
 }  // namespace vkmech::alloc

@@ -66,9 +66,10 @@ struct ScoreInputs {
 //   Shrink        -> shrink_score(*pilot_var, *pilot_labels, pilot_spp)
 //   RobustAdaptive -> adaptive_mom_score(*pilot_var, *mom_var, *pilot_labels)
 // placebo_seed is used by the two placebo strategies only.
-// Throws std::invalid_argument naming the missing input (e.g. "oracle_var")
-// when a needed pointer is null, when Uniform is given no input at all, or
-// (from bucket_floor) when sizes differ.
+// Throws std::invalid_argument when sizes differ (bucket_floor and the other
+// scores) or shrink has pilot_spp < 2. A needed pointer left null, or Uniform
+// given no input at all, is the caller's bug: InternalError naming the missing
+// input (e.g. "oracle_var"); the front ends refuse the oracle strategies first.
 std::vector<double> strategy_score(Strategy s, const ScoreInputs& in, uint64_t placebo_seed);
 
 }  // namespace vkmech::alloc

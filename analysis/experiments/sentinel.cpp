@@ -1,6 +1,7 @@
 #include "experiments/sentinel.hpp"
 
 #include "allocation/mom.hpp"
+#include "io/invariant.hpp"
 #include "io/json.hpp"
 #include "io/json_value.hpp"
 #include "io/sha256.hpp"
@@ -206,8 +207,8 @@ constexpr size_t kHexLen = 64;
 }  // namespace
 
 std::string seal(const std::string& body) {
-    if (body.size() < kTail.size() || body.compare(body.size() - kTail.size(), kTail.size(), kTail) != 0)
-        throw std::invalid_argument("sentinel::seal: the body must end with \"\\n}\\n\"");
+    VKM_ASSERT(body.size() >= kTail.size() && body.compare(body.size() - kTail.size(), kTail.size(), kTail) == 0,
+               "sentinel::seal: the body must end with \"\\n}\\n\" (record_json writes it so)");
     return body.substr(0, body.size() - kTail.size()) + kSealKey + sha256_hex(body) + "\"" + kTail;
 }
 

@@ -118,7 +118,8 @@ std::string record_json(const Record& r);
 // the member that is missing or of the wrong type.
 Record parse_record(const JsonValue& doc);
 
-// The sealed file content: B with the "sha256" member.
+// The sealed file content: B with the "sha256" member. B is record_json's
+// output, which ends with "\n}\n" (else InternalError).
 std::string seal(const std::string& body);
 
 struct Verification {

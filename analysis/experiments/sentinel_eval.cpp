@@ -1,6 +1,7 @@
 #include "experiments/sentinel_eval.hpp"
 
 #include "allocation/allocation.hpp"
+#include "io/invariant.hpp"
 #include "io/json.hpp"
 #include "render/descriptor.hpp"
 #include "shared/types.h"
@@ -40,7 +41,7 @@ std::string verdict_band(double predicted, double measured, double tol) {
 }
 
 void check_inputs(const Record& r, const EvalInputs& in) {
-    if (!in.reference || !in.pool) throw std::invalid_argument("sentinel evaluate: no reference or pool");
+    VKM_ASSERT(in.reference && in.pool, "sentinel evaluate: no reference or pool");
     const Frame& ref = *in.reference;
     const size_t P = static_cast<size_t>(ref.width) * ref.height;
     if (ref.width != r.width || ref.height != r.height)

@@ -46,7 +46,7 @@ struct Evaluation {
 };
 
 // Throws std::invalid_argument if the inputs' sizes disagree with the record
-// (film, pool, draws).
+// (film, pool, draws). A null reference or pool is the caller's bug (InternalError).
 Evaluation evaluate(const Record& r, const EvalInputs& in);
 
 // The evaluation as JSON (with the record's seal, so it names what it tests)

@@ -1,4 +1,5 @@
 #include "accel/bvh.hpp"
+#include "io/invariant.hpp"
 
 #include <algorithm>
 #include <array>
@@ -364,7 +365,7 @@ uint32_t bvh4_child(const gpu::GpuBvh4Node& node, int k) {
 }
 
 std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh) {
-    if (bvh.nodes.empty()) throw std::invalid_argument("collapse_bvh4: empty tree");
+    VKM_ASSERT(!bvh.nodes.empty(), "collapse_bvh4: empty tree (build_bvh never returns one)");
     const auto& nodes = bvh.nodes;
     constexpr uint32_t kLimit = gpu::BVH4_INDEX_MASK - 16u;
     if (bvh.order.size() > kLimit) throw std::length_error("collapse_bvh4: too many triangles for the 4-wide encoding");
@@ -424,10 +425,10 @@ std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh) {
                                         " triangles");
             if (!any_leaf)
                 first_tri = leaf_offset(bvh, c);
-            else if (leaf_offset(bvh, c) != next_tri)
-                throw std::invalid_argument(
-                    "collapse_bvh4: a node's leaf children do not hold consecutive triangles (build_bvh orders them "
-                    "so)");
+            else
+                VKM_ASSERT(leaf_offset(bvh, c) == next_tri,
+                           "collapse_bvh4: a node's leaf children do not hold consecutive triangles (build_bvh orders "
+                           "them so)");
             any_leaf = true;
             next_tri = leaf_offset(bvh, c) + leaf_count(bvh, c);
             code[k] = 1u + leaf_count(bvh, c);
@@ -450,9 +451,9 @@ std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh) {
 }
 
 Bvh build_bvh(const std::vector<glm::vec3>& tri_positions, const BvhBuildOptions& options) {
-    if (options.max_leaf_size == 0 || 2 * options.max_leaf_size > gpu::BVH4_MAX_LEAF)
-        throw std::invalid_argument("build_bvh: max_leaf_size must be 1.." + std::to_string(gpu::BVH4_MAX_LEAF / 2) +
-                                    " (leaves of up to twice that must fit the 4-wide encoding)");
+    VKM_ASSERT(options.max_leaf_size != 0 && 2 * options.max_leaf_size <= gpu::BVH4_MAX_LEAF,
+               "build_bvh: max_leaf_size must be 1.." + std::to_string(gpu::BVH4_MAX_LEAF / 2) +
+                   " (leaves of up to twice that must fit the 4-wide encoding)");
     Builder b{tri_positions, options, {}, {}, {}, {}};
     uint32_t n = static_cast<uint32_t>(tri_positions.size() / 3);
     b.tri_box.resize(n);
@@ -464,9 +465,9 @@ Bvh build_bvh(const std::vector<glm::vec3>& tri_positions, const BvhBuildOptions
     b.order.resize(n);
     std::iota(b.order.begin(), b.order.end(), 0u);
     b.nodes.reserve(2 * n / std::max(1u, options.max_leaf_size) + 2);
-    // flatten_scene rejects scenes without triangles; an empty tree has no
-    // valid encoding (count 0 means "interior").
-    if (n == 0) throw std::invalid_argument("build_bvh: no triangles");
+    // flatten_scene rejects scenes without triangles (SceneError); an empty
+    // tree has no valid encoding (count 0 means "interior").
+    VKM_ASSERT(n != 0, "build_bvh: no triangles");
     b.build(0, n);
     Bvh bvh{std::move(b.nodes), std::move(b.order), {}};
     pair_quads(bvh, tri_positions);

@@ -38,15 +38,16 @@ constexpr uint32_t kBvhMaxDepth = 60;
 // (4 where the split would not pay), 32 bins, one box test costing as much
 // as one triangle test.
 struct BvhBuildOptions {
-    uint32_t max_leaf_size = 2;  // 1..BVH4_MAX_LEAF / 2 (build_bvh throws std::invalid_argument otherwise)
+    uint32_t max_leaf_size = 2;  // 1..BVH4_MAX_LEAF / 2 (else build_bvh fails VKM_ASSERT: InternalError)
     uint32_t bins = 32;
     float traversal_cost = 1.0f;  // an interior node's cost, in triangle tests (the leaf-or-split choice)
 };
 
-// tri_positions: 3 consecutive points per triangle; throws std::invalid_argument
-// when there are none. Within each leaf, the two triangles of a quad are
-// placed next to each other (quad_next), and the leaf children of each node
-// of the 4-wide collapse hold consecutive triangles (collapse_bvh4).
+// tri_positions: 3 consecutive points per triangle, at least one (flatten_scene
+// refuses a scene without triangles; none here is InternalError). Within each
+// leaf, the two triangles of a quad are placed next to each other (quad_next),
+// and the leaf children of each node of the 4-wide collapse hold consecutive
+// triangles (collapse_bvh4).
 Bvh build_bvh(const std::vector<glm::vec3>& tri_positions, const BvhBuildOptions& options = {});
 
 // Empty string when well formed: every triangle in exactly one leaf, every
@@ -66,8 +67,8 @@ std::string validate_bvh(const Bvh& bvh, const std::vector<glm::vec3>& tri_posit
 // Child boxes are quantized outwards: decode_bvh4_box contains the child's
 // box. Throws std::length_error when the tree cannot be encoded: more than
 // 2^28 - 16 triangles or nodes, a leaf of more than BVH4_MAX_LEAF triangles,
-// or interior chains deeper than the traversal stack allows;
-// std::invalid_argument when a node's leaf children are not consecutive.
+// or interior chains deeper than the traversal stack allows. An empty tree or a
+// node whose leaf children are not consecutive is a bug (InternalError).
 std::vector<gpu::GpuBvh4Node> collapse_bvh4(const Bvh& bvh);
 
 // Child k of a 4-wide node as the traversal refers to it: BVH4_EMPTY, an

@@ -1,6 +1,7 @@
 #include "io/png.hpp"
 
 #include "io/atomic_file.hpp"
+#include "io/invariant.hpp"
 
 // The stb_image_write implementation comes from Debian's libstb.so (link
 // `stb`, pkg-config module "stb"); STB_IMAGE_WRITE_IMPLEMENTATION is
@@ -45,7 +46,7 @@ void write_png_rgb8(const std::string& path, int w, int h, const std::vector<uin
 }
 
 std::vector<uint8_t> tonemap_srgb(const std::vector<float>& rgb, float exposure) {
-    if (rgb.size() % 3 != 0) throw std::invalid_argument("tonemap_srgb: size is not a multiple of 3");
+    VKM_ASSERT(rgb.size() % 3 == 0, "tonemap_srgb: size is not a multiple of 3");
     std::vector<uint8_t> out(rgb.size());
     for (size_t i = 0; i < rgb.size(); i += 3) {
         if (!std::isfinite(rgb[i]) || !std::isfinite(rgb[i + 1]) || !std::isfinite(rgb[i + 2]) ||

@@ -16,7 +16,7 @@ void write_png_rgb8(const std::string& path, int w, int h, const std::vector<uin
 // Linear RGB (3 floats per pixel) -> sRGB8: each channel is multiplied by
 // `exposure`, clamped to [0,1], passed through the sRGB OETF and rounded.
 // A pixel with any non-finite component becomes the marker 255,0,255 (magenta).
-// Throws std::invalid_argument if rgb.size() is not a multiple of 3.
+// rgb.size() is a multiple of 3 (every caller passes RGB; else InternalError).
 std::vector<uint8_t> tonemap_srgb(const std::vector<float>& rgb, float exposure = 1.0f);
 
 // Scalar -> grey RGB8, linear in v: lo -> 0, hi -> 255, clamped outside.

@@ -1,5 +1,6 @@
 #include "render/ray_caster.hpp"
 
+#include "io/invariant.hpp"
 #include "render/shader_modules.hpp"
 #include "shared/bindings.h"
 
@@ -7,7 +8,6 @@
 #include <chrono>
 #include <cmath>
 #include <random>
-#include <stdexcept>
 
 namespace vkmech {
 
@@ -15,13 +15,13 @@ RayCaster::RayCaster(const vk::Context& ctx, const GpuScene& scene) : ctx_(ctx),
 
 std::vector<gpu::GpuHit> RayCaster::trace(const std::vector<gpu::GpuRay>& rays, bool any_hit, double* seconds,
                                           RaySchedule schedule) {
-    if (schedule == RaySchedule::Slices && !slices_supported())
-        throw std::invalid_argument(scene_.traversal() != Traversal::Bvh
-                                        ? "the ray kernel's slices exist for the software BVH only"
-                                    : scene_.kernel() != vk::KernelClass::Cpu
-                                        ? "the ray kernel's slices are the CPU kernel's (--kernel cpu)"
-                                        : "the ray kernel's slices need subgroup ballot in compute shaders, which " +
-                                              ctx_.info().name + " does not report");
+    // `bench traversal --slices` refuses a device or kernel without them (UsageError) before this.
+    VKM_ASSERT(schedule != RaySchedule::Slices || slices_supported(),
+               scene_.traversal() != Traversal::Bvh ? "the ray kernel's slices exist for the software BVH only"
+               : scene_.kernel() != vk::KernelClass::Cpu
+                   ? "the ray kernel's slices are the CPU kernel's (--kernel cpu)"
+                   : "the ray kernel's slices need subgroup ballot in compute shaders, which " + ctx_.info().name +
+                         " does not report");
     const bool slices =
         schedule == RaySchedule::Slices ||
         (schedule == RaySchedule::Auto && scene_.kernel() == vk::KernelClass::Cpu && slices_supported());
@@ -35,8 +35,7 @@ bool RayCaster::slices_supported() const {
 }
 
 std::vector<RayCaster::Work> RayCaster::trace_work(const std::vector<gpu::GpuRay>& rays) {
-    if (scene_.traversal() == Traversal::RayQuery)
-        throw std::invalid_argument("traversal counters exist for the software BVH only");
+    VKM_ASSERT(scene_.traversal() != Traversal::RayQuery, "traversal counters exist for the software BVH only");
     std::vector<gpu::GpuHit> raw = dispatch(rays, false, true, false, nullptr);
     std::vector<Work> work(raw.size());
     for (size_t i = 0; i < raw.size(); ++i) {

@@ -21,7 +21,7 @@ enum class RaySchedule {
     PerInvocation,
     // Slices on any device with subgroup ballot (software BVH only), so that
     // a GPU can be measured and tested with them (`bench traversal --slices`);
-    // trace throws std::invalid_argument where they cannot run.
+    // asking trace for them where they cannot run is a bug (InternalError).
     Slices,
 };
 
@@ -29,14 +29,14 @@ class RayCaster {
 public:
     RayCaster(const vk::Context& ctx, const GpuScene& scene);
     // Returns one hit per ray and the seconds the device spent on the dispatch.
-    // Throws std::invalid_argument for RaySchedule::Slices where slices_supported() is false.
+    // RaySchedule::Slices only where slices_supported() (else InternalError).
     std::vector<gpu::GpuHit> trace(const std::vector<gpu::GpuRay>& rays, bool any_hit, double* seconds = nullptr,
                                    RaySchedule schedule = RaySchedule::Auto);
 
     // The software BVH's work per ray for a closest-hit trace (the
     // instrumented shader variant): interior nodes fetched, leaves visited,
-    // triangles tested, deepest traversal stack. Throws std::invalid_argument
-    // on a ray-query scene.
+    // triangles tested, deepest traversal stack. Software BVH only (a
+    // ray-query scene is InternalError).
     struct Work {
         uint32_t nodes, leaves, triangles, stack;
     };

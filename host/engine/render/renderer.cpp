@@ -88,8 +88,8 @@ uint64_t physical_ram_bytes() {
 }  // namespace
 
 uint32_t workgroup_stride(uint64_t n) {
-    if (n == 0 || n > (uint64_t{1} << 24))
-        throw std::invalid_argument("workgroup order: " + std::to_string(n) + " workgroups (1 to 2^24 supported)");
+    VKM_ASSERT(n != 0 && n <= (uint64_t{1} << 24),
+               "workgroup order: " + std::to_string(n) + " workgroups (1 to 2^24 supported)");
     uint64_t stride = static_cast<uint64_t>(std::llround(static_cast<double>(n) * 0.6180339887498949)) % n;
     while (std::gcd(stride, n) != 1) stride = (stride + 1) % n;  // gcd(0, 1) = 1 ends n = 1
     return static_cast<uint32_t>(stride);
@@ -128,8 +128,8 @@ Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Feature
         {BINDING_DEBUG, DT::eStorageBuffer},    {BINDING_SAMPLE_COUNTS, DT::eStorageBuffer},
         {BINDING_COUNTERS, DT::eStorageBuffer}, {BINDING_WORK, DT::eStorageBuffer}};
     for (const auto& b : scene_bindings(gpu_.traversal(), gpu_.kernel())) bindings.push_back(b);
-    if (features_.direct_glossy && !features_.capture)
-        throw std::invalid_argument("the direct_glossy output needs the mechanism capture on");
+    VKM_ASSERT(!features_.direct_glossy || features_.capture,
+               "the direct_glossy output needs the mechanism capture on (the CLI refuses it without)");
     if (features_.counters && !ctx.shader_clock_enabled())
         throw std::invalid_argument(
             "the path tracer's counters time its phases with VK_KHR_shader_clock's subgroup "
@@ -209,9 +209,9 @@ Frame Renderer::render(const RenderSpec& spec) {
     uint32_t total_spp = spec.spp;
     uint64_t total_samples = static_cast<uint64_t>(spec.spp) * pixels;
     if (!spec.sample_counts.empty()) {
-        if (spec.sample_counts.size() != pixels)
-            throw std::invalid_argument("per-pixel sample counts: " + std::to_string(spec.sample_counts.size()) +
-                                        " entries for " + std::to_string(pixels) + " pixels");
+        VKM_ASSERT(spec.sample_counts.size() == pixels,
+                   "per-pixel sample counts: " + std::to_string(spec.sample_counts.size()) + " entries for " +
+                       std::to_string(pixels) + " pixels");
         // Counts, then the pixels sorted by count (largest first, ties by index): each batch
         // is dispatched over the prefix that still needs samples.
         order.resize(pixels);

@@ -53,7 +53,8 @@ struct RenderSpec {
     uint32_t batch_spp = 8;  // samples per dispatch
     uint32_t mode = gpu::MODE_PATH;
     // Adaptive rendering (docs/descriptor.md §6): when non-empty (one entry per pixel), pixel p
-    // takes exactly samples [0, n(p)) of `seed` and `spp` is ignored.
+    // takes exactly samples [0, n(p)) of `seed` and `spp` is ignored. One entry per pixel is the
+    // caller's to ensure (the Python binding checks the array's shape); else InternalError.
     std::vector<uint32_t> sample_counts;
     // Called after each batch with (samples done, samples total).
     std::function<void(uint32_t, uint32_t)> progress;
@@ -97,8 +98,9 @@ private:
 // index w of a dispatch of n renders tile w * stride mod n. The stride is
 // coprime with n, so the order is a permutation, and near n times the golden
 // ratio's conjugate, so any contiguous range of indices (what each lavapipe
-// thread gets) is spread over the whole image. Throws std::invalid_argument
-// for n = 0 or n > 2^24 (the shader's modular product needs n <= 2^24).
+// thread gets) is spread over the whole image. n is 1 to 2^24 (the shader's
+// modular product needs n <= 2^24; films are at most 2^15 pixels a side, in
+// 8 x 8 tiles): else InternalError.
 uint32_t workgroup_stride(uint64_t n);
 
 // Camera parameters of Params: tan of the half field of view on x and y.

@@ -2,7 +2,6 @@
 #include "io/invariant.hpp"
 
 #include <cstdint>
-#include <stdexcept>
 
 #include "shaders/spv_pathtrace_bvh.h"
 #include "shaders/spv_pathtrace_bvh_gpu.h"
@@ -42,8 +41,8 @@ std::span<const uint32_t> pathtrace_spirv(Traversal t, vk::KernelClass k) {
 std::span<const uint32_t> pathtrace_spirv(Traversal t, vk::KernelClass k, bool direct_glossy, bool counters) {
     const bool g = gpu_kernel(k);
     if (counters) {
-        if (t != Traversal::Bvh || direct_glossy)
-            throw std::invalid_argument("traversal counters exist for the software BVH's default path tracer only");
+        VKM_ASSERT(t == Traversal::Bvh && !direct_glossy,
+                   "traversal counters exist for the software BVH's default path tracer only");
         return g ? std::span<const uint32_t>(spv_pathtrace_counters_bvh_gpu) : spv_pathtrace_counters_bvh;
     }
     if (!direct_glossy) return pathtrace_spirv(t, k);
@@ -56,7 +55,7 @@ std::span<const uint32_t> pathtrace_spirv(Traversal t, vk::KernelClass k, bool d
 std::span<const uint32_t> tracerays_spirv(Traversal t, vk::KernelClass k, bool counters, bool slices) {
     const bool g = gpu_kernel(k);
     if (t == Traversal::RayQuery) {
-        if (counters) throw std::invalid_argument("traversal counters exist for the software BVH only");
+        VKM_ASSERT(!counters, "traversal counters exist for the software BVH only");
         return spv_tracerays_rayquery;  // reads no scene array: one module for both kernels
     }
     if (g) return counters ? std::span<const uint32_t>(spv_tracerays_counters_bvh_gpu) : spv_tracerays_bvh_gpu;

@@ -15,10 +15,10 @@ namespace vkmech {
 // before the split, byte for byte.
 std::span<const uint32_t> pathtrace_spirv(Traversal t, vk::KernelClass k);
 // `counters`: the instrumented variant (VKMECH_COUNTERS; software BVH, not with direct_glossy;
-// throws std::invalid_argument otherwise).
+// InternalError otherwise).
 std::span<const uint32_t> pathtrace_spirv(Traversal t, vk::KernelClass k, bool direct_glossy, bool counters = false);
 // The ray tracer of tests and benchmarks; `counters`: the instrumented variant
-// (VKMECH_COUNTERS, software BVH only; throws std::invalid_argument for ray query).
+// (VKMECH_COUNTERS, software BVH only; InternalError for ray query).
 // `slices` (software BVH, Cpu kernel, not counters): the kernel that gives each
 // workgroup a slice of the rays (needs subgroup ballot); else one ray per
 // invocation. The Gpu kernel traces one ray per invocation.

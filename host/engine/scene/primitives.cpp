@@ -1,10 +1,10 @@
 #include "scene/primitives.hpp"
 
+#include "io/invariant.hpp"
 #include "scene/mesh_ops.hpp"
 
 #include <cmath>
 #include <numbers>
-#include <stdexcept>
 
 namespace vkmech {
 
@@ -68,7 +68,7 @@ Mesh make_cube(const glm::mat4& to_world, bool flip_normals) {
 
 Mesh make_sphere(const glm::vec3& center, float radius, const glm::mat4& to_world, bool flip_normals,
                  SphereTessellation tess) {
-    if (!(radius > 0.0f)) throw std::invalid_argument("make_sphere: radius must be positive");
+    VKM_ASSERT(radius > 0.0f, "make_sphere: radius must be positive (the loaders refuse others)");
     const int nb = tess.bands < 2 ? 2 : tess.bands;
     const int ns = tess.segments < 3 ? 3 : tess.segments;
     Mesh m;
@@ -150,8 +150,8 @@ Mesh make_cylinder(const glm::vec3& p0, const glm::vec3& p1, float radius, const
     // to_world * translate(p0) * frame(p1 - p0) * scale(r, r, |p1 - p0|).
     glm::vec3 axis = p1 - p0;
     float length = glm::length(axis);
-    if (!(radius > 0.0f) || !(length > 0.0f))
-        throw std::invalid_argument("make_cylinder: radius and length must be positive");
+    VKM_ASSERT(radius > 0.0f && length > 0.0f,
+               "make_cylinder: radius and length must be positive (the loaders refuse others)");
     glm::vec3 w = axis / length, u, v;
     onb(w, u, v);
     glm::mat4 local(1.0f);
