@@ -3,7 +3,8 @@ with Cycles to a linear float OpenEXR (R, G, B).
 
   blender -b --factory-startup --python analysis/validation/blender_scene.py -- \
       SCENE.xml OUT.exr SPP RES [--bounces B] [--seed S] [--threads N]
-      [--mutate roughness-linear|two-sided-light] [--png PREVIEW.png]
+      [--mutate roughness-linear|two-sided-light|env-no-rotation|env-mirror-u|env-turn-180]
+      [--png PREVIEW.png]
 
 --bounces and --mutate exist only for the sensitivity checks
 (sensitivity.sh): they build a deliberately wrong Cycles scene.
@@ -21,7 +22,9 @@ Only the subset of Mitsuba XML that make_scenes.py writes is understood
   and sphere shapes (to_world of translate / rotate / scale; sphere center
   and radius), bsdfs diffuse
   (rgb or bitmap reflectance), twosided, dielectric, conductor and
-  roughconductor (material none, ggx), area emitters (rgb radiance).
+  roughconductor (material none, ggx), area emitters (rgb radiance), one
+  envmap emitter (filename, scale, to_world of rotations) and directional
+  emitters (direction, rgb irradiance).
 
 Mapping (Mitsuba -> Cycles 3.4):
   diffuse            -> Diffuse BSDF, roughness 0 (Lambert)
@@ -37,13 +40,24 @@ Mapping (Mitsuba -> Cycles 3.4):
                         interpolated normals); Mitsuba's is analytic
   area emitter       -> Emission (colour = radiance, strength 1) on the front
                         face only: Mix(Backfacing) with black on the back
+  envmap             -> World: Texture Coordinate (Generated = the ray's world
+                        direction) -> Mapping (Vector, rotation R) ->
+                        Environment Texture (Equirectangular, Linear, image
+                        colour space Linear) -> Background (strength =
+                        scale). R = P W^T, W = to_world's rotation, P the
+                        cyclic permutation (x, y, z) <- (z, x, y) that takes
+                        Mitsuba's local lat-long frame to Cycles'
+                        (docs/validation.md, "Environment lighting")
+  directional        -> Sun lamp, angle 0, strength 1, colour = irradiance
+                        (W/m^2), shining along `direction` (its local -z)
   max_depth d        -> max bounces d - 2 for every bounce kind (Mitsuba counts
                         path segments incl. the emitter segment; Cycles counts
                         scattering events after the first hit; checked by
                         rendering both at max_depth 2 and 3)
   film               -> box pixel filter of width 1, no clamping, no
                         denoising, no adaptive sampling, filter-glossy 0,
-                        caustics on, black world, view transform Standard.
+                        caustics on, black world (unless the scene has an
+                        envmap), view transform Standard.
 """
 import math
 import os
@@ -280,6 +294,89 @@ class Materials:
         return m
 
 
+# Mitsuba's lat-long frame -> Cycles': a Mitsuba local direction l reads the
+# map where Cycles' direction_to_equirectangular reads it for d = P l, with
+# d = (l.z, l.x, l.y) (docs/validation.md, "Environment lighting").
+P_MITSUBA_TO_CYCLES = Matrix(((0, 0, 1), (1, 0, 0), (0, 1, 0)))
+
+
+def make_world(node, base):
+    """Mitsuba envmap -> Cycles world with the same radiance in every world direction."""
+    p = props(node)
+    for k in p:
+        if k not in ("filename", "scale", "to_world"):
+            die("envmap: unsupported property " + k)
+    W = to_world(p.get("to_world")).to_3x3()
+    for t in (p["to_world"] if "to_world" in p else []):
+        if t.tag != "rotate":
+            die("envmap: to_world may only rotate")
+    R = P_MITSUBA_TO_CYCLES @ W.transposed()
+    if MUTATE == "env-no-rotation":
+        R = Matrix.Identity(3)  # the map read in Cycles' own frame (forgetting the conversion)
+    elif MUTATE == "env-turn-180":
+        R = R @ Matrix.Rotation(math.pi, 3, "Z")  # the map turned by 180 deg about world z
+    w = bpy.data.worlds.new("envmap")
+    w.use_nodes = True
+    nt = w.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    tc = nt.nodes.new("ShaderNodeTexCoord")
+    mp = nt.nodes.new("ShaderNodeMapping")
+    mp.vector_type = "VECTOR"  # out = Rot(euler) (Scale * in): a direction, no translation
+    mp.inputs["Rotation"].default_value = R.to_euler("XYZ")  # Cycles: Rz Ry Rx, as mathutils
+    nt.links.new(tc.outputs["Generated"], mp.inputs["Vector"])
+    vec = mp.outputs["Vector"]
+    if MUTATE == "env-mirror-u":
+        # a mirrored map: u -> -u, i.e. Cycles' y -> -y after the rotation
+        mp2 = nt.nodes.new("ShaderNodeMapping")
+        mp2.vector_type = "VECTOR"
+        mp2.inputs["Scale"].default_value = (1.0, -1.0, 1.0)
+        nt.links.new(vec, mp2.inputs["Vector"])
+        vec = mp2.outputs["Vector"]
+    tex = nt.nodes.new("ShaderNodeTexEnvironment")
+    img = bpy.data.images.load(os.path.join(base, p["filename"].attrib["value"]))
+    img.colorspace_settings.name = "Linear"  # Radiance HDR: linear Rec.709, as vkmech reads it
+    tex.image = img
+    tex.projection = "EQUIRECTANGULAR"
+    tex.interpolation = "Linear"  # bilinear between texel centres, as vkmech
+    nt.links.new(vec, tex.inputs["Vector"])
+    bg = nt.nodes.new("ShaderNodeBackground")
+    bg.inputs["Strength"].default_value = float(p["scale"].attrib["value"]) if "scale" in p else 1.0
+    nt.links.new(tex.outputs["Color"], bg.inputs["Color"])
+    out = nt.nodes.new("ShaderNodeOutputWorld")
+    nt.links.new(bg.outputs["Background"], out.inputs["Surface"])
+    w.cycles.sampling_method = "AUTOMATIC"  # importance-sampled (MIS), Cycles' default
+    print("blender_scene.py: envmap %s, Mapping rotation (deg) %s, strength %g" % (
+        p["filename"].attrib["value"], tuple(round(math.degrees(a), 4) for a in R.to_euler("XYZ")),
+        bg.inputs["Strength"].default_value))
+    return w
+
+
+def make_sun(node, idx):
+    """Mitsuba directional (irradiance E along `direction`) -> Sun lamp of angle 0."""
+    p = props(node)
+    for k in p:
+        if k not in ("direction", "irradiance"):
+            die("directional: unsupported property " + k)
+    dn = p["direction"]
+    if "value" in dn.attrib:
+        d = Vector(floats(dn.attrib["value"]))
+    else:
+        d = Vector([float(dn.attrib.get(k, "0")) for k in "xyz"])
+    d.normalize()
+    ld = bpy.data.lights.new("sun%d" % idx, type="SUN")
+    ld.angle = 0.0
+    ld.energy = 1.0  # Sun strength is irradiance in W/m^2
+    ld.color = rgb(p["irradiance"])[:3]
+    ld.cycles.cast_shadow = True
+    ob = bpy.data.objects.new("sun%d" % idx, ld)
+    # a Sun lamp shines along its local -z
+    ob.matrix_world = (Vector((0, 0, -1)).rotation_difference(d)).to_matrix().to_4x4()
+    bpy.context.scene.collection.objects.link(ob)
+    print("blender_scene.py: sun along %s, colour %s, strength 1, angle 0" % (tuple(round(c, 6) for c in d), tuple(ld.color)))
+    return ob
+
+
 def main():
     argv = sys.argv[sys.argv.index("--") + 1:]
     if len(argv) < 4:
@@ -289,7 +386,7 @@ def main():
     base = os.path.dirname(os.path.abspath(scene_path))
     global MUTATE
     MUTATE = opts.get("--mutate")
-    if MUTATE not in (None, "roughness-linear", "two-sided-light"):
+    if MUTATE not in (None, "roughness-linear", "two-sided-light", "env-no-rotation", "env-mirror-u", "env-turn-180"):
         die("unknown --mutate " + MUTATE)
 
     for ob in list(bpy.data.objects):
@@ -299,6 +396,8 @@ def main():
     root = ET.parse(scene_path).getroot()
     mats = Materials(base)
     max_depth = None
+    world = None
+    suns = 0
     for node in root:
         if node.tag == "integrator":
             if node.attrib["type"] != "path":
@@ -362,15 +461,27 @@ def main():
             else:
                 die("shape without bsdf")
             ob.data.materials.append(mat)
+        elif node.tag == "emitter":
+            t = node.attrib["type"]
+            if t == "envmap":
+                if world is not None:
+                    die("a second envmap")
+                world = make_world(node, base)
+            elif t == "directional":
+                make_sun(node, suns)
+                suns += 1
+            else:
+                die("unsupported top-level emitter " + t)
         else:
             die("unsupported top-level element <%s>" % node.tag)
 
-    # World: black (vkmech has no environment here).
-    w = bpy.data.worlds.new("black")
-    w.use_nodes = True
-    w.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
-    w.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
-    sc.world = w
+    if world is None:
+        # World: black (the scene has no environment).
+        world = bpy.data.worlds.new("black")
+        world.use_nodes = True
+        world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
+        world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    sc.world = world
 
     r = sc.render
     r.engine = "CYCLES"
