@@ -23,7 +23,61 @@ TOL = 0.02
 # the sphere's projection, centre (81.4, 93.9) px and radius 19.9 px from
 # the camera (0,-3.9,1), fov_x 39.3 deg and sphere (0.35,-0.3,0.4), r 0.4;
 # 17 px keeps the silhouette edge out.
-ROI = {"val_glass": ("sphere", 81.4, 93.9, 17.0), "val_metal": ("sphere", 81.4, 93.9, 17.0)}
+# val_envmap: the mirror sphere, centre (64.0, 62.4) px, radius 17.4 px, and
+# the rough gold sphere, centre (108.1, 74.4) px, radius 13.4 px (from
+# make_scenes.project and the camera distance); 14 and 11 px keep the edges out.
+# The mirror sphere's region leaves out 3.5 px around the sun's reflection
+# (58.5, 57.7): those few pixels of radiance ~400 would dominate its noise.
+ROI = {"val_glass": [("sphere", 81.4, 93.9, 17.0)], "val_metal": [("sphere", 81.4, 93.9, 17.0)],
+       "val_envmap": [("mirror sphere", 64.0, 62.4, 14.0, (58.5, 57.7, 3.5)), ("gold sphere", 108.1, 74.4, 11.0)]}
+
+
+def sun_in_mirror(res):
+    """Where the sun disc of val_envmap's sky appears in the mirror sphere,
+    by tracing each pixel centre's camera ray (geometry from make_scenes.py):
+    the luminance-weighted centroid of the pixels whose reflected ray falls
+    inside the sun's disc, and their count."""
+    import make_scenes as ms
+    (o, t, fov) = ms.ENV_CAM
+    (c, r) = ms.MIRROR_SPHERE
+    o, t, c = np.array(o), np.array(t), np.array(c)
+    f = (t - o) / np.linalg.norm(t - o)
+    right = np.cross(f, [0, 0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, f)
+    k = np.tan(np.radians(fov) / 2)
+    sun = np.array(ms.SUN_DIR) / np.linalg.norm(ms.SUN_DIR)
+    cosr = np.cos(np.radians(ms.SUN_RADIUS_DEG))
+    n_sub = 8  # 8 x 8 rays per pixel
+    hits = np.zeros((res, res))
+    s = (np.arange(n_sub) + 0.5) / n_sub
+    for y in range(res):
+        for x in range(res):
+            sx, sy = np.meshgrid(x + s, y + s)
+            d = f + right[None, None] * (k * (2 * sx / res - 1))[..., None] + up * (k * (1 - 2 * sy / res))[..., None]
+            d /= np.linalg.norm(d, axis=-1, keepdims=True)
+            oc = o - c
+            b = d @ oc
+            disc = b * b - (oc @ oc - r * r)
+            ok = disc > 0
+            tt = -b - np.sqrt(np.where(ok, disc, 0))
+            p = o + tt[..., None] * d
+            n = (p - c) / r
+            refl = d - 2 * np.sum(d * n, -1, keepdims=True) * n
+            hits[y, x] = np.mean(ok & (refl @ sun > cosr))
+    yy, xx = np.mgrid[0:res, 0:res] + 0.5
+    w = hits.sum()
+    return (float((xx * hits).sum() / w), float((yy * hits).sum() / w), w)
+
+
+def bright_centroid(lum, cx, cy, rad, thresh):
+    """Centroid and count of the pixels within rad of (cx, cy) brighter than thresh."""
+    yy, xx = np.mgrid[0:lum.shape[0], 0:lum.shape[1]] + 0.5
+    m = ((xx - cx) ** 2 + (yy - cy) ** 2 < rad ** 2) & (lum > thresh)
+    if not m.any():
+        return (float("nan"), float("nan"), 0)
+    wts = lum * m
+    return (float((xx * wts).sum() / wts.sum()), float((yy * wts).sum() / wts.sum()), int(m.sum()))
 
 
 def srgb(x):
@@ -70,11 +124,12 @@ def main():
             allok &= ok
             print("   %s       %9.5f  %9.5f   %+7.2f %%  %s" % (ch, a, b, 100 * rd, "ok" if ok else "OUTSIDE 2 %"))
             md.append("| %s | %s | %.5f | %.5f | %+.2f %% | %s |" % (s, ch, a, b, 100 * rd, "yes" if ok else "**no**"))
-        if s in ROI:
-            name, cx, cy, r = ROI[s]
+        for (name, cx, cy, r, *excl) in ROI.get(s, []):
             k = vi.shape[1] / 128.0
             yy, xx = np.mgrid[0:vi.shape[0], 0:vi.shape[1]] + 0.5
             m = (xx - cx * k) ** 2 + (yy - cy * k) ** 2 < (r * k) ** 2
+            for (ex, ey, er) in excl:
+                m &= (xx - ex * k) ** 2 + (yy - ey * k) ** 2 >= (er * k) ** 2
             for q, ch in enumerate("RGB"):
                 a, b = vi[..., q][m].mean(), ci[..., q][m].mean()
                 print("   %s region %s (%d px): %9.5f  %9.5f   %+7.2f %%" % (name, ch, m.sum(), a, b, 100 * (a / b - 1)))
@@ -87,6 +142,17 @@ def main():
         print("   vkmech standard error of the mean luminance: %.3f %%" % (100 * se / vl.mean()))
         print("   luminance rel.diff left half %+.2f %%, right half %+.2f %%" % (100 * halves[0], 100 * halves[1]))
         print("   16x16-block RMS rel. difference: %.2f %%" % (100 * rms))
+        if s == "val_envmap":
+            # The sun disc's reflection in the mirror sphere (radiance ~ 0.95 x 1.5 x 300):
+            # both renders must put it where the geometry says.
+            k = vi.shape[1] / 128.0
+            ex, ey, ew = sun_in_mirror(vi.shape[1])
+            print("   sun in the mirror sphere, expected from the geometry: (%.2f, %.2f) px (%.1f px covered)" % (ex, ey, ew))
+            for who, L in (("vkmech", vl), ("Cycles", cl)):
+                bx, by, bn = bright_centroid(L, 64.0 * k, 62.4 * k, 17.4 * k, 20.0)
+                print("   sun in the mirror sphere, %s: (%.2f, %.2f) px (%d px with luminance > 20)" % (who, bx, by, bn))
+                md2.append("| %s: sun in the mirror sphere, %s | (%.2f, %.2f) px, %d px; expected (%.2f, %.2f) | | | | |"
+                           % (s, who, bx, by, bn, ex, ey))
         print("   wall time: vkmech %.1f s, Cycles %.1f s" % (vt, ct))
         md2.append("| %s | %.2f %% | %+.2f %% / %+.2f %% | %.2f %% | %.1f | %.1f |" % (
             s, 100 * se / vl.mean(), 100 * halves[0], 100 * halves[1], 100 * rms, vt, ct))
