@@ -83,7 +83,7 @@ vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
     SurfaceHit s = surface_hit(h.prim, h.bary);
     vec3 L = vec3(0.0);
     bool front = dot(s.ng, d) < 0.0;
-    if (s.emitter != 0u && front) L += emitter_radiance(s.emitter - 1u);
+    if (s.emitter != 0u && front) L += emitter_radiance(s.emitter - 1u) * emission_scale(s.material, s.uv);
     if (params.scene.x == 0u) return L;
     vec3 ng = front ? s.ng : -s.ng;
     vec3 ns = dot(s.ns, ng) < 0.0 ? -s.ns : s.ns;
@@ -257,7 +257,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
             // NEE's area pdf of this point: the emitter's selection probability
             // over its area (uniform or power selection), in solid angle.
             float p_light = uintBitsToFloat(em.info.w) * dist2 / max(cos_l, 1e-12);
-            emission_seen(tally, throughput * em.radiance.rgb, k, p_light, pv);
+            emission_seen(tally, throughput * (em.radiance.rgb * emission_scale(s.material, s.uv)), k, p_light, pv);
         }
         if (k >= max_depth) PATH_BREAK;  // no segment left for NEE or a bounce
 
@@ -278,6 +278,12 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
             if (t_spec != 0u) m.specular_reflectance = vec4(texture_lookup(t_spec - 1u, s.uv), m.specular_reflectance.w);
             if (t_trans != 0u)
                 m.specular_transmittance = vec4(texture_lookup(t_trans - 1u, s.uv), m.specular_transmittance.w);
+            uint t_param = m.header.w >> MAT_TEX_SHIFT;  // principled's metallic (B) and roughness (G)
+            if (t_param != 0u) {
+                vec3 mr = texture_lookup(t_param - 1u, s.uv);
+                m.model0.x = mr.z;
+                m.model0.y = mr.y;
+            }
         }
 
         // ---- next-event estimation (docs/descriptor.md §1: at every non-delta vertex) ----

@@ -42,6 +42,7 @@ vec4 fetch_vec4(utextureBuffer b, uint i) { return uintBitsToFloat(texelFetch(b,
 
 vec3 vertex_position(uint i) { return SCENE_FETCH_F(vertex_buf, 2u * i).xyz; }
 vec3 vertex_normal(uint i) { return SCENE_FETCH_F(vertex_buf, 2u * i + 1u).xyz; }
+vec2 vertex_uv(uint i) { return vec2(SCENE_FETCH_F(vertex_buf, 2u * i).w, SCENE_FETCH_F(vertex_buf, 2u * i + 1u).w); }
 uvec4 triangle_at(uint i) { return SCENE_FETCH(triangle_buf, i); }
 // Fetches only what the material's BSDF reads (the fields left out read 0):
 // a diffuse material reads its header and reflectance, two texels of nine;
@@ -119,6 +120,18 @@ GpuEnvironment environment_at() {
 }
 GpuDirectional directional_at(uint i) {
     return GpuDirectional(SCENE_FETCH_F(env_buf, ENV_WORDS + 2u * i), SCENE_FETCH_F(env_buf, ENV_WORDS + 2u * i + 1u));
+}
+
+// The emission texture's slot of material i (texture + 1, 0: none; shared/types.h).
+uint emission_slot(uint i) {
+    return (SCENE_FETCH(material_buf, 9u * i).y >> MAT_EMISSION_TEX_SHIFT) & MAT_EMISSION_TEX_MASK;
+}
+// What an emitter's radiance is multiplied by at uv on a mesh of material i:
+// its emission texture there, 1 without one (and in scenes without textures).
+vec3 emission_scale(uint i, vec2 uv) {
+    if (!FEATURE_TEXTURES) return vec3(1.0);
+    uint slot = emission_slot(i);
+    return slot != 0u ? texture_lookup(slot - 1u, uv) : vec3(1.0);
 }
 
 // The largest |coordinate| of three points: the magnitude that bounds the
@@ -248,6 +261,13 @@ LightSample sample_light_triangle(uint li, vec3 u) {
     }
     s.scale = max_abs3(a, b, c);
     s.radiance = emitter_radiance(lt.info.y);
+    if (FEATURE_TEXTURES) {
+        uint slot = emission_slot(tri.w & TRI_MATERIAL_MASK);
+        if (slot != 0u) {
+            vec2 uv = b0 * vertex_uv(tri.x) + b1 * vertex_uv(tri.y) + (1.0 - b0 - b1) * vertex_uv(tri.z);
+            s.radiance *= texture_lookup(slot - 1u, uv);
+        }
+    }
     s.pdf_area = lt.cdf.z;
     return s;
 }

@@ -241,6 +241,21 @@ std::vector<unsigned char> png_2x2() {
     return out;
 }
 
+// A quad with TEXCOORD_0 from (0, 0) to (1, 1), its material made of `material` (JSON), whose
+// textures can use texture 0: png_2x2() as a data URI.
+void textured_quad(Gltf& g, const std::string& material) {
+    g.images.push_back("{\"uri\":\"data:image/png;base64," + base64(png_2x2()) + "\"}");
+    g.textures.push_back("{\"source\":0}");
+    int mat = g.add(g.materials, material);
+    int pos = g.vec3s(kQuad);
+    int uv = g.vec2s({{0, 0}, {1, 0}, {1, 1}, {0, 1}});
+    int idx = g.indices16({0, 1, 2, 0, 2, 3});
+    int mesh = g.add(g.meshes, "{\"primitives\":[{\"attributes\":{\"POSITION\":" + std::to_string(pos) +
+                                   ",\"TEXCOORD_0\":" + std::to_string(uv) + "},\"indices\":" + std::to_string(idx) +
+                                   ",\"material\":" + std::to_string(mat) + "}]}");
+    g.root("{\"mesh\":" + std::to_string(mesh) + "}");
+}
+
 }  // namespace
 
 TEST_CASE("gltf: external bin - embedded data URI and glb load the same triangles") {
@@ -582,14 +597,82 @@ TEST_CASE("gltf: KHR_lights_punctual is an error unless substituted by spheres o
     const AreaEmitter& spot = s.emitters[s.meshes[2].emitter];
     CHECK(kPi * spot.radiance.x * surface_area(s.meshes[2]) == doctest::Approx(4.0 * kPi * 2.0).epsilon(1e-4));
 
-    SUBCASE("directional lights are refused even with --substitute") {
+    SUBCASE("a directional light is a light at infinity along its node's -Z, with or without --substitute") {
         Gltf d;
         int m = quad_mesh(d);
         d.root("{\"mesh\":" + std::to_string(m) + "}");
-        d.lights.push_back("{\"name\":\"sun\",\"type\":\"directional\",\"intensity\":3}");
-        d.root("{\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}");
-        expect_error(d.write_external(dir, "sun"), "light 0 'sun' (directional", sub);
+        d.lights.push_back("{\"name\":\"sun\",\"type\":\"directional\",\"intensity\":3,\"color\":[1,0.5,1]}");
+        // Turned 90 degrees about +x (quaternion x = sin 45, w = cos 45): -Z becomes +Y.
+        d.root("{\"rotation\":[0.70710678,0,0,0.70710678],\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}");
+        std::string sun = d.write_external(dir, "sun");
+        for (const Scene& ds : {load_scene(sun), load_scene(sun, sub)}) {
+            REQUIRE(ds.directional_lights.size() == 1);
+            CHECK(near(ds.directional_lights[0].direction, {0, 1, 0}));
+            CHECK(near(ds.directional_lights[0].irradiance, {3, 1.5f, 3}));
+            CHECK(ds.emitters.empty());
+            CHECK(ds.substitutions.empty());
+        }
     }
+}
+
+TEST_CASE("gltf: an emissiveTexture scales the emitter's radiance (emissiveFactor x strength) point by point") {
+    TempDir dir("emissive");
+    Gltf g;
+    g.used = {"KHR_materials_emissive_strength"};
+    textured_quad(g,
+                  "{\"name\":\"glow\",\"emissiveFactor\":[1,0.5,1],\"emissiveTexture\":{\"index\":0},"
+                  "\"extensions\":{\"KHR_materials_emissive_strength\":{\"emissiveStrength\":4}}}");
+    Scene s = load_scene(g.write_external(dir, "glow"));
+    REQUIRE(s.emitters.size() == 1);
+    CHECK(near(s.emitters[0].radiance, {4, 2, 4}));
+    const Material& m = s.materials[s.meshes[0].material];
+    REQUIRE(m.emission_texture >= 0);
+    const Texture& t = s.textures[m.emission_texture];
+    CHECK(t.rgb[0] == doctest::Approx(1.0f));  // sRGB-decoded, the factor not baked in
+    CHECK(t.rgb[4] == doctest::Approx(srgb_to_linear(128.0f / 255.0f)).epsilon(1e-3));
+    CHECK_FALSE(has_warning(s, "emissiveTexture"));
+}
+
+TEST_CASE("gltf: a metallicRoughnessTexture makes a principled material whose metallic and roughness vary per point") {
+    TempDir dir("mr");
+    Gltf g;
+    textured_quad(g,
+                  "{\"name\":\"mr\",\"pbrMetallicRoughness\":{\"metallicFactor\":0.5,"
+                  "\"roughnessFactor\":0.25,\"metallicRoughnessTexture\":{\"index\":0}}}");
+    Scene s = load_scene(g.write_external(dir, "mr"));
+    const Material& m = s.materials[s.meshes[0].material];
+    CHECK(m.type == BsdfType::Principled);
+    REQUIRE(m.metallic_roughness_texture >= 0);
+    const Texture& t = s.textures[m.metallic_roughness_texture];
+    // Linear data (not sRGB-decoded), G times roughnessFactor, B times metallicFactor. Texels: red,
+    // mid green (128); blue, white.
+    CHECK(t.rgb[1] == 0.0f);
+    CHECK(t.rgb[4] == doctest::Approx(0.25f * 128.0f / 255.0f).epsilon(1e-4));
+    CHECK(t.rgb[8] == doctest::Approx(0.5f));
+    CHECK(t.rgb[10] == doctest::Approx(0.25f));
+    // The constants are the texture's means.
+    CHECK(m.roughness == doctest::Approx(0.25f * (128.0f / 255.0f + 1.0f) / 4.0f).epsilon(1e-4));
+    CHECK(m.metallic == doctest::Approx(0.5f * 2.0f / 4.0f).epsilon(1e-4));
+    CHECK_FALSE(has_warning(s, "metallicRoughnessTexture"));
+}
+
+TEST_CASE("gltf: KHR_texture_transform becomes the texture's uv transform, T R S as the extension's GLSL") {
+    TempDir dir("uvxform");
+    Gltf g;
+    g.used = {"KHR_texture_transform"};
+    textured_quad(g,
+                  "{\"pbrMetallicRoughness\":{\"metallicFactor\":0,\"baseColorTexture\":{\"index\":0,"
+                  "\"extensions\":{\"KHR_texture_transform\":{\"offset\":[0.5,0.25],"
+                  "\"rotation\":1.5707963268,\"scale\":[2,3]}}}}}");
+    Scene s = load_scene(g.write_external(dir, "uvxform"));
+    REQUIRE(s.textures.size() == 1);
+    // Rotation 90 degrees (c = 0, s = 1): u' = -3 v + 0.5, v' = 2 u + 0.25.
+    const glm::mat3& m = s.textures[0].to_uv;
+    auto at = [&](float u, float v) { return glm::vec2(m * glm::vec3(u, v, 1.0f)); };
+    CHECK(glm::length(at(0, 0) - glm::vec2(0.5f, 0.25f)) < 1e-6f);
+    CHECK(glm::length(at(1, 0) - glm::vec2(0.5f, 2.25f)) < 1e-6f);
+    CHECK(glm::length(at(0, 1) - glm::vec2(-2.5f, 0.25f)) < 1e-6f);
+    CHECK_FALSE(has_warning(s, "KHR_texture_transform"));
 }
 
 TEST_CASE("gltf: base-colour textures from a data URI and a glb bufferView are decoded sRGB to linear") {
@@ -684,10 +767,10 @@ TEST_CASE("gltf: what is read but not used is a warning - not an error") {
     std::string path = g.write_external(dir, "ignored");
     Scene s = load_scene(path);
     CHECK(s.meshes.size() == 1);  // the POINTS primitive is skipped
-    for (const char* w : {"mode 0, not TRIANGLES", "animation(s) ignored", "skins are ignored", "morph targets",
-                          "COLOR_0", "KHR_texture_transform", "metallicRoughnessTexture is ignored",
-                          "occlusionTexture is ignored", "emissiveTexture", "KHR_materials_sheen is not supported",
-                          "EXT_mesh_gpu_instancing is not supported", "no camera"}) {
+    for (const char* w :
+         {"mode 0, not TRIANGLES", "animation(s) ignored", "skins are ignored", "morph targets", "COLOR_0",
+          "occlusionTexture is ignored", "emissiveTexture is ignored: emissiveFactor is 0",
+          "KHR_materials_sheen is not supported", "EXT_mesh_gpu_instancing is not supported", "no camera"}) {
         CAPTURE(w);
         CHECK(has_warning(s, w));
     }

@@ -81,9 +81,17 @@ struct GpuVertex {
 
 // Texture slots of a material (texture index + 1, 0 = none), 16 bits each:
 // header.z low = reflectance, header.z high = specular_reflectance,
-// header.y high = specular_transmittance (header.y bit 0: twosided).
+// header.y high = specular_transmittance (header.y bit 0: twosided); 15 bits
+// at header.y bit 1: the emission's (an emissive mesh's radiance times it).
 VKM_CONST MAT_TEX_MASK = 0xFFFFu;
 VKM_CONST MAT_TEX_SHIFT = 16u;
+VKM_CONST MAT_EMISSION_TEX_SHIFT = 1u;
+VKM_CONST MAT_EMISSION_TEX_MASK = 0x7FFFu;
+// principled only: header.w >> MAT_TEX_SHIFT (16 bits above the distribution) is
+// the slot of its parameter texture, glTF's metallicRoughnessTexture with its
+// factors multiplied in: G the roughness, B the metallic, replacing model0.y
+// and model0.x at each hit. Models that read header.w as their distribution
+// never have one.
 
 // Texture table (3 uvec4 per texture): [0] first texel, width, height, kind
 // | nearest << 8; [1], [2]: rows 0 and 1 of the 2D affine uv transform

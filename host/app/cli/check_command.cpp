@@ -54,6 +54,9 @@ int cmd_check(const CommonOptions& o) {
             tex += " specular_reflectance=" + scene.textures[m.specular_reflectance_texture].path;
         if (m.specular_transmittance_texture >= 0)
             tex += " specular_transmittance=" + scene.textures[m.specular_transmittance_texture].path;
+        if (m.emission_texture >= 0) tex += " emission=" + scene.textures[m.emission_texture].path;
+        if (m.metallic_roughness_texture >= 0)
+            tex += " metallic_roughness=" + scene.textures[m.metallic_roughness_texture].path;
         std::printf("  %-24s %-16s lobes %-4s %d shape%s%s%s\n", m.id.c_str(), to_string(m.type),
                     lobe_classes(m).c_str(), users, users == 1 ? "" : "s", m.twosided ? ", twosided" : "", tex.c_str());
     }

@@ -66,11 +66,17 @@ uint32_t texture_slot(int texture) {
 
 gpu::GpuMaterial pack_material(const Material& m, const std::vector<Texture>& textures) {
     gpu::GpuMaterial g{};
-    g.header = glm::uvec4(static_cast<uint32_t>(m.type),
-                          (m.twosided ? 1u : 0u) | texture_slot(m.specular_transmittance_texture) << gpu::MAT_TEX_SHIFT,
-                          texture_slot(m.reflectance.texture) | texture_slot(m.specular_reflectance_texture)
-                                                                    << gpu::MAT_TEX_SHIFT,
-                          static_cast<uint32_t>(m.distribution));
+    const uint32_t emission = texture_slot(m.emission_texture);
+    if (emission > gpu::MAT_EMISSION_TEX_MASK)
+        throw SceneError("", 0, "more than " + std::to_string(gpu::MAT_EMISSION_TEX_MASK - 1) + " textures");
+    g.header = glm::uvec4(
+        static_cast<uint32_t>(m.type),
+        (m.twosided ? 1u : 0u) | emission << gpu::MAT_EMISSION_TEX_SHIFT |
+            texture_slot(m.specular_transmittance_texture) << gpu::MAT_TEX_SHIFT,
+        texture_slot(m.reflectance.texture) | texture_slot(m.specular_reflectance_texture) << gpu::MAT_TEX_SHIFT,
+        static_cast<uint32_t>(m.distribution) | texture_slot(m.metallic_roughness_texture) << gpu::MAT_TEX_SHIFT);
+    VKM_ASSERT(m.metallic_roughness_texture < 0 || m.type == BsdfType::Principled,
+               "only principled reads a metallic-roughness texture (header.w is the others' distribution)");
     // A texture's mean stands in where a single value is needed (plastic
     // sampling weights, Fresnel tints), as Mitsuba takes the texture mean.
     glm::vec3 refl =
@@ -234,9 +240,16 @@ SceneArrays flatten_unlit(const Scene& scene, LightSelection selection) {
     // The light table (build_light_table) reads each emitter's radiance and
     // mesh from here; it fills in the area, the range and the pdf.
     a.emitters.resize(scene.emitters.size());
+    a.emitter_mean_radiance.resize(scene.emitters.size());
     a.light_selection = selection;
     for (size_t e = 0; e < scene.emitters.size(); ++e) {
         a.emitters[e].radiance = glm::vec4(scene.emitters[e].radiance, 0.0f);
+        // An emission texture scales the radiance point by point: its mean weighs the emitter.
+        const Mesh& mesh = scene.meshes.at(static_cast<size_t>(scene.emitters[e].mesh));
+        const int tex =
+            mesh.material >= 0 ? scene.materials.at(static_cast<size_t>(mesh.material)).emission_texture : -1;
+        a.emitter_mean_radiance[e] =
+            tex >= 0 ? scene.emitters[e].radiance * texture_mean(scene.textures.at(tex)) : scene.emitters[e].radiance;
         a.emitters[e].info = glm::uvec4(static_cast<uint32_t>(scene.emitters[e].mesh), 0u, 0u, 0u);
     }
     return a;
@@ -263,7 +276,7 @@ void build_light_table(SceneArrays& a) {
             p2(glm::vec3(a.tri_positions[3 * t + 2]));
         return 0.5 * glm::length(glm::cross(p1 - p0, p2 - p0));
     };
-    auto radiance = [&](size_t e) { return glm::vec3(a.emitters[e].radiance); };
+    auto radiance = [&](size_t e) { return a.emitter_mean_radiance[e]; };
     std::vector<double> emitter_area(emitter_count, 0.0);
     uint32_t lit_emitters = 0;
     for (size_t e = 0; e < emitter_count; ++e) {

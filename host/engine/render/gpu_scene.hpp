@@ -41,6 +41,7 @@ struct SceneArrays {
     std::vector<glm::vec4> tri_positions;
     std::vector<gpu::GpuMaterial> materials;
     std::vector<gpu::GpuEmitter> emitters;
+    std::vector<glm::vec3> emitter_mean_radiance;  // each emitter's radiance times its emission texture's mean
     std::vector<gpu::GpuLightTriangle> light_triangles;
     std::vector<glm::vec4> texels;     // every texture's linear RGB texels, then the environment map's
     std::vector<glm::uvec4> textures;  // gpu::TEX_WORDS per texture (shared/types.h)

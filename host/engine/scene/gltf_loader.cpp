@@ -363,23 +363,31 @@ void GltfLoader::note_light(int n, const glm::dmat4& world) {
     const auto& light = model_.lights[index];
     std::string label =
         "KHR_lights_punctual " + labelled("light", index, light.name) + " (" + light.type + ", on " + where + ")";
-    // docs/descriptor.md §1: only area emitters are in the model.
-    if (light.type == "directional")
-        fail(label +
-             ": directional lights are outside vkmech's model (docs/descriptor.md §1) and cannot be substituted, even "
-             "with --substitute (a light at infinity has no place for a small emitter); use an emissive mesh");
-    if (light.type != "point" && light.type != "spot")
+    if (light.type != "point" && light.type != "spot" && light.type != "directional")
         fail(label + ": unknown light type (expected point, spot or directional)");
-    if (!options_.substitute_unsupported)
+    // docs/descriptor.md §1: area emitters and emitters at infinity are in the model.
+    if (light.type != "directional" && !options_.substitute_unsupported)
         fail(label +
-             ": punctual lights are outside vkmech's model (docs/descriptor.md §1: area emitters only); pass "
-             "--substitute to replace point and spot lights by small spherical emitters of the same power");
+             ": point and spot lights are outside vkmech's model (docs/descriptor.md §1: area emitters and lights at "
+             "infinity); pass --substitute to replace them by small spherical emitters of the same power");
     if (!(light.intensity >= 0.0) || !std::isfinite(light.intensity))
         fail(label + ": the intensity must be a non-negative number");
     if (!light.color.empty()) {
         if (light.color.size() != 3) fail(label + ": 'color' needs 3 numbers");
         for (double c : light.color)
             if (!(c >= 0.0) || !std::isfinite(c)) fail(label + ": 'color' must be non-negative");
+    }
+    if (light.type == "directional") {
+        // Along the node's -Z; its intensity (lux) is taken as the irradiance, colour times
+        // intensity, as point lights take theirs as W/sr.
+        glm::dvec3 dir = glm::dmat3(world) * glm::dvec3(0.0, 0.0, -1.0);
+        if (!(glm::length(dir) > 0.0) || !std::isfinite(glm::length(dir)))
+            fail(label + ": the node's transform has no direction (a zero or non-finite scale)");
+        glm::vec3 color =
+            light.color.empty() ? glm::vec3(1.0f) : glm::vec3(light.color[0], light.color[1], light.color[2]);
+        scene_.directional_lights.push_back(
+            {glm::vec3(glm::normalize(dir)), color * static_cast<float>(light.intensity)});
+        return;
     }
     lights_.push_back({index, n, glm::vec3(world[3])});
 }

@@ -13,6 +13,7 @@
 
 #include <glm/glm.hpp>
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <set>
@@ -72,9 +73,14 @@ private:
     int material(int index);  // scene material for glTF material `index` (-1: the default)
     glm::vec3 emission(int index);
     Material convert_material(const tinygltf::Material& g, const std::string& label);
-    int base_color_texture(const tinygltf::TextureInfo& info, const glm::vec3& factor, const std::string& label,
-                           glm::vec3& mean);
+    // A colour texture (base colour, emission: sRGB-decoded; `raw`: the values as stored, e.g. the
+    // metallic-roughness texture) times `factor` channel by channel, its mean in `mean`; `what` names
+    // it in messages. -1 where it cannot be used (another TEXCOORD set, with a warning).
+    int color_texture(const tinygltf::TextureInfo& info, const glm::vec3& factor, const std::string& label,
+                      glm::vec3& mean, const char* what = "baseColorTexture", bool raw = false);
     std::string material_label(int index) const;
+    // KHR_texture_transform on a texture reference as Texture::to_uv (identity without it).
+    glm::mat3 texture_transform(const tinygltf::TextureInfo& info, const std::string& label);
 
     [[noreturn]] void fail(const std::string& what) const { throw SceneError(path_, 0, what); }
     void warn(const std::string& what) { scene_.warnings.push_back(path_ + ": " + what); }
@@ -86,7 +92,8 @@ private:
     Scene scene_;
     std::map<int, int> material_map_;  // glTF material (-1: default) -> Scene::materials
     // (image, premultiplied factor) -> Scene::textures
-    std::map<std::tuple<int, float, float, float>, int> texture_map_;
+    // (image, factor, raw, uv transform rows 0 and 1) -> texture
+    std::map<std::tuple<int, float, float, float, bool, std::array<float, 6>>, int> texture_map_;
     std::set<std::string> warned_;
     bool have_camera_ = false;
     size_t skipped_primitives_ = 0;

@@ -67,7 +67,8 @@ Material GltfLoader::convert_material(const tinygltf::Material& g, const std::st
         return x;
     };
     auto ignored_texture = [&](bool present, const std::string& what) {
-        if (present) warn(label + ": its " + what + " is ignored (only base-colour textures are supported)");
+        if (present)
+            warn(label + ": its " + what + " is ignored (only base-colour and emissive textures are supported)");
     };
     auto ext_texture = [](const tinygltf::Value* ext, const char* key) { return ext && ext->Has(key); };
 
@@ -102,11 +103,13 @@ Material GltfLoader::convert_material(const tinygltf::Material& g, const std::st
         warn(label + ": extension " + name + " is not supported and is ignored");
     }
 
-    // Textures other than the base colour are ignored, each said once.
-    ignored_texture(pbr.metallicRoughnessTexture.index >= 0, "metallicRoughnessTexture");
+    // Textures other than these are ignored, each said once. The metallic-roughness texture makes the
+    // material principled (metallic blends per point), except on a transmissive one.
+    const bool mr_textured = pbr.metallicRoughnessTexture.index >= 0 && trans == 0.0;
+    ignored_texture(pbr.metallicRoughnessTexture.index >= 0 && !mr_textured,
+                    "metallicRoughnessTexture (on a transmissive material)");
     ignored_texture(g.normalTexture.index >= 0, "normalTexture");
     ignored_texture(g.occlusionTexture.index >= 0, "occlusionTexture");
-    ignored_texture(g.emissiveTexture.index >= 0, "emissiveTexture (the emissiveFactor alone is used)");
     ignored_texture(ext_texture(transmission, "transmissionTexture"), "transmissionTexture");
     ignored_texture(ext_texture(clearcoat, "clearcoatTexture"), "clearcoatTexture");
     ignored_texture(ext_texture(clearcoat, "clearcoatRoughnessTexture"), "clearcoatRoughnessTexture");
@@ -122,10 +125,19 @@ Material GltfLoader::convert_material(const tinygltf::Material& g, const std::st
     m.int_ior = static_cast<float>(ior);
 
     glm::vec3 mean = base;
-    int tex = pbr.baseColorTexture.index >= 0 ? base_color_texture(pbr.baseColorTexture, base, label, mean) : -1;
+    int tex = pbr.baseColorTexture.index >= 0 ? color_texture(pbr.baseColorTexture, base, label, mean) : -1;
+    // The emission's texture: the emitter's radiance (emissiveFactor x strength, emission()) times it.
+    const bool emits = std::any_of(g.emissiveFactor.begin(), g.emissiveFactor.end(), [](double c) { return c > 0.0; });
+    if (g.emissiveTexture.index >= 0 && !emits)
+        warn(label + ": its emissiveTexture is ignored: emissiveFactor is 0 (the emission is their product)");
+    if (g.emissiveTexture.index >= 0 && emits) {
+        glm::vec3 unused;
+        m.emission_texture = color_texture(g.emissiveTexture, glm::vec3(1.0f), label, unused, "emissiveTexture");
+    }
 
-    if (cc > 0.0) {
-        // KHR_materials_clearcoat -> principled with a clearcoat. Approximate:
+    if (cc > 0.0 || mr_textured) {
+        // KHR_materials_clearcoat or a metallicRoughnessTexture -> principled (with a clearcoat where
+        // asked). Clearcoat is approximate:
         // Mitsuba's clearcoat roughness is lerp(0.1, 0.001, clearcoat_gloss),
         // glTF's is clearcoatRoughness^2; gloss = 1 - clearcoatRoughness keeps
         // the ends (smooth, rough) in order.
@@ -139,6 +151,18 @@ Material GltfLoader::convert_material(const tinygltf::Material& g, const std::st
         m.eta_principled = static_cast<float>(ior);
         float r = static_cast<float>((ior - 1.0) / (ior + 1.0));
         m.specular = r * r / 0.08f;  // Mitsuba: specular and eta are one quantity
+        if (mr_textured) {
+            // Linear data: roughness in G, metallic in B, times their factors; the constants
+            // become the texture's means (what the host reads of the material).
+            glm::vec3 mr_mean;
+            m.metallic_roughness_texture =
+                color_texture(pbr.metallicRoughnessTexture, glm::vec3(1.0f, roughness, metallic), label, mr_mean,
+                              "metallicRoughnessTexture", /*raw=*/true);
+            if (m.metallic_roughness_texture >= 0) {
+                m.roughness = mr_mean.y;
+                m.metallic = mr_mean.z;
+            }
+        }
     } else if (trans > 0.0) {
         // KHR_materials_transmission -> dielectric family (docs/descriptor.md §8), tinted by
         // the base colour. Without KHR_materials_volume glTF means a thin
@@ -205,18 +229,51 @@ glm::vec3 GltfLoader::emission(int index) {
     return e;
 }
 
-int GltfLoader::base_color_texture(const tinygltf::TextureInfo& info, const glm::vec3& factor, const std::string& label,
-                                   glm::vec3& mean) {
+glm::mat3 GltfLoader::texture_transform(const tinygltf::TextureInfo& info, const std::string& label) {
+    const tinygltf::Value* x = extension(info.extensions, "KHR_texture_transform");
+    if (!x) return glm::mat3(1.0f);
+    auto numbers = [&](const char* key, std::vector<double> fallback) {
+        if (!x->Has(key)) return fallback;
+        const tinygltf::Value& v = x->Get(key);
+        std::vector<double> out;
+        if (v.IsNumber()) out.push_back(v.GetNumberAsDouble());
+        for (size_t i = 0; v.IsArray() && i < v.ArrayLen(); ++i)
+            out.push_back(v.Get(static_cast<int>(i)).IsNumber() ? v.Get(static_cast<int>(i)).GetNumberAsDouble()
+                                                                : std::nan(""));
+        for (double d : out)
+            if (!std::isfinite(d)) fail(label + ": KHR_texture_transform." + key + " must be finite numbers");
+        if (out.size() != fallback.size())
+            fail(label + ": KHR_texture_transform." + key + " needs " + std::to_string(fallback.size()) +
+                 (fallback.size() == 1 ? " number" : " numbers"));
+        return out;
+    };
+    if (x->Has("texCoord")) warn(label + ": KHR_texture_transform.texCoord is ignored (only TEXCOORD_0 is read)");
+    std::vector<double> offset = numbers("offset", {0.0, 0.0}), scale = numbers("scale", {1.0, 1.0});
+    double r = numbers("rotation", {0.0})[0];
+    // The extension's matrix T R S, its GLSL spelled out: u' = c sx u - s sy v + ox,
+    // v' = s sx u + c sy v + oy (glm, like GLSL, is column-major: m[column][row]).
+    const double c = std::cos(r), s = std::sin(r);
+    glm::mat3 m(1.0f);
+    m[0][0] = static_cast<float>(c * scale[0]);
+    m[0][1] = static_cast<float>(s * scale[0]);
+    m[1][0] = static_cast<float>(-s * scale[1]);
+    m[1][1] = static_cast<float>(c * scale[1]);
+    m[2][0] = static_cast<float>(offset[0]);
+    m[2][1] = static_cast<float>(offset[1]);
+    return m;
+}
+
+int GltfLoader::color_texture(const tinygltf::TextureInfo& info, const glm::vec3& factor, const std::string& label,
+                              glm::vec3& mean, const char* what, bool raw) {
     if (info.index < 0 || static_cast<size_t>(info.index) >= model_.textures.size())
-        fail(label + ": baseColorTexture refers to texture " + std::to_string(info.index) +
+        fail(label + ": " + what + " refers to texture " + std::to_string(info.index) +
              ", which does not exist (the file has " + std::to_string(model_.textures.size()) + ")");
     if (info.texCoord != 0) {
-        warn(label + ": its baseColorTexture uses TEXCOORD_" + std::to_string(info.texCoord) +
+        warn(label + ": its " + what + " uses TEXCOORD_" + std::to_string(info.texCoord) +
              "; only TEXCOORD_0 is supported, so the texture is ignored");
         return -1;
     }
-    if (info.extensions.count("KHR_texture_transform"))
-        warn(label + ": KHR_texture_transform on its baseColorTexture is ignored");
+    const glm::mat3 to_uv = texture_transform(info, label + ": " + what);
     const auto& t = model_.textures[info.index];
     if (t.source < 0)
         fail(label + ": texture " + std::to_string(info.index) +
@@ -227,7 +284,9 @@ int GltfLoader::base_color_texture(const tinygltf::TextureInfo& info, const glm:
     const auto& img = model_.images[t.source];
     std::string img_label = labelled("image", t.source, img.name);
 
-    auto key = std::make_tuple(t.source, factor.x, factor.y, factor.z);
+    auto key = std::make_tuple(
+        t.source, factor.x, factor.y, factor.z, raw,
+        std::array<float, 6>{to_uv[0][0], to_uv[1][0], to_uv[2][0], to_uv[0][1], to_uv[1][1], to_uv[2][1]});
     auto cached = texture_map_.find(key);
     int index;
     if (cached != texture_map_.end()) {
@@ -256,12 +315,12 @@ int GltfLoader::base_color_texture(const tinygltf::TextureInfo& info, const glm:
         }
         Texture tex;
         try {
-            tex = decode_image_texture(bytes, size, /*raw=*/false);  // base colour is sRGB (glTF 2.0 §3.9.2)
+            tex = decode_image_texture(bytes, size, raw);  // colour textures are sRGB (glTF 2.0 §3.9.2)
         } catch (const std::exception& e) {
             fail(label + ": cannot decode " + img_label + ": " + e.what());
         }
         tex.path = where;
-        // vkmech multiplies nothing: baseColorFactor goes into the texels.
+        // vkmech multiplies nothing: the factor (baseColorFactor) goes into the texels.
         for (size_t i = 0; i + 2 < tex.rgb.size(); i += 3)
             for (int c = 0; c < 3; ++c) tex.rgb[i + c] *= factor[c];
         if (t.sampler >= 0 && static_cast<size_t>(t.sampler) < model_.samplers.size()) {
@@ -270,6 +329,7 @@ int GltfLoader::base_color_texture(const tinygltf::TextureInfo& info, const glm:
             if (s.wrapS != TINYGLTF_TEXTURE_WRAP_REPEAT || s.wrapT != TINYGLTF_TEXTURE_WRAP_REPEAT)
                 warn(label + ": the texture's sampler asks for clamped or mirrored wrapping; vkmech repeats");
         }
+        tex.to_uv = to_uv;
         index = static_cast<int>(scene_.textures.size());
         scene_.textures.push_back(std::move(tex));
         texture_map_[key] = index;

@@ -85,6 +85,12 @@ struct Material {
     // constants above, which then hold the texture's mean).
     int specular_reflectance_texture = -1;
     int specular_transmittance_texture = -1;
+    // Emission (glTF's emissiveTexture): where the mesh is an emitter, its radiance times this
+    // texture at the point (index into Scene::textures, -1: none).
+    int emission_texture = -1;
+    // principled: glTF's metallicRoughnessTexture (linear; roughness in G, metallic in B, the
+    // factors multiplied in), evaluated at each hit; `metallic` and `roughness` hold its means.
+    int metallic_roughness_texture = -1;
 
     // conductor family: complex index of refraction (RGB), relative to ext_ior.
     glm::vec3 eta{0.0f};  // default "none" = perfect mirror (eta 0, k 1)

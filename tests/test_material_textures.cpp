@@ -1,0 +1,189 @@
+// Textures on material parameters other than colours, on the device. An
+// emission texture (glTF's emissiveTexture): the emitter's radiance times the
+// texture, texel by texel, whether the light is seen by the camera, hit by a
+// BSDF-sampled ray or sampled by NEE. A metallic-roughness texture (glTF's):
+// principled's metallic and roughness read at each hit, not averaged.
+#include "gpu_fixture.hpp"
+#include "render_fixture.hpp"
+#include "scene_fixtures.hpp"
+
+#include "render/gpu_scene.hpp"
+#include "scene/primitives.hpp"
+
+#include <doctest/doctest.h>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <bit>
+#include <cmath>
+
+using namespace vkmech;
+
+namespace {
+
+// A 2 x 2 texture, nearest lookup: red, green / blue, white (top row first).
+Texture checker_2x2() {
+    Texture t;
+    t.width = t.height = 2;
+    t.nearest = true;
+    t.rgb = {1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
+    return t;
+}
+
+// The quad scene's camera (at z = -3 looking along +z) facing a 2 x 2 emissive
+// quad at z = 0 whose front faces the camera, radiance (2, 3, 4) times the
+// texture; uv (0, 0) at world (-1, 1).
+Scene emissive_quad() {
+    Scene s = testing::quad_scene();
+    s.textures.push_back(checker_2x2());
+    Material glow;
+    glow.id = "glow";
+    glow.reflectance.value = glm::vec3(0.0f);
+    glow.emission_texture = 0;
+    s.materials.push_back(glow);
+    Mesh& q = s.meshes[0];
+    q.positions = {{-1, -1, 0}, {-1, 1, 0}, {1, 1, 0}, {1, -1, 0}};  // normal -z, towards the camera
+    q.uvs = {{0, 1}, {0, 0}, {1, 0}, {1, 1}};
+    q.material = 1;
+    q.emitter = 0;
+    s.emitters.push_back({glm::vec3(2, 3, 4), 0});
+    return s;
+}
+
+}  // namespace
+
+TEST_CASE("emission texture: power selection weighs an emitter by its radiance times the texture's mean") {
+    Scene s = emissive_quad();
+    Mesh panel = make_rectangle(glm::translate(glm::mat4(1.0f), {0, 0, -2}));
+    panel.material = 0;
+    panel.emitter = 1;
+    s.emitters.push_back({glm::vec3(1.0f), static_cast<int>(s.meshes.size())});
+    s.meshes.push_back(panel);
+    SceneArrays a = flatten_scene(s, LightSelection::Power);
+    // Texture mean (0.5, 0.5, 0.5) x (2, 3, 4): luminance 0.5 x (2 R + 3 G + 4 B weights); area 4 each.
+    double lum_textured = 0.5 * (0.2126 * 2 + 0.7152 * 3 + 0.0722 * 4), lum_panel = 1.0;
+    double p0 = lum_textured / (lum_textured + lum_panel);
+    CHECK(std::bit_cast<float>(a.emitters[0].info.w) == doctest::Approx(p0 / 4.0).epsilon(1e-5));
+}
+
+TEST_SUITE("gpu") {
+    TEST_CASE("emission texture: seen by the camera, each texel's quarter of the quad shows radiance x texel") {
+        VKMECH_REQUIRE_GPU(ctx);
+        Scene s = emissive_quad();
+        s.camera.fov_deg = 30.0f;  // the quad fills the view: tan 15 deg x 3 = 0.8 < 1
+        testing::RenderSetup setup;
+        setup.res = 8;
+        setup.spp = 4;
+        Frame f = testing::render_scene(*ctx, s, setup);
+        // Image quadrants (row-major, top row first) against the texels. The camera looks along +z
+        // with +y up, so image left is world +x (Mitsuba's camera): texel (0, 0) at world (-1, 1)
+        // lands top right.
+        auto px = [&](int x, int y) {
+            const PixelStats& p = f.pixels[static_cast<size_t>(y) * f.width + x];
+            return glm::vec3(p.rgb_sum[0], p.rgb_sum[1], p.rgb_sum[2]) / static_cast<float>(p.count);
+        };
+        auto near = [](glm::vec3 a, glm::vec3 b) { return glm::length(a - b) < 1e-4f; };
+        CHECK(near(px(6, 1), {2, 0, 0}));  // red
+        CHECK(near(px(1, 1), {0, 3, 0}));  // green
+        CHECK(near(px(6, 6), {0, 0, 4}));  // blue
+        CHECK(near(px(1, 6), {2, 3, 4}));  // white
+    }
+
+    TEST_CASE("emission texture: NEE and MIS agree on a floor lit by a textured emitter") {
+        VKMECH_REQUIRE_GPU(ctx);
+        Scene s = emissive_quad();
+        // The emitter above a diffuse floor, facing down; the camera looks at the floor.
+        s.meshes[0].positions = {{-1, 1, -1}, {1, 1, -1}, {1, 1, 1}, {-1, 1, 1}};  // normal -y
+        Mesh floor =
+            make_rectangle(glm::scale(glm::rotate(glm::mat4(1.0f), -1.5707963f, glm::vec3(1, 0, 0)), glm::vec3(3.0f)));
+        floor.material = 0;
+        s.meshes.push_back(floor);
+        s.camera.to_world = glm::mat4(1.0f);
+        s.camera.to_world[3] = glm::vec4(0, 0.5f, -4, 1);
+        double mean[2] = {}, var[2] = {};
+        int i = 0;
+        for (Estimator est : {Estimator::Nee, Estimator::Mis}) {
+            testing::RenderSetup setup;
+            setup.res = 16;
+            setup.spp = 256;
+            setup.batch = 128;
+            setup.estimator = est;
+            Frame f = testing::render_scene(*ctx, s, setup);
+            for (const auto& p : f.pixels) {
+                mean[i] += p.lum_mean / f.pixels.size();
+                var[i] += p.lum_var() / p.count / (double(f.pixels.size()) * f.pixels.size());
+            }
+            ++i;
+        }
+        CAPTURE(mean[0]);
+        CAPTURE(mean[1]);
+        CHECK(mean[0] > 0.01);
+        CHECK(std::abs(mean[0] - mean[1]) < 4.0 * std::sqrt(var[0] + var[1]));
+    }
+
+    TEST_CASE("metallic-roughness texture: each texel's half renders as the constant material of that texel") {
+        VKMECH_REQUIRE_GPU(ctx);
+        // A principled quad facing the camera, lit by a directional light at 50 degrees and a dim
+        // constant environment; its texture: metallic 1, roughness 0.3 for u < 1/2 (world x < 0),
+        // metallic 0, roughness 0.8 for u > 1/2.
+        auto base = [] {
+            Scene s = testing::quad_scene();
+            s.camera.fov_deg = 30.0f;
+            s.directional_lights.push_back({glm::normalize(glm::vec3(0.6f, -0.5f, 0.62f)), glm::vec3(3.0f)});
+            s.environment.kind = EnvironmentKind::Constant;
+            s.environment.radiance = glm::vec3(0.1f);
+            return s;
+        };
+        auto principled = [](float metallic, float roughness) {
+            Material m;
+            m.type = BsdfType::Principled;
+            m.reflectance.value = glm::vec3(0.8f, 0.6f, 0.3f);
+            m.metallic = metallic;
+            m.roughness = roughness;
+            return m;
+        };
+        Scene tex = base();
+        Texture t;
+        t.width = 2;
+        t.height = 1;
+        t.nearest = true;
+        t.rgb = {0.0f, 0.3f, 1.0f, 0.0f, 0.8f, 0.0f};
+        tex.textures.push_back(t);
+        tex.materials[0] = principled(0.5f, 0.55f);  // the texture's means, as the loader sets them
+        tex.materials[0].metallic_roughness_texture = 0;
+        Mesh& q = tex.meshes[0];
+        q.positions = {{-1, -1, 0}, {-1, 1, 0}, {1, 1, 0}, {1, -1, 0}};
+        q.uvs = {{0, 1}, {0, 0}, {1, 0}, {1, 1}};
+        Scene ref = base();
+        ref.materials = {principled(1.0f, 0.3f), principled(0.0f, 0.8f)};
+        ref.meshes[0].positions = {{-1, -1, 0}, {-1, 1, 0}, {0, 1, 0}, {0, -1, 0}};
+        Mesh right = ref.meshes[0];
+        right.positions = {{0, -1, 0}, {0, 1, 0}, {1, 1, 0}, {1, -1, 0}};
+        right.material = 1;
+        ref.meshes.push_back(right);
+        testing::RenderSetup setup;
+        setup.res = 16;
+        setup.spp = 64;
+        setup.estimator = Estimator::Mis;
+        Frame ft = testing::render_scene(*ctx, tex, setup);
+        Frame fr = testing::render_scene(*ctx, ref, setup);
+        // Image left is world +x (texel 1); compare each half's mean luminance.
+        for (int half = 0; half < 2; ++half) {
+            double mt = 0, mr = 0, var = 0;
+            int n = 0;
+            for (int y = 2; y < 14; ++y)
+                for (int x = half * 8 + 1; x < half * 8 + 7; ++x) {
+                    const PixelStats& a = ft.pixels[static_cast<size_t>(y) * 16 + x];
+                    const PixelStats& b = fr.pixels[static_cast<size_t>(y) * 16 + x];
+                    mt += a.lum_mean;
+                    mr += b.lum_mean;
+                    var += a.lum_var() / a.count + b.lum_var() / b.count;
+                    ++n;
+                }
+            CAPTURE(half);
+            CAPTURE(mt / n);
+            CAPTURE(mr / n);
+            CHECK(std::abs(mt - mr) / n < 4.0 * std::sqrt(var) / n + 1e-5);
+        }
+    }
+}
