@@ -115,6 +115,22 @@ def test_provenance_and_scene_info():
     assert vkmech.__version__.startswith("0.")
 
 
+def test_an_environment_map_lights_a_scene_and_is_recorded(tmp_path):
+    # A 4 x 2 Radiance HDR of radiance 0.5 everywhere (RGBE 128 128 128 128: 128 x 2^(128 - 136)).
+    sky = tmp_path / "sky.hdr"
+    sky.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 4\n" + bytes([128, 128, 128, 128]) * 8)
+    scene = vkmech.load("cubes_dof", environment=str(sky), environment_scale=2.0)
+    info = scene.info()
+    assert "sky.hdr" in info["environment"] and "scale 2" in info["environment"]
+    assert info["directional_lights"] == 0
+    f = vkmech.render(scene, spp=2, res=16)
+    assert "sky.hdr" in f.header["vkmech.lightsAtInfinity"]
+    assert "environment" in f.header["vkmech.features"]
+    assert vkmech.load("cubes_dof").info()["environment"] == ""
+    with pytest.raises(vkmech.SceneError):
+        vkmech.load("cubes_dof", environment=str(tmp_path / "none.exr"))
+
+
 def test_progress_is_called_between_batches():
     calls = []
     vkmech.render(vkmech.load("cubes_dof"), spp=6, res=16, batch=2, progress=lambda d, t: calls.append((d, t)))
