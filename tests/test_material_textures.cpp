@@ -6,6 +6,9 @@
 #include "gpu_fixture.hpp"
 #include "render_fixture.hpp"
 #include "scene_fixtures.hpp"
+#include "temp_dir.hpp"
+
+#include "io/exr.hpp"
 
 #include "render/gpu_scene.hpp"
 #include "scene/primitives.hpp"
@@ -16,6 +19,7 @@
 
 #include <bit>
 #include <cmath>
+#include <fstream>
 
 using namespace vkmech;
 
@@ -64,6 +68,41 @@ TEST_CASE("emission texture: power selection weighs an emitter by its radiance t
     double lum_textured = 0.5 * (0.2126 * 2 + 0.7152 * 3 + 0.0722 * 4), lum_panel = 1.0;
     double p0 = lum_textured / (lum_textured + lum_panel);
     CHECK(std::bit_cast<float>(a.emitters[0].info.w) == doctest::Approx(p0 / 4.0).epsilon(1e-5));
+}
+
+TEST_CASE("emission texture: a Mitsuba area emitter's radiance texture becomes its shape's own emission texture") {
+    testing::TempDir dir("emitter_texture");
+    std::vector<float> px = {1, 2, 3, 4};
+    write_exr_layers(dir.file("glow.exr"), 2, 2, {{"R", px}, {"G", px}, {"B", px}});
+    std::ofstream(dir.file("s.xml")) << R"(<scene version="3.0.0"><sensor type="perspective"/>
+  <bsdf type="diffuse" id="grey"/>
+  <shape type="rectangle"><ref id="grey"/>
+    <emitter type="area"><texture type="bitmap" name="radiance"><string name="filename" value="glow.exr"/></texture></emitter>
+  </shape>
+  <shape type="cube"><ref id="grey"/></shape>
+</scene>)";
+    Scene s = load_scene(dir.file("s.xml"));
+    REQUIRE(s.emitters.size() == 1);
+    CHECK(s.emitters[0].radiance == glm::vec3(1.0f));
+    const Mesh& panel = s.meshes[s.emitters[0].mesh];
+    const Material& m = s.materials[panel.material];
+    REQUIRE(m.emission_texture >= 0);
+    CHECK(s.textures[m.emission_texture].rgb[3 * 3] == 4.0f);
+    // The cube keeps the shared material, without the texture.
+    CHECK(s.materials[s.meshes[1].material].emission_texture == -1);
+    CHECK(s.warnings.empty());
+
+    // Declared at top level with an id and used through <ref>, as Mitsuba's docs scenes do.
+    std::ofstream(dir.file("d.xml")) << R"(<scene version="3.0.0"><sensor type="perspective"/>
+  <emitter type="area" id="sky"><texture type="checkerboard" name="radiance"><rgb name="color0" value="2"/></texture></emitter>
+  <shape type="rectangle"><ref id="sky"/></shape>
+</scene>)";
+    Scene d = load_scene(dir.file("d.xml"));
+    REQUIRE(d.emitters.size() == 1);
+    const Material& dm = d.materials[d.meshes[0].material];
+    REQUIRE(dm.emission_texture >= 0);
+    CHECK(d.textures[dm.emission_texture].kind == TextureKind::Checkerboard);
+    CHECK(d.textures[dm.emission_texture].rgb[0] == 2.0f);
 }
 
 TEST_SUITE("gpu") {

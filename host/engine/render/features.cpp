@@ -46,9 +46,7 @@ Features Features::from_scene(const Scene& scene, Estimator e, bool capture) {
     f.textures = false;
     for (const auto& m : scene.materials) {
         f.materials |= gpu::material_features(static_cast<uint32_t>(m.type));
-        if (m.reflectance.texture >= 0 || m.specular_reflectance_texture >= 0 ||
-            m.specular_transmittance_texture >= 0 || m.emission_texture >= 0 || m.metallic_roughness_texture >= 0)
-            f.textures = true;
+        if (m.has_texture()) f.textures = true;
     }
     f.environment = scene.environment.kind != EnvironmentKind::None || !scene.directional_lights.empty();
     f.capture = capture;

@@ -57,7 +57,10 @@ private:
     // replacement; then the substitution is recorded.
     void require_substitute(const XNode& n, const std::string& kind, const std::string& replacement) const;
     void record_substitution(const XNode& n, const std::string& kind, const std::string& replacement);
-    int area_emitter(const XNode& n, int mesh_index);  // an <emitter type="area">: index into scene_.emitters
+    // An <emitter type="area">: index into scene_.emitters. A radiance given as a texture
+    // puts the texture's index into `radiance_texture` (the radiance is then 1).
+    int area_emitter(const XNode& n, int mesh_index, int& radiance_texture);
+    glm::vec3 area_radiance(const XNode& n, const XProps& ep, int& radiance_texture);
     // envmap / constant: Scene::environment, or with LoadOptions::environment_panel a pending panel.
     void environment(const XNode& n, const XProps& p, const std::string& type);
     std::string resolve(const XNode& n, const std::string& filename) const;
@@ -107,6 +110,7 @@ private:
     struct DeclaredEmitter {
         glm::vec3 radiance{1.0f};
         int uses = 0;
+        int texture = -1;  // a textured radiance: index into scene_.textures
     };
     std::vector<DeclaredEmitter> declared_emitters_;
     std::vector<std::string> search_paths_;               // <path value=...>, Mitsuba's file resolver

@@ -325,6 +325,7 @@ void MitsubaLoader::shape(const XNode& n) {
 
 void MitsubaLoader::shape_bsdf_and_emitter(const XNode& n, const XProps& p, Mesh& mesh) {
     int material = -1;
+    int emission_texture = -1;  // a nested area emitter's radiance texture
     auto set_material = [&](const XNode& where, int m) {
         if (material >= 0) where.fail(n.describe() + " has more than one bsdf");
         material = m;
@@ -336,6 +337,7 @@ void MitsubaLoader::shape_bsdf_and_emitter(const XNode& n, const XProps& p, Mesh
     const int mesh_index = static_cast<int>(scene_.meshes.size());  // the index this mesh will get
     auto use_declared_emitter = [&](const XNode& where, int declared) {
         declared_emitters_[declared].uses++;
+        if (declared_emitters_[declared].texture >= 0) emission_texture = declared_emitters_[declared].texture;
         AreaEmitter e;
         e.radiance = declared_emitters_[declared].radiance;
         e.mesh = mesh_index;
@@ -358,7 +360,7 @@ void MitsubaLoader::shape_bsdf_and_emitter(const XNode& n, const XProps& p, Mesh
         } else if (t == "emitter") {
             const std::string type = o.required("type");
             if (type != "area") unsupported(o, "emitter", " (only 'area' emitters can be attached to a shape)");
-            set_emitter(o, area_emitter(o, mesh_index));
+            set_emitter(o, area_emitter(o, mesh_index, emission_texture));
         } else if (t == "medium") {
             if (!options_.substitute_unsupported)
                 o.fail(
@@ -387,14 +389,35 @@ void MitsubaLoader::shape_bsdf_and_emitter(const XNode& n, const XProps& p, Mesh
         }
     // Mitsuba gives a shape without a bsdf a diffuse 0.5 one.
     mesh.material = material >= 0 ? material : default_material();
+    if (emission_texture >= 0) {
+        // The radiance texture is the material's emission texture (Material::emission_texture): this
+        // shape gets its own copy of the material, which other shapes may share.
+        Material m = scene_.materials[mesh.material];
+        m.emission_texture = emission_texture;
+        m.id += "+emission";
+        mesh.material = static_cast<int>(scene_.materials.size());
+        scene_.materials.push_back(std::move(m));
+    }
 }
 
 // ---- emitters, sensor, integrator ----
 
-int MitsubaLoader::area_emitter(const XNode& n, int mesh_index) {
-    XProps ep(n);
+glm::vec3 MitsubaLoader::area_radiance(const XNode& n, const XProps& ep, int& radiance_texture) {
+    const XNode* t = ep.peek("radiance");
+    if (t && (t->tag() == "texture" || (t->tag() == "ref" && lookup_ref(*t).kind == IdKind::Texture))) {
+        // A textured radiance: 1 times the texture at each point (Material::emission_texture).
+        ep.find({"radiance"});
+        radiance_texture = texture(*t);
+        return glm::vec3(1.0f);
+    }
     glm::vec3 radiance = ep.get_color({"radiance"}, glm::vec3(1.0f));
     if (radiance.x < 0.0f || radiance.y < 0.0f || radiance.z < 0.0f) n.fail("negative radiance " + fmt_vec(radiance));
+    return radiance;
+}
+
+int MitsubaLoader::area_emitter(const XNode& n, int mesh_index, int& radiance_texture) {
+    XProps ep(n);
+    glm::vec3 radiance = area_radiance(n, ep, radiance_texture);
     warn_unused(ep);
     AreaEmitter e;
     e.radiance = radiance;
@@ -411,11 +434,10 @@ void MitsubaLoader::emitter_top(const XNode& n) {
         // (Mitsuba 3's own Cornell box does this).
         if (!n.attr("id"))
             n.fail("an 'area' emitter outside a <shape> needs an id, and shapes use it with <ref id=\"...\"/>");
-        glm::vec3 radiance = p.get_color({"radiance"}, glm::vec3(1.0f));
-        if (radiance.x < 0.0f || radiance.y < 0.0f || radiance.z < 0.0f)
-            n.fail("negative radiance " + fmt_vec(radiance));
+        int texture = -1;
+        glm::vec3 radiance = area_radiance(n, p, texture);
         warn_unused(p);
-        declared_emitters_.push_back({radiance, 0});
+        declared_emitters_.push_back({radiance, 0, texture});
         register_id(n, IdKind::Emitter, static_cast<int>(declared_emitters_.size()) - 1);
         return;
     }
@@ -745,11 +767,7 @@ void MitsubaLoader::prune_unused() {
         }
         t = tex_map[t];
     };
-    for (auto& m : mats) {
-        keep(m.reflectance.texture);
-        keep(m.specular_reflectance_texture);
-        keep(m.specular_transmittance_texture);
-    }
+    for (auto& m : mats) m.for_each_texture(keep);
     scene_.materials = std::move(mats);
     scene_.textures = std::move(texs);
 }

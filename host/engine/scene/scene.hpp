@@ -91,7 +91,33 @@ struct Material {
     // principled: glTF's metallicRoughnessTexture (linear; roughness in G, metallic in B, the
     // factors multiplied in), evaluated at each hit; `metallic` and `roughness` hold its means.
     int metallic_roughness_texture = -1;
+    // Calls f on every texture index above (-1: none), as int& (const int& on a const
+    // Material): the one list of a material's textures, for whoever remaps or tests them.
+    template <class F>
+    void for_each_texture(F&& f) {
+        each_texture(*this, f);
+    }
+    template <class F>
+    void for_each_texture(F&& f) const {
+        each_texture(*this, f);
+    }
+    bool has_texture() const {
+        bool any = false;
+        for_each_texture([&](int t) { any = any || t >= 0; });
+        return any;
+    }
 
+private:
+    template <class Self, class F>
+    static void each_texture(Self& m, F& f) {
+        f(m.reflectance.texture);
+        f(m.specular_reflectance_texture);
+        f(m.specular_transmittance_texture);
+        f(m.emission_texture);
+        f(m.metallic_roughness_texture);
+    }
+
+public:
     // conductor family: complex index of refraction (RGB), relative to ext_ior.
     glm::vec3 eta{0.0f};  // default "none" = perfect mirror (eta 0, k 1)
     glm::vec3 k{1.0f};
