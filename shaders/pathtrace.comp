@@ -176,6 +176,23 @@ void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_be
     }
 }
 
+// The shading normal a normal map gives at s (GpuMaterial::frame_tex): the map's
+// tangent-space normal n (texel x 2 - 1, x and y times the scale) in the frame
+// t = dp/du made orthogonal to the shading normal ns, b = ns x t, ns; Mitsuba's
+// normalmap and the glTF sample viewer's frame without stored tangents. ns
+// unchanged where the uvs give no tangent.
+vec3 normal_mapped(SurfaceHit s, uvec4 frame_tex) {
+    vec3 t = s.dpdu - s.ns * dot(s.ns, s.dpdu);
+    float tl = length(t);
+    if (!(tl > 0.0)) return s.ns;
+    t /= tl;
+    vec3 n = texture_lookup(frame_tex.x - 1u, s.uv) * 2.0 - 1.0;
+    float scale = uintBitsToFloat(frame_tex.y);
+    vec3 m = t * (n.x * scale) + cross(s.ns, t) * (n.y * scale) + s.ns * n.z;
+    float ml = length(m);
+    return ml > 0.0 ? m / ml : s.ns;
+}
+
 // Whether the segment from o along unit d is blocked before tmax (NEE's shadow ray).
 bool shadow_blocked(vec3 o, vec3 d, float tmax) {
 #ifdef VKMECH_COUNTERS
@@ -262,6 +279,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
         if (k >= max_depth) PATH_BREAK;  // no segment left for NEE or a bounce
 
         GpuMaterial m = material_at(s.material);
+        if (FEATURE_TEXTURES && m.frame_tex.x != 0u) s.ns = normal_mapped(s, m.frame_tex);
         Frame3 fr = frame_from_normal(s.ns);
         vec3 wo_world = -d;
         vec3 wo = to_local(fr, wo_world);

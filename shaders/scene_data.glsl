@@ -17,7 +17,7 @@ layout(std140, set = 0, binding = BINDING_PARAMS) uniform ParamsBlock { GpuParam
 #ifdef KERNEL_GPU
 layout(std430, set = 0, binding = BINDING_VERTICES) readonly buffer VertexBuf { uvec4 vertex_buf[]; };        // GpuVertex: 2
 layout(std430, set = 0, binding = BINDING_TRIANGLES) readonly buffer TriangleBuf { uvec4 triangle_buf[]; };   // 1
-layout(std430, set = 0, binding = BINDING_MATERIALS) readonly buffer MaterialBuf { uvec4 material_buf[]; };   // GpuMaterial: 9
+layout(std430, set = 0, binding = BINDING_MATERIALS) readonly buffer MaterialBuf { uvec4 material_buf[]; };   // GpuMaterial: MATERIAL_WORDS
 layout(std430, set = 0, binding = BINDING_LIGHT_TRIS) readonly buffer LightTriBuf { uvec4 light_tri_buf[]; }; // GpuLightTriangle: 2
 layout(std430, set = 0, binding = BINDING_EMITTERS) readonly buffer EmitterBuf { uvec4 emitter_buf[]; };      // GpuEmitter: 2
 layout(std430, set = 0, binding = BINDING_TEXELS) readonly buffer TexelBuf { uvec4 texel_buf[]; };            // linear RGB
@@ -28,7 +28,7 @@ layout(std430, set = 0, binding = BINDING_ENVIRONMENT) readonly buffer EnvBuf { 
 #else
 layout(set = 0, binding = BINDING_VERTICES) uniform utextureBuffer vertex_buf;      // GpuVertex: 2 texels
 layout(set = 0, binding = BINDING_TRIANGLES) uniform utextureBuffer triangle_buf;   // uvec4
-layout(set = 0, binding = BINDING_MATERIALS) uniform utextureBuffer material_buf;   // GpuMaterial: 9 texels
+layout(set = 0, binding = BINDING_MATERIALS) uniform utextureBuffer material_buf;   // GpuMaterial: MATERIAL_WORDS texels
 layout(set = 0, binding = BINDING_LIGHT_TRIS) uniform utextureBuffer light_tri_buf; // GpuLightTriangle: 2 texels
 layout(set = 0, binding = BINDING_EMITTERS) uniform utextureBuffer emitter_buf;     // GpuEmitter: 2 texels
 layout(set = 0, binding = BINDING_TEXELS) uniform utextureBuffer texel_buf;         // vec4 (linear RGB)
@@ -45,16 +45,18 @@ vec3 vertex_normal(uint i) { return SCENE_FETCH_F(vertex_buf, 2u * i + 1u).xyz; 
 vec2 vertex_uv(uint i) { return vec2(SCENE_FETCH_F(vertex_buf, 2u * i).w, SCENE_FETCH_F(vertex_buf, 2u * i + 1u).w); }
 uvec4 triangle_at(uint i) { return SCENE_FETCH(triangle_buf, i); }
 // Fetches only what the material's BSDF reads (the fields left out read 0):
-// a diffuse material reads its header and reflectance, two texels of nine;
+// a diffuse material reads its header and reflectance, two texels of ten
+// (three in textured scenes, which read the frame textures' word too);
 // `k` only conductors and plastics read, the last three only principled and
 // rough plastic (its tables), so scenes without those families (the feature
 // constants) never fetch them. A texel fetch is a function call per SIMD
 // vector on lavapipe, skipped when no invocation of the vector needs it.
 GpuMaterial material_at(uint i) {
-    uint b = 9u * i;
+    uint b = MATERIAL_WORDS * i;
     const vec4 zero = vec4(0.0);
     GpuMaterial m = GpuMaterial(SCENE_FETCH(material_buf, b), SCENE_FETCH_F(material_buf, b + 1u), zero, zero, zero, zero, zero,
-                                zero, zero);
+                                zero, zero, uvec4(0u));
+    if (FEATURE_TEXTURES) m.frame_tex = SCENE_FETCH(material_buf, b + 9u);
     if (m.header.x != MAT_DIFFUSE) {
         m.specular_reflectance = SCENE_FETCH_F(material_buf, b + 2u);
         m.specular_transmittance = SCENE_FETCH_F(material_buf, b + 3u);
@@ -124,7 +126,7 @@ GpuDirectional directional_at(uint i) {
 
 // The emission texture's slot of material i (texture + 1, 0: none; shared/types.h).
 uint emission_slot(uint i) {
-    return (SCENE_FETCH(material_buf, 9u * i).y >> MAT_EMISSION_TEX_SHIFT) & MAT_EMISSION_TEX_MASK;
+    return (SCENE_FETCH(material_buf, MATERIAL_WORDS * i).y >> MAT_EMISSION_TEX_SHIFT) & MAT_EMISSION_TEX_MASK;
 }
 // What an emitter's radiance is multiplied by at uv on a mesh of material i:
 // its emission texture there, 1 without one (and in scenes without textures).
@@ -159,6 +161,7 @@ struct SurfaceHit {
     vec3 ng;       // geometric normal (winding order)
     vec3 ns;       // shading normal, same hemisphere as ng
     vec2 uv;
+    vec3 dpdu;     // textured scenes: dp/du of the triangle (zero where its uvs are degenerate)
     uint material;
     uint emitter;  // emitter index + 1, 0 when not emissive
 };
@@ -191,6 +194,14 @@ SurfaceHit surface_hit(uint prim, vec2 bary) {
         if (dot(s.ns, s.ng) < 0.0) s.ng = -s.ng;  // winding disagrees with the authored normals
     }
     s.uv = w0 * vec2(pa.w, na.w) + bary.x * vec2(pb.w, nb.w) + bary.y * vec2(pc.w, nc.w);
+    s.dpdu = vec3(0.0);
+    if (FEATURE_TEXTURES) {
+        // dp/du from the edges and their uv differences (a normal map's tangent).
+        vec2 d1 = vec2(pb.w - pa.w, nb.w - na.w);
+        vec2 d2 = vec2(pc.w - pa.w, nc.w - na.w);
+        float det = d1.x * d2.y - d1.y * d2.x;
+        if (det != 0.0) s.dpdu = ((pb.xyz - pa.xyz) * d2.y - (pc.xyz - pa.xyz) * d1.y) / det;
+    }
     s.material = tri.w & TRI_MATERIAL_MASK;
     s.emitter = (tri.w >> TRI_EMITTER_SHIFT) & TRI_EMITTER_MASK;
     return s;

@@ -704,7 +704,7 @@ TEST_CASE("gltf: base-colour textures from a data URI and a glb bufferView are d
         Gltf g;
         build(g, false, "[1,1,1,1]", 0.0);
         Scene s = load_scene(g.write_external(dir, "uri"));
-        REQUIRE(s.textures.size() == 1);
+        REQUIRE(s.textures.size() == 2);  // the base colour (sRGB-decoded) and the normal map (linear)
         const Texture& t = s.textures[0];
         CHECK(t.width == 2);
         CHECK(t.height == 2);
@@ -723,13 +723,17 @@ TEST_CASE("gltf: base-colour textures from a data URI and a glb bufferView are d
         CHECK(m.reflectance.value.y == doctest::Approx((g128 + 1.0f) / 4.0f).epsilon(1e-3));
         REQUIRE(s.meshes[0].uvs.size() == 4);
         CHECK(s.meshes[0].uvs[2] == glm::vec2(1, 1));  // no v flip
-        CHECK(has_warning(s, "normalTexture is ignored"));
+        // The same image as the normal map: read again as linear data (a texture of its own).
+        REQUIRE(m.normal_texture >= 0);
+        CHECK(m.normal_texture != m.reflectance.texture);
+        CHECK(s.textures[m.normal_texture].rgb[4] == doctest::Approx(128.0f / 255.0f));
+        CHECK(m.normal_scale == 1.0f);
     }
     SUBCASE("glb bufferView, tinted factor, metallic: the conductor's specular texture") {
         Gltf g;
         build(g, true, "[0.5,1,1,1]", 1.0);
         Scene s = load_scene(g.write_glb(dir, "view"));
-        REQUIRE(s.textures.size() == 1);
+        REQUIRE(s.textures.size() == 2);  // the base colour and the normal map
         const Texture& t = s.textures[0];
         CHECK(t.rgb[0] == doctest::Approx(0.5f));  // factor premultiplied
         CHECK(t.rgb[9] == doctest::Approx(0.5f));

@@ -105,6 +105,32 @@ TEST_CASE("emission texture: a Mitsuba area emitter's radiance texture becomes i
     CHECK(d.textures[dm.emission_texture].rgb[0] == 2.0f);
 }
 
+TEST_CASE("normal map: Mitsuba's normalmap wrapper gives its nested bsdf the map - bumpmap is still a warning") {
+    testing::TempDir dir("normalmap");
+    std::vector<float> x = {0.5f}, z = {1.0f};
+    write_exr_layers(dir.file("n.exr"), 1, 1, {{"R", x}, {"G", x}, {"B", z}});
+    std::ofstream(dir.file("s.xml")) << R"(<scene version="3.0.0"><sensor type="perspective"/>
+  <shape type="rectangle"><bsdf type="normalmap">
+    <texture name="normalmap" type="bitmap"><string name="filename" value="n.exr"/><boolean name="raw" value="true"/></texture>
+    <bsdf type="roughconductor"/></bsdf></shape>
+  <shape type="cube"><bsdf type="bumpmap"><texture type="bitmap"><string name="filename" value="n.exr"/></texture>
+    <bsdf type="diffuse"/></bsdf></shape>
+</scene>)";
+    Scene s = load_scene(dir.file("s.xml"));
+    const Material& m = s.materials[s.meshes[0].material];
+    CHECK(m.type == BsdfType::RoughConductor);
+    REQUIRE(m.normal_texture >= 0);
+    CHECK(s.textures[m.normal_texture].rgb[2] == 1.0f);
+    CHECK(s.materials[s.meshes[1].material].normal_texture == -1);
+    int bump = 0, normal = 0;
+    for (const auto& w : s.warnings) {
+        bump += w.find("bump map is ignored") != std::string::npos;
+        normal += w.find("normal map") != std::string::npos;
+    }
+    CHECK(bump == 1);
+    CHECK(normal == 0);
+}
+
 TEST_SUITE("gpu") {
     TEST_CASE("emission texture: seen by the camera, each texel's quarter of the quad shows radiance x texel") {
         VKMECH_REQUIRE_GPU(ctx);
@@ -223,6 +249,48 @@ TEST_SUITE("gpu") {
             CAPTURE(mt / n);
             CAPTURE(mr / n);
             CHECK(std::abs(mt - mr) / n < 4.0 * std::sqrt(var) / n + 1e-5);
+        }
+    }
+
+    TEST_CASE("normal map: a flat map renders the plain plane, a tilted one lights it as its normal says") {
+        VKMECH_REQUIRE_GPU(ctx);
+        // A diffuse quad facing the camera (normal -z) whose uvs are not mirrored as seen from its
+        // front: u grows to the image right (world -x), v downwards; so dp/du = -x and n x dp/du = +y.
+        auto quad = [](const glm::vec3& texel) {
+            Scene s = testing::quad_scene();
+            s.camera.fov_deg = 30.0f;
+            Mesh& q = s.meshes[0];
+            q.positions = {{1, 1, 0}, {1, -1, 0}, {-1, -1, 0}, {-1, 1, 0}};
+            q.uvs = {{0, 0}, {0, 1}, {1, 1}, {1, 0}};
+            s.materials[0].reflectance.value = glm::vec3(0.5f);
+            s.directional_lights.push_back({glm::normalize(glm::vec3(0.5f, -0.3f, 0.8f)), glm::vec3(2.0f)});
+            if (texel.z > 0.0f) {
+                Texture t;
+                t.width = t.height = 1;
+                t.rgb = {texel.x, texel.y, texel.z};
+                s.textures.push_back(t);
+                s.materials[0].normal_texture = 0;
+            }
+            return s;
+        };
+        testing::RenderSetup setup;
+        setup.res = 8;
+        setup.spp = 4;
+        Frame plain = testing::render_scene(*ctx, quad(glm::vec3(0.0f)), setup);
+        Frame flat = testing::render_scene(*ctx, quad(glm::vec3(0.5f, 0.5f, 1.0f)), setup);
+        const glm::vec3 n = glm::normalize(glm::vec3(0.3f, 0.4f, 0.866f));
+        Frame tilted = testing::render_scene(*ctx, quad(0.5f * (n + 1.0f)), setup);
+        const glm::vec3 to_light = -glm::normalize(glm::vec3(0.5f, -0.3f, 0.8f));
+        // Tangent frame: t = -x, b = +y, the normal -z.
+        const glm::vec3 mapped =
+            glm::normalize(glm::vec3(-1, 0, 0) * n.x + glm::vec3(0, 1, 0) * n.y + glm::vec3(0, 0, -1) * n.z);
+        const double expected_plain = 0.5 * 2.0 * glm::dot(glm::vec3(0, 0, -1), to_light) / 3.14159265358979;
+        const double expected_tilted = 0.5 * 2.0 * glm::dot(mapped, to_light) / 3.14159265358979;
+        CHECK(std::abs(expected_tilted - expected_plain) > 0.05);  // the tilt shows
+        for (size_t i = 0; i < plain.pixels.size(); ++i) {
+            CHECK(plain.pixels[i].lum_mean == doctest::Approx(expected_plain).epsilon(1e-5));
+            CHECK(flat.pixels[i].lum_mean == doctest::Approx(plain.pixels[i].lum_mean).epsilon(1e-5));
+            CHECK(tilted.pixels[i].lum_mean == doctest::Approx(expected_tilted).epsilon(1e-4));
         }
     }
 }

@@ -57,6 +57,7 @@ int cmd_check(const CommonOptions& o) {
         if (m.emission_texture >= 0) tex += " emission=" + scene.textures[m.emission_texture].path;
         if (m.metallic_roughness_texture >= 0)
             tex += " metallic_roughness=" + scene.textures[m.metallic_roughness_texture].path;
+        if (m.normal_texture >= 0) tex += " normal=" + scene.textures[m.normal_texture].path;
         std::printf("  %-24s %-16s lobes %-4s %d shape%s%s%s\n", m.id.c_str(), to_string(m.type),
                     lobe_classes(m).c_str(), users, users == 1 ? "" : "s", m.twosided ? ", twosided" : "", tex.c_str());
     }

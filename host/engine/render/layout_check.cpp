@@ -7,7 +7,7 @@
 namespace vkmech::gpu {
 static_assert(sizeof(glm::vec4) == 16 && sizeof(glm::uvec4) == 16 && sizeof(glm::mat4) == 64);
 static_assert(sizeof(GpuVertex) == 32);
-static_assert(sizeof(GpuMaterial) == 9 * 16);
+static_assert(sizeof(GpuMaterial) == MATERIAL_WORDS * 16);
 static_assert(sizeof(GpuEmitter) == 32);
 static_assert(sizeof(GpuLightTriangle) == 32);
 static_assert(sizeof(GpuBvhNode) == 32);

@@ -68,7 +68,8 @@ Material GltfLoader::convert_material(const tinygltf::Material& g, const std::st
     };
     auto ignored_texture = [&](bool present, const std::string& what) {
         if (present)
-            warn(label + ": its " + what + " is ignored (only base-colour and emissive textures are supported)");
+            warn(label + ": its " + what +
+                 " is ignored (base-colour, metallic-roughness, normal and emissive textures are supported)");
     };
     auto ext_texture = [](const tinygltf::Value* ext, const char* key) { return ext && ext->Has(key); };
 
@@ -108,7 +109,6 @@ Material GltfLoader::convert_material(const tinygltf::Material& g, const std::st
     const bool mr_textured = pbr.metallicRoughnessTexture.index >= 0 && trans == 0.0;
     ignored_texture(pbr.metallicRoughnessTexture.index >= 0 && !mr_textured,
                     "metallicRoughnessTexture (on a transmissive material)");
-    ignored_texture(g.normalTexture.index >= 0, "normalTexture");
     ignored_texture(g.occlusionTexture.index >= 0, "occlusionTexture");
     ignored_texture(ext_texture(transmission, "transmissionTexture"), "transmissionTexture");
     ignored_texture(ext_texture(clearcoat, "clearcoatTexture"), "clearcoatTexture");
@@ -126,6 +126,17 @@ Material GltfLoader::convert_material(const tinygltf::Material& g, const std::st
 
     glm::vec3 mean = base;
     int tex = pbr.baseColorTexture.index >= 0 ? color_texture(pbr.baseColorTexture, base, label, mean) : -1;
+    if (g.normalTexture.index >= 0) {
+        // Linear data, the tangent-space normal (glTF 2.0 §3.9.3), x and y times `scale`.
+        tinygltf::TextureInfo info;
+        info.index = g.normalTexture.index;
+        info.texCoord = g.normalTexture.texCoord;
+        info.extensions = g.normalTexture.extensions;
+        if (!std::isfinite(g.normalTexture.scale)) fail(label + ": normalTexture.scale must be a finite number");
+        glm::vec3 unused;
+        m.normal_texture = color_texture(info, glm::vec3(1.0f), label, unused, "normalTexture", /*raw=*/true);
+        m.normal_scale = static_cast<float>(g.normalTexture.scale);
+    }
     // The emission's texture: the emitter's radiance (emissiveFactor x strength, emission()) times it.
     const bool emits = std::any_of(g.emissiveFactor.begin(), g.emissiveFactor.end(), [](double c) { return c > 0.0; });
     if (g.emissiveTexture.index >= 0 && !emits)

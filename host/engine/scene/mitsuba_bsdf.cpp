@@ -228,14 +228,24 @@ int MitsubaLoader::bsdf(const XNode& n) {
         // keeps the inner material and marks it two-sided.
         m = scene_.materials[bsdf(nested())];
         m.twosided = true;
-    } else if (type == "bumpmap" || type == "normalmap") {
-        // docs/descriptor.md §8: wrappers that change no lobe load with a warning naming
+    } else if (type == "normalmap") {
+        // Mitsuba's normalmap: the nested bsdf in the frame of a tangent-space normal map
+        // (Material::normal_texture; Mitsuba reads it as stored: give the bitmap raw="true").
+        const XNode* map = p.find({"normalmap"});
+        if (!map || (map->tag() != "texture" && map->tag() != "ref"))
+            n.fail("bsdf 'normalmap' needs a texture property 'normalmap'");
+        int tex = texture(*map);
+        m = scene_.materials[bsdf(nested_ignoring_textures(p, n))];
+        m.normal_texture = tex;
+    } else if (type == "bumpmap") {
+        // docs/descriptor.md §8: a wrapper that changes no lobe loads with a warning naming
         // what is ignored.
-        for (const char* tex : {"texture", "normalmap", "arg"}) p.find({tex});
+        for (const char* tex : {"texture", "arg"}) p.find({tex});
         for (const char* f : {"scale", "flip_invert", "strength"}) p.find({f});
         m = scene_.materials[bsdf(nested_ignoring_textures(p, n))];
-        warn(n, "bsdf '" + type + "': the " + (type == "bumpmap" ? "bump map" : "normal map") +
-                    " is ignored; the nested bsdf is rendered with the shading normals of the mesh");
+        warn(n,
+             "bsdf 'bumpmap': the bump map is ignored; the nested bsdf is rendered with the shading normals of "
+             "the mesh");
     } else if (type == "mask") {
         float opacity = 0.5f;
         bool textured = false;
@@ -329,7 +339,8 @@ int MitsubaLoader::bsdf(const XNode& n) {
     } else {
         unsupported(n, "bsdf",
                     " (docs/descriptor.md §2: " + bsdf_plugin_names() +
-                        ", twosided; with --substitute also mask, bumpmap, normalmap, blendbsdf, phong)");
+                        ", twosided, normalmap, bumpmap (its map ignored); with --substitute also mask, blendbsdf, "
+                        "phong)");
     }
     warn_unused(p);
     if (type != "twosided" || !id.empty()) m.id = id.empty() ? type + "#" + std::to_string(bsdf_count_) : id;

@@ -91,6 +91,10 @@ struct Material {
     // principled: glTF's metallicRoughnessTexture (linear; roughness in G, metallic in B, the
     // factors multiplied in), evaluated at each hit; `metallic` and `roughness` hold its means.
     int metallic_roughness_texture = -1;
+    // A tangent-space normal map (glTF normalTexture, Mitsuba's normalmap): linear RGB = (n + 1) / 2,
+    // +x along dp/du, +y along n x dp/du; its x and y times normal_scale.
+    int normal_texture = -1;
+    float normal_scale = 1.0f;
     // Calls f on every texture index above (-1: none), as int& (const int& on a const
     // Material): the one list of a material's textures, for whoever remaps or tests them.
     template <class F>
@@ -115,6 +119,7 @@ private:
         f(m.specular_transmittance_texture);
         f(m.emission_texture);
         f(m.metallic_roughness_texture);
+        f(m.normal_texture);
     }
 
 public:
