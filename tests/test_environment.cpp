@@ -325,7 +325,9 @@ TEST_SUITE("gpu") {
         s.integrator.rr_depth = 64;  // no roulette: every path ends by escaping
         for (Estimator est : {Estimator::Nee, Estimator::Mis}) {
             Frame f = render_with(*ctx, s, est, 16, 256);
-            auto [mean, se] = image_mean(f);
+            // Not a structured binding: clang 14 cannot capture one in CAPTURE's lambda.
+            const std::pair<double, double> ms = image_mean(f);
+            const double mean = ms.first, se = ms.second;
             CAPTURE(std::string(to_string(est)));
             CAPTURE(mean);
             CAPTURE(se);
