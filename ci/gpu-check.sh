@@ -19,7 +19,9 @@
 #                                     # --plan (here too) prints what it would run and
 #                                     # its estimated time
 #
-# WHAT is a comma-separated list of: devices, tests, bench, main, pipeline-cache, study-quick,
+# WHAT is a comma-separated list of: devices, tests (the GPU suite, then the CPU suites),
+# gpu-tests (the GPU suite alone), envmap (the validation scene lit by its sky map, then by
+# the paper's panel, each kernel), bench, main, pipeline-cache, study-quick,
 # cornell (the Cornell box of ci/scenes at 1024^2 x 64 spp, each kernel), profile, ablation, bisect,
 # paper (the paper preset of every study, as far as PAPER_BUDGET_S allows).
 # Results go to docs/gpu.md by hand, with the device, driver and date.
@@ -156,7 +158,7 @@ run() {
             section "vkmech devices"
             timed devices "$vk" devices
         fi
-        if has tests; then
+        if has tests || has gpu-tests; then
             section "GPU test suites (vkmech_tests -ts=gpu)"
             # Bounded, so that a case that runs away on a large device cannot eat the lease;
             # in GPU_TEST_SHARDS processes at once (doctest --first/--last over the suite's
@@ -164,8 +166,10 @@ run() {
             # pipelines, on the CPU, one core per process. Each case's time (-d) is logged.
             rm -rf out/gpu-tests && mkdir -p out/gpu-tests
             timed "gpu tests" gpu_suite_sharded "${GPU_TEST_SHARDS:-8}" "${GPU_TESTS_TIMEOUT_S:-240}" out/gpu-tests
-            section "CPU test suites"
-            timed "cpu tests" "$root/build/vkmech_tests" -tse=gpu
+            if has tests; then
+                section "CPU test suites"
+                timed "cpu tests" "$root/build/vkmech_tests" -tse=gpu
+            fi
         fi
         if has bench; then
             section "vkmech bench traversal (defaults: 2^18 rays)"
@@ -232,6 +236,24 @@ run() {
                 grep -E "paths/s|pipeline creation" out/cornell-$k.log
             done
             cp out/cornell-gpu/cornell_box.png "$out/" 2>/dev/null
+        fi
+        if has envmap; then
+            # What an emitter at infinity costs: the validation scene lit by its sky map,
+            # then the same scene with the paper's overhead panel instead (each kernel).
+            local k e
+            for k in gpu cpu; do
+                for e in envmap panel; do
+                    local opt=()
+                    [[ $e == panel ]] && opt=(--environment-panel)
+                    section "envmap: val_envmap.xml --res 512 --spp 256 --kernel $k ($e)"
+                    "$vk" --scene analysis/validation/scenes/val_envmap.xml --res 64 --spp 4 --kernel $k "${opt[@]}" \
+                        --out out/env-warm >/dev/null 2>&1
+                    timed "envmap $k $e" "$vk" --scene analysis/validation/scenes/val_envmap.xml --res 512 --spp 256 \
+                        --batch 64 --kernel $k "${opt[@]}" --out out/env-$k-$e >out/env-$k-$e.log 2>&1
+                    grep -E "paths/s|error" out/env-$k-$e.log
+                done
+            done
+            cp out/env-gpu-envmap/val_envmap.png "$out/" 2>/dev/null
         fi
         if has profile; then
             # Where the path tracer's time goes on this device, by the shader's clock, with this device's kernel.

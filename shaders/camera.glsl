@@ -11,18 +11,18 @@ layout(constant_id = SPEC_THIN_LENS) const bool HAS_THIN_LENS = false;
 layout(constant_id = SPEC_ORTHOGRAPHIC) const bool CAMERA_ORTHOGRAPHIC = false;
 
 void camera_ray(vec2 film_uv, vec2 lens_u, out vec3 origin, out vec3 dir) {
-    vec3 d = vec3((1.0 - 2.0 * film_uv.x) * params.camera.x, (1.0 - 2.0 * film_uv.y) * params.camera.y, 1.0);
+    vec3 d = vec3((1.0 - 2.0 * film_uv.x) * params.tan_half_fov_x, (1.0 - 2.0 * film_uv.y) * params.tan_half_fov_y, 1.0);
     vec3 o = vec3(0.0);
     if (CAMERA_ORTHOGRAPHIC) {
         o = vec3(d.x, d.y, 0.0);
         d = vec3(0.0, 0.0, 1.0);
     }
-    if (HAS_THIN_LENS && params.camera.z > 0.0) {
+    if (HAS_THIN_LENS && params.aperture_radius > 0.0) {
         // Concentric-free polar mapping is fine here: only the disk matters.
-        float r = params.camera.z * sqrt(lens_u.x);
+        float r = params.aperture_radius * sqrt(lens_u.x);
         float phi = 6.28318530718 * lens_u.y;
         vec3 lens = vec3(r * cos(phi), r * sin(phi), 0.0);
-        vec3 focus = d * params.camera.w;  // d.z == 1: the focus plane is z = focus distance
+        vec3 focus = d * params.focus_distance;  // d.z == 1: the focus plane is z = focus distance
         o = lens;
         d = focus - lens;
     }

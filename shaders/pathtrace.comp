@@ -28,7 +28,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 #include "mechanism.glsl"
 
 layout(std430, set = 0, binding = BINDING_ACCUM) writeonly buffer Accum { GpuPixelAccum accum[]; };
-// The next pixel slot to claim (params.adaptive.w: claimed pixels), zeroed before each batch.
+// The next pixel slot to claim (params.claimed_pixels: claimed pixels), zeroed before each batch.
 layout(std430, set = 0, binding = BINDING_WORK) buffer Work { uint next_slot; };
 #ifdef VKMECH_COUNTERS
 #extension GL_ARB_shader_clock : require
@@ -84,7 +84,7 @@ vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
     vec3 L = vec3(0.0);
     bool front = dot(s.ng, d) < 0.0;
     if (s.emitter != 0u && front) L += emitter_radiance(s.emitter - 1u) * emission_scale(s.material, s.uv);
-    if (params.scene.x == 0u) return L;
+    if (params.light_triangle_count == 0u) return L;
     vec3 ng = front ? s.ng : -s.ng;
     vec3 ns = dot(s.ns, ng) < 0.0 ? -s.ns : s.ns;
     GpuMaterial m = material_at(s.material);
@@ -123,7 +123,7 @@ layout(constant_id = SPEC_END_VERTEX_LITERAL) const bool END_VERTEX_LITERAL = fa
 // exactly the first n(p) frames of that seed's sample stream. After the P
 // counts the buffer holds the pixels sorted by n(p), largest first: a batch
 // starting at sample `first` is dispatched over the prefix of pixels that
-// still need samples only (params.adaptive.y of them), so finished pixels
+// still need samples only (params.active_pixels of them), so finished pixels
 // cost no invocations.
 layout(std430, set = 0, binding = BINDING_SAMPLE_COUNTS) readonly buffer SampleCounts { uint sample_counts[]; };
 layout(std430, set = 0, binding = BINDING_DEBUG) buffer DebugEvents {
@@ -164,7 +164,7 @@ void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_be
 #endif
     if (DEBUG_EVENTS && g_debug_pixel) {
         uint slot = atomicAdd(debug_count, 1u);
-        if (slot < params.debug.y) {
+        if (slot < params.debug_capacity) {
             debug_events[slot].label = uvec4(n, end_lobe, delta_before ? 1u : 0u, b);
             debug_events[slot].energy = vec4(e, glossy_before ? 1.0 : 0.0, float(g_sample_index), 0.0);
         }
@@ -237,8 +237,8 @@ void emission_seen(inout Tally tally, vec3 contrib, uint k, float p_light, PrevV
 // or after a delta lobe (or MIS-weighted in the MIS modes), Russian roulette
 // from depth rr_depth, at most max_depth segments.
 void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
-    uint max_depth = params.sampling.y;
-    uint rr_depth = params.sampling.z;
+    uint max_depth = params.max_depth;
+    uint rr_depth = params.rr_depth;
     vec3 throughput = vec3(1.0);
     bool delta_before = false;   // any of V1..V(k-1) sampled a delta lobe
     bool glossy_before = false;  // any of V1..V(k-1) sampled a glossy lobe
@@ -315,7 +315,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
                 vertex_mis = b == BUCKET_GLOSSY || b == BUCKET_DELTA_MEDIATED;
             }
         }
-        if (nee_lobe != LOBE_NONE && params.scene.x > 0u) {
+        if (nee_lobe != LOBE_NONE && params.light_triangle_count > 0u) {
             CLOCK_START(c_nee);
             vec3 lu = vec3(rng_next(rng), rng_next(rng), rng_next(rng));
             uint li = select_light_triangle(lu.x);
@@ -416,18 +416,18 @@ uint mulmod(uint a, uint b, uint n) {
 }
 
 // The film's 8 x 8 tiles per row.
-uint film_tiles_x() { return (params.film.x + 7u) / 8u; }
+uint film_tiles_x() { return (params.film_width + 7u) / 8u; }
 
 // Renders this batch's samples of the pixel in slot `slot`: the film in 8 x 8
 // tiles, tile t = slot / 64 (row-major over the film's tiles) and
 // invocation slot % 64 within it; in the adaptive mode the slot-th pixel of
 // the active list (sample_counts[width * height + slot]).
 void render_slot(uint slot) {
-    uint width = params.film.x;
-    uint height = params.film.y;
+    uint width = params.film_width;
+    uint height = params.film_height;
     uvec2 px;
-    if (params.adaptive.x != 0u) {
-        if (slot >= params.adaptive.y) return;
+    if (params.per_pixel_counts != 0u) {
+        if (slot >= params.active_pixels) return;
         uint p = sample_counts[width * height + slot];
         px = uvec2(p % width, p / width);
     } else {
@@ -437,9 +437,9 @@ void render_slot(uint slot) {
     }
     if (px.x >= width || px.y >= height) return;
     uint pixel = px.y * width + px.x;
-    uint first = params.sampling.x;
-    uint count = params.film.w;
-    if (params.adaptive.x != 0u) {
+    uint first = params.first_sample;
+    uint count = params.batch_samples;
+    if (params.per_pixel_counts != 0u) {
         uint n = sample_counts[pixel];
         count = n > first ? min(count, n - first) : 0u;
     }
@@ -464,11 +464,11 @@ void render_slot(uint slot) {
 #ifdef VKMECH_DIRECT_GLOSSY
     vec3 direct_glossy_sum = vec3(0.0);
 #endif
-    g_debug_pixel = DEBUG_EVENTS && params.debug.y > 0u && pixel == params.debug.x;
+    g_debug_pixel = DEBUG_EVENTS && params.debug_capacity > 0u && pixel == params.debug_pixel;
     for (uint i = 0u; i < count; ++i) {
         CLOCK_START(c_camera);
         g_sample_index = first + i;
-        Rng rng = rng_init(params.film.z, pixel, first + i);
+        Rng rng = rng_init(params.seed, pixel, first + i);
         vec2 jitter = rng_next2(rng);  // box filter: uniform inside the pixel
         vec2 lens = rng_next2(rng);
         vec2 film_uv = (vec2(px) + jitter) / vec2(width, height);
@@ -484,7 +484,7 @@ void render_slot(uint slot) {
         t.direct_glossy = vec3(0.0);
 #endif
         CLOCK_ADD(PHASE_CAMERA, c_camera);
-        if (params.scene.w == MODE_PATH) {
+        if (params.mode == MODE_PATH) {
             CLOCK_START(c_path);
             path_sample(rng, o, d, t);
             CLOCK_ADD(PHASE_PATH, c_path);
@@ -544,26 +544,26 @@ void render_slot(uint slot) {
 }
 
 void main() {
-    // Claimed pixels (params.adaptive.w, CPU devices): each invocation takes
+    // Claimed pixels (params.claimed_pixels, CPU devices): each invocation takes
     // the next slot from a counter until none is left, so the device's
     // threads finish together (lavapipe splits a dispatch's workgroups into
     // one contiguous range per thread up front, and whichever range holds
     // more work would otherwise leave the other threads idle at the end).
     // Tiles: the workgroup with index w renders tile w * stride mod n
-    // (params.adaptive.z, coprime with n: a permutation), an order spread
+    // (params.workgroup_stride, coprime with n: a permutation), an order spread
     // over the image (docs/performance.md, "Balancing lavapipe's threads").
     // One call site: the path tracer is inlined once.
 #ifdef VKMECH_COUNTERS
     for (uint p = 0u; p < PHASE_COUNT; ++p) g_clock[p] = uvec2(0u);
 #endif
-    bool claimed = params.adaptive.w != 0u;
+    bool claimed = params.claimed_pixels != 0u;
     uint slot, slots;
     if (claimed) {
-        slots = params.adaptive.x != 0u ? params.adaptive.y : film_tiles_x() * ((params.film.y + 7u) / 8u) * 64u;
+        slots = params.per_pixel_counts != 0u ? params.active_pixels : film_tiles_x() * ((params.film_height + 7u) / 8u) * 64u;
         slot = atomicAdd(next_slot, 1u);
     } else {
         uint groups = gl_NumWorkGroups.x * gl_NumWorkGroups.y;
-        uint tile = mulmod(gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x, params.adaptive.z, groups);
+        uint tile = mulmod(gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x, params.workgroup_stride, groups);
         slot = tile * 64u + gl_LocalInvocationIndex;
         slots = slot + 1u;
     }

@@ -231,7 +231,7 @@ float luminance(vec3 c) { return dot(c, vec3(LUM_R, LUM_G, LUM_B)); }
 // Power-proportional light selection (host/engine/render/gpu_scene.cpp builds the cdf).
 uint select_light_triangle(float u) {
     uint lo = 0u;
-    uint hi = params.scene.x - 1u;
+    uint hi = params.light_triangle_count - 1u;
     while (lo < hi) {
         uint mid = (lo + hi) / 2u;
         if (light_tri_cdf(mid) < u) lo = mid + 1u; else hi = mid;

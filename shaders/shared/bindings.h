@@ -31,7 +31,7 @@ VKM_ID BINDING_TEXTURES = 13u;
 VKM_ID BINDING_DEBUG = 14u;
 VKM_ID BINDING_SAMPLE_COUNTS = 15u;
 VKM_ID BINDING_COUNTERS = 16u;  // pathtrace.comp's VKMECH_COUNTERS variant only (bench render --profile --counters)
-VKM_ID BINDING_WORK = 17u;      // pathtrace.comp: the pixel-slot counter of claimed pixels (params.adaptive.w)
+VKM_ID BINDING_WORK = 17u;      // pathtrace.comp: the pixel-slot counter of claimed pixels (params.claimed_pixels)
 VKM_ID BINDING_ENVIRONMENT = 18u;  // the emitters at infinity (shared/types.h GpuEnvironment)
 
 // Specialization-constant ids (layout(constant_id = ...)).

@@ -1,7 +1,7 @@
 // Struct layouts shared by GLSL (std430 / std140) and C++ (docs/architecture.md,
-// "One definition, one place"). Only vec4 / uvec4 / mat4 members and arrays of
-// them: never a bare vec3, whose size differs between glm (12 bytes) and std430
-// (16-aligned). host/engine/render/layout_check.cpp static_asserts every size.
+// "One definition, one place"). Only vec4 / uvec4 / mat4 members, arrays of
+// them, and 4-byte scalars (uint, float) in groups of four: never a bare vec3 or
+// vec2, whose size or alignment differs between glm and std140/std430. host/engine/render/layout_check.cpp static_asserts every size.
 #ifndef VKMECH_SHARED_TYPES_H
 #define VKMECH_SHARED_TYPES_H
 
@@ -70,7 +70,7 @@ VKM_CONST TRI_EMITTER_SHIFT = 16u;
 VKM_CONST TRI_EMITTER_MASK = 0x3FFFu;
 VKM_CONST TRI_FLAT_BIT = 0x40000000u;
 
-// Render modes (Params.mode.x).
+// Render modes (GpuParams::mode).
 VKM_CONST MODE_DIRECT_PREVIEW = 0u;  // provisional: emission + one NEE bounce
 VKM_CONST MODE_PATH = 1u;            // the full estimator (docs/descriptor.md §1)
 
@@ -229,17 +229,28 @@ struct GpuBvh4Node {
     uvec4 q1;     // hi_y, hi_z, first_node | code2 << 28, first_tri | code3 << 28
 };
 
-struct GpuParams {
+struct GpuParams {  // one batch's uniforms (std140): named 4-byte scalars, four to a 16-byte row
     mat4 camera_to_world;
-    vec4 camera;       // tan(half fov x), tan(half fov y), aperture radius, focus distance
-    uvec4 film;        // width, height, seed, samples in this batch
-    uvec4 sampling;    // first sample index, max_depth, rr_depth, estimator
-    uvec4 scene;       // light triangle count, emitter count, triangle count, mode
-    vec4 lights;       // x: total light weight (ray offsets follow each hit triangle: scene_data.glsl)
-    uvec4 debug;       // x: pixel whose events are recorded, y: capacity (0: off)
-    uvec4 adaptive;    // x: 1 = per-pixel sample counts (binding 15): pixel p takes samples [0, n(p)) only,
-                       // y: pixels still taking samples, z: workgroup order stride (workgroup_stride),
-                       // w: 1 = claimed pixels (each invocation takes pixel slots from a counter, binding 17)
+    float tan_half_fov_x;
+    float tan_half_fov_y;
+    float aperture_radius;       // 0: pinhole
+    float focus_distance;        // thin lens: camera-space depth of the focus plane
+    uint film_width;
+    uint film_height;
+    uint seed;
+    uint batch_samples;          // samples per pixel in this batch
+    uint first_sample;           // index of the batch's first sample (the RNG stream position)
+    uint max_depth;
+    uint rr_depth;               // Russian roulette from this depth
+    uint mode;                   // MODE_PATH or MODE_DIRECT_PREVIEW
+    uint light_triangle_count;   // entries of the light table (triangles, then lights at infinity)
+    uint debug_pixel;            // pixel whose events are recorded
+    uint debug_capacity;         // events the debug buffer holds (0: recording off)
+    uint per_pixel_counts;       // 1: per-pixel sample counts (binding 15): pixel p takes samples [0, n(p)) only
+    uint active_pixels;          // per-pixel counts: pixels still taking samples in this batch
+    uint workgroup_stride;       // workgroup order stride (workgroup_stride(), coprime with the count)
+    uint claimed_pixels;         // 1: each invocation takes pixel slots from a counter (binding 17)
+    uint unused0;
 };
 
 // One recorded contribution event (the GPU debug mode): the inputs of the

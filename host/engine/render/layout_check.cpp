@@ -1,5 +1,6 @@
 // Guards the host/shader struct layouts of shaders/shared/types.h: std430 and
-// std140 lay these vec4/uvec4/mat4-only structs out exactly like C++.
+// std140 lay these structs (vec4/uvec4/mat4 members and 4-byte scalars in
+// groups of four) out exactly like C++.
 #include "shared/types.h"
 
 #include <cstddef>
@@ -14,10 +15,13 @@ static_assert(sizeof(GpuBvhNode) == 32);
 static_assert(sizeof(GpuEnvironment) == ENV_WORDS * 16);
 static_assert(sizeof(GpuDirectional) == 32);
 static_assert(sizeof(GpuBvh4Node) == 48);  // 3 RGBA32 texels (shaders/trace_bvh.glsl)
-static_assert(sizeof(GpuParams) == 64 + 7 * 16);
+static_assert(sizeof(GpuParams) == 64 + 5 * 16);
 static_assert(sizeof(GpuDebugEvent) == 32);
-static_assert(offsetof(GpuParams, camera) == 64);
-static_assert(offsetof(GpuParams, lights) == 128);
+static_assert(offsetof(GpuParams, tan_half_fov_x) == 64);
+static_assert(offsetof(GpuParams, film_width) == 80);    // std140: scalars are 4-aligned, so
+static_assert(offsetof(GpuParams, first_sample) == 96);  // each group of four fills one row
+static_assert(offsetof(GpuParams, light_triangle_count) == 112);
+static_assert(offsetof(GpuParams, active_pixels) == 128);
 static_assert(sizeof(GpuPixelAccum) == 9 * 16);
 static_assert(offsetof(GpuPixelAccum, bucket_rgb) == 3 * 16);
 static_assert(BUCKET_COUNT == 7, "bucket_rgb packs seven RGB sums into six vec4s (shaders/pathtrace.comp)");

@@ -196,13 +196,19 @@ Frame Renderer::render(const RenderSpec& spec) {
     gpu::GpuParams p{};
     p.camera_to_world = cam.to_world;
     glm::vec2 tans = camera_tangents(cam);
-    p.camera = glm::vec4(tans, cam.type == CameraType::ThinLens ? cam.aperture_radius : 0.0f, cam.focus_distance);
-    p.sampling = glm::uvec4(0, scene_.integrator.max_depth, scene_.integrator.rr_depth, 0);
-    p.scene = glm::uvec4(static_cast<uint32_t>(arrays_.light_triangles.size()),
-                         static_cast<uint32_t>(arrays_.emitters.size()),
-                         static_cast<uint32_t>(arrays_.triangles.size()), spec.mode);
-    p.lights = glm::vec4(arrays_.light_weight_total, 0.0f, 0.0f, 0.0f);
-    p.debug = glm::uvec4(debug_pixel_, debug_capacity_, 0u, 0u);
+    p.tan_half_fov_x = tans.x;
+    p.tan_half_fov_y = tans.y;
+    p.aperture_radius = cam.type == CameraType::ThinLens ? cam.aperture_radius : 0.0f;
+    p.focus_distance = cam.focus_distance;
+    p.film_width = cam.width;
+    p.film_height = cam.height;
+    p.seed = spec.seed;
+    p.max_depth = scene_.integrator.max_depth;
+    p.rr_depth = scene_.integrator.rr_depth;
+    p.mode = spec.mode;
+    p.light_triangle_count = static_cast<uint32_t>(arrays_.light_triangles.size());
+    p.debug_pixel = debug_pixel_;
+    p.debug_capacity = debug_capacity_;
 
     // Adaptive: n(p) samples at each pixel, samples [0, n(p)) of the seed (docs/descriptor.md §6).
     std::vector<uint32_t> order;
@@ -221,7 +227,7 @@ Frame Renderer::render(const RenderSpec& spec) {
         std::vector<uint32_t> buffer(spec.sample_counts);
         buffer.insert(buffer.end(), order.begin(), order.end());
         sample_counts_.upload(ctx_, buffer.data(), buffer.size() * sizeof(uint32_t));
-        p.adaptive = glm::uvec4(1u, 0u, 0u, 0u);
+        p.per_pixel_counts = 1u;
         total_spp = *std::max_element(spec.sample_counts.begin(), spec.sample_counts.end());
         total_samples = 0;
         for (uint32_t n : spec.sample_counts) total_samples += n;
@@ -233,19 +239,19 @@ Frame Renderer::render(const RenderSpec& spec) {
     const bool cpu_kernel = gpu_.kernel() == vk::KernelClass::Cpu;
     const bool claimed =
         spec.pixel_order == PixelOrder::Claimed || (spec.pixel_order == PixelOrder::Auto && cpu_kernel);
-    p.adaptive.w = claimed ? 1u : 0u;
+    p.claimed_pixels = claimed ? 1u : 0u;
     uint32_t batch_spp = std::max(1u, spec.batch_spp);
     for (uint32_t done = 0; done < total_spp;) {
         uint32_t n = std::min(batch_spp, total_spp - done);
-        p.film = glm::uvec4(cam.width, cam.height, spec.seed, n);
-        p.sampling.x = done;
+        p.batch_samples = n;
+        p.first_sample = done;
         size_t active = pixels;
         if (!order.empty()) {  // the pixels with n(p) > done form a prefix of `order`
             active =
                 static_cast<size_t>(std::partition_point(order.begin(), order.end(),
                                                          [&](uint32_t q) { return spec.sample_counts[q] > done; }) -
                                     order.begin());
-            p.adaptive.y = static_cast<uint32_t>(active);
+            p.active_pixels = static_cast<uint32_t>(active);
         }
         using clk = std::chrono::steady_clock;
         auto t_phase = clk::now();
@@ -269,7 +275,7 @@ Frame Renderer::render(const RenderSpec& spec) {
             const uint32_t zero[4] = {};
             work_.upload(ctx_, zero, sizeof(zero));
         } else {
-            p.adaptive.z = cpu_kernel ? workgroup_stride(static_cast<uint64_t>(gx) * gy) : 1u;
+            p.workgroup_stride = cpu_kernel ? workgroup_stride(static_cast<uint64_t>(gx) * gy) : 1u;
         }
         params_.upload(ctx_, &p, sizeof(p));
         if (features_.counters) {
