@@ -11,7 +11,8 @@
 #                                     # here: builds vkmech at each commit (default:
 #                                     # 3631bde, every later commit that changed shaders/,
 #                                     # HEAD; `worktree`: the current build; `bin:NAME`: a
-#                                     # variant in build-bisect/bin/NAME/) and packs the binaries with their scenes
+#                                     # variant in build-bisect/bin/NAME/; `env:NAME:VAR=VALUE`: the current
+#                                     # build run with VAR=VALUE) and packs the binaries with their scenes
 #                                     # into .gpu/bisect.tar.xz (run `stage` too)
 #   bash ci/gpu-check.sh run bisect [--plan]
 #                                     # there: `bench render --res 512 --spp 64` of every
@@ -320,6 +321,23 @@ bisect_stage() {
             printf 'worktree %s %s\n' "$(date -u +%F)" "the working tree (on $(git rev-parse --short=10 HEAD), uncommitted changes included)" \
                 >>"$stage_dir/bisect/list"
             printf 'gpu-check: bisect-stage: %2d/%d worktree staged\n' "$n" "${#commits[@]}"
+            continue
+        fi
+        if [[ $c == env:* ]]; then
+            # The current build under an environment setting (a run-time switch to
+            # measure, such as VKMECH_GPU_TALLY=shared): env:NAME:VAR=VALUE.
+            local spec=${c#env:} name setting build=${BUILD_DIR:-build}
+            name=${spec%%:*}; setting=${spec#*:}
+            [[ $name != "$spec" && $setting == [A-Z_]*=* ]] || { echo "gpu-check: bisect-stage: '$c': expected env:NAME:VAR=VALUE"; exit 2; }
+            [[ -x $build/vkmech ]] || { echo "gpu-check: bisect-stage: $c: build first ($build/vkmech)"; exit 2; }
+            mkdir -p "$stage_dir/bisect/$name"
+            cp "$build/vkmech" "$stage_dir/bisect/$name/vkmech.bin" && strip "$stage_dir/bisect/$name/vkmech.bin"
+            printf '#!/bin/sh\nexport %q\nexec "$(dirname "$0")/vkmech.bin" "$@"\n' "$setting" >"$stage_dir/bisect/$name/vkmech"
+            chmod +x "$stage_dir/bisect/$name/vkmech"
+            cp -r scenes "$stage_dir/bisect/$name/"
+            printf '%s %s %s\n' "$name" "$(date -u +%F)" "the working tree with $setting (on $(git rev-parse --short=10 HEAD))" \
+                >>"$stage_dir/bisect/list"
+            printf 'gpu-check: bisect-stage: %2d/%d %s staged\n' "$n" "${#commits[@]}" "$name"
             continue
         fi
         if [[ $c == bin:* ]]; then

@@ -147,15 +147,37 @@ struct Tally {
 #endif
 };
 
+#ifdef KERNEL_GPU
+// Specialization (GPU kernel; VKMECH_GPU_TALLY=shared, docs/gpu.md): the seven RGB
+// bucket sums of the sample and of the pixel live in shared memory, each
+// invocation its own 21-float slices indexed at run time, instead of two
+// register arrays live through the whole path (42 floats). The adds happen in
+// the same order, so the images are bit-identical either way.
+layout(constant_id = SPEC_SHARED_TALLY) const bool SHARED_TALLY = false;
+const uint TALLY_FLOATS = 3u * BUCKET_COUNT;
+shared float s_sample_tally[SHARED_TALLY ? 64u * TALLY_FLOATS : 1u];
+shared float s_pixel_tally[SHARED_TALLY ? 64u * TALLY_FLOATS : 1u];
+uint tally_base() { return gl_LocalInvocationIndex * TALLY_FLOATS; }  // 21 is odd: no bank conflicts
+#else
+const bool SHARED_TALLY = false;
+#endif
+
 void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_before, bool glossy_before) {
     t.L += contrib;
     if (!FEATURE_CAPTURE) return;
     float e = luminance(contrib);
     uint b = classify_event(n, end_lobe, delta_before);
 #ifdef KERNEL_GPU
-    // Constant indices: a GPU keeps the tally in registers, where an index
-    // known only at run time puts the whole array in local memory.
-    [[unroll]] for (uint k = 0u; k < BUCKET_COUNT; ++k) t.bucket[k] += k == b ? contrib : vec3(0.0);
+    if (SHARED_TALLY) {
+        uint i = tally_base() + 3u * b;
+        s_sample_tally[i] += contrib.r;
+        s_sample_tally[i + 1u] += contrib.g;
+        s_sample_tally[i + 2u] += contrib.b;
+    } else {
+        // Constant indices: a GPU keeps the tally in registers, where an index
+        // known only at run time puts the whole array in local memory.
+        [[unroll]] for (uint k = 0u; k < BUCKET_COUNT; ++k) t.bucket[k] += k == b ? contrib : vec3(0.0);
+    }
 #else
     t.bucket[b] += contrib;
 #endif
@@ -458,6 +480,10 @@ void render_slot(uint slot) {
     float nonfinite = 0.0;
     vec3 bucket_sum[BUCKET_COUNT];
     for (uint b = 0u; b < BUCKET_COUNT; ++b) bucket_sum[b] = vec3(0.0);
+#ifdef KERNEL_GPU
+    if (SHARED_TALLY)
+        for (uint j = 0u; j < TALLY_FLOATS; ++j) s_pixel_tally[tally_base() + j] = 0.0;
+#endif
     float glossy_sum = 0.0;
     float depth_sum = 0.0;
     float depth_w = 0.0;
@@ -477,6 +503,10 @@ void render_slot(uint slot) {
         Tally t;
         t.L = vec3(0.0);
         for (uint b = 0u; b < BUCKET_COUNT; ++b) t.bucket[b] = vec3(0.0);
+#ifdef KERNEL_GPU
+        if (SHARED_TALLY)
+            for (uint j = 0u; j < TALLY_FLOATS; ++j) s_sample_tally[tally_base() + j] = 0.0;
+#endif
         t.glossy = 0.0;
         t.depth_sum = 0.0;
         t.depth_w = 0.0;
@@ -515,7 +545,12 @@ void render_slot(uint slot) {
         float delta = x - mean_s;  // Welford within the batch
         mean_s += delta / n_ok;
         m2_s += delta * (x - mean_s);
-        for (uint b = 0u; b < BUCKET_COUNT; ++b) bucket_sum[b] += t.bucket[b];
+#ifdef KERNEL_GPU
+        if (SHARED_TALLY)
+            for (uint j = 0u; j < TALLY_FLOATS; ++j) s_pixel_tally[tally_base() + j] += s_sample_tally[tally_base() + j];
+        else
+#endif
+            for (uint b = 0u; b < BUCKET_COUNT; ++b) bucket_sum[b] += t.bucket[b];
         glossy_sum += t.glossy;
         depth_sum += t.depth_sum;
         depth_w += t.depth_w;
@@ -529,6 +564,13 @@ void render_slot(uint slot) {
     // m2_s * 4^w (host/engine/render/frame.hpp, batch_lum_m2).
     a.lum = vec4(ldexp(mean_s, lum_exp), m2_s, nonfinite, float(lum_exp));
     a.side = vec4(glossy_sum, depth_sum, depth_w, 0.0);
+#ifdef KERNEL_GPU
+    if (SHARED_TALLY)
+        for (uint b = 0u; b < BUCKET_COUNT; ++b) {
+            uint i = tally_base() + 3u * b;
+            bucket_sum[b] = vec3(s_pixel_tally[i], s_pixel_tally[i + 1u], s_pixel_tally[i + 2u]);
+        }
+#endif
     // Seven RGB sums packed into six vec4s (GpuPixelAccum::bucket_rgb, float 3b + c).
     a.bucket_rgb[0] = vec4(bucket_sum[0], bucket_sum[1].x);
     a.bucket_rgb[1] = vec4(bucket_sum[1].yz, bucket_sum[2].xy);

@@ -3,6 +3,7 @@
 // SceneError naming the file, quickly. The fixtures are written by the tests.
 #include "render/gpu_scene.hpp"
 #include "scene/scene.hpp"
+#include "scoped_env.hpp"
 #include "temp_dir.hpp"
 
 #include <doctest/doctest.h>
@@ -85,12 +86,7 @@ std::string black_png(uint32_t w, uint32_t h) {
     return png;
 }
 
-// Sets an environment variable for one scope.
-struct ScopedEnv {
-    std::string name;
-    ScopedEnv(const std::string& n, const std::string& value) : name(n) { ::setenv(n.c_str(), value.c_str(), 1); }
-    ~ScopedEnv() { ::unsetenv(name.c_str()); }
-};
+using vkmech::testing::ScopedEnv;
 
 }  // namespace
 

@@ -44,6 +44,7 @@ VKM_ID SPEC_DEBUG_EVENTS = 9u;
 VKM_ID SPEC_END_VERTEX_LITERAL = 10u;
 VKM_ID SPEC_ORTHOGRAPHIC = 11u;         // camera.glsl
 VKM_ID SPEC_ENVIRONMENT = 13u;          // features.glsl: emitters at infinity
+VKM_ID SPEC_SHARED_TALLY = 14u;         // pathtrace.comp, GPU kernel only: the bucket tally in shared memory
 
 #ifdef __cplusplus
 }  // namespace vkmech::gpu

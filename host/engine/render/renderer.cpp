@@ -23,14 +23,29 @@ namespace {
 // The counters buffer: the traversal's work, then 64-bit clock ticks per phase (shared/types.h).
 constexpr uint32_t kCounterWords = gpu::COUNTER_CLOCK + 2 * gpu::PHASE_COUNT;
 
+// VKMECH_GPU_TALLY=registers|shared: where the GPU kernel keeps its bucket
+// tally (shaders/pathtrace.comp, SHARED_TALLY; docs/gpu.md). A measurement
+// switch for GPU sessions; the CPU kernel has one layout and ignores it.
+bool shared_tally_from_env() {
+    const char* env = std::getenv("VKMECH_GPU_TALLY");
+    if (!env || !*env || std::string(env) == "registers") return false;
+    if (std::string(env) == "shared") return true;
+    throw std::invalid_argument(std::string("VKMECH_GPU_TALLY='") + env +
+                                "': expected 'registers' (the default) or 'shared'");
+}
+
 // The pipeline specialization of one Features value.
 std::vector<vk::SpecConstant> spec_constants(const Features& f) {
     using namespace gpu;
-    std::vector<vk::SpecConstant> c = {
-        {SPEC_THIN_LENS, f.thin_lens},       {SPEC_TEXTURES, f.textures},
-        {SPEC_CAPTURE, f.capture},           {SPEC_ESTIMATOR, static_cast<uint32_t>(f.estimator)},
-        {SPEC_DEBUG_EVENTS, f.debug_events}, {SPEC_END_VERTEX_LITERAL, f.end_vertex == EndVertex::Literal},
-        {SPEC_ORTHOGRAPHIC, f.orthographic}, {SPEC_ENVIRONMENT, f.environment}};
+    std::vector<vk::SpecConstant> c = {{SPEC_THIN_LENS, f.thin_lens},
+                                       {SPEC_TEXTURES, f.textures},
+                                       {SPEC_CAPTURE, f.capture},
+                                       {SPEC_ESTIMATOR, static_cast<uint32_t>(f.estimator)},
+                                       {SPEC_DEBUG_EVENTS, f.debug_events},
+                                       {SPEC_END_VERTEX_LITERAL, f.end_vertex == EndVertex::Literal},
+                                       {SPEC_ORTHOGRAPHIC, f.orthographic},
+                                       {SPEC_ENVIRONMENT, f.environment},
+                                       {SPEC_SHARED_TALLY, shared_tally_from_env()}};
 #define VKM_X(NAME, name, bit, spec_id) c.push_back({SPEC_##NAME, (f.materials & FEATURE_BIT_##NAME) != 0u});
     VKM_MATERIAL_FEATURES(VKM_X)
 #undef VKM_X
