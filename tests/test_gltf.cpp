@@ -552,6 +552,32 @@ TEST_CASE("gltf: emissive materials with emissive_strength are front-side area e
     CHECK(s.meshes[2].emitter == -1);
 }
 
+TEST_CASE("gltf: KHR_materials_unlit is refused with the reason, and --substitute renders it lit and says so") {
+    TempDir dir("unlit");
+    Gltf g;
+    int m = g.add(g.materials,
+                  "{\"name\":\"sign\",\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.9,0.1,0.1,1],"
+                  "\"metallicFactor\":0,\"roughnessFactor\":1},\"extensions\":{\"KHR_materials_unlit\":{}}}");
+    g.used = {"KHR_materials_unlit"};
+    g.root("{\"mesh\":" + std::to_string(quad_mesh(g, m)) + "}");
+    std::string path = g.write_external(dir, "unlit");
+
+    expect_error(path, "material 0 'sign': KHR_materials_unlit");
+    expect_error(path, "--substitute");
+
+    LoadOptions sub;
+    sub.substitute_unsupported = true;
+    Scene s = load_scene(path, sub);
+    REQUIRE(s.substitutions.size() == 1);
+    CHECK(s.substitutions[0].find("KHR_materials_unlit ignored") != std::string::npos);
+    CHECK(s.substitutions[0].find("'sign'") != std::string::npos);
+    CHECK_FALSE(has_warning(s, "KHR_materials_unlit"));  // said once, as a substitution
+    const Material& mat = s.materials.at(s.meshes.at(0).material);
+    CHECK(mat.emission_texture < 0);
+    CHECK(s.emitters.empty());  // lit, not a light
+    CHECK(near(mat.reflectance.value, {0.9f, 0.1f, 0.1f}));
+}
+
 TEST_CASE("gltf: KHR_lights_punctual is an error unless substituted by spheres of equal power") {
     TempDir dir("lights");
     Gltf g;

@@ -97,9 +97,23 @@ Material GltfLoader::convert_material(const tinygltf::Material& g, const std::st
     double ior = number(ior_ext, "KHR_materials_ior", "ior", 1.5, 1.0, 100.0);
     double cc = number(clearcoat, "KHR_materials_clearcoat", "clearcoatFactor", 0.0, 0.0, 1.0);
     double cc_rough = number(clearcoat, "KHR_materials_clearcoat", "clearcoatRoughnessFactor", 0.0, 0.0, 1.0);
+    if (extension(g.extensions, "KHR_materials_unlit")) {
+        // An unlit material shows its base colour whatever the light (glTF's extension for
+        // baked or stylised looks): in a path tracer it neither reflects nor emits, so no
+        // transport mechanism could label it. Refused; with --substitute it is the lit
+        // material its pbrMetallicRoughness describes, said in the substitution list.
+        if (!options_.substitute_unsupported)
+            fail(label +
+                 ": KHR_materials_unlit shows the base colour unlit, which has no physical meaning in a path "
+                 "tracer (the surface would neither reflect nor emit light); re-export it as a lit material, or pass "
+                 "--substitute to render it as the lit material its pbrMetallicRoughness describes");
+        scene_.substitutions.push_back(path_ + ": " + label +
+                                       ": KHR_materials_unlit ignored; rendered as the lit material of its "
+                                       "pbrMetallicRoughness (base colour, metallic, roughness)");
+    }
     for (const auto& [name, value] : g.extensions) {
         if (name == "KHR_materials_transmission" || name == "KHR_materials_ior" || name == "KHR_materials_clearcoat" ||
-            name == "KHR_materials_emissive_strength")
+            name == "KHR_materials_emissive_strength" || name == "KHR_materials_unlit")
             continue;
         warn(label + ": extension " + name + " is not supported and is ignored");
     }
