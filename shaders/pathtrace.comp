@@ -318,6 +318,13 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
             if (t_spec != 0u) m.specular_reflectance = vec4(texture_lookup(t_spec - 1u, s.uv), m.specular_reflectance.w);
             if (t_trans != 0u)
                 m.specular_transmittance = vec4(texture_lookup(t_trans - 1u, s.uv), m.specular_transmittance.w);
+            uint t_alpha = m.frame_tex.z;  // the rough models' alpha_u (low) and alpha_v (high)
+            if (t_alpha != 0u) {
+                uint t_u = t_alpha & MAT_TEX_MASK, t_v = t_alpha >> MAT_TEX_SHIFT;
+                // As the loader's constants: alpha 0 would be a delta lobe in disguise.
+                if (t_u != 0u) m.reflectance.w = max(luminance(texture_lookup(t_u - 1u, s.uv)), 1e-4);
+                if (t_v != 0u) m.specular_reflectance.w = max(luminance(texture_lookup(t_v - 1u, s.uv)), 1e-4);
+            }
             uint t_param = m.header.w >> MAT_TEX_SHIFT;  // principled's metallic (B) and roughness (G)
             if (t_param != 0u) {
                 vec3 mr = texture_lookup(t_param - 1u, s.uv);

@@ -110,16 +110,26 @@ TEST_CASE("mitsuba third-party: checkerboard and bitmap textures on any colour p
     REQUIRE(s.warnings.size() == 1);                                     // only that nothing emits
     CHECK(has_warning(s, "no emitter"));
 
-    // A texture on a float parameter is outside the model: refused, or with
-    // --substitute reduced to its mean (checkerboard 0.4 / 0.2 -> 0.3).
+    // roughconductor's textured alpha is read at each hit (the constant holds the
+    // checkerboard's mean, 0.4 / 0.2 -> 0.3); a texture on a float parameter the model
+    // does not read per hit (roughplastic's alpha) is refused, or with --substitute
+    // reduced to its mean.
     std::string textured_alpha = write_scene("textured_alpha", R"(
   <shape type="cube"><bsdf type="roughconductor"><texture type="checkerboard" name="alpha"/></bsdf></shape>)");
-    CHECK_THROWS_WITH_AS(load_scene(textured_alpha), doctest::Contains("--substitute"), SceneError);
+    Scene ta = load_scene(textured_alpha);
+    const Material& rc = ta.materials[ta.meshes[0].material];
+    CHECK(rc.alpha_u == doctest::Approx(0.3f));
+    CHECK(rc.alpha_u_texture >= 0);
+    CHECK(ta.substitutions.empty());
+    std::string plastic_alpha = write_scene("plastic_alpha", R"(
+  <shape type="cube"><bsdf type="roughplastic"><texture type="checkerboard" name="alpha"/></bsdf></shape>)");
+    CHECK_THROWS_WITH_AS(load_scene(plastic_alpha), doctest::Contains("--substitute"), SceneError);
     LoadOptions sub;
     sub.substitute_unsupported = true;
-    Scene ta = load_scene(textured_alpha, sub);
-    CHECK(ta.materials[ta.meshes[0].material].alpha_u == doctest::Approx(0.3f));
-    CHECK(ta.substitutions.size() == 1);
+    Scene pa = load_scene(plastic_alpha, sub);
+    CHECK(pa.materials[pa.meshes[0].material].alpha_u == doctest::Approx(0.3f));
+    CHECK(pa.materials[pa.meshes[0].material].alpha_u_texture == -1);
+    CHECK(pa.substitutions.size() == 1);
 }
 
 TEST_CASE("mitsuba third-party: every element or property that is not used is a warning") {

@@ -65,6 +65,15 @@ void distribution(const XProps& p, Material& m) {
         p.find({"distribution"})->fail("unknown microfacet distribution '" + *d + "' (expected beckmann or ggx)");
 }
 
+// The mean luminance of a texture's texels (a float parameter's constant stand-in).
+float mean_luminance(const Texture& t) {
+    double sum = 0.0;
+    for (size_t i = 0; i + 2 < t.rgb.size(); i += 3)
+        sum += gpu::LUM_R * t.rgb[i] + gpu::LUM_G * t.rgb[i + 1] + gpu::LUM_B * t.rgb[i + 2];
+    const size_t count = t.rgb.size() / 3;
+    return count ? static_cast<float>(sum / static_cast<double>(count)) : 0.0f;
+}
+
 // Microfacet roughness: `alpha`, or `alpha_u` and `alpha_v` together.
 void roughness(const XProps& p, Material& m, bool anisotropic_allowed) {
     auto a = p.opt_float({"alpha"});
@@ -202,7 +211,22 @@ int MitsubaLoader::bsdf(const XNode& n) {
     XProps p(n);
     const std::string id = n.attr("id").value_or("");
     Material m;
-    // Textured float parameters (roughness, metallic, ...) are outside the
+    // roughconductor and roughdielectric read a textured alpha at each hit (Mitsuba 3's
+    // textured alpha, alpha_u, alpha_v: the bitmap's luminance); the constant is its mean.
+    int alpha_tex[2] = {-1, -1};  // alpha_u, alpha_v
+    if (type == "roughconductor" || type == "roughdielectric") {
+        for (const char* name : {"alpha", "alpha_u", "alphaU", "alpha_v", "alphaV"}) {
+            const XNode* t = p.peek(name);
+            if (!t || (t->tag() != "texture" && t->tag() != "ref")) continue;
+            if (t->tag() == "ref" && lookup_ref(*t).kind != IdKind::Texture) continue;
+            const int index = texture(*t);
+            p.set_float(name, mean_luminance(scene_.textures[index]));
+            const bool u = name[6] != 'v' && name[6] != 'V', v = name[6] != 'u' && name[6] != 'U';
+            if (u) alpha_tex[0] = index;
+            if (v) alpha_tex[1] = index;
+        }
+    }
+    // Other textured float parameters (roughness, metallic, ...) are outside the
     // model: --substitute uses the texture's mean.
     static const char* float_params[] = {"alpha",     "alpha_u",    "alpha_v",   "alphaU",          "alphaV",
                                          "roughness", "metallic",   "specular",  "spec_tint",       "anisotropic",
@@ -211,6 +235,8 @@ int MitsubaLoader::bsdf(const XNode& n) {
     for (const char* name : float_params) {
         const XNode* t = p.peek(name);
         if (!t || (t->tag() != "texture" && t->tag() != "ref") || type == "mask" || type == "blendbsdf") continue;
+        if ((type == "roughconductor" || type == "roughdielectric") && std::string(name).rfind("alpha", 0) == 0)
+            continue;  // read at each hit (above)
         if (t->tag() == "ref" && lookup_ref(*t).kind != IdKind::Texture) continue;
         require_substitute(*t, "texture", "its mean value on the float parameter '" + std::string(name) + "'");
         const Texture& tex = scene_.textures[texture(*t)];
@@ -342,6 +368,8 @@ int MitsubaLoader::bsdf(const XNode& n) {
                         ", twosided, normalmap, bumpmap (its map ignored); with --substitute also mask, blendbsdf, "
                         "phong)");
     }
+    if (alpha_tex[0] >= 0) m.alpha_u_texture = alpha_tex[0];
+    if (alpha_tex[1] >= 0) m.alpha_v_texture = alpha_tex[1];
     warn_unused(p);
     if (type != "twosided" || !id.empty()) m.id = id.empty() ? type + "#" + std::to_string(bsdf_count_) : id;
     ++bsdf_count_;

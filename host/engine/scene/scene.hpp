@@ -95,6 +95,11 @@ struct Material {
     // +x along dp/du, +y along n x dp/du; its x and y times normal_scale.
     int normal_texture = -1;
     float normal_scale = 1.0f;
+    // roughconductor, roughdielectric: Mitsuba's textured `alpha` (both) or `alpha_u` /
+    // `alpha_v`, the texture's luminance read at each hit; alpha_u and alpha_v hold
+    // the textures' mean luminances.
+    int alpha_u_texture = -1;
+    int alpha_v_texture = -1;
     // Calls f on every texture index above (-1: none), as int& (const int& on a const
     // Material): the one list of a material's textures, for whoever remaps or tests them.
     template <class F>
@@ -120,6 +125,8 @@ private:
         f(m.emission_texture);
         f(m.metallic_roughness_texture);
         f(m.normal_texture);
+        f(m.alpha_u_texture);
+        f(m.alpha_v_texture);
     }
 
 public:
