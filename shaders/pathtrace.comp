@@ -203,16 +203,30 @@ void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_be
 // t = dp/du made orthogonal to the shading normal ns, b = ns x t, ns; Mitsuba's
 // normalmap and the glTF sample viewer's frame without stored tangents. ns
 // unchanged where the uvs give no tangent.
-vec3 normal_mapped(SurfaceHit s, uvec4 frame_tex) {
+vec3 normal_mapped(SurfaceHit s, uint slot, float scale) {
     vec3 t = s.dpdu - s.ns * dot(s.ns, s.dpdu);
     float tl = length(t);
     if (!(tl > 0.0)) return s.ns;
     t /= tl;
-    vec3 n = texture_lookup(frame_tex.x - 1u, s.uv) * 2.0 - 1.0;
-    float scale = uintBitsToFloat(frame_tex.y);
+    vec3 n = texture_lookup(slot - 1u, s.uv) * 2.0 - 1.0;
     vec3 m = t * (n.x * scale) + cross(s.ns, t) * (n.y * scale) + s.ns * n.z;
     float ml = length(m);
     return ml > 0.0 ? m / ml : s.ns;
+}
+
+// The shading normal a bump map gives at s (Mitsuba 3's bumpmap): the height h (the texture's
+// luminance times scale) displaces the surface along ns, so dp/du' = dp/du + ns (dh/du -
+// ns . dp/du) and likewise for v, and ns' = dp/du' x dp/dv', turned to the side of ng. A
+// constant height gives ns back; ns unchanged where the uvs give no derivatives.
+vec3 bump_mapped(SurfaceHit s, uint slot, float scale) {
+    vec2 g = scale * texture_luminance_gradient(slot - 1u, s.uv);
+    vec3 du = s.dpdu + s.ns * (g.x - dot(s.ns, s.dpdu));
+    vec3 dv = s.dpdv + s.ns * (g.y - dot(s.ns, s.dpdv));
+    vec3 m = cross(du, dv);
+    float ml = length(m);
+    if (!(ml > 0.0)) return s.ns;
+    m /= ml;
+    return dot(m, s.ng) < 0.0 ? -m : m;
 }
 
 // Whether the segment from o along unit d is blocked before tmax (NEE's shadow ray).
@@ -301,7 +315,12 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
         if (k >= max_depth) PATH_BREAK;  // no segment left for NEE or a bounce
 
         GpuMaterial m = material_at(s.material);
-        if (FEATURE_TEXTURES && m.frame_tex.x != 0u) s.ns = normal_mapped(s, m.frame_tex);
+        if (FEATURE_TEXTURES && m.frame_tex.x != 0u) {
+            uint normal_slot = m.frame_tex.x & MAT_TEX_MASK;
+            float scale = uintBitsToFloat(m.frame_tex.y);
+            s.ns = normal_slot != 0u ? normal_mapped(s, normal_slot, scale)
+                                     : bump_mapped(s, m.frame_tex.x >> MAT_TEX_SHIFT, scale);
+        }
         Frame3 fr = frame_from_normal(s.ns);
         vec3 wo_world = -d;
         vec3 wo = to_local(fr, wo_world);

@@ -113,6 +113,29 @@ vec3 texture_lookup(uint tex, vec2 uv_in) {
     return mix(mix(c00, c10, t.x), mix(c01, c11, t.x), t.y);
 }
 
+// The uv gradient of a texture's luminance at uv_in (Mitsuba 3's eval_1_grad): the bilinear
+// interpolant's derivatives in texel units times the resolution, taken back through the to_uv
+// transform (its transpose); zero for nearest lookups and checkerboards, which are piecewise
+// constant.
+vec2 texture_luminance_gradient(uint tex, vec2 uv_in) {
+    uvec4 info = SCENE_FETCH(texture_buf, TEX_WORDS * tex);
+    if ((info.w & 0xFFu) == TEX_CHECKERBOARD || (info.w & TEX_NEAREST_BIT) != 0u) return vec2(0.0);
+    vec3 a = uintBitsToFloat(SCENE_FETCH(texture_buf, TEX_WORDS * tex + 1u).xyz);
+    vec3 b = uintBitsToFloat(SCENE_FETCH(texture_buf, TEX_WORDS * tex + 2u).xyz);
+    vec2 uv = vec2(dot(a, vec3(uv_in, 1.0)), dot(b, vec3(uv_in, 1.0)));
+    vec2 size = vec2(float(info.y), float(info.z));
+    vec2 p = uv * size - 0.5;
+    vec2 f = floor(p);
+    vec2 t = p - f;
+    vec3 w = vec3(LUM_R, LUM_G, LUM_B);
+    float c00 = dot(texel_at(info, f.x, f.y), w);
+    float c10 = dot(texel_at(info, f.x + 1.0, f.y), w);
+    float c01 = dot(texel_at(info, f.x, f.y + 1.0), w);
+    float c11 = dot(texel_at(info, f.x + 1.0, f.y + 1.0), w);
+    vec2 g = vec2(mix(c10 - c00, c11 - c01, t.y), mix(c01 - c00, c11 - c10, t.x)) * size;  // d/d(to_uv's u, v)
+    return vec2(a.x * g.x + b.x * g.y, a.y * g.x + b.y * g.y);
+}
+
 // Emitters at infinity (shaders/environment.glsl, shared/types.h GpuEnvironment).
 #define ENV_TEXEL(i) SCENE_FETCH_F(texel_buf, i)
 #include "environment.glsl"
@@ -162,6 +185,7 @@ struct SurfaceHit {
     vec3 ns;       // shading normal, same hemisphere as ng
     vec2 uv;
     vec3 dpdu;     // textured scenes: dp/du of the triangle (zero where its uvs are degenerate)
+    vec3 dpdv;     // textured scenes: dp/dv likewise
     uint material;
     uint emitter;  // emitter index + 1, 0 when not emissive
 };
@@ -195,12 +219,17 @@ SurfaceHit surface_hit(uint prim, vec2 bary) {
     }
     s.uv = w0 * vec2(pa.w, na.w) + bary.x * vec2(pb.w, nb.w) + bary.y * vec2(pc.w, nc.w);
     s.dpdu = vec3(0.0);
+    s.dpdv = vec3(0.0);
     if (FEATURE_TEXTURES) {
-        // dp/du from the edges and their uv differences (a normal map's tangent).
+        // dp/du, dp/dv from the edges and their uv differences (a normal map's tangent, a bump
+        // map's surface derivatives).
         vec2 d1 = vec2(pb.w - pa.w, nb.w - na.w);
         vec2 d2 = vec2(pc.w - pa.w, nc.w - na.w);
         float det = d1.x * d2.y - d1.y * d2.x;
-        if (det != 0.0) s.dpdu = ((pb.xyz - pa.xyz) * d2.y - (pc.xyz - pa.xyz) * d1.y) / det;
+        if (det != 0.0) {
+            s.dpdu = ((pb.xyz - pa.xyz) * d2.y - (pc.xyz - pa.xyz) * d1.y) / det;
+            s.dpdv = ((pc.xyz - pa.xyz) * d1.x - (pb.xyz - pa.xyz) * d2.x) / det;
+        }
     }
     s.material = tri.w & TRI_MATERIAL_MASK;
     s.emitter = (tri.w >> TRI_EMITTER_SHIFT) & TRI_EMITTER_MASK;

@@ -169,15 +169,21 @@ TEST_CASE("mitsuba third-party: every element or property that is not used is a 
     for (const auto& w : s.warnings) CHECK(w.find("unused.xml") != std::string::npos);
 }
 
-TEST_CASE("mitsuba third-party: bump and normal maps load with a warning, a cut-out mask needs --substitute") {
+TEST_CASE(
+    "mitsuba third-party: bump maps load as they are, an opaque mask with a warning, a cut-out mask needs "
+    "--substitute") {
     Scene s = load_scene(write_scene("bump", R"(
   <shape type="cube"><bsdf type="bumpmap">
     <texture name="arg" type="checkerboard"/><float name="scale" value="0.1"/>
     <bsdf type="roughplastic"/></bsdf></shape>
   <shape type="sphere"><bsdf type="mask"><float name="opacity" value="1"/><bsdf type="conductor"/></bsdf></shape>)"));
-    CHECK(s.materials[s.meshes[0].material].type == BsdfType::RoughPlastic);
+    const Material& bumped = s.materials[s.meshes[0].material];
+    CHECK(bumped.type == BsdfType::RoughPlastic);
+    REQUIRE(bumped.bump_texture >= 0);
+    CHECK(s.textures[bumped.bump_texture].kind == TextureKind::Checkerboard);
+    CHECK(bumped.bump_scale == 0.1f);
     CHECK(s.materials[s.meshes[1].material].type == BsdfType::Conductor);
-    CHECK(has_warning(s, "bump map is ignored"));
+    CHECK_FALSE(has_warning(s, "bump map"));
     CHECK(has_warning(s, "opacity 1 changes nothing"));
     CHECK(s.substitutions.empty());
 

@@ -92,6 +92,26 @@ void split_quad(Scene& s, const Material& left, const Material& right) {
     s.meshes.push_back(r);
 }
 
+// A diffuse quad (albedo 0.5) facing the camera (normal -z) whose uvs are not mirrored as seen
+// from its front: u grows to the image right (world -x), v downwards; so dp/du = (-2, 0, 0),
+// dp/dv = (0, -2, 0) and n x dp/du = +y. Lit by one directional light (irradiance 2), nothing
+// else, so each pixel is albedo / pi x 2 x cos: exact up to float rounding.
+const glm::vec3 kFacingQuadLight = glm::normalize(glm::vec3(0.5f, -0.3f, 0.8f));
+Scene facing_quad() {
+    Scene s = testing::quad_scene();
+    s.camera.fov_deg = 30.0f;
+    Mesh& q = s.meshes[0];
+    q.positions = {{1, 1, 0}, {1, -1, 0}, {-1, -1, 0}, {-1, 1, 0}};
+    q.uvs = {{0, 0}, {0, 1}, {1, 1}, {1, 0}};
+    s.materials[0].reflectance.value = glm::vec3(0.5f);
+    s.directional_lights.push_back({kFacingQuadLight, glm::vec3(2.0f)});
+    return s;
+}
+// What facing_quad renders where the shading normal is n.
+double facing_quad_radiance(const glm::vec3& n) {
+    return 0.5 * 2.0 * glm::dot(n, -kFacingQuadLight) / 3.14159265358979;
+}
+
 // A 16 x 16 render, 64 spp, MIS: the size half_means reads.
 Frame render_halves(vkmech::vk::Context& ctx, const Scene& s) {
     testing::RenderSetup setup;
@@ -175,7 +195,7 @@ TEST_CASE("emission texture: a Mitsuba area emitter's radiance texture becomes i
     CHECK(d.textures[dm.emission_texture].rgb[0] == 2.0f);
 }
 
-TEST_CASE("normal map: Mitsuba's normalmap wrapper gives its nested bsdf the map - bumpmap is still a warning") {
+TEST_CASE("normal map: Mitsuba's normalmap and bumpmap wrappers give their nested bsdf the map, one per material") {
     testing::TempDir dir("normalmap");
     std::vector<float> x = {0.5f}, z = {1.0f};
     write_exr_layers(dir.file("n.exr"), 1, 1, {{"R", x}, {"G", x}, {"B", z}});
@@ -191,14 +211,27 @@ TEST_CASE("normal map: Mitsuba's normalmap wrapper gives its nested bsdf the map
     CHECK(m.type == BsdfType::RoughConductor);
     REQUIRE(m.normal_texture >= 0);
     CHECK(s.textures[m.normal_texture].rgb[2] == 1.0f);
-    CHECK(s.materials[s.meshes[1].material].normal_texture == -1);
-    int bump = 0, normal = 0;
+    const Material& b = s.materials[s.meshes[1].material];
+    CHECK(b.normal_texture == -1);
+    CHECK(b.bump_texture >= 0);  // the unnamed nested texture (0.6 style)
+    CHECK(b.bump_scale == 1.0f);
     for (const auto& w : s.warnings) {
-        bump += w.find("bump map is ignored") != std::string::npos;
-        normal += w.find("normal map") != std::string::npos;
+        CHECK(w.find("bump") == std::string::npos);
+        CHECK(w.find("normal map") == std::string::npos);
     }
-    CHECK(bump == 1);
-    CHECK(normal == 0);
+    // Packed for the device: the normal map's slot low in frame_tex.x, the bump map's high.
+    const SceneArrays a = flatten_scene(s);
+    CHECK(a.materials[s.meshes[0].material].frame_tex.x == static_cast<uint32_t>(m.normal_texture + 1));
+    CHECK(a.materials[s.meshes[1].material].frame_tex.x == static_cast<uint32_t>(b.bump_texture + 1) << 16);
+
+    // Both around one bsdf: refused (one shading-normal texture per material).
+    std::ofstream(dir.file("both.xml")) << R"(<scene version="3.0.0"><sensor type="perspective"/>
+  <shape type="cube"><bsdf type="bumpmap"><texture type="bitmap"><string name="filename" value="n.exr"/></texture>
+    <bsdf type="normalmap"><texture name="normalmap" type="bitmap"><string name="filename" value="n.exr"/></texture>
+      <bsdf type="diffuse"/></bsdf></bsdf></shape>
+</scene>)";
+    CHECK_THROWS_WITH_AS(load_scene(dir.file("both.xml")), doctest::Contains("one shading-normal texture per material"),
+                         SceneError);
 }
 
 TEST_CASE(
@@ -371,18 +404,49 @@ TEST_SUITE("gpu") {
         }
     }
 
+    TEST_CASE("bump map: a constant height renders the plain plane, a ramp tilts the normal as Mitsuba's bump() says") {
+        VKMECH_REQUIRE_GPU(ctx);
+        // Heights 0, 1/4, 1/2, 3/4 across u (4 x 1 texels, bilinear): between the first and the
+        // last texel centre (u in [1/8, 7/8], image columns 1..6 of 8) dh/du = 1/4 x 4 = 1, and
+        // dh/dv = 0. Times scale s: dp/du' = (-2, 0, 0) + n s = (-2, 0, -s), dp/dv' = (0, -2, 0),
+        // so the normal is (s, 0, -2) / sqrt(s^2 + 4) on the camera's side.
+        auto bumped = [](std::vector<float> heights, float scale) {
+            Scene s = facing_quad();
+            Texture t;
+            t.width = static_cast<int>(heights.size());
+            t.height = 1;
+            for (float h : heights) t.rgb.insert(t.rgb.end(), {h, h, h});
+            s.textures.push_back(t);
+            s.materials[0].bump_texture = 0;
+            s.materials[0].bump_scale = scale;
+            return s;
+        };
+        testing::RenderSetup setup;
+        setup.res = 8;
+        setup.spp = 4;
+        Frame flat = testing::render_scene(*ctx, bumped({0.7f}, 3.0f), setup);
+        Frame ramp = testing::render_scene(*ctx, bumped({0.0f, 0.25f, 0.5f, 0.75f}, 0.5f), setup);
+        Frame steep = testing::render_scene(*ctx, bumped({0.0f, 0.25f, 0.5f, 0.75f}, -2.0f), setup);
+        const double plain = facing_quad_radiance(glm::vec3(0, 0, -1));
+        const double tilted = facing_quad_radiance(glm::normalize(glm::vec3(0.5f, 0.0f, -2.0f)));
+        const double tilted_back = facing_quad_radiance(glm::normalize(glm::vec3(-2.0f, 0.0f, -2.0f)));
+        CHECK(std::abs(tilted - plain) > 0.03);  // the tilts show
+        CHECK(std::abs(tilted_back - plain) > 0.03);
+        for (int y = 0; y < 8; ++y)
+            for (int x = 1; x < 7; ++x) {
+                CAPTURE(x);
+                CAPTURE(y);
+                const size_t i = static_cast<size_t>(y) * 8 + x;
+                CHECK(flat.pixels[i].lum_mean == doctest::Approx(plain).epsilon(1e-5));
+                CHECK(ramp.pixels[i].lum_mean == doctest::Approx(tilted).epsilon(1e-4));
+                CHECK(steep.pixels[i].lum_mean == doctest::Approx(tilted_back).epsilon(1e-4));
+            }
+    }
+
     TEST_CASE("normal map: a flat map renders the plain plane, a tilted one lights it as its normal says") {
         VKMECH_REQUIRE_GPU(ctx);
-        // A diffuse quad facing the camera (normal -z) whose uvs are not mirrored as seen from its
-        // front: u grows to the image right (world -x), v downwards; so dp/du = -x and n x dp/du = +y.
         auto quad = [](const glm::vec3& texel) {
-            Scene s = testing::quad_scene();
-            s.camera.fov_deg = 30.0f;
-            Mesh& q = s.meshes[0];
-            q.positions = {{1, 1, 0}, {1, -1, 0}, {-1, -1, 0}, {-1, 1, 0}};
-            q.uvs = {{0, 0}, {0, 1}, {1, 1}, {1, 0}};
-            s.materials[0].reflectance.value = glm::vec3(0.5f);
-            s.directional_lights.push_back({glm::normalize(glm::vec3(0.5f, -0.3f, 0.8f)), glm::vec3(2.0f)});
+            Scene s = facing_quad();
             if (texel.z > 0.0f) {
                 Texture t;
                 t.width = t.height = 1;
@@ -399,12 +463,11 @@ TEST_SUITE("gpu") {
         Frame flat = testing::render_scene(*ctx, quad(glm::vec3(0.5f, 0.5f, 1.0f)), setup);
         const glm::vec3 n = glm::normalize(glm::vec3(0.3f, 0.4f, 0.866f));
         Frame tilted = testing::render_scene(*ctx, quad(0.5f * (n + 1.0f)), setup);
-        const glm::vec3 to_light = -glm::normalize(glm::vec3(0.5f, -0.3f, 0.8f));
         // Tangent frame: t = -x, b = +y, the normal -z.
         const glm::vec3 mapped =
             glm::normalize(glm::vec3(-1, 0, 0) * n.x + glm::vec3(0, 1, 0) * n.y + glm::vec3(0, 0, -1) * n.z);
-        const double expected_plain = 0.5 * 2.0 * glm::dot(glm::vec3(0, 0, -1), to_light) / 3.14159265358979;
-        const double expected_tilted = 0.5 * 2.0 * glm::dot(mapped, to_light) / 3.14159265358979;
+        const double expected_plain = facing_quad_radiance(glm::vec3(0, 0, -1));
+        const double expected_tilted = facing_quad_radiance(mapped);
         CHECK(std::abs(expected_tilted - expected_plain) > 0.05);  // the tilt shows
         for (size_t i = 0; i < plain.pixels.size(); ++i) {
             CHECK(plain.pixels[i].lum_mean == doctest::Approx(expected_plain).epsilon(1e-5));

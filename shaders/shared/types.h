@@ -115,9 +115,11 @@ struct GpuMaterial {
     vec4 model0;
     vec4 model1;
     vec4 model2;
-    // Textures read at each hit in textured scenes only: x: the normal map's slot
-    // (texture + 1, 0: none; tangent space, +x along dp/du, +y along n x dp/du), y: the bits of
-    // its scale (glTF normalTexture.scale: the map's x and y times it), z: the roughness
+    // Textures read at each hit in textured scenes only: x: low 16 bits the normal map's slot
+    // (texture + 1, 0: none; tangent space, +x along dp/du, +y along n x dp/du), high 16 bits
+    // the bump map's (Mitsuba's bumpmap: a height texture); y: the bits of the one present's
+    // scale (glTF normalTexture.scale: the map's x and y times it; bumpmap's scale: the
+    // height's), z: the roughness
     // textures of roughconductor and roughdielectric (low 16 bits alpha_u's slot, high alpha_v's;
     // their luminance replaces reflectance.w and specular_reflectance.w), w: unused.
     uvec4 frame_tex;

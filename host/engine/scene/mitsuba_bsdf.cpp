@@ -127,7 +127,7 @@ void principled(const XProps& p, Material& m) {
 }
 
 // The one nested <bsdf> (or <ref>) of a wrapper; unnamed <texture> children
-// (0.6-style bump maps) are skipped.
+// (a bumpmap's height in the 0.6 style) are skipped.
 const XNode& nested_ignoring_textures(const XProps& p, const XNode& n) {
     const XNode* inner = nullptr;
     for (const XNode& o : p.objects()) {
@@ -262,16 +262,32 @@ int MitsubaLoader::bsdf(const XNode& n) {
             n.fail("bsdf 'normalmap' needs a texture property 'normalmap'");
         int tex = texture(*map);
         m = scene_.materials[bsdf(nested_ignoring_textures(p, n))];
+        if (m.normal_texture >= 0 || m.bump_texture >= 0)
+            n.fail(
+                "bsdf 'normalmap' around a bsdf that already has a normal or bump map: vkmech applies one "
+                "shading-normal texture per material");
         m.normal_texture = tex;
     } else if (type == "bumpmap") {
-        // docs/descriptor.md §8: a wrapper that changes no lobe loads with a warning naming
-        // what is ignored.
-        for (const char* tex : {"texture", "arg"}) p.find({tex});
-        for (const char* f : {"scale", "flip_invert", "strength"}) p.find({f});
+        // Mitsuba 3's bumpmap: the nested bsdf under a height texture (named 'arg' or
+        // 'texture', or the one unnamed <texture>) whose luminance times 'scale' tilts the
+        // shading normal at each hit (Material::bump_texture).
+        const XNode* height = p.find({"arg", "texture"});
+        if (height && height->tag() != "texture" && height->tag() != "ref")
+            height->fail(std::string("bsdf 'bumpmap': '") + height->raw().attribute("name").as_string() +
+                         "' must be a texture");
+        for (const XNode& o : p.objects())
+            if (!height && o.tag() == "texture") height = &o;
+        if (!height) n.fail("bsdf 'bumpmap' needs a height <texture> (Mitsuba's 'arg')");
+        const int tex = texture(*height);
+        const float scale = p.get_float({"scale"}, 1.0f);
+        if (!std::isfinite(scale)) p.find({"scale"})->fail("bsdf 'bumpmap': 'scale' must be a finite number");
         m = scene_.materials[bsdf(nested_ignoring_textures(p, n))];
-        warn(n,
-             "bsdf 'bumpmap': the bump map is ignored; the nested bsdf is rendered with the shading normals of "
-             "the mesh");
+        if (m.normal_texture >= 0 || m.bump_texture >= 0)
+            n.fail(
+                "bsdf 'bumpmap' around a bsdf that already has a normal or bump map: vkmech applies one "
+                "shading-normal texture per material");
+        m.bump_texture = tex;
+        m.bump_scale = scale;
     } else if (type == "mask") {
         float opacity = 0.5f;
         bool textured = false;
@@ -365,7 +381,7 @@ int MitsubaLoader::bsdf(const XNode& n) {
     } else {
         unsupported(n, "bsdf",
                     " (docs/descriptor.md §2: " + bsdf_plugin_names() +
-                        ", twosided, normalmap, bumpmap (its map ignored); with --substitute also mask, blendbsdf, "
+                        ", twosided, normalmap, bumpmap; with --substitute also mask, blendbsdf, "
                         "phong)");
     }
     if (alpha_tex[0] >= 0) m.alpha_u_texture = alpha_tex[0];

@@ -95,6 +95,11 @@ struct Material {
     // +x along dp/du, +y along n x dp/du; its x and y times normal_scale.
     int normal_texture = -1;
     float normal_scale = 1.0f;
+    // Mitsuba's bumpmap: a height texture (its luminance) whose uv gradient times bump_scale
+    // tilts the shading normal (Mitsuba 3's bump(): n = dp/du' x dp/dv'). A material has a
+    // normal map or a bump map, not both.
+    int bump_texture = -1;
+    float bump_scale = 1.0f;
     // roughconductor, roughdielectric: Mitsuba's textured `alpha` (both) or `alpha_u` /
     // `alpha_v`, the texture's luminance read at each hit; alpha_u and alpha_v hold
     // the textures' mean luminances.
@@ -125,6 +130,7 @@ private:
         f(m.emission_texture);
         f(m.metallic_roughness_texture);
         f(m.normal_texture);
+        f(m.bump_texture);
         f(m.alpha_u_texture);
         f(m.alpha_v_texture);
     }
