@@ -268,13 +268,13 @@ int MitsubaLoader::bsdf(const XNode& n) {
                 "shading-normal texture per material");
         m.normal_texture = tex;
     } else if (type == "bumpmap") {
-        // Mitsuba 3's bumpmap: the nested bsdf under a height texture (named 'arg' or
-        // 'texture', or the one unnamed <texture>) whose luminance times 'scale' tilts the
-        // shading normal at each hit (Material::bump_texture).
-        const XNode* height = p.find({"arg", "texture"});
-        if (height && height->tag() != "texture" && height->tag() != "ref")
-            height->fail(std::string("bsdf 'bumpmap': '") + height->raw().attribute("name").as_string() +
-                         "' must be a texture");
+        // Mitsuba 3's bumpmap: the nested bsdf under a height texture (its one texture, under
+        // any name or none) whose luminance times 'scale' tilts the shading normal at each hit
+        // (Material::bump_texture).
+        const XNode* height = nullptr;
+        for (const XNode& u : p.unused())
+            if (!height && (u.tag() == "texture" || u.tag() == "ref"))
+                height = p.find({u.raw().attribute("name").as_string()});
         for (const XNode& o : p.objects())
             if (!height && o.tag() == "texture") height = &o;
         if (!height) n.fail("bsdf 'bumpmap' needs a height <texture> (Mitsuba's 'arg')");
