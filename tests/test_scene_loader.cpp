@@ -5,6 +5,7 @@
 #include "io/exr.hpp"
 #include "scene/mesh_io.hpp"
 #include "scene/mesh_ops.hpp"
+#include "scene/named_ior.hpp"
 #include "scene/primitives.hpp"
 #include "scene/scene.hpp"
 
@@ -711,4 +712,24 @@ TEST_CASE("mitsuba: the mesh error also says which shape loaded the mesh") {
     } catch (const SceneError& e) {
         CHECK(std::string(e.what()).find("bad_mesh_face.xml:6") != std::string::npos);
     }
+}
+
+TEST_CASE("named IOR: Mitsuba's conductor names, sampled from its spectra at 650, 550 and 450 nm") {
+    // Values read off Mitsuba's data/ior/*.spd (luxpop/Palik), linearly interpolated.
+    const auto carbon = conductor_ior("a-C");
+    REQUIRE(carbon.has_value());
+    CHECK(carbon->eta.x == doctest::Approx(2.4300f));
+    CHECK(carbon->eta.z == doctest::Approx(2.1848f));
+    CHECK(carbon->k.y == doctest::Approx(0.8344f));
+    const auto gold = conductor_ior("Au");
+    REQUIRE(gold.has_value());
+    CHECK(gold->eta.z == doctest::Approx(1.5085f));  // gold is blue-transparent, red-reflective
+    CHECK(gold->k.x > gold->k.z);
+    for (const char* name : {"Hg", "Ir", "Mo", "Rh", "TiN", "d-C", "Na_palik", "V_palik", "Cu_palik", "none"})
+        CHECK_MESSAGE(conductor_ior(name).has_value(), name);
+    CHECK_FALSE(conductor_ior("AlSb").has_value());  // its data stops at 590 nm
+    CHECK_FALSE(conductor_ior("au").has_value());    // case-sensitive, as Mitsuba
+    const std::string names = conductor_names();
+    CHECK(names.find("a-C") != std::string::npos);
+    CHECK(names.find("none") != std::string::npos);
 }

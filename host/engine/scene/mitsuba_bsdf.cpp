@@ -457,8 +457,7 @@ void MitsubaLoader::conductor_parameters(const XProps& p, const XNode& n, Materi
         auto c = conductor_ior(name);
         if (!c)
             p.find({"material"})
-                ->fail("unknown conductor material '" + name +
-                       "' (expected none, Au, Ag, Al, Cu, Cr, Fe, Ni, Pt, Ti or W)");
+                ->fail("unknown conductor material '" + name + "' (expected one of " + conductor_names() + ")");
         m.eta = c->eta;
         m.k = c->k;
     }

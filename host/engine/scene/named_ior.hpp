@@ -5,6 +5,7 @@
 #include <glm/glm.hpp>
 
 #include <optional>
+#include <string>
 #include <string_view>
 
 namespace vkmech {
@@ -23,5 +24,7 @@ struct ComplexIor {
 // names are case-sensitive as in Mitsuba ("Au", "Ag", ...); nullopt when
 // unknown.
 std::optional<ComplexIor> conductor_ior(std::string_view name);
+// Every name conductor_ior accepts, comma-separated (for error messages).
+std::string conductor_names();
 
 }  // namespace vkmech
