@@ -200,16 +200,20 @@ void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_be
 
 // The shading normal a normal map gives at s (GpuMaterial::frame_tex): the map's
 // tangent-space normal n (texel x 2 - 1, x and y times the scale) in the frame
-// t = dp/du made orthogonal to the shading normal ns, b = ns x t, ns; Mitsuba's
-// normalmap and the glTF sample viewer's frame without stored tangents. ns
-// unchanged where the uvs give no tangent.
-vec3 normal_mapped(SurfaceHit s, uint slot, float scale) {
+// t = dp/du made orthogonal to the shading normal ns, b = ns x t, ns (Mitsuba's
+// normalmap). With uv_handed (glTF), b is turned against dp/dv where the uv layout
+// is mirrored: MikkTSpace's bitangent sign, which glTF's stored tangents carry in
+// w, taken per triangle (+y of the map is -v, glTF's uv origin being the image's
+// top left). ns unchanged where the uvs give no tangent.
+vec3 normal_mapped(SurfaceHit s, uint slot, float scale, bool uv_handed) {
     vec3 t = s.dpdu - s.ns * dot(s.ns, s.dpdu);
     float tl = length(t);
     if (!(tl > 0.0)) return s.ns;
     t /= tl;
+    vec3 b = cross(s.ns, t);
+    if (uv_handed && dot(b, s.dpdv) > 0.0) b = -b;
     vec3 n = texture_lookup(slot - 1u, s.uv) * 2.0 - 1.0;
-    vec3 m = t * (n.x * scale) + cross(s.ns, t) * (n.y * scale) + s.ns * n.z;
+    vec3 m = t * (n.x * scale) + b * (n.y * scale) + s.ns * n.z;
     float ml = length(m);
     return ml > 0.0 ? m / ml : s.ns;
 }
@@ -318,7 +322,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
         if (FEATURE_TEXTURES && m.frame_tex.x != 0u) {
             uint normal_slot = m.frame_tex.x & MAT_TEX_MASK;
             float scale = uintBitsToFloat(m.frame_tex.y);
-            s.ns = normal_slot != 0u ? normal_mapped(s, normal_slot, scale)
+            s.ns = normal_slot != 0u ? normal_mapped(s, normal_slot, scale, m.frame_tex.w != 0u)
                                      : bump_mapped(s, m.frame_tex.x >> MAT_TEX_SHIFT, scale);
         }
         Frame3 fr = frame_from_normal(s.ns);

@@ -754,6 +754,7 @@ TEST_CASE("gltf: base-colour textures from a data URI and a glb bufferView are d
         CHECK(m.normal_texture != m.reflectance.texture);
         CHECK(s.textures[m.normal_texture].rgb[4] == doctest::Approx(128.0f / 255.0f));
         CHECK(m.normal_scale == 1.0f);
+        CHECK(m.normal_uv_handed);  // glTF: the bitangent follows the uv layout (MikkTSpace's sign)
     }
     SUBCASE("glb bufferView, tinted factor, metallic: the conductor's specular texture") {
         Gltf g;

@@ -210,6 +210,7 @@ TEST_CASE("normal map: Mitsuba's normalmap and bumpmap wrappers give their neste
     const Material& m = s.materials[s.meshes[0].material];
     CHECK(m.type == BsdfType::RoughConductor);
     REQUIRE(m.normal_texture >= 0);
+    CHECK_FALSE(m.normal_uv_handed);  // Mitsuba: b = n x dp/du whatever the uv layout
     CHECK(s.textures[m.normal_texture].rgb[2] == 1.0f);
     const Material& b = s.materials[s.meshes[1].material];
     CHECK(b.normal_texture == -1);
@@ -441,6 +442,41 @@ TEST_SUITE("gpu") {
                 CHECK(ramp.pixels[i].lum_mean == doctest::Approx(tilted).epsilon(1e-4));
                 CHECK(steep.pixels[i].lum_mean == doctest::Approx(tilted_back).epsilon(1e-4));
             }
+    }
+
+    TEST_CASE("normal map: on a mirrored uv layout glTF's bitangent follows the layout, Mitsuba's stays n x t") {
+        VKMECH_REQUIRE_GPU(ctx);
+        // facing_quad with u mirrored (u grows to world +x): t = +x; ns x t = -y, while dp/dv
+        // is -y, so a glTF map (uv_handed, MikkTSpace's sign) turns b to +y, against dp/dv, as on
+        // the unmirrored quad; Mitsuba's normalmap keeps b = ns x t = -y.
+        const glm::vec3 n = glm::normalize(glm::vec3(0.3f, 0.4f, 0.866f));
+        auto mirrored = [&](bool uv_handed) {
+            Scene s = facing_quad();
+            s.meshes[0].uvs = {{1, 0}, {1, 1}, {0, 1}, {0, 0}};
+            Texture t;
+            t.width = t.height = 1;
+            const glm::vec3 texel = 0.5f * (n + 1.0f);
+            t.rgb = {texel.x, texel.y, texel.z};
+            s.textures.push_back(t);
+            s.materials[0].normal_texture = 0;
+            s.materials[0].normal_uv_handed = uv_handed;
+            return s;
+        };
+        testing::RenderSetup setup;
+        setup.res = 8;
+        setup.spp = 4;
+        Frame gltf = testing::render_scene(*ctx, mirrored(true), setup);
+        Frame mitsuba = testing::render_scene(*ctx, mirrored(false), setup);
+        const glm::vec3 t(1, 0, 0), ns(0, 0, -1);
+        const double expected_gltf =
+            facing_quad_radiance(glm::normalize(t * n.x + glm::vec3(0, 1, 0) * n.y + ns * n.z));
+        const double expected_mitsuba =
+            facing_quad_radiance(glm::normalize(t * n.x + glm::vec3(0, -1, 0) * n.y + ns * n.z));
+        CHECK(std::abs(expected_gltf - expected_mitsuba) > 0.05);  // the two conventions differ visibly
+        for (size_t i = 0; i < gltf.pixels.size(); ++i) {
+            CHECK(gltf.pixels[i].lum_mean == doctest::Approx(expected_gltf).epsilon(1e-4));
+            CHECK(mitsuba.pixels[i].lum_mean == doctest::Approx(expected_mitsuba).epsilon(1e-4));
+        }
     }
 
     TEST_CASE("normal map: a flat map renders the plain plane, a tilted one lights it as its normal says") {

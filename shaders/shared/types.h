@@ -121,7 +121,8 @@ struct GpuMaterial {
     // scale (glTF normalTexture.scale: the map's x and y times it; bumpmap's scale: the
     // height's), z: the roughness
     // textures of roughconductor and roughdielectric (low 16 bits alpha_u's slot, high alpha_v's;
-    // their luminance replaces reflectance.w and specular_reflectance.w), w: unused.
+    // their luminance replaces reflectance.w and specular_reflectance.w), w: 1 = the normal
+    // map's bitangent follows the uv layout's handedness (glTF), 0 = ns x t (Mitsuba).
     uvec4 frame_tex;
 };
 VKM_CONST MATERIAL_WORDS = 10u;  // uvec4 words of a GpuMaterial

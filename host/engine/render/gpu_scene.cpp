@@ -95,10 +95,10 @@ gpu::GpuMaterial pack_material(const Material& m, const std::vector<Texture>& te
     g.model1 = glm::vec4(m.anisotropic, m.sheen, m.sheen_tint, m.clearcoat);
     g.model2 = glm::vec4(m.clearcoat_gloss, m.spec_trans, m.eta_principled, 0.0f);
     VKM_ASSERT(m.normal_texture < 0 || m.bump_texture < 0, "material '" + m.id + "' has a normal and a bump map");
-    g.frame_tex =
-        glm::uvec4(texture_slot(m.normal_texture) | texture_slot(m.bump_texture) << gpu::MAT_TEX_SHIFT,
-                   std::bit_cast<uint32_t>(m.bump_texture >= 0 ? m.bump_scale : m.normal_scale),
-                   texture_slot(m.alpha_u_texture) | texture_slot(m.alpha_v_texture) << gpu::MAT_TEX_SHIFT, 0u);
+    g.frame_tex = glm::uvec4(texture_slot(m.normal_texture) | texture_slot(m.bump_texture) << gpu::MAT_TEX_SHIFT,
+                             std::bit_cast<uint32_t>(m.bump_texture >= 0 ? m.bump_scale : m.normal_scale),
+                             texture_slot(m.alpha_u_texture) | texture_slot(m.alpha_v_texture) << gpu::MAT_TEX_SHIFT,
+                             m.normal_uv_handed ? 1u : 0u);
     // roughplastic: precomputed coat transmittance table in the unused fields.
     if (m.type == BsdfType::RoughPlastic) g = shader::roughplastic_prepare(g);
     return g;

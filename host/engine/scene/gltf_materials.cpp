@@ -150,6 +150,7 @@ Material GltfLoader::convert_material(const tinygltf::Material& g, const std::st
         glm::vec3 unused;
         m.normal_texture = color_texture(info, glm::vec3(1.0f), label, unused, "normalTexture", /*raw=*/true);
         m.normal_scale = static_cast<float>(g.normalTexture.scale);
+        m.normal_uv_handed = true;  // mirrored uv layouts flip the bitangent (MikkTSpace's sign)
     }
     // The emission's texture: the emitter's radiance (emissiveFactor x strength, emission()) times it.
     const bool emits = std::any_of(g.emissiveFactor.begin(), g.emissiveFactor.end(), [](double c) { return c > 0.0; });

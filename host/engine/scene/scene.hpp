@@ -95,6 +95,9 @@ struct Material {
     // +x along dp/du, +y along n x dp/du; its x and y times normal_scale.
     int normal_texture = -1;
     float normal_scale = 1.0f;
+    // glTF: the normal map's bitangent flips where the uv layout is mirrored (MikkTSpace's sign,
+    // per triangle); Mitsuba's normalmap keeps n x dp/du.
+    bool normal_uv_handed = false;
     // Mitsuba's bumpmap: a height texture (its luminance) whose uv gradient times bump_scale
     // tilts the shading normal (Mitsuba 3's bump(): n = dp/du' x dp/dv'). A material has a
     // normal map or a bump map, not both.
