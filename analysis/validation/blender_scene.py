@@ -6,6 +6,13 @@ with Cycles to a linear float OpenEXR (R, G, B).
       [--mutate roughness-linear|two-sided-light|env-no-rotation|env-mirror-u|env-turn-180]
       [--png PREVIEW.png]
 
+A glTF scene (SCENE.gltf or .glb) is imported with Blender's own glTF
+importer instead and needs --environment MAP [--environment-scale S]: it is
+lit only by that lat-long map, read in Mitsuba's frame with the glTF world
+(+y up) as the map's frame, as `vkmech render --environment MAP` does; max
+bounces 10 (vkmech's default max_depth 12). Square images only unless
+--res-y H is given (vkmech's height follows the camera's aspect ratio).
+
 --bounces and --mutate exist only for the sensitivity checks
 (sensitivity.sh): they build a deliberately wrong Cycles scene.
 --min-light-bounces M sets Cycles' Min Light Bounces (no Russian roulette
@@ -310,6 +317,13 @@ def make_world(node, base):
     for t in (p["to_world"] if "to_world" in p else []):
         if t.tag != "rotate":
             die("envmap: to_world may only rotate")
+    return world_from_map(os.path.join(base, p["filename"].attrib["value"]),
+                          float(p["scale"].attrib["value"]) if "scale" in p else 1.0, W)
+
+
+def world_from_map(path, scale, W):
+    """A lat-long map in Mitsuba's frame, turned by W (map-local -> Blender
+    world), times scale, as the Cycles world (see make_world)."""
     R = P_MITSUBA_TO_CYCLES @ W.transposed()
     if MUTATE == "env-no-rotation":
         R = Matrix.Identity(3)  # the map read in Cycles' own frame (forgetting the conversion)
@@ -334,20 +348,20 @@ def make_world(node, base):
         nt.links.new(vec, mp2.inputs["Vector"])
         vec = mp2.outputs["Vector"]
     tex = nt.nodes.new("ShaderNodeTexEnvironment")
-    img = bpy.data.images.load(os.path.join(base, p["filename"].attrib["value"]))
+    img = bpy.data.images.load(path)
     img.colorspace_settings.name = "Linear"  # Radiance HDR: linear Rec.709, as vkmech reads it
     tex.image = img
     tex.projection = "EQUIRECTANGULAR"
     tex.interpolation = "Linear"  # bilinear between texel centres, as vkmech
     nt.links.new(vec, tex.inputs["Vector"])
     bg = nt.nodes.new("ShaderNodeBackground")
-    bg.inputs["Strength"].default_value = float(p["scale"].attrib["value"]) if "scale" in p else 1.0
+    bg.inputs["Strength"].default_value = scale
     nt.links.new(tex.outputs["Color"], bg.inputs["Color"])
     out = nt.nodes.new("ShaderNodeOutputWorld")
     nt.links.new(bg.outputs["Background"], out.inputs["Surface"])
     w.cycles.sampling_method = "AUTOMATIC"  # importance-sampled (MIS), Cycles' default
     print("blender_scene.py: envmap %s, Mapping rotation (deg) %s, strength %g" % (
-        p["filename"].attrib["value"], tuple(round(math.degrees(a), 4) for a in R.to_euler("XYZ")),
+        os.path.basename(path), tuple(round(math.degrees(a), 4) for a in R.to_euler("XYZ")),
         bg.inputs["Strength"].default_value))
     return w
 
@@ -377,6 +391,82 @@ def make_sun(node, idx):
     return ob
 
 
+# glTF is +y up and Blender +z up: the importer maps a glTF point (x, y, z) to
+# Blender (x, -z, y). vkmech reads --environment in the map's own Mitsuba
+# frame with the glTF world as that frame (no to_world), so the map-local ->
+# Blender-world rotation W is that same axis change.
+GLTF_TO_BLENDER = Matrix(((1, 0, 0), (0, 0, -1), (0, 1, 0)))
+
+
+def build_gltf(scene_path, opts, sc):
+    """A glTF 2.0 file through Blender's own importer (io_import_scene_gltf2),
+    lit only by --environment MAP (times --environment-scale, default 1), as
+    vkmech renders `--scene FILE.gltf --environment MAP`. Returns the world,
+    vkmech's default max_depth (12) and the camera's aspect ratio."""
+    if "--environment" not in opts:
+        die("a glTF scene needs --environment MAP (it is lit only by the map)")
+    # Blender 3.4.1's importer uses np.bool, which numpy 1.24 removed (Debian's
+    # blender 3.4.1 runs on the system numpy): restore the alias it means.
+    import numpy
+    if not hasattr(numpy, "bool"):
+        numpy.bool = bool
+    r = bpy.ops.import_scene.gltf(filepath=os.path.abspath(scene_path), import_shading="NORMALS",
+                                  merge_vertices=False)
+    if "FINISHED" not in r:
+        die("the glTF importer failed: %s" % (r,))
+    # Blender 3.4.1's importer multiplies the emissiveTexture by emissiveFactor
+    # in a (3.4-new) Mix node of type RGBA but links the node's float Result
+    # (output 0, disabled for RGBA) to the Principled Emission: Cycles then
+    # drops the link and the material does not emit at all. Relink each such
+    # link from the enabled output of the same name (the colour Result).
+    for m in bpy.data.materials:
+        if not m.use_nodes:
+            continue
+        nt = m.node_tree
+        for l in list(nt.links):
+            if l.from_node.type == "MIX" and not l.from_socket.enabled:
+                good = [o for o in l.from_node.outputs if o.enabled and o.name == l.from_socket.name]
+                if len(good) != 1:
+                    die("material %s: cannot repair the link from %s" % (m.name, l.from_node.name))
+                to = l.to_socket
+                nt.links.remove(l)
+                nt.links.new(good[0], to)
+                print("blender_scene.py: material %s: relinked %s's disabled %s output to %s's %s "
+                      "(the 3.4.1 importer's emission Mix bug)" % (m.name, good[0].node.name, "float",
+                                                                   to.node.name, to.name))
+    cams = [ob for ob in sc.objects if ob.type == "CAMERA"]
+    if not cams:
+        die("the glTF file has no camera")
+    if [ob for ob in sc.objects if ob.type == "LIGHT"]:
+        die("the glTF file has lights; only the environment may light it here")
+    cam = sorted(cams, key=lambda o: o.name)[0]
+    sc.camera = cam
+    cam.data.clip_start = 1e-3
+    cam.data.clip_end = 1e4
+    print("blender_scene.py: glTF camera %s, sensor fit %s, angle_x %.4f deg, angle_y %.4f deg" % (
+        cam.name, cam.data.sensor_fit, math.degrees(cam.data.angle_x), math.degrees(cam.data.angle_y)))
+    for m in bpy.data.materials:
+        if not m.use_nodes:
+            continue
+        for n in m.node_tree.nodes:
+            if n.type == "BSDF_PRINCIPLED":
+                print("blender_scene.py: material %s: Principled %s, subsurface %s, specular %.3f, "
+                      "emission strength %.3f, linked inputs %s" % (
+                          m.name, n.distribution, n.subsurface_method, n.inputs["Specular"].default_value,
+                          n.inputs["Emission Strength"].default_value,
+                          sorted(i.name for i in n.inputs if i.is_linked)))
+            elif n.type == "TEX_IMAGE" and n.image is not None:
+                print("blender_scene.py: material %s: image %s, colour space %s, interpolation %s, extension %s" % (
+                    m.name, n.image.name, n.image.colorspace_settings.name, n.interpolation, n.extension))
+            elif n.type == "NORMAL_MAP":
+                print("blender_scene.py: material %s: Normal Map %s, uv %s, strength %.3f" % (
+                    m.name, n.space, n.uv_map, n.inputs["Strength"].default_value))
+    scale = float(opts.get("--environment-scale", "1"))
+    world = world_from_map(os.path.abspath(opts["--environment"]), scale, GLTF_TO_BLENDER)
+    aspect = cam.data.sensor_width / cam.data.sensor_height if cam.data.sensor_fit == "VERTICAL" else None
+    return world, 12, aspect
+
+
 def main():
     argv = sys.argv[sys.argv.index("--") + 1:]
     if len(argv) < 4:
@@ -393,11 +483,16 @@ def main():
         bpy.data.objects.remove(ob, do_unlink=True)
     sc = bpy.context.scene
 
-    root = ET.parse(scene_path).getroot()
     mats = Materials(base)
     max_depth = None
     world = None
     suns = 0
+    res_y = res
+    is_gltf = scene_path.lower().endswith((".gltf", ".glb"))
+    root = [] if is_gltf else ET.parse(scene_path).getroot()
+    if is_gltf:
+        world, max_depth, _ = build_gltf(scene_path, opts, sc)
+        res_y = int(opts.get("--res-y", res))
     for node in root:
         if node.tag == "integrator":
             if node.attrib["type"] != "path":
@@ -485,7 +580,8 @@ def main():
 
     r = sc.render
     r.engine = "CYCLES"
-    r.resolution_x = r.resolution_y = res
+    r.resolution_x = res
+    r.resolution_y = res_y
     r.resolution_percentage = 100
     r.film_transparent = False
     r.use_persistent_data = False
@@ -533,7 +629,7 @@ def main():
     r.use_sequencer = False
     r.filepath = os.path.abspath(out_path)
     print("blender_scene.py: %s -> %s, %d spp, %dx%d, max bounces %d, min light bounces %d, threads %s"
-          % (scene_path, out_path, spp, res, res, bounces, c.min_light_bounces, r.threads_mode))
+          % (scene_path, out_path, spp, res, res_y, bounces, c.min_light_bounces, r.threads_mode))
     bpy.ops.render.render(write_still=True)
     if "--png" in opts:
         im.file_format = "PNG"

@@ -23,6 +23,7 @@ TOL = 0.02
 # the sphere's projection, centre (81.4, 93.9) px and radius 19.9 px from
 # the camera (0,-3.9,1), fov_x 39.3 deg and sphere (0.35,-0.3,0.4), r 0.4;
 # 17 px keeps the silhouette edge out.
+# val_gltf: discs inside the sphere and the box, computed by gltf_rois.
 # val_envmap: the mirror sphere, centre (64.0, 62.4) px, radius 17.4 px, and
 # the rough gold sphere, centre (108.1, 74.4) px, radius 13.4 px (from
 # make_scenes.project and the camera distance); 14 and 11 px keep the edges out.
@@ -68,6 +69,41 @@ def sun_in_mirror(res):
     yy, xx = np.mgrid[0:res, 0:res] + 0.5
     w = hits.sum()
     return (float((xx * hits).sum() / w), float((yy * hits).sum() / w), w)
+
+
+def gltf_camera(res):
+    """val_gltf's camera (make_scenes.GLTF_CAM; glTF frame, +y up, yfov, aspect 1):
+    origin, forward, right, up and tan(fov / 2)."""
+    import make_scenes as ms
+    (o, t, fov) = ms.GLTF_CAM
+    o, t = np.array(o, float), np.array(t, float)
+    f = (t - o) / np.linalg.norm(t - o)
+    right = np.cross(f, [0, 1.0, 0])
+    right /= np.linalg.norm(right)
+    return o, f, right, np.cross(right, f), np.tan(np.radians(fov) / 2)
+
+
+def gltf_sky_rows(res):
+    """Image rows of val_gltf that see only the sky: every object is below the
+    camera (y 1.6; box top 1.0, sphere top 1.2), so a pixel whose lowest ray
+    (its bottom edge) points upwards sees the environment map alone."""
+    o, f, right, up, k = gltf_camera(res)
+    return [y for y in range(res) if f[1] + up[1] * k * (1 - 2 * (y + 1) / res) > 0]
+
+
+def gltf_rois(res):
+    """Discs inside the projections of val_gltf's sphere and box (scaled to 128 px)."""
+    import make_scenes as ms
+    o, f, right, up, k = gltf_camera(res)
+    def proj(p):
+        q = np.array(p, float) - o
+        z = q @ f
+        return (64 * (1 + (q @ right) / z / k), 64 * (1 - (q @ up) / z / k), z)
+    (c, r) = ms.GLTF_SPHERE
+    sx, sy, sz = proj(c)
+    (b, e, _) = ms.GLTF_BOX
+    bx, by, bz = proj((b[0], b[1] + e / 2, b[2]))
+    return [("sphere", sx, sy, 0.8 * 64 * r / sz / k), ("box", bx, by, 0.6 * 64 * (e / 2) / bz / k)]
 
 
 def bright_centroid(lum, cx, cy, rad, thresh):
@@ -124,7 +160,8 @@ def main():
             allok &= ok
             print("   %s       %9.5f  %9.5f   %+7.2f %%  %s" % (ch, a, b, 100 * rd, "ok" if ok else "OUTSIDE 2 %"))
             md.append("| %s | %s | %.5f | %.5f | %+.2f %% | %s |" % (s, ch, a, b, 100 * rd, "yes" if ok else "**no**"))
-        for (name, cx, cy, r, *excl) in ROI.get(s, []):
+        rois = gltf_rois(vi.shape[1]) if s == "val_gltf" else ROI.get(s, [])
+        for (name, cx, cy, r, *excl) in rois:
             k = vi.shape[1] / 128.0
             yy, xx = np.mgrid[0:vi.shape[0], 0:vi.shape[1]] + 0.5
             m = (xx - cx * k) ** 2 + (yy - cy * k) ** 2 < (r * k) ** 2
@@ -153,6 +190,17 @@ def main():
                 print("   sun in the mirror sphere, %s: (%.2f, %.2f) px (%d px with luminance > 20)" % (who, bx, by, bn))
                 md2.append("| %s: sun in the mirror sphere, %s | (%.2f, %.2f) px, %d px; expected (%.2f, %.2f) | | | | |"
                            % (s, who, bx, by, bn, ex, ey))
+        if s == "val_gltf":
+            # The directly seen sky: the environment map's orientation in both,
+            # pixel for pixel (only sub-pixel jitter and interpolation remain).
+            rows = gltf_sky_rows(vi.shape[0])
+            a, b = vi[rows], ci[rows]
+            rel = np.abs(a / b - 1)
+            print("   directly seen sky, rows 0-%d (%d px): mean %s vs %s, max per-pixel |rel. diff| %.3f %%, mean %.4f %%"
+                  % (rows[-1], a.shape[0] * a.shape[1], np.round(a.mean(axis=(0, 1)), 5), np.round(b.mean(axis=(0, 1)), 5),
+                     100 * rel.max(), 100 * rel.mean()))
+            md2.append("| %s: directly seen sky (rows 0-%d) | max per-pixel %.3f %%, mean %.4f %% | | | | |"
+                       % (s, rows[-1], 100 * rel.max(), 100 * rel.mean()))
         print("   wall time: vkmech %.1f s, Cycles %.1f s" % (vt, ct))
         md2.append("| %s | %.2f %% | %+.2f %% / %+.2f %% | %.2f %% | %.1f | %.1f |" % (
             s, 100 * se / vl.mean(), 100 * halves[0], 100 * halves[1], 100 * rms, vt, ct))

@@ -11,6 +11,10 @@ val_envmap is an outdoor scene instead: a floor and three objects under a
 generated lat-long environment map (textures/sky.hdr, Radiance RGBE, written
 here) and a directional light.
 
+val_gltf is a glTF 2.0 file (val_gltf.gltf, val_gltf.bin and textures/gltf_*.png,
+written here) with textured metallic-roughness materials and no lights: it is
+rendered under textures/sky.hdr given on the command line (--environment).
+
 Usage: /usr/bin/python3 analysis/validation/make_scenes.py  (writes scenes/)
 """
 import math
@@ -411,6 +415,203 @@ def envmap_scene():
 """ % ((ENV_SCALE, rots) + tuple(-c for c in wi) + DIR_LIGHT_E)
 
 
+# --- val_gltf: glTF material textures under the same sky ------------------
+# A glTF 2.0 scene (val_gltf.gltf + val_gltf.bin + PNG textures, all written
+# here): a floor, a box and a UV sphere, each with ONE metallic-roughness
+# material carrying a baseColorTexture (sRGB), a metallicRoughnessTexture
+# (linear; G roughness, B metallic), a normalTexture and, on the box, an
+# emissiveTexture times emissiveFactor. A camera node and no lights: it is lit
+# only by textures/sky.hdr, given to vkmech as --environment and to Cycles as
+# the world. glTF is +y up, the lat-long map's local +y is up as well (vkmech
+# uses the map's own frame, no to_world), so here the sky is seen in its
+# local frame: the sun disc towards glTF (-0.786, 0.560, 0.262) (to the
+# camera's left, a little behind it), the warm side of the sky towards -z
+# (ahead of the camera).
+GLTF_TEX = 64                    # texture size (texels)
+GLTF_CAM = ((0.0, 1.6, 4.5), (0.0, 0.5, 0.0), 45.0)  # origin, target, yfov (deg); aspect 1
+GLTF_FLOOR_HALF = 8.0            # the floor is [-8, 8]^2 at y = 0, uv [0, 4]^2 (repeat)
+GLTF_BOX = ((-0.9, 0.0, -0.2), 1.0, 25.0)   # base centre, edge, turn about +y (deg, node rotation)
+GLTF_SPHERE = ((0.8, 0.6, 0.1), 0.6)        # centre (node translation), radius
+GLTF_EMISSIVE_FACTOR = (1.0, 0.7, 0.3)
+MR_ROUGHNESS = (0.3, 0.8)        # v < 0.5 | v >= 0.5 (8-bit: 77/255, 204/255)
+MR_METALLIC = (0.0, 1.0)         # u < 0.5 | u >= 0.5
+
+
+def write_png(path, w, h, texel):
+    """8-bit RGB PNG (zlib, filter 0); texel(x, y) -> (r, g, b) in 0..255, row 0 the top."""
+    rows = []
+    for y in range(h):
+        row = bytearray([0])
+        for x in range(w):
+            row.extend(texel(x, y))
+        rows.append(bytes(row))
+    def chunk(t, d):
+        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xFFFFFFFF)
+    png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)) \
+        + chunk(b"IDAT", zlib.compress(b"".join(rows), 9)) + chunk(b"IEND", b"")
+    with open(path, "wb") as fh:
+        fh.write(png)
+
+
+def gltf_textures(tex_dir):
+    """The val_gltf PNGs. Texel (x, y) has uv ((x + 0.5) / n, (y + 0.5) / n)
+    (glTF's uv origin is the image's top left)."""
+    n = GLTF_TEX
+    uv = lambda x, y: ((x + 0.5) / n, (y + 0.5) / n)
+    def floor_base(x, y):  # 8 x 8 checker, warm grey / slate blue
+        return (200, 195, 180) if ((x * 8 // n) + (y * 8 // n)) % 2 == 0 else (70, 95, 140)
+    def box_base(x, y):  # brick red with pale vertical stripes
+        return (225, 215, 190) if (x * 6 // n) % 2 == 1 else (170, 55, 40)
+    def sphere_base(x, y):  # yellow / teal bands along v
+        return (230, 190, 50) if (y * 6 // n) % 2 == 0 else (40, 150, 150)
+    def mr(x, y):  # R unused (occlusion), G roughness, B metallic
+        u, v = uv(x, y)
+        r = MR_ROUGHNESS[v >= 0.5]
+        m = MR_METALLIC[u >= 0.5]
+        return (255, int(round(255 * r)), int(round(255 * m)))
+    def normal(x, y):  # gentle tilts: x by a sine along u, y by a (phase-shifted) one along v
+        u, v = uv(x, y)
+        nx, ny = 0.25 * math.sin(2 * math.pi * 4 * u), 0.2 * math.sin(2 * math.pi * 3 * v + 0.7)
+        nz = math.sqrt(1 - nx * nx - ny * ny)
+        return tuple(int(round(255 * (0.5 * c + 0.5))) for c in (nx, ny, nz))
+    def emissive(x, y):  # a band across the middle, a dimmer one below it, black elsewhere
+        v = uv(x, y)[1]
+        return (255, 255, 255) if 0.35 <= v < 0.5 else (120, 120, 120) if 0.65 <= v < 0.75 else (0, 0, 0)
+    files = {}
+    for name, fn in (("floor_base", floor_base), ("box_base", box_base), ("sphere_base", sphere_base),
+                     ("mr", mr), ("normal", normal), ("emissive", emissive)):
+        files[name] = "textures/gltf_%s.png" % name
+        write_png(os.path.join(tex_dir, "gltf_%s.png" % name), n, n, fn)
+    return files
+
+
+def gltf_box_mesh(edge):
+    """Cube [-e/2, e/2] x [0, e] x [-e/2, e/2] (base on y = 0), 24 vertices,
+    each face uv [0,1]^2 with v down the face (glTF: v = 0 at the image top)."""
+    h = edge / 2
+    faces = [  # (normal, u axis, v axis): u x v ... the face is c + u s + v t, s, t in [-1, 1]
+        ((1, 0, 0), (0, 0, -1), (0, -1, 0)), ((-1, 0, 0), (0, 0, 1), (0, -1, 0)),
+        ((0, 1, 0), (1, 0, 0), (0, 0, 1)), ((0, -1, 0), (1, 0, 0), (0, 0, -1)),
+        ((0, 0, 1), (1, 0, 0), (0, -1, 0)), ((0, 0, -1), (-1, 0, 0), (0, -1, 0))]
+    pos, nrm, uvs, idx = [], [], [], []
+    for n, a, b in faces:
+        base = len(pos)
+        for (s, t) in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+            pos.append(tuple(h * n[i] + h * s * a[i] + h * t * b[i] + (h if i == 1 else 0) for i in range(3)))
+            nrm.append(n)
+            uvs.append(((s + 1) / 2, (t + 1) / 2))
+        # counter-clockwise seen from outside: (a x b) . n decides the order
+        c = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+        if sum(c[i] * n[i] for i in range(3)) > 0:
+            idx += [base, base + 1, base + 2, base, base + 2, base + 3]
+        else:
+            idx += [base, base + 2, base + 1, base, base + 3, base + 2]
+    return pos, nrm, uvs, idx
+
+
+def gltf_sphere_mesh(r, nu=64, nv=32):
+    """UV sphere about the origin, +y the pole; u = azimuth / 2 pi, v = polar
+    angle / pi (v = 0 at +y, the image top); the seam column is duplicated."""
+    pos, nrm, uvs, idx = [], [], [], []
+    for j in range(nv + 1):
+        th = math.pi * j / nv
+        for i in range(nu + 1):
+            ph = 2 * math.pi * i / nu
+            n = (math.sin(th) * math.sin(ph), math.cos(th), math.sin(th) * math.cos(ph))
+            nrm.append(n)
+            pos.append(tuple(r * c for c in n))
+            uvs.append((i / nu, j / nv))
+    at = lambda i, j: j * (nu + 1) + i
+    for j in range(nv):
+        for i in range(nu):
+            a, b, c, d = at(i, j), at(i, j + 1), at(i + 1, j + 1), at(i + 1, j)
+            if j != 0:
+                idx += [a, b, d]
+            if j != nv - 1:
+                idx += [b, c, d]
+    return pos, nrm, uvs, idx
+
+
+def gltf_floor_mesh():
+    h = GLTF_FLOOR_HALF
+    pos = [(-h, 0, h), (h, 0, h), (h, 0, -h), (-h, 0, -h)]
+    uvs = [(0, 4), (4, 4), (4, 0), (0, 0)]
+    return pos, [(0, 1, 0)] * 4, uvs, [0, 1, 2, 0, 2, 3]
+
+
+def quat_axis(axis, deg):
+    s = math.sin(math.radians(deg) / 2)
+    return [axis[0] * s, axis[1] * s, axis[2] * s, math.cos(math.radians(deg) / 2)]
+
+
+def gltf_scene(out_dir, name="val_gltf"):
+    """Write OUT/val_gltf.gltf and val_gltf.bin (little-endian float32 / uint32)."""
+    import json
+    tex = gltf_textures(os.path.join(out_dir, "textures"))
+    blob = bytearray()
+    views, accessors, meshes = [], [], []
+    def add(data, fmt, count, comp, typ, target, minmax=False):
+        while len(blob) % 4:
+            blob.append(0)
+        off = len(blob)
+        blob.extend(struct.pack("<%d%s" % (len(data), fmt), *data))
+        views.append({"buffer": 0, "byteOffset": off, "byteLength": len(blob) - off, "target": target})
+        a = {"bufferView": len(views) - 1, "componentType": comp, "count": count, "type": typ}
+        if minmax:
+            a["min"] = [min(data[k::3]) for k in range(3)]
+            a["max"] = [max(data[k::3]) for k in range(3)]
+        accessors.append(a)
+        return len(accessors) - 1
+    def mesh(label, m, material):
+        pos, nrm, uvs, idx = m
+        f = lambda rows: [float("%.7g" % c) for row in rows for c in row]
+        prim = {"attributes": {"POSITION": add(f(pos), "f", len(pos), 5126, "VEC3", 34962, True),
+                               "NORMAL": add(f(nrm), "f", len(nrm), 5126, "VEC3", 34962),
+                               "TEXCOORD_0": add(f(uvs), "f", len(uvs), 5126, "VEC2", 34962)},
+                "indices": add(idx, "I", len(idx), 5125, "SCALAR", 34963), "material": material, "mode": 4}
+        meshes.append({"name": label, "primitives": [prim]})
+        return len(meshes) - 1
+    images = [{"uri": tex[k]} for k in ("floor_base", "box_base", "sphere_base", "mr", "normal", "emissive")]
+    textures = [{"source": i, "sampler": 0} for i in range(len(images))]
+    def material(label, base, emissive=False):
+        m = {"name": label,
+             "pbrMetallicRoughness": {"baseColorTexture": {"index": base},
+                                      "metallicRoughnessTexture": {"index": 3},
+                                      "metallicFactor": 1.0, "roughnessFactor": 1.0},
+             "normalTexture": {"index": 4, "scale": 1.0}}
+        if emissive:
+            m["emissiveTexture"] = {"index": 5}
+            m["emissiveFactor"] = list(GLTF_EMISSIVE_FACTOR)
+        return m
+    materials = [material("floor", 0), material("box", 1, emissive=True), material("sphere", 2)]
+    (o, t, fov) = GLTF_CAM
+    # camera looks down its -z: a turn about x by the downward pitch
+    pitch = math.degrees(math.atan2(o[1] - t[1], o[2] - t[2]))
+    nodes = [
+        {"name": "camera", "camera": 0, "translation": list(o), "rotation": quat_axis((1, 0, 0), -pitch)},
+        {"name": "floor", "mesh": mesh("floor", gltf_floor_mesh(), 0)},
+        {"name": "box", "mesh": mesh("box", gltf_box_mesh(GLTF_BOX[1]), 1), "translation": list(GLTF_BOX[0]),
+         "rotation": quat_axis((0, 1, 0), GLTF_BOX[2])},
+        {"name": "sphere", "mesh": mesh("sphere", gltf_sphere_mesh(GLTF_SPHERE[1]), 2),
+         "translation": list(GLTF_SPHERE[0])},
+    ]
+    doc = {
+        "asset": {"version": "2.0", "generator": "vkmech analysis/validation/make_scenes.py"},
+        "scene": 0, "scenes": [{"name": name, "nodes": list(range(len(nodes)))}], "nodes": nodes,
+        "cameras": [{"type": "perspective", "perspective": {"yfov": math.radians(fov), "aspectRatio": 1.0,
+                                                             "znear": 0.01, "zfar": 1000.0}}],
+        "meshes": meshes, "materials": materials, "textures": textures, "images": images,
+        "samplers": [{"magFilter": 9729, "minFilter": 9729, "wrapS": 10497, "wrapT": 10497}],
+        "accessors": accessors, "bufferViews": views,
+        "buffers": [{"uri": name + ".bin", "byteLength": len(blob)}],
+    }
+    with open(os.path.join(out_dir, name + ".bin"), "wb") as fh:
+        fh.write(bytes(blob))
+    with open(os.path.join(out_dir, name + ".gltf"), "w") as fh:
+        json.dump(doc, fh, indent=1)
+        fh.write("\n")
+
+
 def main():
     os.makedirs(MESH, exist_ok=True)
     os.makedirs(os.path.join(OUT, "textures"), exist_ok=True)
@@ -435,6 +636,7 @@ def main():
     sky_hdr(os.path.join(OUT, "textures", "sky.hdr"))
     with open(os.path.join(OUT, "val_envmap.xml"), "w") as fh:
         fh.write(envmap_scene())
+    gltf_scene(OUT)
     for name, (desc, body) in SCENES.items():
         with open(os.path.join(OUT, name + ".xml"), "w") as fh:
             fh.write(scene_head(name + ": " + desc, "39.3", "0, -3.9, 1.0", "0, 0, 1.0") + BOX_BSDFS + BOX + body +
