@@ -221,7 +221,8 @@ int MitsubaLoader::bsdf(const XNode& n) {
             if (t->tag() == "ref" && lookup_ref(*t).kind != IdKind::Texture) continue;
             const int index = texture(*t);
             p.set_float(name, mean_luminance(scene_.textures[index]));
-            const bool u = name[6] != 'v' && name[6] != 'V', v = name[6] != 'u' && name[6] != 'U';
+            const std::string_view n(name);  // "alpha" sets both, "alpha_u"/"alphaU" u, "alpha_v"/"alphaV" v
+            const bool u = n.back() != 'v' && n.back() != 'V', v = n.back() != 'u' && n.back() != 'U';
             if (u) alpha_tex[0] = index;
             if (v) alpha_tex[1] = index;
         }
