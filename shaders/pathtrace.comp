@@ -81,6 +81,9 @@ vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
     Hit h;
     if (!trace_closest(o, d, 0.0, RAY_TMAX, h)) return vec3(0.0);
     SurfaceHit s = surface_hit(h.prim, h.bary);
+#if defined(KERNEL_GPU) && defined(TRAVERSAL_BVH)
+    surface_to_world(s, h.inst);
+#endif
     vec3 L = vec3(0.0);
     bool front = dot(s.ng, d) < 0.0;
     if (s.emitter != 0u && front) L += emitter_radiance(s.emitter - 1u) * emission_scale(s.material, s.uv);
@@ -305,6 +308,9 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
             PATH_BREAK;
         }
         SurfaceHit s = surface_hit(h.prim, h.bary);
+#if defined(KERNEL_GPU) && defined(TRAVERSAL_BVH)
+        surface_to_world(s, h.inst);
+#endif
 
         // ---- emission seen by this segment ----
         if (s.emitter != 0u && dot(s.ng, d) < 0.0) {

@@ -31,6 +31,7 @@ struct Hit {
     float t;
     uint prim;
     vec2 bary;  // (u, v): p = (1-u-v) v0 + u v1 + v v2
+    uint inst;  // the GPU kernel: the instance hit (GpuInstance), or NO_INSTANCE; else unset
 };
 
 vec3 safe_inverse(vec3 d) {

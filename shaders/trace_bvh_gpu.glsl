@@ -14,8 +14,28 @@ layout(std430, set = 0, binding = BINDING_BVH_NODES) readonly buffer BvhNodes { 
 layout(std430, set = 0, binding = BINDING_BVH_TRIS) readonly buffer BvhTris { vec4 bvh_tri_pos[]; };
 
 // build_bvh's trees are at most kBvhMaxDepth (60) deep, and a level pushes at
-// most one node.
+// most one node. With instances the host checks that the top-level tree's
+// depth, a leaf's entries, the return marker and the deepest group tree fit
+// (build_gpu_kernel_tree).
 const uint BVH_STACK_SIZE = 64u;
+
+// Instancing (host GpuKernelTree): the scene's shape groups each have a tree
+// of their own, in the group's space, after the top-level tree in bvh_nodes
+// (and their triangles after its entries in bvh_tri_pos). A top-level leaf
+// entry whose first w has INSTANCE_ENTRY_BIT is an instance: the leaf pushes
+// it; popped, it pushes BVH_LEAVE_INSTANCE, moves the ray into the group's
+// space (the same t: the map is affine and the direction is not
+// renormalized) and descends the group's tree; popping BVH_LEAVE_INSTANCE
+// restores the world ray. A scene without instances (the constant false)
+// runs the one-level traversal unchanged.
+layout(constant_id = SPEC_INSTANCES) const bool FEATURE_INSTANCES = false;
+layout(std430, set = 0, binding = BINDING_INSTANCES) readonly buffer Instances { GpuInstance instances[]; };
+const uint BVH_LEAVE_INSTANCE = 0xFFFFFFFFu;
+
+vec3 affine_point(vec4 r0, vec4 r1, vec4 r2, vec3 p) {
+    return vec3(dot(r0.xyz, p) + r0.w, dot(r1.xyz, p) + r1.w, dot(r2.xyz, p) + r2.w);
+}
+vec3 affine_vector(vec4 r0, vec4 r1, vec4 r2, vec3 v) { return vec3(dot(r0.xyz, v), dot(r1.xyz, v), dot(r2.xyz, v)); }
 
 // Slab test: the entry distance, or BVH_MISS. Robust to rounding at grazing
 // slabs (Ize 2013: the far bound is scaled up).
@@ -35,6 +55,9 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
     hit.t = tmax;
     hit.prim = 0xFFFFFFFFu;
     hit.bary = vec2(0.0);
+    hit.inst = NO_INSTANCE;
+    const vec3 world_o = o, world_d = d;
+    uint inst = NO_INSTANCE;  // the instance whose group's tree the ray is in
     BVH_COUNT(bvh_count_rays += 1u);
     vec3 inv_d = safe_inverse(d);
     uint stack[BVH_STACK_SIZE];
@@ -53,6 +76,13 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
             for (uint k = 0u; k < count; ++k) {
                 uint i = offset + k;
                 vec4 a = bvh_tri_pos[3u * i];
+                if (FEATURE_INSTANCES && (floatBitsToUint(a.w) & INSTANCE_ENTRY_BIT) != 0u) {
+                    if (sp < BVH_STACK_SIZE) {
+                        stack[sp] = floatBitsToUint(a.w);
+                        sp += 1u;
+                    }
+                    continue;
+                }
                 vec3 v0 = a.xyz;
                 float t;
                 vec2 uv;
@@ -61,6 +91,7 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
                     hit.t = t;
                     hit.prim = floatBitsToUint(a.w);
                     hit.bary = uv;
+                    hit.inst = inst;
                     if (any_hit) return true;
                 }
             }
@@ -93,11 +124,64 @@ bool bvh_trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out Hit hit
                 continue;
             }
         }
-        if (sp == 0u) break;
-        sp -= 1u;
-        node = stack[sp];
+        if (!FEATURE_INSTANCES) {
+            if (sp == 0u) break;
+            sp -= 1u;
+            node = stack[sp];
+            continue;
+        }
+        // Pop past the instances' markers: leave a group's tree, or enter one.
+        bool more = false;
+        while (sp > 0u) {
+            sp -= 1u;
+            node = stack[sp];
+            if (node < INSTANCE_ENTRY_BIT) {
+                more = true;
+                break;
+            }
+            if (node == BVH_LEAVE_INSTANCE) {
+                o = world_o;
+                d = world_d;
+                inst = NO_INSTANCE;
+            } else {
+                inst = node & ~INSTANCE_ENTRY_BIT;
+                GpuInstance g = instances[inst];
+                o = affine_point(g.to_local[0], g.to_local[1], g.to_local[2], world_o);
+                d = affine_vector(g.to_local[0], g.to_local[1], g.to_local[2], world_d);
+                stack[sp] = BVH_LEAVE_INSTANCE;  // in bounds: it replaces the entry just popped
+                sp += 1u;
+                node = g.info.x;
+                more = true;
+            }
+            inv_d = safe_inverse(d);
+            if (more) break;
+        }
+        if (!more) break;
     }
     return hit.prim != 0xFFFFFFFFu;
 }
+
+// A hit in an instance's group, moved to world space (pathtrace.comp, after
+// surface_hit): the point and the uv derivatives by the instance's map, the
+// normals by its inverse transpose (Mitsuba's instance: no flip for a
+// mirroring map), the offset scale bounded by the map's row sums.
+#ifdef VKMECH_SCENE_DATA_GLSL
+void surface_to_world(inout SurfaceHit s, uint inst) {
+    if (!FEATURE_INSTANCES || inst == NO_INSTANCE) return;
+    GpuInstance g = instances[inst];
+    vec4 r0 = g.to_world[0], r1 = g.to_world[1], r2 = g.to_world[2];
+    s.p = affine_point(r0, r1, r2, s.p);
+    s.dpdu = affine_vector(r0, r1, r2, s.dpdu);
+    s.dpdv = affine_vector(r0, r1, r2, s.dpdv);
+    // (M^-1)^T n: the columns of to_local's 3x3 part weighted by n.
+    mat3 to_local_t = mat3(g.to_local[0].xyz, g.to_local[1].xyz, g.to_local[2].xyz);
+    vec3 ng = to_local_t * s.ng, ns = to_local_t * s.ns;
+    s.ng = dot(ng, ng) > 0.0 ? normalize(ng) : ng;
+    s.ns = dot(ns, ns) > 0.0 ? normalize(ns) : s.ng;
+    if (dot(s.ns, s.ng) < 0.0) s.ng = -s.ng;
+    vec3 row_sums = vec3(dot(abs(r0.xyz), vec3(1.0)), dot(abs(r1.xyz), vec3(1.0)), dot(abs(r2.xyz), vec3(1.0)));
+    s.scale = max(row_sums.x, max(row_sums.y, row_sums.z)) * s.scale + max(abs(r0.w), max(abs(r1.w), abs(r2.w)));
+}
+#endif
 
 #endif

@@ -33,6 +33,7 @@ VKM_ID BINDING_SAMPLE_COUNTS = 15u;
 VKM_ID BINDING_COUNTERS = 16u;  // pathtrace.comp's VKMECH_COUNTERS variant only (bench render --profile --counters)
 VKM_ID BINDING_WORK = 17u;      // pathtrace.comp: the pixel-slot counter of claimed pixels (params.claimed_pixels)
 VKM_ID BINDING_ENVIRONMENT = 18u;  // the emitters at infinity (shared/types.h GpuEnvironment)
+VKM_ID BINDING_INSTANCES = 19u;    // the GPU kernel's software BVH: the instances of shape groups (GpuInstance)
 
 // Specialization-constant ids (layout(constant_id = ...)).
 // 1..5 and 12 on: the material features, SPEC_<NAME> of shared/materials.h.
@@ -45,6 +46,7 @@ VKM_ID SPEC_END_VERTEX_LITERAL = 10u;
 VKM_ID SPEC_ORTHOGRAPHIC = 11u;         // camera.glsl
 VKM_ID SPEC_ENVIRONMENT = 13u;          // features.glsl: emitters at infinity
 VKM_ID SPEC_SHARED_TALLY = 14u;         // pathtrace.comp, GPU kernel only: the bucket tally in shared memory
+VKM_ID SPEC_INSTANCES = 15u;            // trace_bvh_gpu.glsl: the scene has instances (a two-level tree)
 
 #ifdef __cplusplus
 }  // namespace vkmech::gpu

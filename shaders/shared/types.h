@@ -179,6 +179,19 @@ struct GpuBvhNode {
     vec4 bmax;    // xyz, w: uintBitsToFloat(count)
 };
 
+// One instance of a shape group (Mitsuba's shapegroup / instance), for the
+// GPU kernel's two-level software BVH (shaders/trace_bvh_gpu.glsl): a
+// top-level leaf entry whose first w holds INSTANCE_ENTRY_BIT | instance
+// index sends the ray, in the group's space, down the group's own tree.
+// Rows of affine 3x4 maps: x' = dot(row.xyz, x) + row.w.
+struct GpuInstance {
+    vec4 to_local[3];  // world -> the group's space
+    vec4 to_world[3];  // the group's space -> world
+    uvec4 info;        // x: the root node of the group's tree, y: the group, z, w: 0
+};
+VKM_CONST INSTANCE_ENTRY_BIT = 0x80000000u;
+VKM_CONST NO_INSTANCE = 0xFFFFFFFFu;
+
 // The 4-wide tree the software traversal runs (host/engine/accel/bvh.hpp
 // collapse_bvh4, shaders/trace_bvh.glsl), three RGBA32 texels a node: the
 // binary tree above with children and grandchildren pulled up, so one node

@@ -42,6 +42,9 @@ int cmd_check(const CommonOptions& o) {
     bool first = true;
     for (const auto& [k, n] : kinds) std::printf("%s%d %s", first ? "" : ", ", n, k.c_str()), first = false;
     std::printf("), %zu triangles\n", tris);
+    if (!scene.instances.empty())
+        std::printf("instancing: %zu shape groups, %zu instances; %zu triangles stored, %zu seen\n",
+                    scene.groups.size(), scene.instances.size(), tris, scene.instanced_triangle_count());
     std::printf("bounds: (%g, %g, %g) .. (%g, %g, %g)\n", arrays.bbox_lo.x, arrays.bbox_lo.y, arrays.bbox_lo.z,
                 arrays.bbox_hi.x, arrays.bbox_hi.y, arrays.bbox_hi.z);
     std::printf("materials: %zu\n", scene.materials.size());

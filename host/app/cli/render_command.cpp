@@ -249,6 +249,7 @@ int cmd_render(const RenderOptions& o) {
     Traversal trav = resolve_traversal(ctx, parse_traversal(o.common.traversal));
     const auto t_build = clock::now();
     RenderSession session(ctx, std::move(loaded), trav, parse_light_selection(o.light_selection));
+    trav = session.traversal();  // an instanced scene's is the software BVH
     const double build_seconds = std::chrono::duration<double>(clock::now() - t_build).count();
     const Scene& scene = session.scene();
     const SceneArrays& arrays = session.arrays();
@@ -264,7 +265,8 @@ int cmd_render(const RenderOptions& o) {
                  "light selection)\n",
                  name.c_str(), scene.camera.width, scene.camera.height, arrays.triangles.size(), scene.emitters.size(),
                  arrays.has_infinite_lights() ? " and lights at infinity" : "", o.spp, ctx.info().name.c_str(),
-                 to_string(trav), vk::to_string(ctx.kernel()), features.describe().c_str(), o.light_selection.c_str());
+                 to_string(trav), vk::to_string(session.gpu().kernel()), features.describe().c_str(),
+                 o.light_selection.c_str());
     RenderSpec spec;
     spec.spp = o.spp;
     spec.seed = o.seed;
@@ -278,6 +280,7 @@ int cmd_render(const RenderOptions& o) {
     Frame frame = renderer.render(spec);
 
     RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene, o.spp, o.seed, capture);
+    info.kernel = vk::to_string(session.gpu().kernel());
     info.pipeline_seconds = pipes.seconds;
     info.pipeline_cache = vk::pipeline_cache_outcome(pipes, ctx.pipeline_cache().enabled());
     // Where the time before the first sample goes (docs/performance.md): parsing the scene and its meshes, then
@@ -373,6 +376,7 @@ int cmd_render_adaptive(const RenderOptions& o) {
     vk::Context ctx(context_options(o.common));
     Traversal trav = resolve_traversal(ctx, parse_traversal(o.common.traversal));
     RenderSession session(ctx, std::move(loaded), trav, parse_light_selection(o.light_selection));
+    trav = session.traversal();  // an instanced scene's is the software BVH
     const Scene& scene = session.scene();
     Features features = session.features(estimator, true);
     features.end_vertex = parse_end_vertex(o.end_vertex);
@@ -444,6 +448,7 @@ int cmd_render_adaptive(const RenderOptions& o) {
     }
     RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene,
                                   static_cast<uint32_t>(plan.total / pixels), downstream_seeds::kPool, true);
+    info.kernel = vk::to_string(session.gpu().kernel());
     info.features += std::string(" adaptive=") + alloc::to_string(strategy);
     info.provenance.sample_range = adaptive_sample_range(plan.n);
     info.pipeline_seconds = pipes.seconds;

@@ -7,6 +7,7 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 
@@ -42,6 +43,15 @@ Traversal resolve_traversal(const vk::Context& ctx, Traversal requested) {
         return ctx.ray_query_enabled() ? Traversal::RayQuery : Traversal::Bvh;
     }
     return requested;
+}
+
+Traversal resolve_traversal(const vk::Context& ctx, Traversal requested, bool instanced, const std::string& source) {
+    if (!instanced) return resolve_traversal(ctx, requested);
+    if (requested == Traversal::RayQuery)
+        throw SceneError(source, 0,
+                         "--traversal rayquery: the scene has instances (shapegroup), which only the software BVH "
+                         "traces so far; use --traversal bvh or auto");
+    return Traversal::Bvh;
 }
 
 namespace {
@@ -194,7 +204,8 @@ SceneArrays flatten_unlit(const Scene& scene, LightSelection selection) {
     if (scene.materials.size() > gpu::TRI_MATERIAL_MASK) throw SceneError(scene.source, 0, "too many materials");
     if (scene.emitters.size() >= gpu::TRI_EMITTER_MASK) throw SceneError(scene.source, 0, "too many emitters");
 
-    for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
+    // The ordinary meshes' triangles first, then each shape group's, a group's contiguous.
+    auto add_mesh = [&](size_t mi) {
         const Mesh& mesh = scene.meshes[mi];
         uint32_t base = static_cast<uint32_t>(a.vertices.size());
         bool flat = mesh.normals.empty();
@@ -213,7 +224,29 @@ SceneArrays flatten_unlit(const Scene& scene, LightSelection selection) {
             const glm::vec3 first = mesh.positions[t[0]];
             for (int k = 0; k < 3; ++k) a.tri_positions.push_back(glm::vec4(mesh.positions[t[k]], first[k]));
         }
+    };
+    for (size_t mi = 0; mi < scene.meshes.size(); ++mi)
+        if (scene.meshes[mi].group < 0) add_mesh(mi);
+    for (size_t g = 0; g < scene.groups.size(); ++g) {
+        const uint32_t first = static_cast<uint32_t>(a.triangles.size());
+        for (size_t mi = 0; mi < scene.meshes.size(); ++mi)
+            if (scene.meshes[mi].group == static_cast<int>(g)) add_mesh(mi);
+        a.group_triangles.push_back(glm::uvec2(first, static_cast<uint32_t>(a.triangles.size()) - first));
     }
+    for (const auto& inst : scene.instances) {
+        if (a.group_triangles[static_cast<size_t>(inst.group)].y == 0) continue;  // an empty group: nothing to trace
+        const glm::mat4 to_local = glm::inverse(inst.to_world);
+        gpu::GpuInstance g{};
+        for (int r = 0; r < 3; ++r) {  // rows (glm: m[column][row])
+            g.to_local[r] = glm::vec4(to_local[0][r], to_local[1][r], to_local[2][r], to_local[3][r]);
+            g.to_world[r] =
+                glm::vec4(inst.to_world[0][r], inst.to_world[1][r], inst.to_world[2][r], inst.to_world[3][r]);
+        }
+        g.info = glm::uvec4(0u, static_cast<uint32_t>(inst.group), 0u, 0u);
+        a.instances.push_back(g);
+    }
+    if (a.instances.size() >= gpu::INSTANCE_ENTRY_BIT - 1u)
+        throw SceneError(scene.source, 0, "too many instances (" + std::to_string(a.instances.size()) + ")");
     if (scene.materials.empty()) {
         Material m;
         a.materials.push_back(pack_material(m, scene.textures));
@@ -235,9 +268,13 @@ SceneArrays flatten_unlit(const Scene& scene, LightSelection selection) {
     flatten_environment(scene, a);
 
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-    for (const auto& p : a.tri_positions) {
-        lo = glm::min(lo, glm::vec3(p));
-        hi = glm::max(hi, glm::vec3(p));
+    if (a.instances.empty() && scene.groups.empty()) {
+        for (const auto& p : a.tri_positions) {
+            lo = glm::min(lo, glm::vec3(p));
+            hi = glm::max(hi, glm::vec3(p));
+        }
+    } else {
+        scene.bounds(lo, hi);
     }
     a.bbox_lo = lo;
     a.bbox_hi = hi;
@@ -398,14 +435,15 @@ SceneArrays flatten_scene(const Scene& scene, LightSelection selection) {
 }
 
 void build_scene_bvh(SceneArrays& a, const std::string& source) {
-    order_by_bvh(a, source);
+    if (!a.instanced()) order_by_bvh(a, source);
     build_light_table(a);
 }
 
 SceneArrays flatten_scene(const Scene& scene, Traversal traversal, LightSelection selection) {
     VKM_ASSERT(traversal != Traversal::Auto, "flatten_scene: the traversal is not resolved");
     SceneArrays a = flatten_unlit(scene, selection);
-    if (traversal == Traversal::Bvh) order_by_bvh(a, scene.source);
+    // An instanced scene keeps the scene's order: only the GPU kernel's two-level tree traces it.
+    if (traversal == Traversal::Bvh && !a.instanced()) order_by_bvh(a, scene.source);
     build_light_table(a);
     return a;
 }
@@ -416,6 +454,8 @@ std::vector<vk::BindingDesc> traversal_bindings(Traversal t, vk::KernelClass k) 
     if (t == Traversal::RayQuery) return {{gpu::BINDING_TLAS, DT::eAccelerationStructureKHR}};
     const DT type = k == vk::KernelClass::Gpu ? DT::eStorageBuffer : DT::eUniformTexelBuffer;
     VKM_ASSERT(t == Traversal::Bvh, "traversal_bindings: the traversal is not resolved");
+    if (k == vk::KernelClass::Gpu)
+        return {{gpu::BINDING_BVH_NODES, type}, {gpu::BINDING_BVH_TRIS, type}, {gpu::BINDING_INSTANCES, type}};
     return {{gpu::BINDING_BVH_NODES, type}, {gpu::BINDING_BVH_TRIS, type}};
 }
 
@@ -425,6 +465,7 @@ void GpuScene::bind_traversal(vk::ComputePipeline& pipeline) const {
     } else if (kernel_ == vk::KernelClass::Gpu) {
         pipeline.bind_buffer(gpu::BINDING_BVH_NODES, bvh_nodes.handle());
         pipeline.bind_buffer(gpu::BINDING_BVH_TRIS, tri_positions.handle());
+        pipeline.bind_buffer(gpu::BINDING_INSTANCES, instances.handle());
     } else {
         for (const auto& [binding, view] : traversal_views_) pipeline.bind_texel_buffer(binding, **view);
     }
@@ -503,19 +544,96 @@ BvhBuildOptions gpu_kernel_bvh_options() {
     return o;
 }
 
-GpuKernelTree build_gpu_kernel_tree(const SceneArrays& a) {
-    const size_t n = a.tri_positions.size() / 3;
-    std::vector<glm::vec3> pos3(3 * n);
-    for (size_t i = 0; i < 3 * n; ++i) pos3[i] = glm::vec3(a.tri_positions[i]);
+namespace {
+
+// A tree over `pos3` (3 points per primitive) appended to t: its nodes'
+// links moved past the nodes and entries already there; entry i's first w
+// the bits of ids[order[i]]. Returns the tree's depth.
+uint32_t append_gpu_tree(GpuKernelTree& t, const std::vector<glm::vec3>& pos3, const std::vector<uint32_t>& ids) {
     Bvh tree = build_bvh(pos3, gpu_kernel_bvh_options());
-    GpuKernelTree t;
-    t.nodes = std::move(tree.nodes);
-    t.positions.resize(3 * n);
-    for (size_t i = 0; i < n; ++i) {
-        const uint32_t src = tree.order[i];
-        for (int k = 0; k < 3; ++k) t.positions[3 * i + k] = glm::vec4(pos3[3 * size_t{src} + k], 0.0f);
-        t.positions[3 * i].w = std::bit_cast<float>(src);  // the scene arrays' index of the triangle
+    const uint32_t node_base = static_cast<uint32_t>(t.nodes.size());
+    const uint32_t entry_base = static_cast<uint32_t>(t.positions.size() / 3);
+    for (gpu::GpuBvhNode n : tree.nodes) {
+        const uint32_t offset = std::bit_cast<uint32_t>(n.bmin.w);
+        const uint32_t count = std::bit_cast<uint32_t>(n.bmax.w);
+        n.bmin.w = std::bit_cast<float>(offset + (count > 0 ? entry_base : node_base));
+        t.nodes.push_back(n);
     }
+    for (size_t i = 0; i < tree.order.size(); ++i) {
+        const uint32_t src = tree.order[i];
+        for (int k = 0; k < 3; ++k) t.positions.push_back(glm::vec4(pos3[3 * size_t{src} + k], 0.0f));
+        t.positions[3 * (entry_base + i)].w = std::bit_cast<float>(ids[src]);
+    }
+    return bvh_stats(tree).max_depth;
+}
+
+}  // namespace
+
+GpuKernelTree build_gpu_kernel_tree(const SceneArrays& a, const std::string& source) {
+    GpuKernelTree t;
+    const size_t n = a.tri_positions.size() / 3;
+    // Top level: the ordinary meshes' triangles and, for each instance, its
+    // world box as a degenerate "triangle" (lo, hi, centre), whose entry is
+    // INSTANCE_ENTRY_BIT | the instance.
+    const size_t world = a.group_triangles.empty() ? n : a.group_triangles.front().x;
+    std::vector<glm::vec3> pos3;
+    std::vector<uint32_t> ids;
+    pos3.reserve(3 * (world + a.instances.size()));
+    for (size_t i = 0; i < world; ++i) {
+        for (int k = 0; k < 3; ++k) pos3.push_back(glm::vec3(a.tri_positions[3 * i + k]));
+        ids.push_back(static_cast<uint32_t>(i));
+    }
+    // Each group's box in its space.
+    std::vector<glm::vec3> glo(a.group_triangles.size(), glm::vec3(std::numeric_limits<float>::max()));
+    std::vector<glm::vec3> ghi(a.group_triangles.size(), glm::vec3(-std::numeric_limits<float>::max()));
+    for (size_t g = 0; g < a.group_triangles.size(); ++g)
+        for (size_t i = 3 * size_t{a.group_triangles[g].x};
+             i < 3 * size_t{a.group_triangles[g].x + a.group_triangles[g].y}; ++i) {
+            glo[g] = glm::min(glo[g], glm::vec3(a.tri_positions[i]));
+            ghi[g] = glm::max(ghi[g], glm::vec3(a.tri_positions[i]));
+        }
+    for (size_t j = 0; j < a.instances.size(); ++j) {
+        const gpu::GpuInstance& in = a.instances[j];
+        const size_t g = in.info.y;
+        glm::mat4 to_world(1.0f);
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 4; ++c) to_world[c][r] = in.to_world[r][c];
+        glm::vec3 lo = glo[g], hi = ghi[g];
+        transform_box(to_world, lo, hi);
+        pos3.push_back(lo);
+        pos3.push_back(hi);
+        pos3.push_back(0.5f * (lo + hi));
+        ids.push_back(gpu::INSTANCE_ENTRY_BIT | static_cast<uint32_t>(j));
+    }
+    const uint32_t top_depth = append_gpu_tree(t, pos3, ids);
+    // Each group's tree, in the group's space; its instances descend from its root.
+    t.instances = a.instances;
+    uint32_t group_depth = 0;
+    for (size_t g = 0; g < a.group_triangles.size(); ++g) {
+        const glm::uvec2 r = a.group_triangles[g];
+        if (r.y == 0) continue;
+        pos3.clear();
+        ids.clear();
+        for (uint32_t i = r.x; i < r.x + r.y; ++i) {
+            for (int k = 0; k < 3; ++k) pos3.push_back(glm::vec3(a.tri_positions[3 * size_t{i} + k]));
+            ids.push_back(i);
+        }
+        const uint32_t root = static_cast<uint32_t>(t.nodes.size());
+        group_depth = std::max(group_depth, append_gpu_tree(t, pos3, ids));
+        for (auto& in : t.instances)
+            if (in.info.y == g) in.info.x = root;
+    }
+    // The traversal's stack (shaders/trace_bvh_gpu.glsl, BVH_STACK_SIZE 64): a
+    // top-level path, a leaf's instance entries (at most 4), the return marker,
+    // a group's path.
+    if (!a.instances.empty() && top_depth + 4 + 1 + group_depth > 64)
+        throw SceneError(source, 0,
+                         "the instanced scene's trees are too deep for the GPU kernel's traversal stack (top level " +
+                             std::to_string(top_depth) + ", deepest shape group " + std::to_string(group_depth) +
+                             " levels; at most 59 together)");
+    if (t.nodes.size() >= gpu::INSTANCE_ENTRY_BIT)
+        throw SceneError(source, 0, "the scene is too large for the GPU kernel's software BVH");
+    if (t.instances.empty()) t.instances.resize(1);  // a binding needs a buffer
     return t;
 }
 
@@ -535,9 +653,14 @@ void check_storage_range(const vk::Context& ctx, const vk::Buffer& b, const char
 }  // namespace
 
 GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal traversal, vk::KernelClass kernel)
-    : traversal_(resolve_traversal(ctx, traversal)), kernel_(kernel == vk::KernelClass::Auto ? ctx.kernel() : kernel) {
+    : traversal_(resolve_traversal(ctx, traversal, a.instanced(), "")),
+      // Instances: only the GPU kernel's traversal has two levels (on any device).
+      kernel_(a.instanced()                     ? vk::KernelClass::Gpu
+              : kernel == vk::KernelClass::Auto ? ctx.kernel()
+                                                : kernel),
+      instanced_(a.instanced()) {
     VKM_ASSERT(
-        traversal_ != Traversal::Bvh || !a.bvh4.empty(),
+        traversal_ != Traversal::Bvh || a.has_bvh(),
         "GpuScene: the software BVH traverses scene arrays without a BVH (flatten_scene(scene, Traversal::Bvh))");
     using BU = ::vk::BufferUsageFlagBits;
     const bool gpu_kernel = kernel_ == vk::KernelClass::Gpu;
@@ -559,7 +682,7 @@ GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal trave
     // The GPU kernel's software BVH reads the positions in its own tree's order
     // (shaders/trace_bvh_gpu.glsl); everything else in the scene arrays' order.
     std::optional<GpuKernelTree> gpu_tree;
-    if (gpu_kernel && traversal_ == Traversal::Bvh) gpu_tree = build_gpu_kernel_tree(a);
+    if (gpu_kernel && traversal_ == Traversal::Bvh) gpu_tree = build_gpu_kernel_tree(a, "");
     tri_positions = vk::Buffer::from_vector(ctx, gpu_tree ? gpu_tree->positions : a.tri_positions, pos_usage);
     if (gpu_kernel) {
         const std::pair<uint32_t, const vk::Buffer*> arrays[] = {
@@ -589,7 +712,9 @@ GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal trave
         accel_ = std::make_unique<RayTracingAccel>(ctx, tri_positions, static_cast<uint32_t>(a.triangles.size()));
     } else if (gpu_tree) {
         bvh_nodes = vk::Buffer::from_vector(ctx, gpu_tree->nodes, usage);
+        instances = vk::Buffer::from_vector(ctx, gpu_tree->instances, usage);
         check_storage_range(ctx, bvh_nodes, "BVH nodes");
+        check_storage_range(ctx, instances, "instances");
         check_storage_range(ctx, tri_positions, "triangle positions");
     } else {
         bvh_nodes = vk::Buffer::from_vector(ctx, a.bvh4, usage);

@@ -52,13 +52,21 @@ struct SceneArrays {
     std::vector<gpu::GpuDirectional> directional;
     double environment_luminance = 0.0;  // the environment's mean luminance over the sphere
     bool has_infinite_lights() const { return environment.map.x != gpu::ENV_NONE || !directional.empty(); }
+    // Instancing (Scene::groups, Scene::instances): each group's triangles are
+    // one range [x, x + y) of the triangle arrays, in the group's space; the
+    // ordinary meshes' come first, in world space. The instances' maps; info.x
+    // (the group tree's root) is the GPU kernel's (build_gpu_kernel_tree).
+    std::vector<glm::uvec2> group_triangles;
+    std::vector<gpu::GpuInstance> instances;
+    bool instanced() const { return !instances.empty(); }
     // Empty until build_scene_bvh: the software BVH and what its traversal reads.
+    // An instanced scene has none: only the GPU kernel's two-level tree traces it.
     Bvh bvh;
     std::vector<gpu::GpuBvh4Node> bvh4;  // collapse_bvh4(bvh)
     float light_weight_total = 0.0f;     // sum of the light-selection weights (power: luminance x area)
     LightSelection light_selection = LightSelection::Uniform;
     glm::vec3 bbox_lo{0.0f}, bbox_hi{0.0f};
-    bool has_bvh() const { return !bvh4.empty(); }
+    bool has_bvh() const { return !bvh4.empty() || instanced(); }
 };
 
 // The environment array's words (BINDING_ENVIRONMENT): the GpuEnvironment, then
@@ -91,11 +99,13 @@ public:
     // The kernel the arrays were laid out for (the context's, vk::Context::kernel).
     vk::KernelClass kernel() const { return kernel_; }
     const RayTracingAccel* accel() const { return accel_.get(); }
+    // The scene has instances: pipelines that trace it set SPEC_INSTANCES.
+    bool instanced() const { return instanced_; }
 
     // tri_positions: SceneArrays::tri_positions, or with the GPU kernel's software
     // BVH GpuKernelTree::positions (its tree's order).
     vk::Buffer vertices, triangles, materials, emitters, light_triangles, bvh_nodes, tri_positions, texels, textures,
-        environment;
+        environment, instances;
     // The CPU kernel reads every scene array (and the software traversal its
     // 4-wide BVH nodes and triangle positions) as uniform texel buffers of
     // RGBA32 uint texels (shaders/scene_data.glsl, trace_bvh.glsl): on lavapipe
@@ -111,6 +121,7 @@ public:
 private:
     Traversal traversal_;
     vk::KernelClass kernel_;
+    bool instanced_ = false;
     std::unique_ptr<RayTracingAccel> accel_;
     // (binding, buffer): the GPU kernel's scene arrays.
     std::vector<std::pair<uint32_t, ::vk::Buffer>> storage_;
@@ -124,12 +135,21 @@ private:
 // tree's order, 3 vec4 each, the first w holding the bits of the triangle's
 // index in the scene arrays (what a hit reports). The scene arrays keep the
 // order of their own tree (SceneArrays::bvh), which the CPU kernel runs.
+//
+// An instanced scene's tree has two levels: the top-level tree over the
+// ordinary triangles and the instances' world boxes (an instance's entry:
+// first w = INSTANCE_ENTRY_BIT | the instance), then each shape group's tree
+// over its triangles in the group's space; `instances` are the arrays' with
+// info.x set to their group's root node (one zero record in a scene without
+// instances: a binding needs a buffer). Throws SceneError (naming `source`)
+// where the two levels are too deep for the traversal's stack.
 struct GpuKernelTree {
     std::vector<gpu::GpuBvhNode> nodes;
     std::vector<glm::vec4> positions;
+    std::vector<gpu::GpuInstance> instances;
 };
 BvhBuildOptions gpu_kernel_bvh_options();
-GpuKernelTree build_gpu_kernel_tree(const SceneArrays& arrays);
+GpuKernelTree build_gpu_kernel_tree(const SceneArrays& arrays, const std::string& source = {});
 
 // The descriptor bindings of a traversal's data (shaders/traversal.glsl): the
 // TLAS for ray query; for the software BVH, the BVH and the triangle positions
@@ -142,5 +162,9 @@ std::vector<vk::BindingDesc> scene_bindings(Traversal t, vk::KernelClass k);
 // Auto: ray query on GPUs that have it; the BVH on CPU devices (faster there,
 // measured) and on devices without ray query.
 Traversal resolve_traversal(const vk::Context& ctx, Traversal requested);
+// An instanced scene (SceneArrays::instanced) is traced by the GPU kernel's
+// two-level software BVH on every device: Auto resolves to it; ray query,
+// asked for, is refused (SceneError naming `source`).
+Traversal resolve_traversal(const vk::Context& ctx, Traversal requested, bool instanced, const std::string& source);
 
 }  // namespace vkmech

@@ -12,6 +12,7 @@ static_assert(sizeof(GpuMaterial) == MATERIAL_WORDS * 16);
 static_assert(sizeof(GpuEmitter) == 32);
 static_assert(sizeof(GpuLightTriangle) == 32);
 static_assert(sizeof(GpuBvhNode) == 32);
+static_assert(sizeof(GpuInstance) == 112);
 static_assert(sizeof(GpuEnvironment) == ENV_WORDS * 16);
 static_assert(sizeof(GpuDirectional) == 32);
 static_assert(sizeof(GpuBvh4Node) == 48);  // 3 RGBA32 texels (shaders/trace_bvh.glsl)

@@ -53,7 +53,7 @@ std::vector<gpu::GpuHit> RayCaster::dispatch(const std::vector<gpu::GpuRay>& ray
     std::vector<vk::BindingDesc> bindings = {{BINDING_RAYS, DT::eStorageBuffer}, {BINDING_HITS, DT::eStorageBuffer}};
     for (const auto& b : traversal_bindings(scene_.traversal(), scene_.kernel())) bindings.push_back(b);
     vk::ComputePipeline pipe(ctx_, tracerays_spirv(scene_.traversal(), scene_.kernel(), counters, slices), bindings,
-                             kTraceraysPushBytes);
+                             kTraceraysPushBytes, {{SPEC_INSTANCES, scene_.instanced()}});
     vk::Buffer in = vk::Buffer::from_vector(ctx_, rays, ::vk::BufferUsageFlagBits::eStorageBuffer);
     vk::Buffer out(ctx_, std::max<size_t>(16, rays.size() * sizeof(gpu::GpuHit)),
                    ::vk::BufferUsageFlagBits::eStorageBuffer, vk::MemoryUse::Readback);

@@ -35,7 +35,7 @@ bool shared_tally_from_env() {
 }
 
 // The pipeline specialization of one Features value.
-std::vector<vk::SpecConstant> spec_constants(const Features& f) {
+std::vector<vk::SpecConstant> spec_constants(const Features& f, bool instanced) {
     using namespace gpu;
     std::vector<vk::SpecConstant> c = {{SPEC_THIN_LENS, f.thin_lens},
                                        {SPEC_TEXTURES, f.textures},
@@ -45,7 +45,8 @@ std::vector<vk::SpecConstant> spec_constants(const Features& f) {
                                        {SPEC_END_VERTEX_LITERAL, f.end_vertex == EndVertex::Literal},
                                        {SPEC_ORTHOGRAPHIC, f.orthographic},
                                        {SPEC_ENVIRONMENT, f.environment},
-                                       {SPEC_SHARED_TALLY, shared_tally_from_env()}};
+                                       {SPEC_SHARED_TALLY, shared_tally_from_env()},
+                                       {SPEC_INSTANCES, instanced}};
 #define VKM_X(NAME, name, bit, spec_id) c.push_back({SPEC_##NAME, (f.materials & FEATURE_BIT_##NAME) != 0u});
     VKM_MATERIAL_FEATURES(VKM_X)
 #undef VKM_X
@@ -153,7 +154,7 @@ Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Feature
     // The direct-glossy variant is another SPIR-V module, so another pipeline (and pipeline-cache entry).
     pipeline_ = std::make_unique<vk::ComputePipeline>(
         ctx, pathtrace_spirv(gpu_.traversal(), gpu_.kernel(), features_.direct_glossy, features_.counters), bindings, 0,
-        spec_constants(features_));
+        spec_constants(features_, gpu_.instanced()));
     size_t pixels = static_cast<size_t>(scene.camera.width) * scene.camera.height;
     // The limit first: the same refusal on every machine.
     if (const auto limit = memory_limit_bytes();

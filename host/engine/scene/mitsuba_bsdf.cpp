@@ -175,6 +175,8 @@ const char* MitsubaLoader::to_string(IdKind k) {
             return "emitter";
         case IdKind::Ignored:
             return "sampler, film or rfilter";
+        case IdKind::ShapeGroup:
+            return "shapegroup";
     }
     return "?";
 }

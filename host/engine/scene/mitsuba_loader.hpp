@@ -21,7 +21,7 @@ public:
     Scene load();
 
 private:
-    enum class IdKind { Bsdf, Texture, Emitter, Ignored };
+    enum class IdKind { Bsdf, Texture, Emitter, Ignored, ShapeGroup };
     static const char* to_string(IdKind k);
     struct IdEntry {
         IdKind kind = IdKind::Bsdf;
@@ -40,6 +40,12 @@ private:
     void child_of_scene(const XNode& n, int depth, Pass pass);
     void include(const XNode& n, int depth, Pass pass);
     void shape(const XNode& n);
+    // <shape type="shapegroup" id=...>: its shapes become Scene::groups[g]'s
+    // meshes (Mesh::group), seen only through <shape type="instance">.
+    void shape_group(const XNode& n);
+    void instance(const XNode& n);
+    // Drops the groups that no instance uses (a warning each).
+    void prune_uninstanced_groups();
     void shape_bsdf_and_emitter(const XNode& n, const XProps& p, Mesh& mesh);
     void emitter_top(const XNode& n);
     void sensor(const XNode& n);
@@ -92,6 +98,7 @@ private:
     bool have_sensor_ = false;
     bool have_integrator_ = false;
     int shape_count_ = 0;
+    int current_group_ = -1;  // the shapegroup whose shapes are being read, or -1
     TriangleBudget budget_;
     int bsdf_count_ = 0;
 

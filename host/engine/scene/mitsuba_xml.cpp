@@ -55,6 +55,8 @@ constexpr size_t kMaxIncludes = 1000;
 // Mitsuba's max_depth = -1 ("no limit"); Russian roulette ends paths long
 // before this in practice.
 constexpr int kUnlimitedDepth = 1024;
+// Instances of shape groups: a transform each (112 bytes on the device).
+constexpr size_t kMaxInstances = 10'000'000;
 
 }  // namespace
 
@@ -79,6 +81,7 @@ Scene MitsubaLoader::load() {
         if (e.kind == IdKind::Emitter && declared_emitters_[e.index].uses == 0)
             scene_.warnings.push_back(e.file + ":" + std::to_string(e.line) + ": emitter '" + id +
                                       "' is declared but no shape uses it (<ref id=\"" + id + "\"/> inside a shape)");
+    prune_uninstanced_groups();
     prune_unused();
     return std::move(scene_);
 }
@@ -100,6 +103,8 @@ void MitsubaLoader::scene_element(const XmlDocument& doc, int depth, Pass pass) 
                                   "sphere",
                                   "disk",
                                   "cylinder",
+                                  "shapegroup",
+                                  "instance",
                                   "perspective",
                                   "thinlens",
                                   "orthographic",
@@ -250,8 +255,79 @@ void MitsubaLoader::include(const XNode& n, int depth, Pass pass) {
 
 // ---- shapes ----
 
+void MitsubaLoader::shape_group(const XNode& n) {
+    if (current_group_ >= 0) n.fail("a shapegroup inside a shapegroup (Mitsuba does not nest them either)");
+    const auto id = n.attr("id");
+    if (!id) n.fail("a shapegroup needs an id: instances refer to it with <ref id=\"...\"/>");
+    XProps p(n);
+    const int g = static_cast<int>(scene_.groups.size());
+    scene_.groups.push_back(ShapeGroup{*id});
+    register_id(n, IdKind::ShapeGroup, g);
+    current_group_ = g;
+    for (const XNode& o : p.objects()) {
+        if (o.tag() != "shape") o.fail("a shapegroup holds <shape> elements only, not <" + o.tag() + ">");
+        shape(o);
+    }
+    current_group_ = -1;
+    warn_unused(p);
+}
+
+void MitsubaLoader::instance(const XNode& n) {
+    if (current_group_ >= 0) n.fail("an instance inside a shapegroup (Mitsuba does not nest instancing)");
+    XProps p(n);
+    Instance inst;
+    inst.to_world = p.get_transform({"to_world", "toWorld"});
+    const float det = glm::determinant(glm::mat3(inst.to_world));
+    if (!(std::abs(det) > 0.0f)) n.fail(n.describe() + ": the to_world transform is singular");
+    for (const XNode& o : p.objects()) {
+        if (o.tag() != "ref") o.fail("an instance takes one <ref id=\"...\"/> to a shapegroup, not <" + o.tag() + ">");
+        const IdEntry& e = lookup_ref(o);
+        if (e.kind != IdKind::ShapeGroup)
+            o.fail("'" + o.required("id") + "' is a " + to_string(e.kind) + "; an instance refers to a shapegroup");
+        if (inst.group >= 0) o.fail("an instance refers to one shapegroup, not several");
+        inst.group = e.index;
+    }
+    if (inst.group < 0) n.fail("an instance needs a <ref id=\"...\"/> to a shapegroup");
+    inst.name = n.attr("id").value_or("instance#" + std::to_string(scene_.instances.size()));
+    if (scene_.instances.size() >= kMaxInstances) n.fail("more than " + std::to_string(kMaxInstances) + " instances");
+    warn_unused(p);
+    scene_.instances.push_back(std::move(inst));
+}
+
+void MitsubaLoader::prune_uninstanced_groups() {
+    std::vector<int> group_map(scene_.groups.size(), -1);
+    std::vector<ShapeGroup> groups;
+    for (const auto& i : scene_.instances)
+        if (group_map[i.group] < 0) {
+            group_map[i.group] = static_cast<int>(groups.size());
+            groups.push_back(scene_.groups[i.group]);
+        }
+    if (groups.size() == scene_.groups.size() &&
+        std::is_sorted(group_map.begin(), group_map.end()))  // every group used, in order: nothing to drop
+        return;
+    for (size_t g = 0; g < scene_.groups.size(); ++g)
+        if (group_map[g] < 0)
+            scene_.warnings.push_back(path_ + ": shapegroup '" + scene_.groups[g].name +
+                                      "' is never instanced; its shapes are not rendered");
+    std::vector<Mesh> meshes;
+    std::vector<int> mesh_map(scene_.meshes.size(), -1);
+    for (size_t m = 0; m < scene_.meshes.size(); ++m) {
+        Mesh& mesh = scene_.meshes[m];
+        if (mesh.group >= 0 && group_map[mesh.group] < 0) continue;
+        if (mesh.group >= 0) mesh.group = group_map[mesh.group];
+        mesh_map[m] = static_cast<int>(meshes.size());
+        meshes.push_back(std::move(mesh));
+    }
+    for (auto& e : scene_.emitters) e.mesh = mesh_map[e.mesh];  // emitters are never in a group
+    for (auto& i : scene_.instances) i.group = group_map[i.group];
+    scene_.meshes = std::move(meshes);
+    scene_.groups = std::move(groups);
+}
+
 void MitsubaLoader::shape(const XNode& n) {
     const std::string type = n.required("type");
+    if (type == "shapegroup") return shape_group(n);
+    if (type == "instance") return instance(n);
     XProps p(n);
     glm::mat4 to_world = p.get_transform({"to_world", "toWorld"});
     float det = glm::determinant(glm::mat3(to_world));
@@ -313,12 +389,20 @@ void MitsubaLoader::shape(const XNode& n) {
         if (!(glm::length(p1 - p0) > 0.0f)) n.fail(n.describe() + ": p0 and p1 coincide");
         mesh = make_cylinder(p0, p1, radius, to_world, flip);
     } else {
-        unsupported(n, "shape", " (expected obj, ply, serialized, rectangle, cube, sphere, disk or cylinder)");
+        unsupported(
+            n, "shape",
+            " (expected obj, ply, serialized, rectangle, cube, sphere, disk, cylinder, shapegroup or instance)");
     }
     mesh.name = n.attr("id").value_or(type + "#" + std::to_string(shape_count_));
     budget_.charge(mesh.indices.size(), n.file(), n.line(), n.describe() + " '" + mesh.name + "'");
     ++shape_count_;
     shape_bsdf_and_emitter(n, p, mesh);
+    if (current_group_ >= 0) {
+        if (mesh.emitter >= 0)
+            n.fail(n.describe() + " in shapegroup '" + scene_.groups[current_group_].name +
+                   "' is an emitter; shapegroups hold no emitters (as in Mitsuba)");
+        mesh.group = current_group_;
+    }
     warn_unused(p);
     scene_.meshes.push_back(std::move(mesh));
 }
@@ -354,7 +438,7 @@ void MitsubaLoader::shape_bsdf_and_emitter(const XNode& n, const XProps& p, Mesh
             else if (e.kind == IdKind::Emitter)
                 use_declared_emitter(o, e.index);
             else
-                o.fail("'" + o.required("id") + "' is a texture; a shape takes a bsdf or an emitter");
+                o.fail("'" + o.required("id") + "' is a " + to_string(e.kind) + "; a shape takes a bsdf or an emitter");
         } else if (t == "bsdf") {
             set_material(o, bsdf(o));
         } else if (t == "emitter") {

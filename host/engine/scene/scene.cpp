@@ -7,6 +7,7 @@
 
 #include "lobes.glsl"
 
+#include <cmath>
 #include <filesystem>
 #include <limits>
 #include <new>
@@ -75,25 +76,86 @@ size_t Scene::triangle_count() const {
     return n;
 }
 
+size_t Scene::instanced_triangle_count() const {
+    std::vector<size_t> per_group(groups.size(), 0);
+    size_t n = 0;
+    for (const auto& m : meshes) {
+        if (m.group < 0)
+            n += m.indices.size();
+        else
+            per_group.at(static_cast<size_t>(m.group)) += m.indices.size();
+    }
+    for (const auto& i : instances) n += per_group.at(static_cast<size_t>(i.group));
+    return n;
+}
+
 void Scene::check() const {
+    const int n_groups = static_cast<int>(groups.size());
     for (const auto& m : meshes) {
         check_mesh(m, source);
         if (m.material >= static_cast<int>(materials.size()) || m.emitter >= static_cast<int>(emitters.size()))
             throw SceneError(source, 0, "mesh '" + m.name + "' names a material or emitter that does not exist");
+        if (m.group >= n_groups)
+            throw SceneError(source, 0, "mesh '" + m.name + "' names a shape group that does not exist");
+        if (m.group >= 0 && m.emitter >= 0)
+            throw SceneError(source, 0,
+                             "mesh '" + m.name + "' of shape group '" + groups[m.group].name +
+                                 "' is an emitter; a shape group holds no emitters");
+    }
+    std::vector<bool> instanced(groups.size(), false);
+    for (const auto& i : instances)
+        if (i.group >= 0 && i.group < n_groups) instanced[static_cast<size_t>(i.group)] = true;
+    for (const auto& m : meshes)
+        if (m.group >= 0 && !instanced[static_cast<size_t>(m.group)])
+            throw SceneError(
+                source, 0,
+                "shape group '" + groups[m.group].name + "' is never instanced (its meshes would not be seen)");
+    for (const auto& i : instances) {
+        if (i.group < 0 || i.group >= n_groups)
+            throw SceneError(source, 0, "instance '" + i.name + "' names a shape group that does not exist");
+        const float det = glm::determinant(glm::mat3(i.to_world));
+        if (!(std::abs(det) > 0.0f) || !std::isfinite(det))
+            throw SceneError(source, 0, "instance '" + i.name + "': the to_world transform is singular");
     }
 }
 
-bool Scene::bounds(glm::vec3& lo, glm::vec3& hi) const {
+void transform_box(const glm::mat4& m, glm::vec3& lo, glm::vec3& hi) {
+    glm::vec3 l(std::numeric_limits<float>::max()), h(-std::numeric_limits<float>::max());
+    for (int c = 0; c < 8; ++c) {
+        const glm::vec3 corner((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z);
+        const glm::vec3 p = glm::vec3(m * glm::vec4(corner, 1.0f));
+        l = glm::min(l, p);
+        h = glm::max(h, p);
+    }
+    lo = l;
+    hi = h;
+}
+
+bool Scene::group_bounds(int g, glm::vec3& lo, glm::vec3& hi) const {
     glm::vec3 l(std::numeric_limits<float>::max()), h(-std::numeric_limits<float>::max());
     for (const auto& m : meshes)
-        for (const auto& p : m.positions) {
-            l = glm::min(l, p);
-            h = glm::max(h, p);
-        }
+        if (m.group == g)
+            for (const auto& p : m.positions) {
+                l = glm::min(l, p);
+                h = glm::max(h, p);
+            }
     if (l.x > h.x) return false;
     lo = l;
     hi = h;
     return true;
+}
+
+bool Scene::bounds(glm::vec3& lo, glm::vec3& hi) const {
+    bool any = group_bounds(-1, lo, hi);
+    for (const auto& i : instances) {
+        glm::vec3 gl, gh;
+        if (!group_bounds(i.group, gl, gh)) continue;
+        transform_box(i.to_world, gl, gh);
+        lo = any ? glm::min(lo, gl) : gl;
+        hi = any ? glm::max(hi, gh) : gh;
+        any = true;
+    }
+    return any;
 }
 
 namespace {

@@ -191,6 +191,22 @@ struct Mesh {
     // Analytic description (kept for sampling and for separation measures).
     glm::vec3 center{0.0f};
     float radius = 0.0f;
+    // A member of shape group `group` (index into Scene::groups): positions and
+    // normals are then in the group's space, and the mesh is seen only through
+    // the group's instances. -1: an ordinary mesh, in world space.
+    int group = -1;
+};
+
+// Instancing (Mitsuba's shapegroup / instance): a group's meshes are stored
+// once, and every instance places them with its own to_world. Groups hold no
+// emitters (as in Mitsuba) and no instances.
+struct ShapeGroup {
+    std::string name;  // the XML id
+};
+struct Instance {
+    int group = -1;            // index into Scene::groups
+    glm::mat4 to_world{1.0f};  // affine, invertible
+    std::string name;          // the XML id or "instance#<index>"
 };
 
 // Area emitter attached to one mesh: constant RGB radiance, one-sided (emits
@@ -254,6 +270,8 @@ struct IntegratorSettings {
 struct Scene {
     std::string source;  // file path
     std::vector<Mesh> meshes;
+    std::vector<ShapeGroup> groups;
+    std::vector<Instance> instances;
     std::vector<Material> materials;
     std::vector<AreaEmitter> emitters;
     std::vector<Texture> textures;
@@ -270,13 +288,24 @@ struct Scene {
     // being asked ("file:line: what"); printed and recorded in every output.
     std::vector<std::string> warnings;
 
+    // The triangles stored: a shape group's once, however many instances it has.
     size_t triangle_count() const;
+    // The triangles the camera sees: each group's as many times as it is instanced.
+    size_t instanced_triangle_count() const;
     // Every mesh keeps the Mesh invariant (check_mesh, mesh_ops.hpp) and
-    // names a material and emitter that exist; throws SceneError at source.
+    // names a material and emitter that exist; groups and instances refer to
+    // each other consistently; throws SceneError at source.
     void check() const;
-    // Bounding box of every mesh vertex; false (lo, hi untouched) without any.
+    // Bounding box of the world-space geometry (every ordinary mesh vertex,
+    // every instance's box of its group); false (lo, hi untouched) without any.
     bool bounds(glm::vec3& lo, glm::vec3& hi) const;
+    // The box of group g's vertices in the group's space (g = -1: the ordinary meshes'); false when
+    // it has none.
+    bool group_bounds(int g, glm::vec3& lo, glm::vec3& hi) const;
 };
+
+// The axis-aligned box of the box [lo, hi] under the affine map m (its eight corners), in place.
+void transform_box(const glm::mat4& m, glm::vec3& lo, glm::vec3& hi);
 
 // Options a loader takes from the command line.
 struct LoadOptions {
