@@ -100,9 +100,9 @@ Scene sphere_instances(int n) {
     m.group = 0;
     s.meshes.push_back(m);
     for (int i = 0; i < n; ++i)
-        s.instances.push_back(
-            Instance{0, glm::translate(glm::mat4(1.0f), glm::vec3(3.0f * (i % 10), 3.0f * (i / 100), 3.0f * (i / 10 % 10))),
-                     "i" + std::to_string(i)});
+        s.instances.push_back(Instance{
+            0, glm::translate(glm::mat4(1.0f), glm::vec3(3.0f * (i % 10), 3.0f * (i / 100), 3.0f * (i / 10 % 10))),
+            "i" + std::to_string(i)});
     return s;
 }
 
@@ -138,7 +138,8 @@ TEST_CASE("instancing: the Mitsuba loader keeps a shapegroup once, in its space,
     CHECK(inst.warnings.empty());
 }
 
-TEST_CASE("instancing: what the loader refuses, each with the reason; a group nobody instances is dropped with a warning") {
+TEST_CASE(
+    "instancing: what the loader refuses, each with the reason; a group nobody instances is dropped with a warning") {
     TempDir dir("instancing_refuse");
     auto error_of = [&](const std::string& body) {
         try {
@@ -152,11 +153,11 @@ TEST_CASE("instancing: what the loader refuses, each with the reason; a group no
     CHECK(error_of("<shape type=\"shapegroup\" id=\"g\"><shape type=\"cube\"><emitter type=\"area\"/></shape></shape>"
                    "<shape type=\"instance\"><ref id=\"g\"/></shape>")
               .find("shapegroups hold no emitters") != std::string::npos);
-    CHECK(error_of("<shape type=\"shapegroup\" id=\"g\"><shape type=\"shapegroup\" id=\"h\">" + cube +
-                   "</shape></shape>")
-              .find("a shapegroup inside a shapegroup") != std::string::npos);
-    CHECK(error_of("<shape type=\"instance\"><ref id=\"red\"/></shape>").find("'red' is a bsdf; an instance refers to a shapegroup") !=
-          std::string::npos);
+    CHECK(
+        error_of("<shape type=\"shapegroup\" id=\"g\"><shape type=\"shapegroup\" id=\"h\">" + cube + "</shape></shape>")
+            .find("a shapegroup inside a shapegroup") != std::string::npos);
+    CHECK(error_of("<shape type=\"instance\"><ref id=\"red\"/></shape>")
+              .find("'red' is a bsdf; an instance refers to a shapegroup") != std::string::npos);
     CHECK(error_of("<shape type=\"instance\"/>").find("needs a <ref id") != std::string::npos);
     CHECK(error_of("<shape type=\"instance\"><ref id=\"nowhere\"/></shape>").find("unknown reference 'nowhere'") !=
           std::string::npos);
@@ -168,8 +169,9 @@ TEST_CASE("instancing: what the loader refuses, each with the reason; a group no
                    "</shape><shape type=\"instance\"><ref id=\"g\"/><transform name=\"to_world\"><scale "
                    "value=\"0\"/></transform></shape>")
               .find("singular") != std::string::npos);
-    CHECK(error_of("<shape type=\"shapegroup\" id=\"g\">" + cube + "</shape><shape type=\"cube\"><ref id=\"g\"/></shape>")
-              .find("'g' is a shapegroup; a shape takes a bsdf or an emitter") != std::string::npos);
+    CHECK(
+        error_of("<shape type=\"shapegroup\" id=\"g\">" + cube + "</shape><shape type=\"cube\"><ref id=\"g\"/></shape>")
+            .find("'g' is a shapegroup; a shape takes a bsdf or an emitter") != std::string::npos);
     const Scene s = load_scene(write(
         dir, "unused.xml",
         scene_with("<shape type=\"shapegroup\" id=\"unused\">" + cube + "</shape><shape type=\"shapegroup\" id=\"g\">" +
@@ -184,8 +186,9 @@ TEST_CASE("instancing: what the loader refuses, each with the reason; a group no
     CHECK(s.meshes.at(static_cast<size_t>(s.emitters[0].mesh)).name == "rectangle#1");
 }
 
-TEST_CASE("instancing: 1000 instances of a mesh take the memory of one plus, per instance, a transform, an entry and "
-          "two tree nodes") {
+TEST_CASE(
+    "instancing: 1000 instances of a mesh take the memory of one plus, per instance, a transform, an entry and "
+    "two tree nodes") {
     const Scene one = sphere_instances(1), many = sphere_instances(1000);
     const SceneArrays a1 = flatten_scene(one, Traversal::Bvh), an = flatten_scene(many, Traversal::Bvh);
     const GpuKernelTree t1 = build_gpu_kernel_tree(a1), tn = build_gpu_kernel_tree(an);
@@ -261,7 +264,8 @@ TEST_SUITE("gpu") {
         CHECK(nonfinite == 0.0);
     }
 
-    TEST_CASE("instancing: an instanced scene takes the GPU kernel's software BVH on any device; ray query is refused") {
+    TEST_CASE(
+        "instancing: an instanced scene takes the GPU kernel's software BVH on any device; ray query is refused") {
         VKMECH_REQUIRE_GPU(ctx);
         const Scene s = sphere_instances(4);
         const SceneArrays a = flatten_scene(s, Traversal::Bvh);

@@ -4,6 +4,7 @@
 // BSDF-sampled ray or sampled by NEE. A metallic-roughness texture (glTF's):
 // principled's metallic and roughness read at each hit, not averaged; likewise
 // Mitsuba's textured alpha on roughconductor and roughdielectric.
+#include "cli_run.hpp"
 #include "gpu_fixture.hpp"
 #include "render_fixture.hpp"
 #include "scene_fixtures.hpp"
@@ -224,6 +225,11 @@ TEST_CASE("normal map: Mitsuba's normalmap and bumpmap wrappers give their neste
     const SceneArrays a = flatten_scene(s);
     CHECK(a.materials[s.meshes[0].material].frame_tex.x == static_cast<uint32_t>(m.normal_texture + 1));
     CHECK(a.materials[s.meshes[1].material].frame_tex.x == static_cast<uint32_t>(b.bump_texture + 1) << 16);
+    // `vkmech check` names every texture slot of every material.
+    const testing::CliRun check = testing::run_cli("check --scene " + dir.file("s.xml"));
+    CHECK(check.code == 0);
+    CHECK(check.output.find(" normal=" + dir.file("n.exr")) != std::string::npos);
+    CHECK(check.output.find(" bump=" + dir.file("n.exr")) != std::string::npos);
 
     // Both around one bsdf: refused (one shading-normal texture per material).
     std::ofstream(dir.file("both.xml")) << R"(<scene version="3.0.0"><sensor type="perspective"/>
@@ -278,6 +284,66 @@ TEST_CASE(
     const gpu::GpuMaterial& gc = a.materials[s.meshes[0].material];
     CHECK((gc.frame_tex.z & 0xFFFFu) == static_cast<uint32_t>(c.alpha_u_texture + 1));
     CHECK((gc.frame_tex.z >> 16) == static_cast<uint32_t>(c.alpha_v_texture + 1));
+}
+
+TEST_CASE(
+    "metallic-roughness texture: Mitsuba's principled reads a bitmap roughness and metallic at each hit, "
+    "through the glTF layout") {
+    testing::TempDir dir("principledtex");
+    // 2 x 1 linear texels: luminance 0.1 and 0.5 (r), 1 and 0 (m).
+    std::vector<float> r = {0.1f, 0.5f}, m = {1.0f, 0.0f};
+    write_exr_layers(dir.file("r.exr"), 2, 1, {{"R", r}, {"G", r}, {"B", r}});
+    write_exr_layers(dir.file("m.exr"), 2, 1, {{"R", m}, {"G", m}, {"B", m}});
+    std::ofstream(dir.file("s.xml")) << R"(<scene version="3.0.0"><sensor type="perspective"/>
+  <shape type="rectangle"><bsdf type="principled"><float name="metallic" value="0.25"/>
+    <texture name="roughness" type="bitmap"><string name="filename" value="r.exr"/></texture></bsdf></shape>
+  <shape type="cube"><bsdf type="principled">
+    <texture name="roughness" type="bitmap"><string name="filename" value="r.exr"/></texture>
+    <texture name="metallic" type="bitmap"><string name="filename" value="m.exr"/></texture></bsdf></shape>
+  <shape type="sphere"><bsdf type="principled">
+    <texture name="metallic" type="checkerboard"><float name="color0" value="0.7"/><float name="color1" value="0.1"/>
+    </texture></bsdf></shape>
+  <shape type="disk"><bsdf type="principled">
+    <texture name="metallic" type="checkerboard"/>
+    <texture name="roughness" type="bitmap"><string name="filename" value="r.exr"/></texture></bsdf></shape>
+</scene>)";
+    // A checkerboard and a bitmap (two layouts) keep their means (--substitute).
+    CHECK_THROWS_WITH_AS(load_scene(dir.file("s.xml")), doctest::Contains("--substitute"), SceneError);
+    LoadOptions sub;
+    sub.substitute_unsupported = true;
+    const Scene s = load_scene(dir.file("s.xml"), sub);
+    auto texel = [&](const Material& mat, int i, int channel) {
+        return s.textures.at(static_cast<size_t>(mat.metallic_roughness_texture)).rgb.at(3 * i + channel);
+    };
+    const Material& a = s.materials[s.meshes[0].material];
+    REQUIRE(a.metallic_roughness_texture >= 0);
+    CHECK(texel(a, 0, 1) == doctest::Approx(0.1f));  // G: roughness, texel by texel
+    CHECK(texel(a, 1, 1) == doctest::Approx(0.5f));
+    CHECK(texel(a, 0, 2) == doctest::Approx(0.25f));  // B: the constant metallic
+    CHECK(texel(a, 1, 2) == doctest::Approx(0.25f));
+    CHECK(a.roughness == doctest::Approx(0.3f));  // the constants: the means
+    CHECK(a.metallic == doctest::Approx(0.25f));
+    const Material& b = s.materials[s.meshes[1].material];
+    REQUIRE(b.metallic_roughness_texture >= 0);
+    CHECK(texel(b, 0, 1) == doctest::Approx(0.1f));
+    CHECK(texel(b, 0, 2) == doctest::Approx(1.0f));
+    CHECK(texel(b, 1, 2) == doctest::Approx(0.0f));
+    CHECK(b.metallic == doctest::Approx(0.5f));
+    // A checkerboard's two colours are combined like two texels.
+    const Material& c = s.materials[s.meshes[2].material];
+    REQUIRE(c.metallic_roughness_texture >= 0);
+    CHECK(s.textures[c.metallic_roughness_texture].kind == TextureKind::Checkerboard);
+    CHECK(texel(c, 0, 2) == doctest::Approx(0.7f));
+    CHECK(texel(c, 1, 2) == doctest::Approx(0.1f));
+    CHECK(texel(c, 0, 1) == doctest::Approx(0.5f));  // Mitsuba's default roughness
+    const Material& d = s.materials[s.meshes[3].material];
+    CHECK(d.metallic_roughness_texture == -1);
+    int subs = 0;
+    for (const auto& line : s.substitutions) subs += line.find("float parameter") != std::string::npos;
+    CHECK(subs == 2);  // the disk's two
+    const SceneArrays arrays = flatten_scene(s);
+    CHECK((arrays.materials[s.meshes[1].material].header.w >> gpu::MAT_TEX_SHIFT) ==
+          static_cast<uint32_t>(b.metallic_roughness_texture + 1));
 }
 
 TEST_SUITE("gpu") {

@@ -9,15 +9,17 @@
 #   env: SPP (1024), PY (/usr/bin/python3), CXX (g++)
 #
 # Scenes and what is removed: test_bumpmap_path.xml (the bump map: its nested
-# diffuse alone) and test_textured_roughconductor_path.xml (the alpha_u/alpha_v
-# checkerboards: their mean, 0.175, as constants). Prints, per scene and
+# diffuse alone), test_textured_roughconductor_path.xml (the alpha_u/alpha_v
+# checkerboards: their mean, 0.175, as constants) and
+# test_texturedprincipled1_path.xml (the metallic checkerboard: its mean, 0.4;
+# its anisotropic, clearcoat and sheen checkerboards are means in both). Prints, per scene and
 # variant, the image mean, the RMSE and relative L1 against the reference, and
 # the correlation of (vkmech - without) with (reference - without).
 # The references are PIZ-compressed, which exr.py does not read: a small
 # OpenEXR program (Debian's libopenexr-dev, a build dependency) dumps them.
 # docs/validation.md, "Mitsuba's reference images", records a run.
 set -euo pipefail
-[ $# -ge 2 ] || { sed -n 2,19p "$0"; exit 2; }
+[ $# -ge 2 ] || { sed -n 2,21p "$0"; exit 2; }
 DATA=$(cd "$1" && pwd)
 VKMECH=$(cd "$(dirname "$2")" && pwd)/$(basename "$2")
 OUT=${3:-/tmp/mitsuba_refs}
@@ -91,6 +93,8 @@ sed 's#<bsdf type="bumpmap" id="object_bsdf">#<bsdf type="twosided" id="object_b
 sed 's#<texture name="alpha_u" type="checkerboard">#<float name="alpha_u" value="0.175"/><texture name="unused_u" type="checkerboard">#;
      s#<texture name="alpha_v" type="checkerboard">#<float name="alpha_v" value="0.175"/><texture name="unused_v" type="checkerboard">#' \
     "$SCENES/test_textured_roughconductor_path.xml" >"$SCENES/zz_vkmech_flatalpha.xml"
+sed 's#<texture name="metallic" type="checkerboard">#<float name="metallic" value="0.4"/><texture name="unused_m" type="checkerboard">#' \
+    "$SCENES/test_texturedprincipled1_path.xml" >"$SCENES/zz_vkmech_flatmetallic.xml"
 
 render bump test_bumpmap_path.xml
 cp "$OUT/bump.rgb" "$OUT/test_bumpmap.vkmech.rgb"
@@ -103,3 +107,9 @@ cp "$OUT/alpha.rgb" "$OUT/test_textured_roughconductor.vkmech.rgb"
 render flatalpha zz_vkmech_flatalpha.xml
 cp "$OUT/flatalpha.rgb" "$OUT/test_textured_roughconductor.without.rgb"
 compare test_textured_roughconductor
+
+render metallic test_texturedprincipled1_path.xml
+cp "$OUT/metallic.rgb" "$OUT/test_texturedprincipled1.vkmech.rgb"
+render flatmetallic zz_vkmech_flatmetallic.xml
+cp "$OUT/flatmetallic.rgb" "$OUT/test_texturedprincipled1.without.rgb"
+compare test_texturedprincipled1

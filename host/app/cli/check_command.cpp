@@ -52,15 +52,9 @@ int cmd_check(const CommonOptions& o) {
         int users = 0;
         for (const auto& mesh : scene.meshes) users += &scene.materials[mesh.material] == &m;
         std::string tex;
-        if (m.reflectance.texture >= 0) tex += " reflectance=" + scene.textures[m.reflectance.texture].path;
-        if (m.specular_reflectance_texture >= 0)
-            tex += " specular_reflectance=" + scene.textures[m.specular_reflectance_texture].path;
-        if (m.specular_transmittance_texture >= 0)
-            tex += " specular_transmittance=" + scene.textures[m.specular_transmittance_texture].path;
-        if (m.emission_texture >= 0) tex += " emission=" + scene.textures[m.emission_texture].path;
-        if (m.metallic_roughness_texture >= 0)
-            tex += " metallic_roughness=" + scene.textures[m.metallic_roughness_texture].path;
-        if (m.normal_texture >= 0) tex += " normal=" + scene.textures[m.normal_texture].path;
+        m.for_each_named_texture([&](const char* slot, int t) {
+            if (t >= 0) tex += std::string(" ") + slot + "=" + scene.textures[t].path;
+        });
         std::printf("  %-24s %-16s lobes %-4s %d shape%s%s%s\n", m.id.c_str(), to_string(m.type),
                     lobe_classes(m).c_str(), users, users == 1 ? "" : "s", m.twosided ? ", twosided" : "", tex.c_str());
     }

@@ -207,6 +207,45 @@ int MitsubaLoader::bsdf_ref(const XNode& n) {
     return e.index;
 }
 
+int MitsubaLoader::principled_texture(XProps& p) {
+    // The textures among roughness and metallic: bitmaps, or checkerboards (whose two colours
+    // are combined like two texels).
+    const char* names[2] = {"roughness", "metallic"};
+    const float defaults[2] = {0.5f, 0.0f};  // Mitsuba 3's
+    int index[2] = {-1, -1};
+    for (int k = 0; k < 2; ++k) {
+        const XNode* t = p.peek(names[k]);
+        if (!t || (t->tag() != "texture" && t->tag() != "ref")) continue;
+        if (t->tag() == "ref" && lookup_ref(*t).kind != IdKind::Texture) continue;
+        index[k] = texture(*t);  // may grow scene_.textures: pointers below, once both are read
+    }
+    const Texture* tex[2] = {index[0] >= 0 ? &scene_.textures[index[0]] : nullptr,
+                             index[1] >= 0 ? &scene_.textures[index[1]] : nullptr};
+    if (!tex[0] && !tex[1]) return -1;
+    const Texture& base = tex[0] ? *tex[0] : *tex[1];
+    if (tex[0] && tex[1] &&
+        (tex[1]->kind != base.kind || tex[1]->width != base.width || tex[1]->height != base.height ||
+         tex[1]->to_uv != base.to_uv || tex[1]->nearest != base.nearest))
+        return -1;  // two layouts: both keep their means (--substitute, below)
+    // G: roughness, B: metallic, each the texel's luminance or the constant.
+    Texture both = base;
+    both.path =
+        "roughness " + (tex[0] ? tex[0]->path : "constant") + ", metallic " + (tex[1] ? tex[1]->path : "constant");
+    const size_t texels = base.rgb.size() / 3;
+    for (int k = 0; k < 2; ++k) {
+        const float constant = tex[k] ? mean_luminance(*tex[k]) : p.get_float({names[k]}, defaults[k]);
+        for (size_t i = 0; i < texels; ++i) {
+            const float* c = tex[k] ? &tex[k]->rgb[3 * i] : nullptr;
+            both.rgb[3 * i + 1 + k] =
+                c ? static_cast<float>(gpu::LUM_R * c[0] + gpu::LUM_G * c[1] + gpu::LUM_B * c[2]) : constant;
+        }
+        if (tex[k]) p.set_float(names[k], constant);  // the model's constants hold the means
+    }
+    for (size_t i = 0; i < texels; ++i) both.rgb[3 * i] = 0.0f;
+    scene_.textures.push_back(std::move(both));  // tex[] dangle from here
+    return static_cast<int>(scene_.textures.size()) - 1;
+}
+
 int MitsubaLoader::bsdf(const XNode& n) {
     if (n.tag() == "ref") return bsdf_ref(n);
     const std::string type = n.required("type");
@@ -229,7 +268,10 @@ int MitsubaLoader::bsdf(const XNode& n) {
             if (v) alpha_tex[1] = index;
         }
     }
-    // Other textured float parameters (roughness, metallic, ...) are outside the
+    // principled reads a textured roughness and metallic at each hit: one linear texture
+    // holding both (Material::metallic_roughness_texture, glTF's layout).
+    const int principled_tex = type == "principled" ? principled_texture(p) : -1;
+    // Other textured float parameters (specular, sheen, ...) are outside the
     // model: --substitute uses the texture's mean.
     static const char* float_params[] = {"alpha",     "alpha_u",    "alpha_v",   "alphaU",          "alphaV",
                                          "roughness", "metallic",   "specular",  "spec_tint",       "anisotropic",
@@ -239,6 +281,8 @@ int MitsubaLoader::bsdf(const XNode& n) {
         const XNode* t = p.peek(name);
         if (!t || (t->tag() != "texture" && t->tag() != "ref") || type == "mask" || type == "blendbsdf") continue;
         if ((type == "roughconductor" || type == "roughdielectric") && std::string(name).rfind("alpha", 0) == 0)
+            continue;  // read at each hit (above)
+        if (principled_tex >= 0 && (std::string(name) == "roughness" || std::string(name) == "metallic"))
             continue;  // read at each hit (above)
         if (t->tag() == "ref" && lookup_ref(*t).kind != IdKind::Texture) continue;
         require_substitute(*t, "texture", "its mean value on the float parameter '" + std::string(name) + "'");
@@ -389,6 +433,7 @@ int MitsubaLoader::bsdf(const XNode& n) {
     }
     if (alpha_tex[0] >= 0) m.alpha_u_texture = alpha_tex[0];
     if (alpha_tex[1] >= 0) m.alpha_v_texture = alpha_tex[1];
+    if (principled_tex >= 0) m.metallic_roughness_texture = principled_tex;
     warn_unused(p);
     if (type != "twosided" || !id.empty()) m.id = id.empty() ? type + "#" + std::to_string(bsdf_count_) : id;
     ++bsdf_count_;

@@ -76,6 +76,10 @@ private:
     int bsdf(const XNode& n);      // <bsdf> or <ref>: index into scene_.materials
     int bsdf_ref(const XNode& n);  // <ref id=...> to a bsdf
     int texture(const XNode& n);   // <texture> or <ref>: index into scene_.textures
+    // principled's textured roughness and metallic as one texture (G, B: each texel's, or
+    // checkerboard colour's, luminance, or the constant), read at each hit; -1 when neither is
+    // textured, or both are of different layouts. The textured ones' constants become their means.
+    int principled_texture(XProps& p);
     // The parameters of a model of the material table (m.type set): one case per BsdfType.
     void model_parameters(const XProps& p, const XNode& n, Material& m);
     void conductor_parameters(const XProps& p, const XNode& n, Material& m);

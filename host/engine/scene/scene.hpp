@@ -112,10 +112,15 @@ struct Material {
     // Material): the one list of a material's textures, for whoever remaps or tests them.
     template <class F>
     void for_each_texture(F&& f) {
-        each_texture(*this, f);
+        each_texture(*this, [&](const char*, int& t) { f(t); });
     }
     template <class F>
     void for_each_texture(F&& f) const {
+        each_texture(*this, [&](const char*, const int& t) { f(t); });
+    }
+    // The same with each slot's name ("reflectance", "bump", ...): f(const char* name, int texture).
+    template <class F>
+    void for_each_named_texture(F&& f) const {
         each_texture(*this, f);
     }
     bool has_texture() const {
@@ -126,16 +131,16 @@ struct Material {
 
 private:
     template <class Self, class F>
-    static void each_texture(Self& m, F& f) {
-        f(m.reflectance.texture);
-        f(m.specular_reflectance_texture);
-        f(m.specular_transmittance_texture);
-        f(m.emission_texture);
-        f(m.metallic_roughness_texture);
-        f(m.normal_texture);
-        f(m.bump_texture);
-        f(m.alpha_u_texture);
-        f(m.alpha_v_texture);
+    static void each_texture(Self& m, F&& f) {
+        f("reflectance", m.reflectance.texture);
+        f("specular_reflectance", m.specular_reflectance_texture);
+        f("specular_transmittance", m.specular_transmittance_texture);
+        f("emission", m.emission_texture);
+        f("metallic_roughness", m.metallic_roughness_texture);
+        f("normal", m.normal_texture);
+        f("bump", m.bump_texture);
+        f("alpha_u", m.alpha_u_texture);
+        f("alpha_v", m.alpha_v_texture);
     }
 
 public:
