@@ -60,7 +60,8 @@ struct RenderOptions {
     uint32_t budget = 32;
     uint32_t floor = 1;
     uint32_t pilot_draw = 0;
-    std::string curve;  // frozen predictor curve (default: docs/results/predictor_curve.json)
+    std::string curve;           // frozen predictor curve (default: docs/results/predictor_curve.json)
+    std::string display_server;  // host:port of a tev viewer: the render in progress (io/display_client.hpp)
 };
 
 // `vkmech sentinel register` (docs/descriptor.md §9).

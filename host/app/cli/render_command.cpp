@@ -6,6 +6,7 @@
 #include "adaptive/adaptive.hpp"
 #include "allocation/allocation.hpp"
 #include "experiments/predictor.hpp"
+#include "io/display_client.hpp"
 #include "io/interrupt.hpp"
 #include "io/output_set.hpp"
 #include "io/png.hpp"
@@ -225,6 +226,25 @@ bool wants_direct_glossy(const RenderOptions& o, bool capture) {
     return on;
 }
 
+// --display-server: a client named "<scene> (<pid>)", or none (no address); a failed
+// connection is a warning now and the render goes on.
+std::unique_ptr<DisplayClient> open_display(const std::string& address, const std::string& scene) {
+    if (address.empty()) return nullptr;
+    auto client = std::make_unique<DisplayClient>(address, scene + " (" + std::to_string(::getpid()) + ")");
+    if (!client->connected()) std::fprintf(stderr, "vkmech: warning: %s\n", client->warning().c_str());
+    return client;
+}
+
+// The frame so far as the EXR's channels, sent unless within DisplayClient::kInterval of the last
+// (`force`: the final image). A connection lost now is a warning once.
+void send_to_display(DisplayClient& display, const Frame& frame, bool capture, bool force) {
+    if (!display.connected() || !display.due(force)) return;
+    std::optional<Descriptor> desc;
+    if (capture) desc = derive_descriptor(frame);
+    display.update(frame.width, frame.height, render_channels(frame, desc ? &*desc : nullptr), force);
+    if (!display.connected()) std::fprintf(stderr, "vkmech: warning: %s\n", display.warning().c_str());
+}
+
 }  // namespace
 
 void check_curve_for_cli(const std::string& path) { (void)load_curve_for_cli(path); }
@@ -277,7 +297,10 @@ int cmd_render(const RenderOptions& o) {
         throw_if_interrupted();
         progress(d, t);
     };
+    std::unique_ptr<DisplayClient> display = open_display(o.display_server, name);
+    if (display) spec.on_frame = [&](const Frame& f) { send_to_display(*display, f, capture, /*force=*/false); };
     Frame frame = renderer.render(spec);
+    if (display) send_to_display(*display, frame, capture, /*force=*/true);
 
     RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene, o.spp, o.seed, capture);
     info.kernel = vk::to_string(session.gpu().kernel());
@@ -439,7 +462,11 @@ int cmd_render_adaptive(const RenderOptions& o) {
         throw_if_interrupted();
         progress(d, t);
     };
+    std::unique_ptr<DisplayClient> display = open_display(o.display_server, name);
+    if (display)
+        spec.on_frame = [&](const Frame& f) { send_to_display(*display, f, /*capture=*/true, /*force=*/false); };
     Frame frame = renderer.render(spec);
+    if (display) send_to_display(*display, frame, /*capture=*/true, /*force=*/true);
 
     uint32_t max_n = 0, min_n = ~0u;
     for (uint32_t n : plan.n) {
@@ -510,6 +537,10 @@ void register_render(CLI::App& app, CliCommands& commands) {
                      "§3.4; a second shader variant, needs --capture on)")
         ->delimiter(',')
         ->check(CLI::IsMember({"direct_glossy"}));
+    render->add_option("--display-server", o->display_server,
+                       "Show the render in progress in tev (or HDRView) listening at HOST:PORT (tev's default "
+                       "127.0.0.1:14158): every channel of the EXR, updated at most every 250 ms; a viewer that is "
+                       "absent or goes away is a warning, never a failed render");
     render->add_flag("--generic", o->generic, "Use the unspecialized pipeline (every effect compiled in)");
     render->add_flag("--preview", o->preview, "Fast direct-light preview instead of the full estimator");
     render->add_option(

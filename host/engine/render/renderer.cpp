@@ -325,6 +325,7 @@ Frame Renderer::render(const RenderSpec& spec) {
         frame.merge(batch);
         lap(&RenderProfile::accumulate);
         if (spec.on_batch) spec.on_batch(batch);
+        if (spec.on_frame) spec.on_frame(frame);
         done += n;
         if (spec.progress) spec.progress(done, total_spp);
         lap(&RenderProfile::callbacks);

@@ -60,6 +60,8 @@ struct RenderSpec {
     std::function<void(uint32_t, uint32_t)> progress;
     // Called with each batch's raw per-pixel moments (tests, per-frame studies).
     std::function<void(const std::vector<gpu::GpuPixelAccum>&)> on_batch;
+    // Called after each batch with the frame so far (its seconds and samples not yet set): a live view.
+    std::function<void(const Frame&)> on_frame;
     // When set, filled with the time of each step of the batch loop (summed over batches).
     RenderProfile* profile = nullptr;
     PixelOrder pixel_order = PixelOrder::Auto;
