@@ -240,8 +240,8 @@ TEST_SUITE("gpu") {
         CHECK(vanishes.code == 0);
         CHECK(std::filesystem::exists(dir.file("b/cubes_dof.exr")));
 
-        const testing::CliRun malformed =
-            testing::run_cli("render --scene cubes_dof --res 16 --spp 1 --out " + dir.file("c") + " --display-server nonsense");
+        const testing::CliRun malformed = testing::run_cli("render --scene cubes_dof --res 16 --spp 1 --out " +
+                                                           dir.file("c") + " --display-server nonsense");
         CHECK(malformed.code == 0);
         CHECK(malformed.output.find("'nonsense' is not host:port") != std::string::npos);
     }

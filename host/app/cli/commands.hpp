@@ -62,6 +62,7 @@ struct RenderOptions {
     uint32_t pilot_draw = 0;
     std::string curve;           // frozen predictor curve (default: docs/results/predictor_curve.json)
     std::string display_server;  // host:port of a tev viewer: the render in progress (io/display_client.hpp)
+    std::string sample_range;    // "A:B": samples [A, B) of the seed (render only; not with --adaptive)
 };
 
 // `vkmech sentinel register` (docs/descriptor.md §9).
@@ -151,6 +152,7 @@ void register_devices(CLI::App& app, CliCommands& commands);   // bench_command.
 void register_bench(CLI::App& app, CliCommands& commands);     // bench_command.cpp: bench traversal|render
 void register_paths(CLI::App& app, CliCommands& commands);     // resources.cpp: paths
 void register_check(CLI::App& app, CliCommands& commands);     // check_command.cpp: check
+void register_merge(CLI::App& app, CliCommands& commands);     // merge_command.cpp: merge
 void register_study(CLI::App& app, CliCommands& commands);     // study_command.cpp: study
 void register_verify(CLI::App& app, CliCommands& commands);    // study_command.cpp: verify outputs|cache
 void register_sentinel(CLI::App& app, CliCommands& commands);  // sentinel_command.cpp: sentinel ...

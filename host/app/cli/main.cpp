@@ -42,6 +42,7 @@ int main(int argc, char** argv) {
     register_devices(app, commands);
     register_paths(app, commands);
     register_check(app, commands);
+    register_merge(app, commands);
     register_bench(app, commands);
     register_study(app, commands);
     register_verify(app, commands);

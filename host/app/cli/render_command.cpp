@@ -253,6 +253,14 @@ int cmd_render_adaptive(const RenderOptions& o);
 
 int cmd_render(const RenderOptions& o) {
     if (!o.adaptive.empty()) return cmd_render_adaptive(o);
+    // --sample-range A:B: samples [A, B) of the seed's stream, B - A of them (else [0, --spp)).
+    SampleRange range{0, o.spp};
+    try {
+        if (!o.sample_range.empty()) range = parse_sample_range(o.sample_range);
+    } catch (const std::invalid_argument& e) {
+        throw UsageError(std::string("--sample-range: ") + e.what());
+    }
+    const uint32_t spp = range.end - range.begin;
     using clock = std::chrono::steady_clock;
     const auto t_load = clock::now();
     Scene loaded = load_for_cli(o.common);
@@ -284,11 +292,12 @@ int cmd_render(const RenderOptions& o) {
                  "vkmech: %s: %dx%d, %zu triangles, %zu emitters%s, %u spp on '%s' (%s traversal, %s kernel; %s; %s "
                  "light selection)\n",
                  name.c_str(), scene.camera.width, scene.camera.height, arrays.triangles.size(), scene.emitters.size(),
-                 arrays.has_infinite_lights() ? " and lights at infinity" : "", o.spp, ctx.info().name.c_str(),
+                 arrays.has_infinite_lights() ? " and lights at infinity" : "", spp, ctx.info().name.c_str(),
                  to_string(trav), vk::to_string(session.gpu().kernel()), features.describe().c_str(),
                  o.light_selection.c_str());
     RenderSpec spec;
-    spec.spp = o.spp;
+    spec.spp = spp;
+    spec.first_sample = range.begin;
     spec.seed = o.seed;
     spec.batch_spp = o.batch_spp;
     spec.mode = o.preview ? gpu::MODE_DIRECT_PREVIEW : gpu::MODE_PATH;
@@ -302,8 +311,9 @@ int cmd_render(const RenderOptions& o) {
     Frame frame = renderer.render(spec);
     if (display) send_to_display(*display, frame, capture, /*force=*/true);
 
-    RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene, o.spp, o.seed, capture);
+    RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene, spp, o.seed, capture);
     info.kernel = vk::to_string(session.gpu().kernel());
+    info.provenance.sample_range = std::to_string(range.begin) + ":" + std::to_string(range.end);
     info.pipeline_seconds = pipes.seconds;
     info.pipeline_cache = vk::pipeline_cache_outcome(pipes, ctx.pipeline_cache().enabled());
     // Where the time before the first sample goes (docs/performance.md): parsing the scene and its meshes, then
@@ -328,7 +338,7 @@ int cmd_render(const RenderOptions& o) {
     uint64_t nonfinite = 0;
     for (const auto& p : frame.pixels) nonfinite += static_cast<uint64_t>(p.nonfinite);
     std::printf("%s: %d x %d, %u spp, %.2f s, %.3g paths/s, non-finite samples: %llu\n", name.c_str(), frame.width,
-                frame.height, o.spp, frame.seconds, paths_per_s, static_cast<unsigned long long>(nonfinite));
+                frame.height, spp, frame.seconds, paths_per_s, static_cast<unsigned long long>(nonfinite));
     std::printf("pipeline creation: %.2f s (%s; not in the render time)\n", info.pipeline_seconds,
                 info.pipeline_cache.c_str());
     if (summary) {
@@ -355,6 +365,8 @@ int cmd_render(const RenderOptions& o) {
 // `vkmech render --adaptive STRATEGY --pilot N0 --budget B`: pilot, predicted
 // label reliability, Neyman allocation, final render of n(p) pool samples.
 int cmd_render_adaptive(const RenderOptions& o) {
+    if (!o.sample_range.empty())
+        throw UsageError("--sample-range and --adaptive: an adaptive render takes samples [0, n(p)) at each pixel");
     alloc::Strategy strategy;
     try {
         strategy = alloc::parse_strategy(o.adaptive);
@@ -510,7 +522,12 @@ void register_render(CLI::App& app, CliCommands& commands) {
     auto o = std::make_shared<RenderOptions>();
     auto* render = app.add_subcommand("render", "Render a scene to a multi-layer EXR and PNG previews");
     add_common_options(render, o->common);
-    render->add_option("--spp", o->spp, "Samples per pixel")->check(CLI::Range(1u, 1u << 20));
+    auto* spp_opt = render->add_option("--spp", o->spp, "Samples per pixel")->check(CLI::Range(1u, 1u << 20));
+    render
+        ->add_option("--sample-range", o->sample_range,
+                     "A:B: render exactly samples [A, B) of the seed's stream (B - A per pixel), recorded in the "
+                     "outputs; disjoint ranges of one seed merge into the single render (vkmech merge)")
+        ->excludes(spp_opt);
     render->add_option("--seed", o->seed, "Random seed (docs/descriptor.md §4)");
     render->add_option("--batch", o->batch_spp, "Samples per GPU dispatch")->check(CLI::Range(1u, 4096u));
     render->add_option("--out", o->out_dir, "Output directory (default: out/<scene>)");

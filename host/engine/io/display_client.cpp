@@ -6,9 +6,9 @@
 #include <sys/types.h>
 #include <unistd.h>
 
+#include <fcntl.h>
 #include <cerrno>
 #include <cstring>
-#include <fcntl.h>
 
 namespace vkmech {
 

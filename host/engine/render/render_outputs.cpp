@@ -210,6 +210,24 @@ std::string dominant_legend_json() {
     return s + ", \"" + std::to_string(kNoLabel) + "\": \"unlabelled\"}";
 }
 
+SampleRange parse_sample_range(const std::string& text) {
+    const size_t colon = text.find(':');
+    auto number = [&](const std::string& t) -> uint32_t {
+        if (t.empty() || t.size() > 10 || t.find_first_not_of("0123456789") != std::string::npos)
+            throw std::invalid_argument("sample range '" + text + "': expected A:B, two whole numbers");
+        const unsigned long long v = std::stoull(t);
+        if (v > UINT32_MAX) throw std::invalid_argument("sample range '" + text + "': " + t + " is past 2^32 - 1");
+        return static_cast<uint32_t>(v);
+    };
+    if (colon == std::string::npos) throw std::invalid_argument("sample range '" + text + "': expected A:B");
+    SampleRange r{number(text.substr(0, colon)), number(text.substr(colon + 1))};
+    if (r.end <= r.begin)
+        throw std::invalid_argument("sample range '" + text + "': it must end after it begins (A < B)");
+    if (r.end - r.begin > (1u << 20))
+        throw std::invalid_argument("sample range '" + text + "': more than 2^20 samples per pixel in one render");
+    return r;
+}
+
 std::vector<ExrChannel> render_channels(const Frame& frame, const Descriptor* d) {
     const size_t n = frame.pixels.size();
     std::vector<float> rgb = frame.rgb_mean();

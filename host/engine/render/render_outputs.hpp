@@ -30,6 +30,13 @@ struct Provenance {
     std::string date_utc;                  // "YYYY:MM:DD HH:MM:SS" (EXR capDate), UTC
 };
 
+// Samples [begin, end) of a seed's stream (Provenance::sample_range "A:B").
+struct SampleRange {
+    uint32_t begin = 0, end = 0;
+};
+// "A:B" with A < B and B - A at most 2^20 samples; throws std::invalid_argument saying what is wrong.
+SampleRange parse_sample_range(const std::string& text);
+
 struct RenderInfo {
     std::string scene_name;
     std::string scene_path;

@@ -257,8 +257,12 @@ Frame Renderer::render(const RenderSpec& spec) {
         spec.pixel_order == PixelOrder::Claimed || (spec.pixel_order == PixelOrder::Auto && cpu_kernel);
     p.claimed_pixels = claimed ? 1u : 0u;
     uint32_t batch_spp = std::max(1u, spec.batch_spp);
-    for (uint32_t done = 0; done < total_spp;) {
-        uint32_t n = std::min(batch_spp, total_spp - done);
+    // Samples [first, first + spp) of the seed's stream (render --sample-range).
+    const uint32_t first = spec.first_sample;
+    VKM_ASSERT(first == 0 || spec.sample_counts.empty(), "a sample range of an adaptive render");
+    VKM_ASSERT(total_spp <= UINT32_MAX - first, "the sample range ends past 2^32");
+    for (uint32_t done = first; done < first + total_spp;) {
+        uint32_t n = std::min(batch_spp, first + total_spp - done);
         p.batch_samples = n;
         p.first_sample = done;
         size_t active = pixels;
@@ -327,7 +331,7 @@ Frame Renderer::render(const RenderSpec& spec) {
         if (spec.on_batch) spec.on_batch(batch);
         if (spec.on_frame) spec.on_frame(frame);
         done += n;
-        if (spec.progress) spec.progress(done, total_spp);
+        if (spec.progress) spec.progress(done - first, total_spp);
         lap(&RenderProfile::callbacks);
         if (spec.profile) spec.profile->batches += 1;
     }

@@ -50,6 +50,10 @@ enum class PixelOrder { Auto, Tiles, Claimed };
 struct RenderSpec {
     uint32_t spp = 64;
     uint32_t seed = 0;
+    // The first sample of the seed's stream: the render takes samples [first_sample, first_sample + spp)
+    // (render --sample-range; sample i of a seed is the same whatever the batch, so disjoint ranges
+    // merge into the single render). 0 with per-pixel sample_counts.
+    uint32_t first_sample = 0;
     uint32_t batch_spp = 8;  // samples per dispatch
     uint32_t mode = gpu::MODE_PATH;
     // Adaptive rendering (docs/descriptor.md §6): when non-empty (one entry per pixel), pixel p

@@ -1,0 +1,271 @@
+// `vkmech merge OUT IN...`: renders of one scene and seed on disjoint sample
+// ranges (render --sample-range A:B) combined into the render of their union:
+// sums by each pixel's sample count, the luminance moments by Chan's formula
+// (Frame::merge), then the descriptor (dominant, purity, fractions) derived
+// again from the merged buckets. The EXR holds every pixel's means, so each
+// input is turned back into the sums it came from; float storage makes the
+// result equal the single render to about 1e-7 relative, not bit for bit.
+#include "cli/commands.hpp"
+
+#include "io/exr.hpp"
+#include "io/output_set.hpp"
+#include "render/descriptor.hpp"
+#include "render/frame.hpp"
+#include "render/render_outputs.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace vkmech {
+
+namespace {
+
+struct MergeOptions {
+    std::string out;
+    std::vector<std::string> inputs;
+};
+
+struct MergeInput {
+    std::string path;
+    ExrImage exr;
+    SampleRange range;
+};
+
+// An EXR, or an output directory holding exactly one.
+std::string input_exr(const std::string& in) {
+    std::error_code ec;
+    if (!fs::is_directory(in, ec)) return in;
+    std::vector<std::string> found;
+    for (const auto& e : fs::directory_iterator(in, ec))
+        if (e.path().extension() == ".exr") found.push_back(e.path().string());
+    if (found.size() != 1)
+        throw UsageError("merge: " + in + " holds " + std::to_string(found.size()) +
+                         " EXR files; name the render's EXR itself");
+    return found[0];
+}
+
+std::string attribute(const MergeInput& in, const std::string& key) {
+    auto it = in.exr.attributes.find(key);
+    if (it == in.exr.attributes.end()) return {};
+    std::string joined;
+    for (const auto& v : it->second) joined += (joined.empty() ? "" : "\n") + v;
+    return joined;
+}
+
+// Refuses inputs that are not parts of one render: a different film, channels,
+// scene, seed, estimator or code, each said with both values.
+void check_same_render(const MergeInput& a, const MergeInput& b) {
+    if (a.exr.width != b.exr.width || a.exr.height != b.exr.height)
+        throw UsageError("merge: " + b.path + " is " + std::to_string(b.exr.width) + "x" +
+                         std::to_string(b.exr.height) + ", " + a.path + " " + std::to_string(a.exr.width) + "x" +
+                         std::to_string(a.exr.height));
+    for (const auto* pair : {&a, &b}) {
+        const MergeInput& x = *pair;
+        const MergeInput& y = pair == &a ? b : a;
+        for (const auto& [name, plane] : x.exr.channels)
+            if (!y.exr.channels.count(name))
+                throw UsageError("merge: " + y.path + " has no channel '" + name + "' (" + x.path +
+                                 " has): different outputs (--capture, --extra-output)");
+    }
+    static const std::pair<const char*, const char*> keys[] = {
+        {"vkmech.sceneSha256", "scene (SHA-256)"},   {"vkmech.sceneFiles", "scene's files"},
+        {"vkmech.defines", "-D values"},             {"vkmech.seed", "seed"},
+        {"vkmech.estimator", "estimator"},           {"vkmech.lightSelection", "light selection"},
+        {"vkmech.endVertex", "end-vertex reading"},  {"vkmech.codeDigest", "path tracer's code digest"},
+        {"vkmech.features", "pipeline features"}};
+    for (const auto& [key, what] : keys) {
+        const std::string x = attribute(a, key), y = attribute(b, key);
+        if (x != y)
+            throw UsageError("merge: " + b.path + " differs from " + a.path + " in the " + what + ": '" + y +
+                             "' against '" + x + "'");
+    }
+}
+
+// The sums a render's EXR holds as means (render_channels), per pixel.
+Frame frame_from_exr(const MergeInput& in) {
+    const ExrImage& e = in.exr;
+    const size_t n = static_cast<size_t>(e.width) * e.height;
+    auto plane = [&](const std::string& name) -> const std::vector<float>& {
+        auto it = e.channels.find(name);
+        if (it == e.channels.end() || it->second.size() != n)
+            throw UsageError("merge: " + in.path + " has no channel '" + name + "': not a vkmech render's EXR");
+        return it->second;
+    };
+    Frame f;
+    f.width = e.width;
+    f.height = e.height;
+    f.pixels.resize(n);
+    const auto &spp = plane("spp"), &nonfinite = plane("nonfinite"), &lum_mean = plane("lum_mean"),
+               &lum_var = plane("lum_var");
+    const std::vector<float>* rgb[3] = {&plane("R"), &plane("G"), &plane("B")};
+    const bool capture = e.channels.count("dominant") > 0;
+    const uint32_t expected = in.range.end - in.range.begin;
+    for (size_t i = 0; i < n; ++i) {
+        PixelStats& p = f.pixels[i];
+        if (spp[i] != static_cast<float>(expected))
+            throw UsageError("merge: " + in.path + " pixel " + std::to_string(i) + " took " +
+                             std::to_string(spp[i]) + " samples, not the " + std::to_string(expected) +
+                             " of its sample range (an adaptive render?)");
+        p.nonfinite = nonfinite[i];
+        p.count = spp[i] - nonfinite[i];
+        for (int c = 0; c < 3; ++c) p.rgb_sum[c] = static_cast<double>((*rgb[c])[i]) * p.count;
+        p.lum_mean = lum_mean[i];
+        p.lum_m2 = p.count > 1.0 ? static_cast<double>(lum_var[i]) * (p.count - 1.0) : 0.0;
+    }
+    f.samples = static_cast<uint64_t>(expected) * n;
+    if (!capture) return f;
+    f.bucket_rgb_sum.assign(n * Frame::kBucketRgb, 0.0);
+    for (uint32_t b = 0; b < gpu::BUCKET_COUNT; ++b) {
+        const auto& lum = plane(std::string("lum.") + kBucketNames[b]);
+        for (size_t i = 0; i < n; ++i) f.pixels[i].bucket_sum[b] = static_cast<double>(lum[i]) * f.pixels[i].count;
+        for (int c = 0; c < 3; ++c) {
+            const auto& ch = plane(std::string("bucket.") + kBucketNames[b] + "." + "RGB"[c]);
+            for (size_t i = 0; i < n; ++i)
+                f.bucket_rgb_sum[i * Frame::kBucketRgb + 3 * b + c] = static_cast<double>(ch[i]) * f.pixels[i].count;
+        }
+    }
+    // The side fields: the glossy share and the mean depth are over the energy of the events
+    // (depth: those with n >= 1, all but emitter_direct's), so each is weighted back by it.
+    const auto &glossy = plane("glossy_frac"), &depth = plane("depth");
+    for (size_t i = 0; i < n; ++i) {
+        PixelStats& p = f.pixels[i];
+        double total = 0.0;
+        for (uint32_t b = 0; b < gpu::BUCKET_COUNT; ++b) total += p.bucket_sum[b];
+        p.glossy_sum = static_cast<double>(glossy[i]) * total;
+        p.depth_weight = total - p.bucket_sum[gpu::BUCKET_EMITTER_DIRECT];
+        p.depth_weighted_sum = static_cast<double>(depth[i]) * p.depth_weight;
+    }
+    if (e.channels.count("lum.direct_glossy")) {
+        const auto& dg = plane("lum.direct_glossy");
+        f.direct_glossy_sum.resize(n);
+        for (size_t i = 0; i < n; ++i) f.direct_glossy_sum[i] = static_cast<double>(dg[i]) * f.pixels[i].count;
+    }
+    return f;
+}
+
+// The ranges, sorted: refused where two overlap; "A:B" for a contiguous union, else "A:B,C:D,...".
+std::string merged_range(std::vector<MergeInput>& in) {
+    std::sort(in.begin(), in.end(), [](const MergeInput& a, const MergeInput& b) { return a.range.begin < b.range.begin; });
+    std::string text;
+    uint32_t run_begin = in[0].range.begin, run_end = in[0].range.end;
+    for (size_t k = 1; k <= in.size(); ++k) {
+        if (k < in.size() && in[k].range.begin < in[k - 1].range.end)
+            throw UsageError("merge: the sample ranges of " + in[k - 1].path + " (" + attribute(in[k - 1], "vkmech.sampleRange") +
+                             ") and " + in[k].path + " (" + attribute(in[k], "vkmech.sampleRange") +
+                             ") overlap: their common samples would count twice");
+        if (k < in.size() && in[k].range.begin == run_end) {
+            run_end = in[k].range.end;
+            continue;
+        }
+        text += (text.empty() ? "" : ",") + std::to_string(run_begin) + ":" + std::to_string(run_end);
+        if (k < in.size()) {
+            run_begin = in[k].range.begin;
+            run_end = in[k].range.end;
+        }
+    }
+    return text;
+}
+
+RenderInfo merged_info(const MergeInput& first, const std::string& name, const std::string& range, uint32_t spp) {
+    RenderInfo info;
+    info.scene_name = name;
+    info.scene_path = attribute(first, "vkmech.scene");
+    info.device = attribute(first, "vkmech.device");
+    info.traversal = attribute(first, "vkmech.traversal");
+    info.kernel = attribute(first, "vkmech.kernel");
+    info.estimator = attribute(first, "vkmech.estimator");
+    info.features = attribute(first, "vkmech.features");
+    info.light_selection = attribute(first, "vkmech.lightSelection");
+    info.end_vertex = attribute(first, "vkmech.endVertex");
+    info.spp = spp;
+    info.seed = static_cast<uint32_t>(std::stoul("0" + attribute(first, "vkmech.seed")));
+    info.capture = first.exr.channels.count("dominant") > 0;
+    info.lights_at_infinity = attribute(first, "vkmech.lightsAtInfinity");
+    auto list = [&](const char* key) {
+        auto it = first.exr.attributes.find(key);
+        return it == first.exr.attributes.end() ? std::vector<std::string>{} : it->second;
+    };
+    info.substitutions = list("vkmech.substitutions");
+    Provenance& p = info.provenance;
+    p.version = attribute(first, "vkmech.version");
+    p.code_digest = attribute(first, "vkmech.codeDigest");
+    p.scene_sha256 = attribute(first, "vkmech.sceneSha256");
+    p.scene_files = list("vkmech.sceneFiles");
+    p.defines = list("vkmech.defines");
+    p.sample_range = range;
+    p.driver = attribute(first, "vkmech.driver");
+    p.date_utc = attribute(first, kCapDateAttribute);
+    return info;
+}
+
+int cmd_merge(const MergeOptions& o) {
+    std::vector<MergeInput> in;
+    for (const auto& arg : o.inputs) {
+        MergeInput m;
+        m.path = input_exr(arg);
+        try {
+            m.exr = read_exr_channels(m.path);
+        } catch (const std::exception& e) {
+            throw UsageError(std::string("merge: ") + e.what());
+        }
+        const std::string range = attribute(m, "vkmech.sampleRange");
+        try {
+            m.range = parse_sample_range(range);
+        } catch (const std::invalid_argument& e) {
+            throw UsageError("merge: " + m.path + " is not one sample range of a render (vkmech.sampleRange '" + range +
+                             "': " + e.what() + "); an adaptive render's per-pixel ranges do not merge");
+        }
+        in.push_back(std::move(m));
+    }
+    for (size_t k = 1; k < in.size(); ++k) check_same_render(in[0], in[k]);
+    const std::string range = merged_range(in);
+    Frame frame = frame_from_exr(in[0]);
+    uint32_t spp = in[0].range.end - in[0].range.begin;
+    for (size_t k = 1; k < in.size(); ++k) {
+        frame.merge(frame_from_exr(in[k]));
+        spp += in[k].range.end - in[k].range.begin;
+    }
+    const std::string name = fs::path(in[0].path).stem().string();
+    const RenderInfo info = merged_info(in[0], name, range, spp);
+    std::optional<Descriptor> desc;
+    std::optional<DescriptorSummary> summary;
+    if (info.capture) {
+        desc = derive_descriptor(frame);
+        summary = summarize(frame, *desc);
+    }
+    require_writable_dir(o.out, "OUT");
+    OutputSet set(o.out, name);
+    WrittenFiles files = write_render_outputs(set, info, frame, desc ? &*desc : nullptr, summary ? &*summary : nullptr);
+    set.commit();
+    for (const auto& w : files.warnings) std::cerr << "vkmech: warning: " << w << "\n";
+    std::printf("merged %zu renders of %s: samples %s, %u per pixel\n", in.size(), name.c_str(), range.c_str(), spp);
+    for (const auto& f : {files.exr, files.png, files.dominant_png, files.purity_png, files.json})
+        if (!f.empty()) std::printf("wrote %s\n", f.c_str());
+    return 0;
+}
+
+}  // namespace
+
+void register_merge(CLI::App& app, CliCommands& commands) {
+    auto o = std::make_shared<MergeOptions>();
+    auto* merge = app.add_subcommand(
+        "merge",
+        "Combine renders of one scene and seed on disjoint sample ranges (render --sample-range A:B) into the render "
+        "of their union: the outputs of `render`, written to OUT");
+    merge->add_option("OUT", o->out, "Output directory")->required();
+    merge->add_option("IN", o->inputs, "Renders to merge: their EXR files, or output directories holding one")
+        ->required()
+        ->expected(2, 1 << 16);
+    commands.push_back({merge, [o](const std::vector<std::string>&) { return cmd_merge(*o); }});
+}
+
+}  // namespace vkmech

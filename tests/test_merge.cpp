@@ -1,0 +1,115 @@
+// Sample ranges and merging (render --sample-range A:B, vkmech merge): disjoint
+// ranges of one seed merge into the single render; inputs that are not parts
+// of one render are refused, each with the reason.
+#include "cli_run.hpp"
+#include "gpu_fixture.hpp"
+#include "temp_dir.hpp"
+
+#include "io/exr.hpp"
+#include "render/render_outputs.hpp"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <string>
+#include <utility>
+#include <vector>
+
+using namespace vkmech;
+
+namespace {
+
+// Renders ring_caustic (a caustic: delta-mediated and glossy labels side by side) at 24 pixels wide.
+testing::CliRun render(const std::string& out, const std::string& samples, const std::string& extra = "") {
+    return testing::run_cli("render --scene ring_caustic --res 24 --batch 8 " + samples + " --out " + out + " " + extra);
+}
+
+}  // namespace
+
+TEST_CASE("merge: a sample range is A:B with A < B, whole numbers, at most 2^20 samples") {
+    const SampleRange r = parse_sample_range("32:64");
+    CHECK(r.begin == 32u);
+    CHECK(r.end == 64u);
+    CHECK(parse_sample_range("0:1").end == 1u);
+    CHECK_THROWS_WITH_AS(parse_sample_range("64:32"), doctest::Contains("A < B"), std::invalid_argument);
+    CHECK_THROWS_WITH_AS(parse_sample_range("5:5"), doctest::Contains("A < B"), std::invalid_argument);
+    CHECK_THROWS_WITH_AS(parse_sample_range("5"), doctest::Contains("expected A:B"), std::invalid_argument);
+    CHECK_THROWS_WITH_AS(parse_sample_range("-1:4"), doctest::Contains("whole numbers"), std::invalid_argument);
+    CHECK_THROWS_WITH_AS(parse_sample_range("0:9999999999"), doctest::Contains("2^32"), std::invalid_argument);
+    CHECK_THROWS_WITH_AS(parse_sample_range("0:2000000"), doctest::Contains("2^20"), std::invalid_argument);
+}
+
+TEST_SUITE("gpu") {
+    TEST_CASE("merge: samples 0:16, 16:40 and 40:64, merged in any order, equal the --spp 64 render") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("merge");
+        REQUIRE(render(dir.file("full"), "--spp 64").code == 0);
+        REQUIRE(render(dir.file("a"), "--sample-range 0:16").code == 0);
+        REQUIRE(render(dir.file("b"), "--sample-range 16:40").code == 0);
+        REQUIRE(render(dir.file("c"), "--sample-range 40:64").code == 0);
+        const testing::CliRun m =
+            testing::run_cli("merge " + dir.file("m") + " " + dir.file("c") + " " + dir.file("a") + " " +
+                             dir.file("b/ring_caustic.exr"));
+        CAPTURE(m.output);
+        REQUIRE(m.code == 0);
+        CHECK(m.output.find("samples 0:64, 64 per pixel") != std::string::npos);
+        const ExrImage full = read_exr_channels(dir.file("full/ring_caustic.exr"));
+        const ExrImage merged = read_exr_channels(dir.file("m/ring_caustic.exr"));
+        CHECK(merged.attributes.at("vkmech.sampleRange").at(0) == "0:64");
+        CHECK(merged.attributes.at("vkmech.spp").at(0) == "64");
+        REQUIRE(merged.channels.size() == full.channels.size());
+        for (const auto& [name, a] : full.channels) {
+            CAPTURE(name);
+            REQUIRE(merged.channels.count(name) == 1);
+            const auto& b = merged.channels.at(name);
+            REQUIRE(a.size() == b.size());
+            double worst = 0.0;
+            for (size_t i = 0; i < a.size(); ++i)
+                if (a[i] != b[i])
+                    worst = std::max(worst, std::abs(static_cast<double>(a[i]) - b[i]) / std::abs(a[i]));
+            CAPTURE(worst);
+            // The labels are equal; every value within relative 1e-6 (measured: 2.3e-7 at most).
+            if (name == "dominant")
+                CHECK(worst == 0.0);
+            else
+                CHECK(worst < 1e-6);
+        }
+    }
+
+    TEST_CASE("merge: overlapping ranges, another seed, scene, film or output, and adaptive renders are refused") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("merge_refuse");
+        REQUIRE(render(dir.file("a"), "--sample-range 0:8").code == 0);
+        REQUIRE(render(dir.file("overlap"), "--sample-range 4:12").code == 0);
+        REQUIRE(render(dir.file("seed"), "--sample-range 8:16", "--seed 3").code == 0);
+        REQUIRE(testing::run_cli("render --scene ring_caustic --res 16 --sample-range 8:16 --out " + dir.file("film"))
+                    .code == 0);
+        REQUIRE(render(dir.file("capture"), "--sample-range 8:16", "--capture off").code == 0);
+        REQUIRE(testing::run_cli("render --scene cubes_dof --res 24 --sample-range 8:16 --out " + dir.file("scene")).code == 0);
+        REQUIRE(testing::run_cli("render --scene ring_caustic --res 24 --adaptive uniform --pilot 4 --budget 4 --out " +
+                                 dir.file("adaptive"))
+                    .code == 0);
+        auto merge = [&](const std::string& other) {
+            return testing::run_cli("merge " + dir.file("m") + " " + dir.file("a") + " " + dir.file(other));
+        };
+        // Each refusal (exit 2) says which input and why.
+        const std::pair<const char*, std::vector<std::string>> cases[] = {
+            {"overlap", {"(0:8) and ", "(4:12) overlap"}},
+            {"seed", {"in the seed: '3' against '0'"}},
+            {"film", {"is 16x"}},
+            {"capture", {"has no channel"}},
+            {"scene", {"in the scene (SHA-256)"}},
+            {"adaptive", {"adaptive render"}}};
+        for (const auto& [other, says] : cases) {
+            const testing::CliRun r = merge(other);
+            CAPTURE(other);
+            CAPTURE(r.output);
+            CHECK(r.code == 2);
+            for (const auto& text : says) CHECK(r.output.find(text) != std::string::npos);
+        }
+        CHECK_FALSE(std::filesystem::exists(dir.file("m/ring_caustic.exr")));
+        const testing::CliRun with_spp =
+            testing::run_cli("render --scene ring_caustic --spp 4 --sample-range 0:4 --out " + dir.file("x"));
+        CHECK(with_spp.code == 2);
+    }
+}
