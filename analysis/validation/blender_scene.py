@@ -3,7 +3,7 @@ with Cycles to a linear float OpenEXR (R, G, B).
 
   blender -b --factory-startup --python analysis/validation/blender_scene.py -- \
       SCENE.xml OUT.exr SPP RES [--bounces B] [--seed S] [--threads N]
-      [--mutate roughness-linear|two-sided-light|env-no-rotation|env-mirror-u|env-turn-180]
+      [--mutate roughness-linear|two-sided-light|env-no-rotation|env-mirror-u|env-turn-180|instance-order]
       [--png PREVIEW.png]
 
 A glTF scene (SCENE.gltf or .glb) is imported with Blender's own glTF
@@ -14,7 +14,9 @@ bounces 10 (vkmech's default max_depth 12). Square images only unless
 --res-y H is given (vkmech's height follows the camera's aspect ratio).
 
 --bounces and --mutate exist only for the sensitivity checks
-(sensitivity.sh): they build a deliberately wrong Cycles scene.
+(sensitivity.sh): they build a deliberately wrong Cycles scene
+(instance-order: each instance's objects at to_world(shape) @ to_world(instance),
+the composition order reversed, as linked duplicates).
 --min-light-bounces M sets Cycles' Min Light Bounces (no Russian roulette
 at bounce indices <= M; default 0, Cycles' own default); the benchmark sets
 it so Russian roulette starts at the same vertex as vkmech's rr_depth.
@@ -25,9 +27,9 @@ Standard, no exposure), after the EXR.
 Only the subset of Mitsuba XML that make_scenes.py writes is understood
 (everything else is an error, so nothing is silently dropped):
   integrator path (max_depth), perspective sensor (fov, fov_axis x, lookat),
-  obj shapes in world coordinates (v, vt, vn, triangles), rectangle, cube
+  obj shapes (v, vt, vn, triangles; optional to_world), rectangle, cube
   and sphere shapes (to_world of translate / rotate / scale; sphere center
-  and radius), bsdfs diffuse
+  and radius), shapegroups and instances (below), bsdfs diffuse
   (rgb or bitmap reflectance), twosided, dielectric, conductor and
   roughconductor (material none, ggx), area emitters (rgb radiance), one
   envmap emitter (filename, scale, to_world of rotations) and directional
@@ -57,6 +59,15 @@ Mapping (Mitsuba -> Cycles 3.4):
                         (docs/validation.md, "Environment lighting")
   directional        -> Sun lamp, angle 0, strength 1, colour = irradiance
                         (W/m^2), shining along `direction` (its local -z)
+  shapegroup         -> a collection, not linked to the scene, holding the
+                        group's objects at their own to_world (group space)
+  instance           -> an empty instancing that collection (instance_type
+                        COLLECTION) with matrix_world = the instance's
+                        to_world: Blender places each object at
+                        to_world(instance) @ to_world(shape), Mitsuba's order
+                        (the shape's own transform first), and Cycles keeps
+                        one copy of each mesh, instanced by object transforms
+                        (normals by the inverse transpose, as Mitsuba)
   max_depth d        -> max bounces d - 2 for every bounce kind (Mitsuba counts
                         path segments incl. the emitter segment; Cycles counts
                         scattering events after the first hit; checked by
@@ -120,7 +131,9 @@ def load_obj(path):
     return v, vt, vn, tris
 
 
-def make_mesh(name, path):
+def make_mesh(name, path, M=None, coll=None):
+    """An OBJ's triangles as a mesh object at matrix_world M (default identity),
+    linked to coll (default the scene's collection)."""
     v, vt, vn, tris = load_obj(path)
     me = bpy.data.meshes.new(name)
     me.from_pydata(v, [], [[c[0] for c in f] for f in tris])
@@ -139,7 +152,9 @@ def make_mesh(name, path):
                 normals[li] = vn[c[2]]
         me.normals_split_custom_set(normals)
     ob = bpy.data.objects.new(name, me)
-    bpy.context.scene.collection.objects.link(ob)
+    if M is not None:
+        ob.matrix_world = M
+    (bpy.context.scene.collection if coll is None else coll).objects.link(ob)
     return ob
 
 
@@ -150,7 +165,10 @@ def to_world(node):
         return M
     for t in node:
         if t.tag == "translate":
-            T = Matrix.Translation(Vector(floats(t.attrib["value"])))
+            if "value" in t.attrib:
+                T = Matrix.Translation(Vector(floats(t.attrib["value"])))
+            else:
+                T = Matrix.Translation(Vector([float(t.attrib.get(k, "0")) for k in "xyz"]))
         elif t.tag == "scale":
             if "value" in t.attrib:
                 v = floats(t.attrib["value"])
@@ -167,8 +185,9 @@ def to_world(node):
     return M
 
 
-def make_primitive(name, kind, p):
-    """Mitsuba rectangle, cube or sphere as a Blender mesh object."""
+def make_primitive(name, kind, p, coll=None):
+    """Mitsuba rectangle, cube or sphere as a Blender mesh object (linked to
+    coll, default the scene's collection)."""
     me = bpy.data.meshes.new(name)
     if kind == "sphere":
         import bmesh
@@ -195,8 +214,85 @@ def make_primitive(name, kind, p):
     me.update()
     ob = bpy.data.objects.new(name, me)
     ob.matrix_world = M
-    bpy.context.scene.collection.objects.link(ob)
+    (bpy.context.scene.collection if coll is None else coll).objects.link(ob)
     return ob
+
+
+def make_shape(node, mats, base, coll=None):
+    """One Mitsuba shape (not a group or an instance) with its material, as an
+    object linked to coll (default the scene's collection)."""
+    kind = node.attrib["type"]
+    p = props(node)
+    if kind == "obj":
+        path = os.path.join(base, p["filename"].attrib["value"])
+        ob = make_mesh(os.path.basename(path), path, to_world(p.get("to_world")), coll)
+    elif kind in ("rectangle", "cube", "sphere"):
+        ob = make_primitive(node.attrib.get("id", kind), kind, p, coll)
+    else:
+        die("unsupported shape " + kind)
+    em = node.find("emitter")
+    ref = node.find("ref")
+    b = node.find("bsdf")
+    if em is not None:
+        if coll is not None:
+            die("a shapegroup holds no emitters (Mitsuba)")
+        if em.attrib["type"] != "area":
+            die("only area emitters")
+        if b is None or b.attrib["type"] != "diffuse" or max(rgb(props(b)["reflectance"])[:3]) != 0:
+            die("an emitter's shape must have a black diffuse bsdf here")
+        mat = mats.emitter(rgb(props(em)["radiance"]))
+    elif ref is not None:
+        mat = mats.byid[ref.attrib["id"]]
+    elif b is not None:
+        mat = mats.bsdf(b)
+    else:
+        die("shape without bsdf")
+    ob.data.materials.append(mat)
+    return ob
+
+
+def make_group(node, mats, base):
+    """Mitsuba shapegroup -> a collection that is not linked to the scene (so
+    it renders only through its instances), its objects at their own to_world
+    in the group's space."""
+    gid = node.attrib["id"]
+    coll = bpy.data.collections.new("group_" + gid)
+    for c in node:
+        if c.tag != "shape" or c.attrib["type"] in ("shapegroup", "instance"):
+            die("shapegroup %s: only plain shapes (no groups, instances or <%s>)" % (gid, c.tag))
+        make_shape(c, mats, base, coll)
+    print("blender_scene.py: shapegroup %s -> collection %s with %d objects (%d faces)" % (
+        gid, coll.name, len(coll.objects), sum(len(o.data.polygons) for o in coll.objects)))
+    return coll
+
+
+def make_instance(node, groups, idx):
+    """Mitsuba instance -> an empty instancing the group's collection at the
+    instance's to_world (so an object of the group lands at
+    to_world(instance) @ to_world(shape)). --mutate instance-order instead
+    places linked duplicates (sharing the mesh) at to_world(shape) @
+    to_world(instance), the wrong composition order."""
+    refs = node.findall("ref")
+    if len(refs) != 1 or refs[0].attrib["id"] not in groups:
+        die("an instance needs one <ref> to a shapegroup defined before it")
+    for c in node:
+        if c.tag not in ("ref", "transform"):
+            die("instance: unsupported <%s>" % c.tag)
+    coll = groups[refs[0].attrib["id"]]
+    M = to_world(props(node).get("to_world"))
+    if M.to_3x3().determinant() <= 0:
+        die("instance %d: a mirroring to_world (Mitsuba keeps the group's facing; not mapped here)" % idx)
+    if MUTATE == "instance-order":
+        for ob in coll.objects:
+            dup = ob.copy()  # linked duplicate: shares ob.data
+            dup.matrix_world = ob.matrix_world @ M
+            bpy.context.scene.collection.objects.link(dup)
+        return
+    e = bpy.data.objects.new("instance%d" % idx, None)
+    e.instance_type = "COLLECTION"
+    e.instance_collection = coll
+    e.matrix_world = M
+    bpy.context.scene.collection.objects.link(e)
 
 
 def rgb(node):
@@ -476,7 +572,8 @@ def main():
     base = os.path.dirname(os.path.abspath(scene_path))
     global MUTATE
     MUTATE = opts.get("--mutate")
-    if MUTATE not in (None, "roughness-linear", "two-sided-light", "env-no-rotation", "env-mirror-u", "env-turn-180"):
+    if MUTATE not in (None, "roughness-linear", "two-sided-light", "env-no-rotation", "env-mirror-u", "env-turn-180",
+                      "instance-order"):
         die("unknown --mutate " + MUTATE)
 
     for ob in list(bpy.data.objects):
@@ -484,6 +581,7 @@ def main():
     sc = bpy.context.scene
 
     mats = Materials(base)
+    groups, instances = {}, []
     max_depth = None
     world = None
     suns = 0
@@ -530,32 +628,13 @@ def main():
             sc.camera = cam
         elif node.tag == "bsdf":
             mats.byid[node.attrib["id"]] = mats.bsdf(node)
+        elif node.tag == "shape" and node.attrib["type"] == "shapegroup":
+            groups[node.attrib["id"]] = make_group(node, mats, base)
+        elif node.tag == "shape" and node.attrib["type"] == "instance":
+            make_instance(node, groups, len(instances))
+            instances.append(node)
         elif node.tag == "shape":
-            kind = node.attrib["type"]
-            p = props(node)
-            if kind == "obj":
-                path = os.path.join(base, p["filename"].attrib["value"])
-                ob = make_mesh(os.path.basename(path), path)
-            elif kind in ("rectangle", "cube", "sphere"):
-                ob = make_primitive(node.attrib.get("id", kind), kind, p)
-            else:
-                die("unsupported shape " + kind)
-            em = node.find("emitter")
-            ref = node.find("ref")
-            b = node.find("bsdf")
-            if em is not None:
-                if em.attrib["type"] != "area":
-                    die("only area emitters")
-                if b is None or b.attrib["type"] != "diffuse" or max(rgb(props(b)["reflectance"])[:3]) != 0:
-                    die("an emitter's shape must have a black diffuse bsdf here")
-                mat = mats.emitter(rgb(props(em)["radiance"]))
-            elif ref is not None:
-                mat = mats.byid[ref.attrib["id"]]
-            elif b is not None:
-                mat = mats.bsdf(b)
-            else:
-                die("shape without bsdf")
-            ob.data.materials.append(mat)
+            make_shape(node, mats, base)
         elif node.tag == "emitter":
             t = node.attrib["type"]
             if t == "envmap":
@@ -570,6 +649,13 @@ def main():
         else:
             die("unsupported top-level element <%s>" % node.tag)
 
+    if instances:
+        dg = bpy.context.evaluated_depsgraph_get()
+        # (each DepsgraphObjectInstance is valid only during its iteration step)
+        inst = [i.object.data.name for i in dg.object_instances if i.is_instance and i.object.type == "MESH"]
+        print("blender_scene.py: %d instances%s; the depsgraph has %d instanced mesh objects sharing %d meshes" % (
+            len(instances), " (mutated: instance-order, as linked duplicates)" if MUTATE == "instance-order" else "",
+            len(inst), len(set(inst))))
     if world is None:
         # World: black (the scene has no environment).
         world = bpy.data.worlds.new("black")
