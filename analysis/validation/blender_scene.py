@@ -152,10 +152,48 @@ def make_mesh(name, path, M=None, coll=None):
                 normals[li] = vn[c[2]]
         me.normals_split_custom_set(normals)
     ob = bpy.data.objects.new(name, me)
-    if M is not None:
-        ob.matrix_world = M
-    (bpy.context.scene.collection if coll is None else coll).objects.link(ob)
+    coll = bpy.context.scene.collection if coll is None else coll
+    coll.objects.link(ob)
+    place(ob, Matrix.Identity(4) if M is None else M, coll)
     return ob
+
+
+# Object name -> the world matrix meant for it (place); main() checks every
+# rendered mesh object, instanced or not, against it after evaluation.
+PLACED = {}
+
+
+def place(ob, M, coll):
+    """Give ob (linked to coll) the world matrix M, shear included. Blender
+    keeps an object's own transform as location, rotation and scale, which
+    hold no shear: assigning a sheared matrix_world (a rotation followed by a
+    non-uniform scale, as some of val_instances' instances are) silently
+    keeps only its nearest location/rotation/scale. A sheared M is therefore
+    split by its singular value decomposition, M3 = U diag(s) V^T with U and V
+    rotations (det M3 > 0), into a parent empty at T U diag(s) (a location,
+    rotation and scale) and ob at V^T under it: Blender multiplies the full
+    matrices down a parent chain (and into collection instances)."""
+    PLACED[ob.name] = M.copy()
+    ob.parent = None
+    lrs = Matrix.LocRotScale(*M.decompose())
+    if max(abs(a - b) for ra, rb in zip(lrs, M) for a, b in zip(ra, rb)) <= 1e-6 * max(1.0, max(M.to_scale())):
+        ob.matrix_world = M
+        return
+    import numpy
+    A = numpy.array(M.to_3x3(), dtype=float)
+    if numpy.linalg.det(A) <= 0:
+        die("%s: a mirroring or singular to_world is not mapped here" % ob.name)
+    U, sv, Vt = numpy.linalg.svd(A)
+    if numpy.linalg.det(U) < 0:  # then det(Vt) < 0 as well: flip one pair of singular vectors
+        U[:, 2] *= -1
+        Vt[2, :] *= -1
+    parent = bpy.data.objects.new(ob.name + " (shear)", None)
+    parent.matrix_world = (Matrix.Translation(M.translation) @ Matrix(U.tolist()).to_4x4()
+                           @ Matrix.Diagonal(Vector(sv.tolist())).to_4x4())
+    coll.objects.link(parent)
+    ob.parent = parent
+    ob.matrix_parent_inverse = Matrix.Identity(4)
+    ob.matrix_basis = Matrix(Vt.tolist()).to_4x4()
 
 
 def to_world(node):
@@ -213,8 +251,9 @@ def make_primitive(name, kind, p, coll=None):
         M = to_world(p.get("to_world"))
     me.update()
     ob = bpy.data.objects.new(name, me)
-    ob.matrix_world = M
-    (bpy.context.scene.collection if coll is None else coll).objects.link(ob)
+    coll = bpy.context.scene.collection if coll is None else coll
+    coll.objects.link(ob)
+    place(ob, M, coll)
     return ob
 
 
@@ -282,17 +321,18 @@ def make_instance(node, groups, idx):
     M = to_world(props(node).get("to_world"))
     if M.to_3x3().determinant() <= 0:
         die("instance %d: a mirroring to_world (Mitsuba keeps the group's facing; not mapped here)" % idx)
+    sc = bpy.context.scene.collection
     if MUTATE == "instance-order":
-        for ob in coll.objects:
+        for ob in [o for o in coll.objects if o.type == "MESH"]:
             dup = ob.copy()  # linked duplicate: shares ob.data
-            dup.matrix_world = ob.matrix_world @ M
-            bpy.context.scene.collection.objects.link(dup)
+            sc.objects.link(dup)
+            place(dup, PLACED[ob.name] @ M, sc)
         return
     e = bpy.data.objects.new("instance%d" % idx, None)
     e.instance_type = "COLLECTION"
     e.instance_collection = coll
-    e.matrix_world = M
-    bpy.context.scene.collection.objects.link(e)
+    sc.objects.link(e)
+    place(e, M, sc)
 
 
 def rgb(node):
@@ -649,10 +689,24 @@ def main():
         else:
             die("unsupported top-level element <%s>" % node.tag)
 
+    # Every rendered mesh object's evaluated world matrix against the one
+    # meant for it: to_world(shape), or to_world(instance) @ to_world(shape).
+    dg = bpy.context.evaluated_depsgraph_get()
+    inst, checked, worst = [], 0, 0.0
+    for i in dg.object_instances:  # each item is valid only during its own iteration step
+        if i.object.type != "MESH" or i.object.name not in PLACED:
+            continue
+        want = PLACED[i.object.name]
+        if i.is_instance:
+            inst.append(i.object.data.name)
+            want = PLACED[i.parent.name] @ want  # parent: the instancing empty
+        d = max(abs(a - b) for ra, rb in zip(i.matrix_world, want) for a, b in zip(ra, rb))
+        worst = max(worst, d)
+        checked += 1
+    print("blender_scene.py: %d mesh objects' world matrices as meant, max |difference| %.2g" % (checked, worst))
+    if worst > 1e-5:
+        die("an object's world matrix is not its to_world")
     if instances:
-        dg = bpy.context.evaluated_depsgraph_get()
-        # (each DepsgraphObjectInstance is valid only during its iteration step)
-        inst = [i.object.data.name for i in dg.object_instances if i.is_instance and i.object.type == "MESH"]
         print("blender_scene.py: %d instances%s; the depsgraph has %d instanced mesh objects sharing %d meshes" % (
             len(instances), " (mutated: instance-order, as linked duplicates)" if MUTATE == "instance-order" else "",
             len(inst), len(set(inst))))
