@@ -3,7 +3,7 @@ with Cycles to a linear float OpenEXR (R, G, B).
 
   blender -b --factory-startup --python analysis/validation/blender_scene.py -- \
       SCENE.xml OUT.exr SPP RES [--bounces B] [--seed S] [--threads N]
-      [--mutate roughness-linear|two-sided-light|env-no-rotation|env-mirror-u|env-turn-180|instance-order]
+      [--mutate roughness-linear|two-sided-light|env-no-rotation|env-mirror-u|env-turn-180|instance-order|no-shear]
       [--png PREVIEW.png]
 
 A glTF scene (SCENE.gltf or .glb) is imported with Blender's own glTF
@@ -16,7 +16,8 @@ bounces 10 (vkmech's default max_depth 12). Square images only unless
 --bounces and --mutate exist only for the sensitivity checks
 (sensitivity.sh): they build a deliberately wrong Cycles scene
 (instance-order: each instance's objects at to_world(shape) @ to_world(instance),
-the composition order reversed, as linked duplicates).
+the composition order reversed, as linked duplicates; no-shear: matrix_world
+assigned as it is, so Blender drops a shear, see place()).
 --min-light-bounces M sets Cycles' Min Light Bounces (no Russian roulette
 at bounce indices <= M; default 0, Cycles' own default); the benchmark sets
 it so Russian roulette starts at the same vertex as vkmech's rr_depth.
@@ -176,7 +177,8 @@ def place(ob, M, coll):
     PLACED[ob.name] = M.copy()
     ob.parent = None
     lrs = Matrix.LocRotScale(*M.decompose())
-    if max(abs(a - b) for ra, rb in zip(lrs, M) for a, b in zip(ra, rb)) <= 1e-6 * max(1.0, max(M.to_scale())):
+    if (MUTATE == "no-shear" or
+            max(abs(a - b) for ra, rb in zip(lrs, M) for a, b in zip(ra, rb)) <= 1e-6 * max(1.0, max(M.to_scale()))):
         ob.matrix_world = M
         return
     import numpy
@@ -613,7 +615,7 @@ def main():
     global MUTATE
     MUTATE = opts.get("--mutate")
     if MUTATE not in (None, "roughness-linear", "two-sided-light", "env-no-rotation", "env-mirror-u", "env-turn-180",
-                      "instance-order"):
+                      "instance-order", "no-shear"):
         die("unknown --mutate " + MUTATE)
 
     for ob in list(bpy.data.objects):
@@ -704,7 +706,7 @@ def main():
         worst = max(worst, d)
         checked += 1
     print("blender_scene.py: %d mesh objects' world matrices as meant, max |difference| %.2g" % (checked, worst))
-    if worst > 1e-5:
+    if worst > 1e-5 and MUTATE != "no-shear":
         die("an object's world matrix is not its to_world")
     if instances:
         print("blender_scene.py: %d instances%s; the depsgraph has %d instanced mesh objects sharing %d meshes" % (
