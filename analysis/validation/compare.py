@@ -243,7 +243,7 @@ def main():
             k = int(np.argmax(np.abs(rel)))
             print("   per-instance pixel boxes (%d): max |lum. rel. diff| %.2f %% (instance %d, %.1f vkmech s.e.), "
                   "RMS of rel. diff / vkmech s.e. %.2f" % (len(rows), 100 * abs(rel[k]), k, abs(z[k]), np.sqrt(np.mean(z ** 2))))
-            md2.append("| %s: per-instance pixel boxes (%d) | max |lum. rel. diff| %.2f %% (instance %d); RMS rel. diff / s.e. %.2f | | | | |"
+            md2.append("| %s: per-instance pixel boxes (%d) | max abs. lum. rel. diff %.2f %% (instance %d); RMS rel. diff / s.e. %.2f | | | | |"
                        % (s, len(rows), 100 * abs(rel[k]), k, np.sqrt(np.mean(z ** 2))))
         print("   wall time: vkmech %.1f s, Cycles %.1f s" % (vt, ct))
         md2.append("| %s | %.2f %% | %+.2f %% / %+.2f %% | %.2f %% | %.1f | %.1f |" % (
