@@ -702,10 +702,12 @@ def main():
         if i.is_instance:
             inst.append(i.object.data.name)
             want = PLACED[i.parent.name] @ want  # parent: the instancing empty
-        d = max(abs(a - b) for ra, rb in zip(i.matrix_world, want) for a, b in zip(ra, rb))
-        worst = max(worst, d)
+        # relative to the matrix's largest entry (float32 world matrices)
+        big = max(1.0, max(abs(x) for r in want for x in r))
+        worst = max(worst, max(abs(a - b) for ra, rb in zip(i.matrix_world, want) for a, b in zip(ra, rb)) / big)
         checked += 1
-    print("blender_scene.py: %d mesh objects' world matrices as meant, max |difference| %.2g" % (checked, worst))
+    print("blender_scene.py: %d mesh objects' world matrices as meant, max |difference| %.2g (relative to the "
+          "largest entry)" % (checked, worst))
     if worst > 1e-5 and MUTATE != "no-shear":
         die("an object's world matrix is not its to_world")
     if instances:
