@@ -3,7 +3,7 @@ with Cycles to a linear float OpenEXR (R, G, B).
 
   blender -b --factory-startup --python analysis/validation/blender_scene.py -- \
       SCENE.xml OUT.exr SPP RES [--bounces B] [--seed S] [--threads N]
-      [--mutate roughness-linear|two-sided-light|env-no-rotation|env-mirror-u|env-turn-180]
+      [--mutate roughness-linear|two-sided-light|env-no-rotation|env-mirror-u|env-turn-180|instance-order|no-shear]
       [--png PREVIEW.png]
 
 A glTF scene (SCENE.gltf or .glb) is imported with Blender's own glTF
@@ -14,7 +14,10 @@ bounces 10 (vkmech's default max_depth 12). Square images only unless
 --res-y H is given (vkmech's height follows the camera's aspect ratio).
 
 --bounces and --mutate exist only for the sensitivity checks
-(sensitivity.sh): they build a deliberately wrong Cycles scene.
+(sensitivity.sh): they build a deliberately wrong Cycles scene
+(instance-order: each instance's objects at to_world(shape) @ to_world(instance),
+the composition order reversed, as linked duplicates; no-shear: matrix_world
+assigned as it is, so Blender drops a shear, see place()).
 --min-light-bounces M sets Cycles' Min Light Bounces (no Russian roulette
 at bounce indices <= M; default 0, Cycles' own default); the benchmark sets
 it so Russian roulette starts at the same vertex as vkmech's rr_depth.
@@ -25,9 +28,9 @@ Standard, no exposure), after the EXR.
 Only the subset of Mitsuba XML that make_scenes.py writes is understood
 (everything else is an error, so nothing is silently dropped):
   integrator path (max_depth), perspective sensor (fov, fov_axis x, lookat),
-  obj shapes in world coordinates (v, vt, vn, triangles), rectangle, cube
+  obj shapes (v, vt, vn, triangles; optional to_world), rectangle, cube
   and sphere shapes (to_world of translate / rotate / scale; sphere center
-  and radius), bsdfs diffuse
+  and radius), shapegroups and instances (below), bsdfs diffuse
   (rgb or bitmap reflectance), twosided, dielectric, conductor and
   roughconductor (material none, ggx), area emitters (rgb radiance), one
   envmap emitter (filename, scale, to_world of rotations) and directional
@@ -57,6 +60,15 @@ Mapping (Mitsuba -> Cycles 3.4):
                         (docs/validation.md, "Environment lighting")
   directional        -> Sun lamp, angle 0, strength 1, colour = irradiance
                         (W/m^2), shining along `direction` (its local -z)
+  shapegroup         -> a collection, not linked to the scene, holding the
+                        group's objects at their own to_world (group space)
+  instance           -> an empty instancing that collection (instance_type
+                        COLLECTION) with matrix_world = the instance's
+                        to_world: Blender places each object at
+                        to_world(instance) @ to_world(shape), Mitsuba's order
+                        (the shape's own transform first), and Cycles keeps
+                        one copy of each mesh, instanced by object transforms
+                        (normals by the inverse transpose, as Mitsuba)
   max_depth d        -> max bounces d - 2 for every bounce kind (Mitsuba counts
                         path segments incl. the emitter segment; Cycles counts
                         scattering events after the first hit; checked by
@@ -120,7 +132,9 @@ def load_obj(path):
     return v, vt, vn, tris
 
 
-def make_mesh(name, path):
+def make_mesh(name, path, M=None, coll=None):
+    """An OBJ's triangles as a mesh object at matrix_world M (default identity),
+    linked to coll (default the scene's collection)."""
     v, vt, vn, tris = load_obj(path)
     me = bpy.data.meshes.new(name)
     me.from_pydata(v, [], [[c[0] for c in f] for f in tris])
@@ -139,8 +153,49 @@ def make_mesh(name, path):
                 normals[li] = vn[c[2]]
         me.normals_split_custom_set(normals)
     ob = bpy.data.objects.new(name, me)
-    bpy.context.scene.collection.objects.link(ob)
+    coll = bpy.context.scene.collection if coll is None else coll
+    coll.objects.link(ob)
+    place(ob, Matrix.Identity(4) if M is None else M, coll)
     return ob
+
+
+# Object name -> the world matrix meant for it (place); main() checks every
+# rendered mesh object, instanced or not, against it after evaluation.
+PLACED = {}
+
+
+def place(ob, M, coll):
+    """Give ob (linked to coll) the world matrix M, shear included. Blender
+    keeps an object's own transform as location, rotation and scale, which
+    hold no shear: assigning a sheared matrix_world (a rotation followed by a
+    non-uniform scale, as some of val_instances' instances are) silently
+    keeps only its nearest location/rotation/scale. A sheared M is therefore
+    split by its singular value decomposition, M3 = U diag(s) V^T with U and V
+    rotations (det M3 > 0), into a parent empty at T U diag(s) (a location,
+    rotation and scale) and ob at V^T under it: Blender multiplies the full
+    matrices down a parent chain (and into collection instances)."""
+    PLACED[ob.name] = M.copy()
+    ob.parent = None
+    lrs = Matrix.LocRotScale(*M.decompose())
+    if (MUTATE == "no-shear" or
+            max(abs(a - b) for ra, rb in zip(lrs, M) for a, b in zip(ra, rb)) <= 1e-6 * max(1.0, max(M.to_scale()))):
+        ob.matrix_world = M
+        return
+    import numpy
+    A = numpy.array(M.to_3x3(), dtype=float)
+    if numpy.linalg.det(A) <= 0:
+        die("%s: a mirroring or singular to_world is not mapped here" % ob.name)
+    U, sv, Vt = numpy.linalg.svd(A)
+    if numpy.linalg.det(U) < 0:  # then det(Vt) < 0 as well: flip one pair of singular vectors
+        U[:, 2] *= -1
+        Vt[2, :] *= -1
+    parent = bpy.data.objects.new(ob.name + " (shear)", None)
+    parent.matrix_world = (Matrix.Translation(M.translation) @ Matrix(U.tolist()).to_4x4()
+                           @ Matrix.Diagonal(Vector(sv.tolist())).to_4x4())
+    coll.objects.link(parent)
+    ob.parent = parent
+    ob.matrix_parent_inverse = Matrix.Identity(4)
+    ob.matrix_basis = Matrix(Vt.tolist()).to_4x4()
 
 
 def to_world(node):
@@ -150,7 +205,10 @@ def to_world(node):
         return M
     for t in node:
         if t.tag == "translate":
-            T = Matrix.Translation(Vector(floats(t.attrib["value"])))
+            if "value" in t.attrib:
+                T = Matrix.Translation(Vector(floats(t.attrib["value"])))
+            else:
+                T = Matrix.Translation(Vector([float(t.attrib.get(k, "0")) for k in "xyz"]))
         elif t.tag == "scale":
             if "value" in t.attrib:
                 v = floats(t.attrib["value"])
@@ -167,8 +225,9 @@ def to_world(node):
     return M
 
 
-def make_primitive(name, kind, p):
-    """Mitsuba rectangle, cube or sphere as a Blender mesh object."""
+def make_primitive(name, kind, p, coll=None):
+    """Mitsuba rectangle, cube or sphere as a Blender mesh object (linked to
+    coll, default the scene's collection)."""
     me = bpy.data.meshes.new(name)
     if kind == "sphere":
         import bmesh
@@ -194,9 +253,88 @@ def make_primitive(name, kind, p):
         M = to_world(p.get("to_world"))
     me.update()
     ob = bpy.data.objects.new(name, me)
-    ob.matrix_world = M
-    bpy.context.scene.collection.objects.link(ob)
+    coll = bpy.context.scene.collection if coll is None else coll
+    coll.objects.link(ob)
+    place(ob, M, coll)
     return ob
+
+
+def make_shape(node, mats, base, coll=None):
+    """One Mitsuba shape (not a group or an instance) with its material, as an
+    object linked to coll (default the scene's collection)."""
+    kind = node.attrib["type"]
+    p = props(node)
+    if kind == "obj":
+        path = os.path.join(base, p["filename"].attrib["value"])
+        ob = make_mesh(os.path.basename(path), path, to_world(p.get("to_world")), coll)
+    elif kind in ("rectangle", "cube", "sphere"):
+        ob = make_primitive(node.attrib.get("id", kind), kind, p, coll)
+    else:
+        die("unsupported shape " + kind)
+    em = node.find("emitter")
+    ref = node.find("ref")
+    b = node.find("bsdf")
+    if em is not None:
+        if coll is not None:
+            die("a shapegroup holds no emitters (Mitsuba)")
+        if em.attrib["type"] != "area":
+            die("only area emitters")
+        if b is None or b.attrib["type"] != "diffuse" or max(rgb(props(b)["reflectance"])[:3]) != 0:
+            die("an emitter's shape must have a black diffuse bsdf here")
+        mat = mats.emitter(rgb(props(em)["radiance"]))
+    elif ref is not None:
+        mat = mats.byid[ref.attrib["id"]]
+    elif b is not None:
+        mat = mats.bsdf(b)
+    else:
+        die("shape without bsdf")
+    ob.data.materials.append(mat)
+    return ob
+
+
+def make_group(node, mats, base):
+    """Mitsuba shapegroup -> a collection that is not linked to the scene (so
+    it renders only through its instances), its objects at their own to_world
+    in the group's space."""
+    gid = node.attrib["id"]
+    coll = bpy.data.collections.new("group_" + gid)
+    for c in node:
+        if c.tag != "shape" or c.attrib["type"] in ("shapegroup", "instance"):
+            die("shapegroup %s: only plain shapes (no groups, instances or <%s>)" % (gid, c.tag))
+        make_shape(c, mats, base, coll)
+    print("blender_scene.py: shapegroup %s -> collection %s with %d objects (%d faces)" % (
+        gid, coll.name, len(coll.objects), sum(len(o.data.polygons) for o in coll.objects)))
+    return coll
+
+
+def make_instance(node, groups, idx):
+    """Mitsuba instance -> an empty instancing the group's collection at the
+    instance's to_world (so an object of the group lands at
+    to_world(instance) @ to_world(shape)). --mutate instance-order instead
+    places linked duplicates (sharing the mesh) at to_world(shape) @
+    to_world(instance), the wrong composition order."""
+    refs = node.findall("ref")
+    if len(refs) != 1 or refs[0].attrib["id"] not in groups:
+        die("an instance needs one <ref> to a shapegroup defined before it")
+    for c in node:
+        if c.tag not in ("ref", "transform"):
+            die("instance: unsupported <%s>" % c.tag)
+    coll = groups[refs[0].attrib["id"]]
+    M = to_world(props(node).get("to_world"))
+    if M.to_3x3().determinant() <= 0:
+        die("instance %d: a mirroring to_world (Mitsuba keeps the group's facing; not mapped here)" % idx)
+    sc = bpy.context.scene.collection
+    if MUTATE == "instance-order":
+        for ob in [o for o in coll.objects if o.type == "MESH"]:
+            dup = ob.copy()  # linked duplicate: shares ob.data
+            sc.objects.link(dup)
+            place(dup, PLACED[ob.name] @ M, sc)
+        return
+    e = bpy.data.objects.new("instance%d" % idx, None)
+    e.instance_type = "COLLECTION"
+    e.instance_collection = coll
+    sc.objects.link(e)
+    place(e, M, sc)
 
 
 def rgb(node):
@@ -476,7 +614,8 @@ def main():
     base = os.path.dirname(os.path.abspath(scene_path))
     global MUTATE
     MUTATE = opts.get("--mutate")
-    if MUTATE not in (None, "roughness-linear", "two-sided-light", "env-no-rotation", "env-mirror-u", "env-turn-180"):
+    if MUTATE not in (None, "roughness-linear", "two-sided-light", "env-no-rotation", "env-mirror-u", "env-turn-180",
+                      "instance-order", "no-shear"):
         die("unknown --mutate " + MUTATE)
 
     for ob in list(bpy.data.objects):
@@ -484,6 +623,7 @@ def main():
     sc = bpy.context.scene
 
     mats = Materials(base)
+    groups, instances = {}, []
     max_depth = None
     world = None
     suns = 0
@@ -530,32 +670,13 @@ def main():
             sc.camera = cam
         elif node.tag == "bsdf":
             mats.byid[node.attrib["id"]] = mats.bsdf(node)
+        elif node.tag == "shape" and node.attrib["type"] == "shapegroup":
+            groups[node.attrib["id"]] = make_group(node, mats, base)
+        elif node.tag == "shape" and node.attrib["type"] == "instance":
+            make_instance(node, groups, len(instances))
+            instances.append(node)
         elif node.tag == "shape":
-            kind = node.attrib["type"]
-            p = props(node)
-            if kind == "obj":
-                path = os.path.join(base, p["filename"].attrib["value"])
-                ob = make_mesh(os.path.basename(path), path)
-            elif kind in ("rectangle", "cube", "sphere"):
-                ob = make_primitive(node.attrib.get("id", kind), kind, p)
-            else:
-                die("unsupported shape " + kind)
-            em = node.find("emitter")
-            ref = node.find("ref")
-            b = node.find("bsdf")
-            if em is not None:
-                if em.attrib["type"] != "area":
-                    die("only area emitters")
-                if b is None or b.attrib["type"] != "diffuse" or max(rgb(props(b)["reflectance"])[:3]) != 0:
-                    die("an emitter's shape must have a black diffuse bsdf here")
-                mat = mats.emitter(rgb(props(em)["radiance"]))
-            elif ref is not None:
-                mat = mats.byid[ref.attrib["id"]]
-            elif b is not None:
-                mat = mats.bsdf(b)
-            else:
-                die("shape without bsdf")
-            ob.data.materials.append(mat)
+            make_shape(node, mats, base)
         elif node.tag == "emitter":
             t = node.attrib["type"]
             if t == "envmap":
@@ -570,6 +691,29 @@ def main():
         else:
             die("unsupported top-level element <%s>" % node.tag)
 
+    # Every rendered mesh object's evaluated world matrix against the one
+    # meant for it: to_world(shape), or to_world(instance) @ to_world(shape).
+    dg = bpy.context.evaluated_depsgraph_get()
+    inst, checked, worst = [], 0, 0.0
+    for i in dg.object_instances:  # each item is valid only during its own iteration step
+        if i.object.type != "MESH" or i.object.name not in PLACED:
+            continue
+        want = PLACED[i.object.name]
+        if i.is_instance:
+            inst.append(i.object.data.name)
+            want = PLACED[i.parent.name] @ want  # parent: the instancing empty
+        # relative to the matrix's largest entry (float32 world matrices)
+        big = max(1.0, max(abs(x) for r in want for x in r))
+        worst = max(worst, max(abs(a - b) for ra, rb in zip(i.matrix_world, want) for a, b in zip(ra, rb)) / big)
+        checked += 1
+    print("blender_scene.py: %d mesh objects' world matrices as meant, max |difference| %.2g (relative to the "
+          "largest entry)" % (checked, worst))
+    if worst > 1e-5 and MUTATE != "no-shear":
+        die("an object's world matrix is not its to_world")
+    if instances:
+        print("blender_scene.py: %d instances%s; the depsgraph has %d instanced mesh objects sharing %d meshes" % (
+            len(instances), " (mutated: instance-order, as linked duplicates)" if MUTATE == "instance-order" else "",
+            len(inst), len(set(inst))))
     if world is None:
         # World: black (the scene has no environment).
         world = bpy.data.worlds.new("black")

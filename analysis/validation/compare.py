@@ -24,6 +24,8 @@ TOL = 0.02
 # the camera (0,-3.9,1), fov_x 39.3 deg and sphere (0.35,-0.3,0.4), r 0.4;
 # 17 px keeps the silhouette edge out.
 # val_gltf: discs inside the sphere and the box, computed by gltf_rois.
+# val_instances: the pixels of the floor instances and of the floating ones,
+# computed by instance_masks from the geometry.
 # val_envmap: the mirror sphere, centre (64.0, 62.4) px, radius 17.4 px, and
 # the rough gold sphere, centre (108.1, 74.4) px, radius 13.4 px (from
 # make_scenes.project and the camera distance); 14 and 11 px keep the edges out.
@@ -106,6 +108,31 @@ def gltf_rois(res):
     return [("sphere", sx, sy, 0.8 * 64 * r / sz / k), ("box", bx, by, 0.6 * 64 * (e / 2) / bz / k)]
 
 
+def instance_boxes(res):
+    """val_instances: each instance's pixel box (the projected corners of the
+    group's box under its to_world, make_scenes.inst_world_boxes): every pixel
+    the instance covers, and some floor or wall around it. Returns
+    (y0, y1, x0, x1, floating) per instance."""
+    import make_scenes as ms
+    out = []
+    for (lo, hi) in ms.inst_world_boxes():
+        pts = [ms.project((x, y, z), *ms.BOX_CAM, res)
+               for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+        x0, x1 = int(np.floor(min(p[0] for p in pts))), int(np.ceil(max(p[0] for p in pts)))
+        y0, y1 = int(np.floor(min(p[1] for p in pts))), int(np.ceil(max(p[1] for p in pts)))
+        out.append((max(y0, 0), y1, max(x0, 0), x1, lo[2] > 0.01))
+    return out
+
+
+def instance_masks(res):
+    """val_instances: the union of the pixel boxes of the 25 instances on the
+    floor, and of the 6 floating ones."""
+    masks = {"floor instances": np.zeros((res, res), bool), "floating instances": np.zeros((res, res), bool)}
+    for (y0, y1, x0, x1, floating) in instance_boxes(res):
+        masks["floating instances" if floating else "floor instances"][y0:y1, x0:x1] = True
+    return list(masks.items())
+
+
 def bright_centroid(lum, cx, cy, rad, thresh):
     """Centroid and count of the pixels within rad of (cx, cy) brighter than thresh."""
     yy, xx = np.mgrid[0:lum.shape[0], 0:lum.shape[1]] + 0.5
@@ -161,12 +188,15 @@ def main():
             print("   %s       %9.5f  %9.5f   %+7.2f %%  %s" % (ch, a, b, 100 * rd, "ok" if ok else "OUTSIDE 2 %"))
             md.append("| %s | %s | %.5f | %.5f | %+.2f %% | %s |" % (s, ch, a, b, 100 * rd, "yes" if ok else "**no**"))
         rois = gltf_rois(vi.shape[1]) if s == "val_gltf" else ROI.get(s, [])
+        regions = instance_masks(vi.shape[1]) if s == "val_instances" else []
         for (name, cx, cy, r, *excl) in rois:
             k = vi.shape[1] / 128.0
             yy, xx = np.mgrid[0:vi.shape[0], 0:vi.shape[1]] + 0.5
             m = (xx - cx * k) ** 2 + (yy - cy * k) ** 2 < (r * k) ** 2
             for (ex, ey, er) in excl:
                 m &= (xx - ex * k) ** 2 + (yy - ey * k) ** 2 >= (er * k) ** 2
+            regions.append((name, m))
+        for (name, m) in regions:
             for q, ch in enumerate("RGB"):
                 a, b = vi[..., q][m].mean(), ci[..., q][m].mean()
                 print("   %s region %s (%d px): %9.5f  %9.5f   %+7.2f %%" % (name, ch, m.sum(), a, b, 100 * (a / b - 1)))
@@ -201,6 +231,20 @@ def main():
                      100 * rel.max(), 100 * rel.mean()))
             md2.append("| %s: directly seen sky (rows 0-%d) | max per-pixel %.3f %%, mean %.4f %% | | | | |"
                        % (s, rows[-1], 100 * rel.max(), 100 * rel.mean()))
+        if s == "val_instances":
+            # Each instance's pixel box on its own: a wrong transform moves
+            # one instance's pixels even where the regions' means hide it.
+            rows = []
+            for (y0, y1, x0, x1, _) in instance_boxes(vi.shape[0]):
+                a, b = vl[y0:y1, x0:x1].sum(), cl[y0:y1, x0:x1].sum()
+                rows.append((a / b - 1, np.sqrt(np.sum((v["lum_var"] / spp)[y0:y1, x0:x1])) / a))
+            rel = np.array([r for r, _ in rows])
+            z = np.array([r / e for r, e in rows])
+            k = int(np.argmax(np.abs(rel)))
+            print("   per-instance pixel boxes (%d): max |lum. rel. diff| %.2f %% (instance %d, %.1f vkmech s.e.), "
+                  "RMS of rel. diff / vkmech s.e. %.2f" % (len(rows), 100 * abs(rel[k]), k, abs(z[k]), np.sqrt(np.mean(z ** 2))))
+            md2.append("| %s: per-instance pixel boxes (%d) | max abs. lum. rel. diff %.2f %% (instance %d); RMS rel. diff / s.e. %.2f | | | | |"
+                       % (s, len(rows), 100 * abs(rel[k]), k, np.sqrt(np.mean(z ** 2))))
         print("   wall time: vkmech %.1f s, Cycles %.1f s" % (vt, ct))
         md2.append("| %s | %.2f %% | %+.2f %% / %+.2f %% | %.2f %% | %.1f | %.1f |" % (
             s, 100 * se / vl.mean(), 100 * halves[0], 100 * halves[1], 100 * rms, vt, ct))

@@ -280,17 +280,17 @@ def scene_head(comment, fov, origin, target):
     return SCENE_HEAD % (comment, fov, origin, target)
 
 
+def twosided_diffuse(ident, reflectance):
+    """A named two-sided diffuse bsdf; reflectance as written ("r, g, b")."""
+    return """    <bsdf type="twosided" id="%s">
+        <bsdf type="diffuse"><rgb name="reflectance" value="%s"/></bsdf>
+    </bsdf>
+""" % (ident, reflectance)
+
+
 # The box scenes' materials, after their scene_head.
-BOX_BSDFS = """    <bsdf type="twosided" id="white">
-        <bsdf type="diffuse"><rgb name="reflectance" value="0.73, 0.73, 0.70"/></bsdf>
-    </bsdf>
-    <bsdf type="twosided" id="red">
-        <bsdf type="diffuse"><rgb name="reflectance" value="0.63, 0.065, 0.05"/></bsdf>
-    </bsdf>
-    <bsdf type="twosided" id="green">
-        <bsdf type="diffuse"><rgb name="reflectance" value="0.14, 0.45, 0.09"/></bsdf>
-    </bsdf>
-"""
+BOX_BSDFS = (twosided_diffuse("white", "0.73, 0.73, 0.70") + twosided_diffuse("red", "0.63, 0.065, 0.05")
+             + twosided_diffuse("green", "0.14, 0.45, 0.09"))
 
 BOX = """    <shape type="obj"><string name="filename" value="meshes/ceiling.obj"/><ref id="white"/></shape>
     <shape type="obj"><string name="filename" value="meshes/back.obj"/><ref id="white"/></shape>
@@ -612,6 +612,185 @@ def gltf_scene(out_dir, name="val_gltf"):
         fh.write("\n")
 
 
+# --- val_instances: one shapegroup, many instances -------------------------
+# The diffuse box (BOX_BSDFS, BOX, FLOOR) with one Mitsuba 3 shapegroup placed
+# by the instances of instance_ops(). The group, in its own space (z up, base on z = 0):
+# a blue diffuse cube (the `cube` primitive [-1,1]^3 under the group-space
+# to_world INST_BASE), a rough Fresnel-free metal sphere (an OBJ mesh written
+# in group coordinates, no to_world) beside it and a small orange diffuse block
+# (`cube` under INST_CAP, non-uniformly scaled and turned) on top, off centre,
+# sunk 2 mm into the cube (no coplanar faces).
+# Each instance's to_world moves the group's points (Mitsuba: the shape's own
+# to_world first, then the instance's); normals go by the inverse transpose.
+# 25 instances stand on the floor (turned about z, uniform and non-uniform
+# scales, some stretched along world axes after the turn, i.e. sheared in
+# the group's frame) and 6 float tilted about oblique axes. All to_world are
+# non-mirroring (det > 0) and no two instances' boxes (the group's box under
+# each to_world) come within 1 cm (inst_world_boxes checks both).
+BOX_CAM = ((0.0, -3.9, 1.0), (0.0, 0.0, 1.0), 39.3)  # the box scenes' camera: origin, target, fov_x
+INST_BASE = (("scale", (0.1, 0.1, 0.1)), ("translate", (0.0, 0.0, 0.1)))
+INST_CAP = (("scale", (0.05, 0.03, 0.03)), ("rotate", (0, 0, 1, 35.0)), ("translate", (-0.02, 0.04, 0.228)))
+INST_SPHERE = ((0.18, 0.0, 0.08), 0.08)  # centre (group space), radius
+INST_BSDFS = twosided_diffuse("inst_blue", "0.15, 0.3, 0.6") + twosided_diffuse("inst_orange", "0.8, 0.45, 0.1") + """\
+    <bsdf type="roughconductor" id="inst_metal">
+        <string name="material" value="none"/>
+        <string name="distribution" value="ggx"/>
+        <float name="alpha" value="0.2"/>
+        <rgb name="specular_reflectance" value="0.9, 0.7, 0.4"/>
+    </bsdf>
+"""
+
+
+def instance_ops():
+    """Each instance's to_world as a list of (op, args), applied in order."""
+    ops = []
+    xs = (-0.72, -0.36, 0.0, 0.36, 0.72)
+    ys = (-0.62, -0.28, 0.06, 0.40, 0.74)
+    for j, y in enumerate(ys):
+        for i, x in enumerate(xs):
+            k = 5 * j + i
+            angle = (61 * k + 7) % 360
+            pos = (x + 0.03 * ((k * 7) % 3 - 1), y + 0.03 * ((k * 5) % 3 - 1), 0.0)
+            kind = (i + 2 * j) % 5  # no two of a kind next to each other
+            if kind == 1:     # non-uniform, in the group's frame
+                o = [("scale", (0.7, 0.45, 0.9)), ("rotate", (0, 0, 1, angle))]
+            elif kind == 3:   # turned, then stretched along world x: a shear in the group's frame
+                o = [("rotate", (0, 0, 1, angle)), ("scale", (0.75, 0.45, 1.0))]
+            else:             # uniform
+                o = [("scale", (0.5 + 0.05 * (k % 4),) * 3), ("rotate", (0, 0, 1, angle))]
+            ops.append(o + [("translate", pos)])
+    floating = (  # (axis, angle, scale, position): tilted, above the floor, towards the back
+        ((1, 1, 0), 40.0, (0.9, 0.9, 0.9), (-0.55, 0.45, 1.05)),
+        ((0, 1, 0), -70.0, (1.1, 0.8, 1.0), (0.05, 0.55, 1.35)),
+        ((1, -0.5, 0.3), 120.0, (0.8, 0.8, 0.8), (0.55, 0.35, 0.95)),
+        ((0.2, 1, 1), 200.0, (1.2, 1.2, 0.7), (-0.35, 0.1, 0.65)),
+        ((1, 0, 0), 90.0, (0.7, 0.7, 0.7), (0.45, -0.05, 0.6)),
+        ((0.3, -1, 0.6), 300.0, (1.0, 0.6, 1.3), (-0.05, 0.2, 0.95)),
+    )
+    for (axis, angle, sc, pos) in floating:
+        ops.append([("scale", sc), ("rotate", tuple(axis) + (angle,)), ("translate", pos)])
+    return ops
+
+
+def op_matrix(op, a):
+    """4x4 matrix (rows) of one Mitsuba transform step."""
+    m = [[1.0 if i == j else 0.0 for j in range(4)] for i in range(4)]
+    if op == "scale":
+        for i in range(3):
+            m[i][i] = a[i]
+    elif op == "translate":
+        for i in range(3):
+            m[i][3] = a[i]
+    else:
+        r = rot(normalize(a[:3]), a[3])
+        for i in range(3):
+            m[i][:3] = r[i]
+    return m
+
+
+def compose(ops):
+    """Mitsuba to_world of a list of steps: each later step applies after the earlier ones."""
+    m = op_matrix("scale", (1, 1, 1))
+    for op, a in ops:
+        b = op_matrix(op, a)
+        m = [[sum(b[i][k] * m[k][j] for k in range(4)) for j in range(4)] for i in range(4)]
+    return m
+
+
+def apply(m, p):
+    return tuple(sum(m[i][k] * p[k] for k in range(3)) + m[i][3] for i in range(3))
+
+
+def transform_xml(ops, indent):
+    out = []
+    for op, a in ops:
+        if op == "rotate":
+            out.append('<rotate x="%g" y="%g" z="%g" angle="%g"/>' % a)
+        else:
+            out.append('<%s value="%s"/>' % (op, ", ".join("%g" % c for c in a)))
+    return "\n".join(indent + t for t in out)
+
+
+def inst_world_boxes():
+    """Each instance's world-space box of the group's box (for the overlap and
+    floor checks, and the comparison's regions)."""
+    (c, r) = INST_SPHERE
+    lo = (-0.1, -0.1, 0.0)
+    hi = (c[0] + r, 0.1, 0.26)
+    corners = [(x, y, z) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+    boxes, solids = [], []
+    for ops in instance_ops():
+        m = compose(ops)
+        det = (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+               + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+        assert det > 0, "a mirroring instance"
+        pts = [apply(m, p) for p in corners]
+        solids.append((pts, [tuple(m[i][a] for i in range(3)) for a in range(3)]))
+        boxes.append((tuple(min(p[i] for p in pts) for i in range(3)), tuple(max(p[i] for p in pts) for i in range(3))))
+    for k, (a0, a1) in enumerate(boxes):
+        assert a0[2] >= -1e-9 and max(abs(v) for v in a0[:2] + a1[:2]) < 0.98 and a1[2] < 1.9, "instance %d outside" % k
+        for j in range(k):
+            assert separated(solids[k], solids[j]), "instances %d and %d overlap" % (j, k)
+    return boxes
+
+
+def separated(a, b, gap=0.01):
+    """Two parallelepipeds (corners, edge directions) at least `gap` apart along
+    some separating axis (face normals and edge cross products: exact for convex solids)."""
+    cross = lambda u, v: (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+    ea, eb = a[1], b[1]
+    axes = [cross(ea[i], ea[(i + 1) % 3]) for i in range(3)] + [cross(eb[i], eb[(i + 1) % 3]) for i in range(3)]
+    axes += [cross(u, v) for u in ea for v in eb]
+    for ax in axes:
+        n = math.sqrt(sum(c * c for c in ax))
+        if n < 1e-9:
+            continue
+        pa = [sum(p[i] * ax[i] for i in range(3)) / n for p in a[0]]
+        pb = [sum(p[i] * ax[i] for i in range(3)) / n for p in b[0]]
+        if min(pa) >= max(pb) + gap or min(pb) >= max(pa) + gap:
+            return True
+    return False
+
+
+def group_shapes(outer, indent="        "):
+    """The group's three shapes; `outer` (a list of steps) follows each shape's
+    own to_world: empty inside the group, an instance's for a flattened copy."""
+    def shape(kind, inner, ref, extra=""):
+        steps = list(inner) + list(outer)
+        tw = ("\n%s    <transform name=\"to_world\">\n%s\n%s    </transform>" % (
+            indent, transform_xml(steps, indent + "        "), indent)) if steps else ""
+        return '%s<shape type="%s">%s%s\n%s    <ref id="%s"/>\n%s</shape>\n' % (indent, kind, extra, tw, indent, ref, indent)
+    return (shape("cube", INST_BASE, "inst_blue")
+            + shape("obj", (), "inst_metal", '\n%s    <string name="filename" value="meshes/inst_sphere.obj"/>' % indent)
+            + shape("cube", INST_CAP, "inst_orange"))
+
+
+def instances_scene(flat=False):
+    """val_instances.xml; flat=True writes the same scene with every instance
+    written out as copies of the group's shapes (each copy's to_world: the
+    shape's own, then the instance's), for vkmech's instanced-vs-flattened check."""
+    inst_world_boxes()  # the checks
+    name = "val_instances" + ("_flat" if flat else "")
+    comment = name + (""": the diffuse box with one shapegroup (a blue diffuse
+     cube, a rough metal sphere, a small orange block) placed by %d instances:
+     turned, uniformly and non-uniformly scaled, some sheared, 6 floating
+     tilted; all non-mirroring.""" % len(instance_ops()))
+    if flat:
+        comment += "\n     Flattened: each instance written out as copies (not committed)."
+    body = ""
+    if flat:
+        for ops in instance_ops():
+            body += group_shapes(ops, "    ")
+    else:
+        body += '    <shape type="shapegroup" id="group">\n' + group_shapes(()) + "    </shape>\n"
+        for ops in instance_ops():
+            body += ('    <shape type="instance">\n        <ref id="group"/>\n        <transform name="to_world">\n%s\n'
+                     '        </transform>\n    </shape>\n' % transform_xml(ops, "            "))
+    (o, t, fov) = BOX_CAM
+    return (scene_head(comment, "%g" % fov, "%g, %g, %.1f" % o, "%g, %g, %.1f" % t) + BOX_BSDFS + INST_BSDFS + BOX + FLOOR + body
+            + "</scene>\n")
+
+
 def main():
     os.makedirs(MESH, exist_ok=True)
     os.makedirs(os.path.join(OUT, "textures"), exist_ok=True)
@@ -637,6 +816,9 @@ def main():
     with open(os.path.join(OUT, "val_envmap.xml"), "w") as fh:
         fh.write(envmap_scene())
     gltf_scene(OUT)
+    sphere("inst_sphere", INST_SPHERE[0], INST_SPHERE[1], nu=64, nv=32)
+    with open(os.path.join(OUT, "val_instances.xml"), "w") as fh:
+        fh.write(instances_scene())
     for name, (desc, body) in SCENES.items():
         with open(os.path.join(OUT, name + ".xml"), "w") as fh:
             fh.write(scene_head(name + ": " + desc, "39.3", "0, -3.9, 1.0", "0, 0, 1.0") + BOX_BSDFS + BOX + body +
@@ -644,4 +826,11 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+    if sys.argv[1:2] == ["--instances-flat"]:
+        # val_instances with every instance written out (not committed):
+        #   make_scenes.py --instances-flat scenes/_flat.xml  (next to the scene: its paths are relative)
+        with open(sys.argv[2], "w") as fh:
+            fh.write(instances_scene(flat=True))
+    else:
+        main()

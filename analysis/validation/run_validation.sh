@@ -6,6 +6,8 @@
 #   env: VKMECH (default build/vkmech), BLENDER (default blender),
 #        SPP (1024), RES (128), OUT (out/validation), THREADS (Cycles threads, 2)
 #
+# val_instances is an ordinary XML scene (a shapegroup and its instances;
+# blender_scene.py instances a collection).
 # val_gltf (not in the default list) is a glTF file lit only by --environment
 # textures/sky.hdr: both renderers get the map on the command line.
 set -euo pipefail
@@ -17,7 +19,7 @@ RES=${RES:-128}
 OUT=${OUT:-out/validation}
 PY=/usr/bin/python3
 SCENES=("$@")
-[ ${#SCENES[@]} -gt 0 ] || SCENES=(val_diffuse val_glass val_metal val_texture val_envmap)
+[ ${#SCENES[@]} -gt 0 ] || SCENES=(val_diffuse val_glass val_metal val_texture val_envmap val_instances)
 D=analysis/validation/scenes
 
 $PY analysis/validation/make_scenes.py   # deterministic: rewrites the committed files identically

@@ -22,7 +22,7 @@ run() {  # NAME SCENE ARGS...
     echo "== mutant $name: $scene, Cycles $*"
     "$BLENDER" -b --factory-startup --python analysis/validation/blender_scene.py -- \
         "$D/$scene.xml" "$o/cycles/$scene.exr" "$SPP" "$RES" "$@" > "$o/cycles/$scene.log" 2>&1
-    /usr/bin/python3 analysis/validation/compare.py "$o" "$scene" | grep -E "^   [RGB] |region|block|sun in"
+    /usr/bin/python3 analysis/validation/compare.py "$o" "$scene" | grep -E "^   [RGB] |region|block|sun in|per-instance"
 }
 run bounces11 val_diffuse --bounces 11          # max bounces = max_depth - 1 instead of - 2
 run bounces9 val_diffuse --bounces 9            # max bounces = max_depth - 3
@@ -31,3 +31,5 @@ run roughness_linear val_metal --mutate roughness-linear   # Cycles roughness = 
 run env_no_rotation val_envmap --mutate env-no-rotation    # Mapping rotation left out (Cycles' own lat-long frame)
 run env_mirror_u val_envmap --mutate env-mirror-u          # the map mirrored left-right (u -> -u)
 run env_turn_180 val_envmap --mutate env-turn-180          # the map turned 180 deg about world z
+run inst_order val_instances --mutate instance-order   # to_world(shape) @ to_world(instance): the composition reversed
+run inst_no_shear val_instances --mutate no-shear     # matrix_world assigned as it is: Blender drops the sheared instances' shear
