@@ -120,6 +120,8 @@ layout(constant_id = SPEC_DEBUG_EVENTS) const bool DEBUG_EVENTS = false;
 // Specialization: docs/descriptor.md §2's end-vertex reading: false = the last non-delta
 // vertex (default), true = the literal last surface vertex.
 layout(constant_id = SPEC_END_VERTEX_LITERAL) const bool END_VERTEX_LITERAL = false;
+// render --pixel-bounds: the film is a window of the full film (GpuParams::window_x0...).
+layout(constant_id = SPEC_WINDOW) const bool WINDOW = false;
 
 // Adaptive rendering (docs/descriptor.md §6): n(p) per pixel; a pixel takes only the samples
 // of this batch whose index is below n(p), so n(p) samples of a seed are
@@ -527,13 +529,21 @@ void render_slot(uint slot) {
     vec3 direct_glossy_sum = vec3(0.0);
 #endif
     g_debug_pixel = DEBUG_EVENTS && params.debug_capacity > 0u && pixel == params.debug_pixel;
+    // The full film's pixel: its camera rays and its random stream (the window's pixel indexes the film).
+    uvec2 full_px = px;
+    uvec2 full_size = uvec2(width, height);
+    if (WINDOW) {
+        full_px += uvec2(params.window_x0, params.window_y0);
+        full_size = uvec2(params.full_width, params.full_height);
+    }
+    uint stream = WINDOW ? full_px.y * full_size.x + full_px.x : pixel;
     for (uint i = 0u; i < count; ++i) {
         CLOCK_START(c_camera);
         g_sample_index = first + i;
-        Rng rng = rng_init(params.seed, pixel, first + i);
+        Rng rng = rng_init(params.seed, stream, first + i);
         vec2 jitter = rng_next2(rng);  // box filter: uniform inside the pixel
         vec2 lens = rng_next2(rng);
-        vec2 film_uv = (vec2(px) + jitter) / vec2(width, height);
+        vec2 film_uv = (vec2(full_px) + jitter) / vec2(full_size);
         vec3 o, d;
         camera_ray(film_uv, lens, o, d);
         Tally t;

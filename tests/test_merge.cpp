@@ -21,12 +21,13 @@ namespace {
 
 // Renders ring_caustic (a caustic: delta-mediated and glossy labels side by side) at 24 pixels wide.
 testing::CliRun render(const std::string& out, const std::string& samples, const std::string& extra = "") {
-    return testing::run_cli("render --scene ring_caustic --res 24 --batch 8 " + samples + " --out " + out + " " + extra);
+    return testing::run_cli("render --scene ring_caustic --res 24 --batch 8 " + samples + " --out " + out + " " +
+                            extra);
 }
 
 }  // namespace
 
-TEST_CASE("merge: a sample range is A:B with A < B, whole numbers, at most 2^20 samples") {
+TEST_CASE("merge: a sample range is A:B with A < B, whole numbers, at most 2^20 samples; pixel bounds x0,x1,y0,y1") {
     const SampleRange r = parse_sample_range("32:64");
     CHECK(r.begin == 32u);
     CHECK(r.end == 64u);
@@ -37,6 +38,17 @@ TEST_CASE("merge: a sample range is A:B with A < B, whole numbers, at most 2^20 
     CHECK_THROWS_WITH_AS(parse_sample_range("-1:4"), doctest::Contains("whole numbers"), std::invalid_argument);
     CHECK_THROWS_WITH_AS(parse_sample_range("0:9999999999"), doctest::Contains("2^32"), std::invalid_argument);
     CHECK_THROWS_WITH_AS(parse_sample_range("0:2000000"), doctest::Contains("2^20"), std::invalid_argument);
+    const PixelBounds b = parse_pixel_bounds("1,5,2,7", 8, 8);
+    CHECK(b.x0 == 1u);
+    CHECK(b.x1 == 5u);
+    CHECK(b.y0 == 2u);
+    CHECK(b.y1 == 7u);
+    CHECK_THROWS_WITH_AS(parse_pixel_bounds("1,5,2", 8, 8), doctest::Contains("four whole numbers"),
+                         std::invalid_argument);
+    CHECK_THROWS_WITH_AS(parse_pixel_bounds("5,5,2,7", 8, 8), doctest::Contains("x0 < x1"), std::invalid_argument);
+    CHECK_THROWS_WITH_AS(parse_pixel_bounds("0,9,2,7", 8, 8), doctest::Contains("x1 <= 8"), std::invalid_argument);
+    CHECK_THROWS_WITH_AS(parse_pixel_bounds("0,4,2,7,9", 8, 8), doctest::Contains("four whole numbers"),
+                         std::invalid_argument);
 }
 
 TEST_SUITE("gpu") {
@@ -47,9 +59,8 @@ TEST_SUITE("gpu") {
         REQUIRE(render(dir.file("a"), "--sample-range 0:16").code == 0);
         REQUIRE(render(dir.file("b"), "--sample-range 16:40").code == 0);
         REQUIRE(render(dir.file("c"), "--sample-range 40:64").code == 0);
-        const testing::CliRun m =
-            testing::run_cli("merge " + dir.file("m") + " " + dir.file("c") + " " + dir.file("a") + " " +
-                             dir.file("b/ring_caustic.exr"));
+        const testing::CliRun m = testing::run_cli("merge " + dir.file("m") + " " + dir.file("c") + " " +
+                                                   dir.file("a") + " " + dir.file("b/ring_caustic.exr"));
         CAPTURE(m.output);
         REQUIRE(m.code == 0);
         CHECK(m.output.find("samples 0:64, 64 per pixel") != std::string::npos);
@@ -65,8 +76,7 @@ TEST_SUITE("gpu") {
             REQUIRE(a.size() == b.size());
             double worst = 0.0;
             for (size_t i = 0; i < a.size(); ++i)
-                if (a[i] != b[i])
-                    worst = std::max(worst, std::abs(static_cast<double>(a[i]) - b[i]) / std::abs(a[i]));
+                if (a[i] != b[i]) worst = std::max(worst, std::abs(static_cast<double>(a[i]) - b[i]) / std::abs(a[i]));
             CAPTURE(worst);
             // The labels are equal; every value within relative 1e-6 (measured: 2.3e-7 at most).
             if (name == "dominant")
@@ -74,6 +84,59 @@ TEST_SUITE("gpu") {
             else
                 CHECK(worst < 1e-6);
         }
+    }
+
+    TEST_CASE("merge: the four quarters of a --pixel-bounds split make the whole film's render") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("merge_quarters");
+        REQUIRE(render(dir.file("full"), "--spp 16").code == 0);  // 24 x 24
+        const char* quarters[] = {"0,10,0,13", "10,24,0,13", "0,10,13,24", "10,24,13,24"};
+        std::string parts;
+        for (const char* q : quarters) {
+            const std::string out = dir.file(std::string("q") + q);
+            REQUIRE(render(out, "--spp 16", std::string("--pixel-bounds ") + q).code == 0);
+            parts += " " + out;
+        }
+        const ExrImage full = read_exr_channels(dir.file("full/ring_caustic.exr"));
+        // A window is its crop of the whole render, bit for bit (its pixels' rays and streams).
+        const ExrImage q3 = read_exr_channels(dir.file("q10,24,13,24/ring_caustic.exr"));
+        REQUIRE(q3.width == 14);
+        REQUIRE(q3.height == 11);
+        CHECK(q3.attributes.at("vkmech.pixelBounds").at(0) == "10,24,13,24");
+        CHECK(q3.attributes.at("vkmech.filmSize").at(0) == "24x24");
+        for (const auto& [name, plane] : q3.channels) {
+            CAPTURE(name);
+            size_t differ = 0;
+            for (int y = 0; y < 11; ++y)
+                for (int x = 0; x < 14; ++x)
+                    differ += plane[static_cast<size_t>(y * 14 + x)] !=
+                              full.channels.at(name)[static_cast<size_t>((y + 13) * 24 + x + 10)];
+            CHECK(differ == 0);
+        }
+        const testing::CliRun m = testing::run_cli("merge " + dir.file("m") + parts);
+        CAPTURE(m.output);
+        REQUIRE(m.code == 0);
+        const ExrImage merged = read_exr_channels(dir.file("m/ring_caustic.exr"));
+        REQUIRE(merged.width == 24);
+        REQUIRE(merged.height == 24);
+        CHECK(merged.attributes.count("vkmech.pixelBounds") == 0);
+        for (const auto& [name, a] : full.channels) {
+            CAPTURE(name);
+            const auto& b = merged.channels.at(name);
+            double worst = 0.0;
+            for (size_t i = 0; i < a.size(); ++i)
+                if (a[i] != b[i]) worst = std::max(worst, std::abs(static_cast<double>(a[i]) - b[i]) / std::abs(a[i]));
+            CAPTURE(worst);
+            CHECK(worst < 1e-6);
+        }
+        // Three quarters do not cover the film; bounds past the film are refused before rendering.
+        const testing::CliRun three = testing::run_cli("merge " + dir.file("m3") + " " + dir.file("q0,10,0,13") + " " +
+                                                       dir.file("q10,24,0,13") + " " + dir.file("q0,10,13,24"));
+        CHECK(three.code == 2);
+        CHECK(three.output.find("do not cover the film evenly") != std::string::npos);
+        const testing::CliRun past = render(dir.file("past"), "--spp 1", "--pixel-bounds 0,25,0,4");
+        CHECK(past.code == 2);
+        CHECK(past.output.find("x1 <= 24") != std::string::npos);
     }
 
     TEST_CASE("merge: overlapping ranges, another seed, scene, film or output, and adaptive renders are refused") {
@@ -85,7 +148,9 @@ TEST_SUITE("gpu") {
         REQUIRE(testing::run_cli("render --scene ring_caustic --res 16 --sample-range 8:16 --out " + dir.file("film"))
                     .code == 0);
         REQUIRE(render(dir.file("capture"), "--sample-range 8:16", "--capture off").code == 0);
-        REQUIRE(testing::run_cli("render --scene cubes_dof --res 24 --sample-range 8:16 --out " + dir.file("scene")).code == 0);
+        REQUIRE(
+            testing::run_cli("render --scene cubes_dof --res 24 --sample-range 8:16 --out " + dir.file("scene")).code ==
+            0);
         REQUIRE(testing::run_cli("render --scene ring_caustic --res 24 --adaptive uniform --pilot 4 --budget 4 --out " +
                                  dir.file("adaptive"))
                     .code == 0);
@@ -94,7 +159,7 @@ TEST_SUITE("gpu") {
         };
         // Each refusal (exit 2) says which input and why.
         const std::pair<const char*, std::vector<std::string>> cases[] = {
-            {"overlap", {"(0:8) and ", "(4:12) overlap"}},
+            {"overlap", {"(0:8) and ", "(4:12) overlap on common pixels"}},
             {"seed", {"in the seed: '3' against '0'"}},
             {"film", {"is 16x"}},
             {"capture", {"has no channel"}},

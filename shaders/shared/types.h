@@ -269,6 +269,12 @@ struct GpuParams {  // one batch's uniforms (std140): named 4-byte scalars, four
     uint workgroup_stride;       // workgroup order stride (workgroup_stride(), coprime with the count)
     uint claimed_pixels;         // 1: each invocation takes pixel slots from a counter (binding 17)
     uint unused0;
+    // SPEC_WINDOW (render --pixel-bounds): the film is the window of the full film that starts at
+    // (window_x0, window_y0); camera rays and random streams are the full film's pixels'.
+    uint window_x0;
+    uint window_y0;
+    uint full_width;
+    uint full_height;
 };
 
 // One recorded contribution event (the GPU debug mode): the inputs of the

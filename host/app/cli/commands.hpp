@@ -63,6 +63,7 @@ struct RenderOptions {
     std::string curve;           // frozen predictor curve (default: docs/results/predictor_curve.json)
     std::string display_server;  // host:port of a tev viewer: the render in progress (io/display_client.hpp)
     std::string sample_range;    // "A:B": samples [A, B) of the seed (render only; not with --adaptive)
+    std::string pixel_bounds;    // "x0,x1,y0,y1": a window of the film (render only; not with --adaptive)
 };
 
 // `vkmech sentinel register` (docs/descriptor.md §9).

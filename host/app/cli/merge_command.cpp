@@ -1,5 +1,6 @@
 // `vkmech merge OUT IN...`: renders of one scene and seed on disjoint sample
-// ranges (render --sample-range A:B) combined into the render of their union:
+// ranges (render --sample-range A:B) or windows (--pixel-bounds), or both,
+// combined into the render of their union (each window placed in the film):
 // sums by each pixel's sample count, the luminance moments by Chan's formula
 // (Frame::merge), then the descriptor (dominant, purity, fractions) derived
 // again from the merged buckets. The EXR holds every pixel's means, so each
@@ -21,6 +22,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace fs = std::filesystem;
@@ -38,6 +40,8 @@ struct MergeInput {
     std::string path;
     ExrImage exr;
     SampleRange range;
+    uint32_t film_w = 0, film_h = 0;  // the whole film (vkmech.filmSize, else the image)
+    PixelBounds window;               // the part of it the image is (vkmech.pixelBounds, else all of it)
 };
 
 // An EXR, or an output directory holding exactly one.
@@ -64,10 +68,9 @@ std::string attribute(const MergeInput& in, const std::string& key) {
 // Refuses inputs that are not parts of one render: a different film, channels,
 // scene, seed, estimator or code, each said with both values.
 void check_same_render(const MergeInput& a, const MergeInput& b) {
-    if (a.exr.width != b.exr.width || a.exr.height != b.exr.height)
-        throw UsageError("merge: " + b.path + " is " + std::to_string(b.exr.width) + "x" +
-                         std::to_string(b.exr.height) + ", " + a.path + " " + std::to_string(a.exr.width) + "x" +
-                         std::to_string(a.exr.height));
+    if (a.film_w != b.film_w || a.film_h != b.film_h)
+        throw UsageError("merge: " + b.path + " is " + std::to_string(b.film_w) + "x" + std::to_string(b.film_h) +
+                         ", " + a.path + " " + std::to_string(a.film_w) + "x" + std::to_string(a.film_h));
     for (const auto* pair : {&a, &b}) {
         const MergeInput& x = *pair;
         const MergeInput& y = pair == &a ? b : a;
@@ -76,12 +79,15 @@ void check_same_render(const MergeInput& a, const MergeInput& b) {
                 throw UsageError("merge: " + y.path + " has no channel '" + name + "' (" + x.path +
                                  " has): different outputs (--capture, --extra-output)");
     }
-    static const std::pair<const char*, const char*> keys[] = {
-        {"vkmech.sceneSha256", "scene (SHA-256)"},   {"vkmech.sceneFiles", "scene's files"},
-        {"vkmech.defines", "-D values"},             {"vkmech.seed", "seed"},
-        {"vkmech.estimator", "estimator"},           {"vkmech.lightSelection", "light selection"},
-        {"vkmech.endVertex", "end-vertex reading"},  {"vkmech.codeDigest", "path tracer's code digest"},
-        {"vkmech.features", "pipeline features"}};
+    static const std::pair<const char*, const char*> keys[] = {{"vkmech.sceneSha256", "scene (SHA-256)"},
+                                                               {"vkmech.sceneFiles", "scene's files"},
+                                                               {"vkmech.defines", "-D values"},
+                                                               {"vkmech.seed", "seed"},
+                                                               {"vkmech.estimator", "estimator"},
+                                                               {"vkmech.lightSelection", "light selection"},
+                                                               {"vkmech.endVertex", "end-vertex reading"},
+                                                               {"vkmech.codeDigest", "path tracer's code digest"},
+                                                               {"vkmech.features", "pipeline features"}};
     for (const auto& [key, what] : keys) {
         const std::string x = attribute(a, key), y = attribute(b, key);
         if (x != y)
@@ -112,8 +118,8 @@ Frame frame_from_exr(const MergeInput& in) {
     for (size_t i = 0; i < n; ++i) {
         PixelStats& p = f.pixels[i];
         if (spp[i] != static_cast<float>(expected))
-            throw UsageError("merge: " + in.path + " pixel " + std::to_string(i) + " took " +
-                             std::to_string(spp[i]) + " samples, not the " + std::to_string(expected) +
+            throw UsageError("merge: " + in.path + " pixel " + std::to_string(i) + " took " + std::to_string(spp[i]) +
+                             " samples, not the " + std::to_string(expected) +
                              " of its sample range (an adaptive render?)");
         p.nonfinite = nonfinite[i];
         p.count = spp[i] - nonfinite[i];
@@ -152,27 +158,76 @@ Frame frame_from_exr(const MergeInput& in) {
     return f;
 }
 
-// The ranges, sorted: refused where two overlap; "A:B" for a contiguous union, else "A:B,C:D,...".
-std::string merged_range(std::vector<MergeInput>& in) {
-    std::sort(in.begin(), in.end(), [](const MergeInput& a, const MergeInput& b) { return a.range.begin < b.range.begin; });
+// Two inputs whose windows and sample ranges both intersect would count their common samples twice.
+void check_disjoint(const std::vector<MergeInput>& in) {
+    for (size_t a = 0; a < in.size(); ++a)
+        for (size_t b = a + 1; b < in.size(); ++b) {
+            const MergeInput &x = in[a], &y = in[b];
+            const bool pixels = x.window.x0 < y.window.x1 && y.window.x0 < x.window.x1 && x.window.y0 < y.window.y1 &&
+                                y.window.y0 < x.window.y1;
+            const bool samples = x.range.begin < y.range.end && y.range.begin < x.range.end;
+            if (pixels && samples)
+                throw UsageError("merge: the sample ranges of " + x.path + " (" + attribute(x, "vkmech.sampleRange") +
+                                 ") and " + y.path + " (" + attribute(y, "vkmech.sampleRange") +
+                                 ") overlap on common pixels: their common samples would count twice");
+        }
+}
+
+// The union of the inputs' ranges: "A:B" when contiguous, else "A:B,C:D,...".
+std::string merged_range(const std::vector<MergeInput>& in) {
+    std::vector<std::pair<uint32_t, uint32_t>> r;
+    for (const auto& m : in) r.emplace_back(m.range.begin, m.range.end);
+    std::sort(r.begin(), r.end());
     std::string text;
-    uint32_t run_begin = in[0].range.begin, run_end = in[0].range.end;
-    for (size_t k = 1; k <= in.size(); ++k) {
-        if (k < in.size() && in[k].range.begin < in[k - 1].range.end)
-            throw UsageError("merge: the sample ranges of " + in[k - 1].path + " (" + attribute(in[k - 1], "vkmech.sampleRange") +
-                             ") and " + in[k].path + " (" + attribute(in[k], "vkmech.sampleRange") +
-                             ") overlap: their common samples would count twice");
-        if (k < in.size() && in[k].range.begin == run_end) {
-            run_end = in[k].range.end;
+    uint32_t begin = r[0].first, end = r[0].second;
+    for (size_t k = 1; k <= r.size(); ++k) {
+        if (k < r.size() && r[k].first <= end) {
+            end = std::max(end, r[k].second);
             continue;
         }
-        text += (text.empty() ? "" : ",") + std::to_string(run_begin) + ":" + std::to_string(run_end);
-        if (k < in.size()) {
-            run_begin = in[k].range.begin;
-            run_end = in[k].range.end;
-        }
+        text += (text.empty() ? "" : ",") + std::to_string(begin) + ":" + std::to_string(end);
+        if (k < r.size()) std::tie(begin, end) = r[k];
     }
     return text;
+}
+
+// An input's window frame placed in the whole film (no samples elsewhere).
+Frame in_film(const Frame& part, const MergeInput& in) {
+    Frame f;
+    f.width = static_cast<int>(in.film_w);
+    f.height = static_cast<int>(in.film_h);
+    f.samples = part.samples;
+    const size_t n = static_cast<size_t>(in.film_w) * in.film_h;
+    f.pixels.assign(n, PixelStats{});
+    if (!part.bucket_rgb_sum.empty()) f.bucket_rgb_sum.assign(n * Frame::kBucketRgb, 0.0);
+    if (!part.direct_glossy_sum.empty()) f.direct_glossy_sum.assign(n, 0.0);
+    const uint32_t w = in.window.x1 - in.window.x0;
+    for (uint32_t y = in.window.y0; y < in.window.y1; ++y)
+        for (uint32_t x = in.window.x0; x < in.window.x1; ++x) {
+            const size_t to = static_cast<size_t>(y) * in.film_w + x;
+            const size_t from = static_cast<size_t>(y - in.window.y0) * w + (x - in.window.x0);
+            f.pixels[to] = part.pixels[from];
+            if (!f.bucket_rgb_sum.empty())
+                std::copy_n(&part.bucket_rgb_sum[from * Frame::kBucketRgb], Frame::kBucketRgb,
+                            &f.bucket_rgb_sum[to * Frame::kBucketRgb]);
+            if (!f.direct_glossy_sum.empty()) f.direct_glossy_sum[to] = part.direct_glossy_sum[from];
+        }
+    return f;
+}
+
+// Every pixel of the merged film must have the same samples: the parts cover it evenly.
+uint32_t even_spp(const Frame& f) {
+    const PixelStats& p0 = f.pixels[0];
+    for (size_t i = 1; i < f.pixels.size(); ++i) {
+        const PixelStats& p = f.pixels[i];
+        if (p.count + p.nonfinite != p0.count + p0.nonfinite)
+            throw UsageError("merge: the parts do not cover the film evenly: pixel (" +
+                             std::to_string(i % static_cast<size_t>(f.width)) + ", " +
+                             std::to_string(i / static_cast<size_t>(f.width)) + ") has " +
+                             std::to_string(static_cast<uint64_t>(p.count + p.nonfinite)) + " samples, pixel (0, 0) " +
+                             std::to_string(static_cast<uint64_t>(p0.count + p0.nonfinite)));
+    }
+    return static_cast<uint32_t>(p0.count + p0.nonfinite);
 }
 
 RenderInfo merged_info(const MergeInput& first, const std::string& name, const std::string& range, uint32_t spp) {
@@ -224,17 +279,32 @@ int cmd_merge(const MergeOptions& o) {
             throw UsageError("merge: " + m.path + " is not one sample range of a render (vkmech.sampleRange '" + range +
                              "': " + e.what() + "); an adaptive render's per-pixel ranges do not merge");
         }
+        m.film_w = static_cast<uint32_t>(m.exr.width);
+        m.film_h = static_cast<uint32_t>(m.exr.height);
+        m.window = PixelBounds{0, m.film_w, 0, m.film_h};
+        if (const std::string bounds = attribute(m, "vkmech.pixelBounds"); !bounds.empty()) {
+            const std::string film = attribute(m, "vkmech.filmSize");
+            if (std::sscanf(film.c_str(), "%ux%u", &m.film_w, &m.film_h) != 2)
+                throw UsageError("merge: " + m.path + ": vkmech.filmSize '" + film + "' is not WxH");
+            try {
+                m.window = parse_pixel_bounds(bounds, m.film_w, m.film_h);
+            } catch (const std::invalid_argument& e) {
+                throw UsageError("merge: " + m.path + ": " + e.what());
+            }
+            if (m.window.x1 - m.window.x0 != static_cast<uint32_t>(m.exr.width) ||
+                m.window.y1 - m.window.y0 != static_cast<uint32_t>(m.exr.height))
+                throw UsageError("merge: " + m.path + " is not the size of its pixel bounds " + bounds);
+        }
         in.push_back(std::move(m));
     }
     for (size_t k = 1; k < in.size(); ++k) check_same_render(in[0], in[k]);
+    check_disjoint(in);
     const std::string range = merged_range(in);
-    Frame frame = frame_from_exr(in[0]);
-    uint32_t spp = in[0].range.end - in[0].range.begin;
-    for (size_t k = 1; k < in.size(); ++k) {
-        frame.merge(frame_from_exr(in[k]));
-        spp += in[k].range.end - in[k].range.begin;
-    }
+    Frame frame = in_film(frame_from_exr(in[0]), in[0]);
+    for (size_t k = 1; k < in.size(); ++k) frame.merge(in_film(frame_from_exr(in[k]), in[k]));
+    const uint32_t spp = even_spp(frame);
     const std::string name = fs::path(in[0].path).stem().string();
+    // The merged film is whole: no window of its own.
     const RenderInfo info = merged_info(in[0], name, range, spp);
     std::optional<Descriptor> desc;
     std::optional<DescriptorSummary> summary;

@@ -284,6 +284,16 @@ int cmd_render(const RenderOptions& o) {
     Features features = o.generic ? Features::generic(estimator, capture) : session.features(estimator, capture);
     features.end_vertex = parse_end_vertex(o.end_vertex);
     features.direct_glossy = direct_glossy;
+    // --pixel-bounds: a window of the film (after --res).
+    std::optional<PixelBounds> bounds;
+    try {
+        if (!o.pixel_bounds.empty())
+            bounds = parse_pixel_bounds(o.pixel_bounds, static_cast<uint32_t>(scene.camera.width),
+                                        static_cast<uint32_t>(scene.camera.height));
+    } catch (const std::invalid_argument& e) {
+        throw UsageError(std::string("--pixel-bounds: ") + e.what());
+    }
+    features.window = bounds.has_value();
     const vk::PipelineStats before = ctx.pipeline_cache().stats();
     Renderer renderer = session.renderer(features);
     const vk::PipelineStats pipes = ctx.pipeline_cache().stats() - before;
@@ -298,6 +308,7 @@ int cmd_render(const RenderOptions& o) {
     RenderSpec spec;
     spec.spp = spp;
     spec.first_sample = range.begin;
+    if (bounds) spec.window = RenderSpec::Window{bounds->x0, bounds->x1, bounds->y0, bounds->y1};
     spec.seed = o.seed;
     spec.batch_spp = o.batch_spp;
     spec.mode = o.preview ? gpu::MODE_DIRECT_PREVIEW : gpu::MODE_PATH;
@@ -314,6 +325,10 @@ int cmd_render(const RenderOptions& o) {
     RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene, spp, o.seed, capture);
     info.kernel = vk::to_string(session.gpu().kernel());
     info.provenance.sample_range = std::to_string(range.begin) + ":" + std::to_string(range.end);
+    if (bounds) {
+        info.provenance.pixel_bounds = o.pixel_bounds;
+        info.provenance.film_size = std::to_string(scene.camera.width) + "x" + std::to_string(scene.camera.height);
+    }
     info.pipeline_seconds = pipes.seconds;
     info.pipeline_cache = vk::pipeline_cache_outcome(pipes, ctx.pipeline_cache().enabled());
     // Where the time before the first sample goes (docs/performance.md): parsing the scene and its meshes, then
@@ -367,6 +382,7 @@ int cmd_render(const RenderOptions& o) {
 int cmd_render_adaptive(const RenderOptions& o) {
     if (!o.sample_range.empty())
         throw UsageError("--sample-range and --adaptive: an adaptive render takes samples [0, n(p)) at each pixel");
+    if (!o.pixel_bounds.empty()) throw UsageError("--pixel-bounds and --adaptive: an adaptive render takes the film");
     alloc::Strategy strategy;
     try {
         strategy = alloc::parse_strategy(o.adaptive);
@@ -528,6 +544,9 @@ void register_render(CLI::App& app, CliCommands& commands) {
                      "A:B: render exactly samples [A, B) of the seed's stream (B - A per pixel), recorded in the "
                      "outputs; disjoint ranges of one seed merge into the single render (vkmech merge)")
         ->excludes(spp_opt);
+    render->add_option("--pixel-bounds", o->pixel_bounds,
+                       "x0,x1,y0,y1: render only the window [x0, x1) x [y0, y1) of the film (after --res), each pixel "
+                       "exactly as in the whole film's render; vkmech merge puts the windows together");
     render->add_option("--seed", o->seed, "Random seed (docs/descriptor.md §4)");
     render->add_option("--batch", o->batch_spp, "Samples per GPU dispatch")->check(CLI::Range(1u, 4096u));
     render->add_option("--out", o->out_dir, "Output directory (default: out/<scene>)");

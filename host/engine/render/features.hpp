@@ -37,6 +37,9 @@ struct Features {
     // vertex is glossy (Frame::direct_glossy_sum). Not a specialization constant: the default
     // module stays byte-identical. Needs capture.
     bool direct_glossy = false;
+    // `render --pixel-bounds`: the renders are windows of the film (RenderSpec::window), the
+    // specialization constant SPEC_WINDOW; off, the shader has no window code.
+    bool window = false;
     // `bench render --profile --counters`: the instrumented module (VKMECH_COUNTERS) that counts
     // the software BVH's work (Renderer::counters()). Software BVH only; not with direct_glossy.
     bool counters = false;

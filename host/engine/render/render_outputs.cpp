@@ -228,6 +228,24 @@ SampleRange parse_sample_range(const std::string& text) {
     return r;
 }
 
+PixelBounds parse_pixel_bounds(const std::string& text, uint32_t width, uint32_t height) {
+    uint32_t v[4];
+    size_t at = 0;
+    for (int k = 0; k < 4; ++k) {
+        const size_t end = k < 3 ? text.find(',', at) : text.size();
+        const std::string t = end == std::string::npos ? std::string() : text.substr(at, end - at);
+        if (t.empty() || t.size() > 9 || t.find_first_not_of("0123456789") != std::string::npos)
+            throw std::invalid_argument("pixel bounds '" + text + "': expected x0,x1,y0,y1, four whole numbers");
+        v[k] = static_cast<uint32_t>(std::stoul(t));
+        at = end + 1;
+    }
+    const PixelBounds b{v[0], v[1], v[2], v[3]};
+    if (!(b.x0 < b.x1 && b.x1 <= width && b.y0 < b.y1 && b.y1 <= height))
+        throw std::invalid_argument("pixel bounds '" + text + "': need x0 < x1 <= " + std::to_string(width) +
+                                    " and y0 < y1 <= " + std::to_string(height) + " (the film)");
+    return b;
+}
+
 std::vector<ExrChannel> render_channels(const Frame& frame, const Descriptor* d) {
     const size_t n = frame.pixels.size();
     std::vector<float> rgb = frame.rgb_mean();
@@ -294,6 +312,10 @@ std::map<std::string, std::vector<std::string>> render_attributes(const RenderIn
         attrs["vkmech.sceneFiles"] = p.scene_files;
         attrs["vkmech.defines"] = p.defines;
         attrs["vkmech.sampleRange"] = {p.sample_range};
+        if (!p.pixel_bounds.empty()) {
+            attrs["vkmech.pixelBounds"] = {p.pixel_bounds};
+            attrs["vkmech.filmSize"] = {p.film_size};
+        }
         attrs["vkmech.driver"] = {p.driver};
         attrs["vkmech.traversal"] = {info.traversal};
         attrs["vkmech.kernel"] = {info.kernel};

@@ -26,8 +26,11 @@ struct Provenance {
     std::vector<std::string> scene_files;  // "<sha256> <path>" of every other file the scene read
     std::vector<std::string> defines;      // every -D name=value
     std::string sample_range;              // "A:B": samples [A, B) of the seed's stream (per pixel)
-    std::string driver;                    // the Vulkan driver's name and version
-    std::string date_utc;                  // "YYYY:MM:DD HH:MM:SS" (EXR capDate), UTC
+    // render --pixel-bounds: "x0,x1,y0,y1", the window [x0, x1) x [y0, y1) of a film of film_size
+    // ("WxH") that the image is; both empty for the whole film.
+    std::string pixel_bounds, film_size;
+    std::string driver;    // the Vulkan driver's name and version
+    std::string date_utc;  // "YYYY:MM:DD HH:MM:SS" (EXR capDate), UTC
 };
 
 // Samples [begin, end) of a seed's stream (Provenance::sample_range "A:B").
@@ -36,6 +39,13 @@ struct SampleRange {
 };
 // "A:B" with A < B and B - A at most 2^20 samples; throws std::invalid_argument saying what is wrong.
 SampleRange parse_sample_range(const std::string& text);
+
+// A window of a film, [x0, x1) x [y0, y1) (Provenance::pixel_bounds "x0,x1,y0,y1").
+struct PixelBounds {
+    uint32_t x0 = 0, x1 = 0, y0 = 0, y1 = 0;
+};
+// "x0,x1,y0,y1" with x0 < x1 <= width and y0 < y1 <= height; throws std::invalid_argument saying what is wrong.
+PixelBounds parse_pixel_bounds(const std::string& text, uint32_t width, uint32_t height);
 
 struct RenderInfo {
     std::string scene_name;

@@ -46,7 +46,8 @@ std::vector<vk::SpecConstant> spec_constants(const Features& f, bool instanced) 
                                        {SPEC_ORTHOGRAPHIC, f.orthographic},
                                        {SPEC_ENVIRONMENT, f.environment},
                                        {SPEC_SHARED_TALLY, shared_tally_from_env()},
-                                       {SPEC_INSTANCES, instanced}};
+                                       {SPEC_INSTANCES, instanced},
+                                       {SPEC_WINDOW, f.window}};
 #define VKM_X(NAME, name, bit, spec_id) c.push_back({SPEC_##NAME, (f.materials & FEATURE_BIT_##NAME) != 0u});
     VKM_MATERIAL_FEATURES(VKM_X)
 #undef VKM_X
@@ -196,9 +197,19 @@ Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Feature
 Frame Renderer::render(const RenderSpec& spec) {
     const Camera& cam = scene_.camera;
     Frame frame;
-    frame.width = cam.width;
-    frame.height = cam.height;
-    size_t pixels = static_cast<size_t>(cam.width) * cam.height;
+    // The film: the camera's, or the window of it that spec.window names.
+    VKM_ASSERT(spec.window.has_value() == features_.window,
+               "a window render needs a renderer made with Features::window, and only it");
+    uint32_t film_w = static_cast<uint32_t>(cam.width), film_h = static_cast<uint32_t>(cam.height);
+    if (spec.window) {
+        const RenderSpec::Window& w = *spec.window;
+        VKM_ASSERT(w.x0 < w.x1 && w.x1 <= film_w && w.y0 < w.y1 && w.y1 <= film_h, "the window lies outside the film");
+        film_w = w.x1 - w.x0;
+        film_h = w.y1 - w.y0;
+    }
+    frame.width = static_cast<int>(film_w);
+    frame.height = static_cast<int>(film_h);
+    size_t pixels = static_cast<size_t>(film_w) * film_h;
     std::vector<gpu::GpuPixelAccum> batch;
     try {
         frame.pixels.assign(pixels, PixelStats{});
@@ -216,8 +227,14 @@ Frame Renderer::render(const RenderSpec& spec) {
     p.tan_half_fov_y = tans.y;
     p.aperture_radius = cam.type == CameraType::ThinLens ? cam.aperture_radius : 0.0f;
     p.focus_distance = cam.focus_distance;
-    p.film_width = cam.width;
-    p.film_height = cam.height;
+    p.film_width = film_w;
+    p.film_height = film_h;
+    if (spec.window) {
+        p.window_x0 = spec.window->x0;
+        p.window_y0 = spec.window->y0;
+        p.full_width = static_cast<uint32_t>(cam.width);
+        p.full_height = static_cast<uint32_t>(cam.height);
+    }
     p.seed = spec.seed;
     p.max_depth = scene_.integrator.max_depth;
     p.rr_depth = scene_.integrator.rr_depth;
@@ -281,7 +298,7 @@ Frame Renderer::render(const RenderSpec& spec) {
             spec.profile->*slot += std::chrono::duration<double>(now - t_phase).count();
             t_phase = now;
         };
-        uint32_t gx = (cam.width + 7) / 8, gy = (cam.height + 7) / 8;
+        uint32_t gx = (film_w + 7) / 8, gy = (film_h + 7) / 8;
         if (!order.empty()) {
             uint32_t groups = static_cast<uint32_t>((active + 63) / 64);
             gx = std::min(groups, 65535u);  // the guaranteed maxComputeWorkGroupCount
