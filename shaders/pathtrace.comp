@@ -163,8 +163,6 @@ const uint TALLY_FLOATS = 3u * BUCKET_COUNT;
 shared float s_sample_tally[SHARED_TALLY ? 64u * TALLY_FLOATS : 1u];
 shared float s_pixel_tally[SHARED_TALLY ? 64u * TALLY_FLOATS : 1u];
 uint tally_base() { return gl_LocalInvocationIndex * TALLY_FLOATS; }  // 21 is odd: no bank conflicts
-#else
-const bool SHARED_TALLY = false;
 #endif
 
 void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_before, bool glossy_before) {
