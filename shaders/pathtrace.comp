@@ -81,7 +81,7 @@ vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
     Hit h;
     if (!trace_closest(o, d, 0.0, RAY_TMAX, h)) return vec3(0.0);
     SurfaceHit s = surface_hit(h.prim, h.bary);
-#if defined(KERNEL_GPU) && defined(TRAVERSAL_BVH)
+#ifdef KERNEL_GPU
     surface_to_world(s, h.inst);
 #endif
     vec3 L = vec3(0.0);
@@ -308,7 +308,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
             PATH_BREAK;
         }
         SurfaceHit s = surface_hit(h.prim, h.bary);
-#if defined(KERNEL_GPU) && defined(TRAVERSAL_BVH)
+#ifdef KERNEL_GPU
         surface_to_world(s, h.inst);
 #endif
 

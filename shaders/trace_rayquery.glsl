@@ -12,7 +12,17 @@ struct Hit {
     float t;
     uint prim;
     vec2 bary;
+    uint inst;  // the GPU kernel: the instance hit (GpuInstance), or NO_INSTANCE; else unset
 };
+
+#ifdef KERNEL_GPU
+// Instances (FEATURE_INSTANCES): the TLAS holds the ordinary triangles' BLAS
+// (custom index TLAS_WORLD) and one instance of its group's BLAS per
+// instance (custom index: the instance); a group's primitive i is the scene
+// arrays' triangle GpuInstance.info.z + i (host RayTracingAccel).
+#include "instances.glsl"
+const uint TLAS_WORLD = 0xFFFFFFu;
+#endif
 
 bool trace_closest(vec3 o, vec3 d, float tmin, float tmax, out Hit hit) {
     rayQueryEXT rq;
@@ -26,6 +36,16 @@ bool trace_closest(vec3 o, vec3 d, float tmin, float tmax, out Hit hit) {
         hit.t = rayQueryGetIntersectionTEXT(rq, true);
         hit.prim = uint(rayQueryGetIntersectionPrimitiveIndexEXT(rq, true));
         hit.bary = rayQueryGetIntersectionBarycentricsEXT(rq, true);
+#ifdef KERNEL_GPU
+        hit.inst = NO_INSTANCE;
+        if (FEATURE_INSTANCES) {
+            uint custom = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, true));
+            if (custom != TLAS_WORLD) {
+                hit.inst = custom;
+                hit.prim += instances[custom].info.z;
+            }
+        }
+#endif
         return true;
     }
     return false;

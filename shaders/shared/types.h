@@ -187,7 +187,8 @@ struct GpuBvhNode {
 struct GpuInstance {
     vec4 to_local[3];  // world -> the group's space
     vec4 to_world[3];  // the group's space -> world
-    uvec4 info;        // x: the root node of the group's tree, y: the group, z, w: 0
+    uvec4 info;        // x: the root node of the group's tree (GPU kernel BVH), y: the group,
+                       // z: the group's first triangle in the scene arrays, w: 0
 };
 VKM_CONST INSTANCE_ENTRY_BIT = 0x80000000u;
 VKM_CONST NO_INSTANCE = 0xFFFFFFFFu;

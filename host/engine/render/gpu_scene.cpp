@@ -45,15 +45,6 @@ Traversal resolve_traversal(const vk::Context& ctx, Traversal requested) {
     return requested;
 }
 
-Traversal resolve_traversal(const vk::Context& ctx, Traversal requested, bool instanced, const std::string& source) {
-    if (!instanced) return resolve_traversal(ctx, requested);
-    if (requested == Traversal::RayQuery)
-        throw SceneError(source, 0,
-                         "--traversal rayquery: the scene has instances (shapegroup), which only the software BVH "
-                         "traces so far; use --traversal bvh or auto");
-    return Traversal::Bvh;
-}
-
 namespace {
 
 float luminance(const glm::vec3& c) {
@@ -242,7 +233,8 @@ SceneArrays flatten_unlit(const Scene& scene, LightSelection selection) {
             g.to_world[r] =
                 glm::vec4(inst.to_world[0][r], inst.to_world[1][r], inst.to_world[2][r], inst.to_world[3][r]);
         }
-        g.info = glm::uvec4(0u, static_cast<uint32_t>(inst.group), 0u, 0u);
+        g.info =
+            glm::uvec4(0u, static_cast<uint32_t>(inst.group), a.group_triangles[static_cast<size_t>(inst.group)].x, 0u);
         a.instances.push_back(g);
     }
     if (a.instances.size() >= gpu::INSTANCE_ENTRY_BIT - 1u)
@@ -451,7 +443,11 @@ SceneArrays flatten_scene(const Scene& scene, Traversal traversal, LightSelectio
 std::vector<vk::BindingDesc> traversal_bindings(Traversal t, vk::KernelClass k) {
     using DT = ::vk::DescriptorType;
     VKM_ASSERT(k != vk::KernelClass::Auto, "traversal_bindings: the kernel is not resolved");
-    if (t == Traversal::RayQuery) return {{gpu::BINDING_TLAS, DT::eAccelerationStructureKHR}};
+    if (t == Traversal::RayQuery) {
+        if (k == vk::KernelClass::Gpu)  // the instances (shaders/instances.glsl)
+            return {{gpu::BINDING_TLAS, DT::eAccelerationStructureKHR}, {gpu::BINDING_INSTANCES, DT::eStorageBuffer}};
+        return {{gpu::BINDING_TLAS, DT::eAccelerationStructureKHR}};
+    }
     const DT type = k == vk::KernelClass::Gpu ? DT::eStorageBuffer : DT::eUniformTexelBuffer;
     VKM_ASSERT(t == Traversal::Bvh, "traversal_bindings: the traversal is not resolved");
     if (k == vk::KernelClass::Gpu)
@@ -462,6 +458,7 @@ std::vector<vk::BindingDesc> traversal_bindings(Traversal t, vk::KernelClass k) 
 void GpuScene::bind_traversal(vk::ComputePipeline& pipeline) const {
     if (traversal_ == Traversal::RayQuery) {
         pipeline.bind_acceleration_structure(gpu::BINDING_TLAS, accel_->tlas());
+        if (kernel_ == vk::KernelClass::Gpu) pipeline.bind_buffer(gpu::BINDING_INSTANCES, instances.handle());
     } else if (kernel_ == vk::KernelClass::Gpu) {
         pipeline.bind_buffer(gpu::BINDING_BVH_NODES, bvh_nodes.handle());
         pipeline.bind_buffer(gpu::BINDING_BVH_TRIS, tri_positions.handle());
@@ -653,8 +650,8 @@ void check_storage_range(const vk::Context& ctx, const vk::Buffer& b, const char
 }  // namespace
 
 GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal traversal, vk::KernelClass kernel)
-    : traversal_(resolve_traversal(ctx, traversal, a.instanced(), "")),
-      // Instances: only the GPU kernel's traversal has two levels (on any device).
+    : traversal_(resolve_traversal(ctx, traversal)),
+      // Instances: only the GPU kernel's traversals have two levels (on any device).
       kernel_(a.instanced()                     ? vk::KernelClass::Gpu
               : kernel == vk::KernelClass::Auto ? ctx.kernel()
                                                 : kernel),
@@ -709,7 +706,12 @@ GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal trave
                             texel_view(ctx, environment, texels_of(env_words), "lights at infinity"));
     }
     if (traversal_ == Traversal::RayQuery) {
-        accel_ = std::make_unique<RayTracingAccel>(ctx, tri_positions, static_cast<uint32_t>(a.triangles.size()));
+        accel_ = std::make_unique<RayTracingAccel>(ctx, tri_positions, static_cast<uint32_t>(a.triangles.size()),
+                                                   a.group_triangles, a.instances);
+        if (gpu_kernel) {
+            instances = vk::Buffer::from_vector(ctx, a.instances, usage);
+            check_storage_range(ctx, instances, "instances");
+        }
     } else if (gpu_tree) {
         bvh_nodes = vk::Buffer::from_vector(ctx, gpu_tree->nodes, usage);
         instances = vk::Buffer::from_vector(ctx, gpu_tree->instances, usage);

@@ -162,9 +162,8 @@ std::vector<vk::BindingDesc> scene_bindings(Traversal t, vk::KernelClass k);
 // Auto: ray query on GPUs that have it; the BVH on CPU devices (faster there,
 // measured) and on devices without ray query.
 Traversal resolve_traversal(const vk::Context& ctx, Traversal requested);
-// An instanced scene (SceneArrays::instanced) is traced by the GPU kernel's
-// two-level software BVH on every device: Auto resolves to it; ray query,
-// asked for, is refused (SceneError naming `source`).
-Traversal resolve_traversal(const vk::Context& ctx, Traversal requested, bool instanced, const std::string& source);
+// An instanced scene (SceneArrays::instanced) takes the GPU kernel on every
+// device, whose two traversals have two levels: the software BVH's tree and
+// ray query's TLAS of one BLAS per shape group (RayTracingAccel).
 
 }  // namespace vkmech
