@@ -135,18 +135,17 @@ def instance_masks(res):
 
 def env_regions(v):
     """A scene without regions of its own (a local glTF file under
-    --environment): the pixels where vkmech saw only the map (every bit of
-    the pixel's light in the emitter_direct bucket) and those where it saw
-    none of it directly (frac.emitter_direct 0), the latter eroded by one
-    pixel to keep silhouettes out. Both from vkmech's own render."""
-    fe = v["frac.emitter_direct"]
-    obj = fe <= 1e-6
+    --environment), from vkmech's own render: the pixels where no sample
+    scattered (vkmech's `depth` channel 0: only the map seen directly) and the
+    geometry's pixels (depth > 0: some sample scattered), the latter eroded by
+    one pixel to keep silhouettes out. Emission does not change either mask."""
+    obj = v["depth"] > 0
     core = obj.copy()
     core[1:] &= obj[:-1]
     core[:-1] &= obj[1:]
     core[:, 1:] &= obj[:, :-1]
     core[:, :-1] &= obj[:, 1:]
-    return [("map seen directly", fe >= 1 - 1e-4), ("geometry (1 px eroded)", core)]
+    return [("map seen directly", ~obj), ("geometry (1 px eroded)", core)]
 
 
 def bright_centroid(lum, cx, cy, rad, thresh):
