@@ -133,6 +133,21 @@ def instance_masks(res):
     return list(masks.items())
 
 
+def env_regions(v):
+    """A scene without regions of its own (a local glTF file under
+    --environment), from vkmech's own render: the pixels where no sample
+    scattered (vkmech's `depth` channel 0: only the map seen directly) and the
+    geometry's pixels (depth > 0: some sample scattered), the latter eroded by
+    one pixel to keep silhouettes out. Emission does not change either mask."""
+    obj = v["depth"] > 0
+    core = obj.copy()
+    core[1:] &= obj[:-1]
+    core[:-1] &= obj[1:]
+    core[:, 1:] &= obj[:, :-1]
+    core[:, :-1] &= obj[:, 1:]
+    return [("map seen directly", ~obj), ("geometry (1 px eroded)", core)]
+
+
 def bright_centroid(lum, cx, cy, rad, thresh):
     """Centroid and count of the pixels within rad of (cx, cy) brighter than thresh."""
     yy, xx = np.mgrid[0:lum.shape[0], 0:lum.shape[1]] + 0.5
@@ -189,6 +204,8 @@ def main():
             md.append("| %s | %s | %.5f | %.5f | %+.2f %% | %s |" % (s, ch, a, b, 100 * rd, "yes" if ok else "**no**"))
         rois = gltf_rois(vi.shape[1]) if s == "val_gltf" else ROI.get(s, [])
         regions = instance_masks(vi.shape[1]) if s == "val_instances" else []
+        if not rois and not regions and not s.startswith(("val_", "_")):
+            regions = env_regions(v)  # a local scene (the DamagedHelmet check)
         for (name, cx, cy, r, *excl) in rois:
             k = vi.shape[1] / 128.0
             yy, xx = np.mgrid[0:vi.shape[0], 0:vi.shape[1]] + 0.5
