@@ -140,7 +140,8 @@ TEST_CASE("instancing: the Mitsuba loader keeps a shapegroup once, in its space,
 }
 
 TEST_CASE(
-    "instancing: what the loader refuses, each with the reason; a group nobody instances is dropped with a warning") {
+    "instancing: what the loader refuses, each with the reason, and a group nobody instances is dropped with a "
+    "warning") {
     TempDir dir("instancing_refuse");
     auto error_of = [&](const std::string& body) {
         try {

@@ -27,7 +27,8 @@ testing::CliRun render(const std::string& out, const std::string& samples, const
 
 }  // namespace
 
-TEST_CASE("merge: a sample range is A:B with A < B, whole numbers, at most 2^20 samples; pixel bounds x0,x1,y0,y1") {
+TEST_CASE(
+    "merge: a sample range is A:B with A < B, whole numbers, at most 2^20 samples, and pixel bounds x0,x1,y0,y1") {
     const SampleRange r = parse_sample_range("32:64");
     CHECK(r.begin == 32u);
     CHECK(r.end == 64u);
