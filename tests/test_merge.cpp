@@ -70,7 +70,9 @@ TEST_SUITE("gpu") {
         CHECK(merged.attributes.at("vkmech.sampleRange").at(0) == "0:64");
         CHECK(merged.attributes.at("vkmech.spp").at(0) == "64");
         REQUIRE(merged.channels.size() == full.channels.size());
-        for (const auto& [name, a] : full.channels) {
+        for (const auto& channel : full.channels) {
+            const std::string& name = channel.first;  // not a structured binding: clang 14 cannot capture one
+            const std::vector<float>& a = channel.second;
             CAPTURE(name);
             REQUIRE(merged.channels.count(name) == 1);
             const auto& b = merged.channels.at(name);
@@ -105,7 +107,9 @@ TEST_SUITE("gpu") {
         REQUIRE(q3.height == 11);
         CHECK(q3.attributes.at("vkmech.pixelBounds").at(0) == "10,24,13,24");
         CHECK(q3.attributes.at("vkmech.filmSize").at(0) == "24x24");
-        for (const auto& [name, plane] : q3.channels) {
+        for (const auto& channel : q3.channels) {
+            const std::string& name = channel.first;
+            const std::vector<float>& plane = channel.second;
             CAPTURE(name);
             size_t differ = 0;
             for (int y = 0; y < 11; ++y)
@@ -121,7 +125,9 @@ TEST_SUITE("gpu") {
         REQUIRE(merged.width == 24);
         REQUIRE(merged.height == 24);
         CHECK(merged.attributes.count("vkmech.pixelBounds") == 0);
-        for (const auto& [name, a] : full.channels) {
+        for (const auto& channel : full.channels) {
+            const std::string& name = channel.first;  // not a structured binding: clang 14 cannot capture one
+            const std::vector<float>& a = channel.second;
             CAPTURE(name);
             const auto& b = merged.channels.at(name);
             double worst = 0.0;
@@ -166,7 +172,9 @@ TEST_SUITE("gpu") {
             {"capture", {"has no channel"}},
             {"scene", {"in the scene (SHA-256)"}},
             {"adaptive", {"adaptive render"}}};
-        for (const auto& [other, says] : cases) {
+        for (const auto& c : cases) {
+            const std::string other = c.first;
+            const std::vector<std::string>& says = c.second;
             const testing::CliRun r = merge(other);
             CAPTURE(other);
             CAPTURE(r.output);
