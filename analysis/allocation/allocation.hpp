@@ -13,3 +13,4 @@
 #include "allocation/neyman.hpp"
 #include "allocation/plan.hpp"
 #include "allocation/strategy.hpp"
+#include "allocation/threshold.hpp"

@@ -4,6 +4,7 @@
 #include "cli/resources.hpp"
 
 #include "adaptive/adaptive.hpp"
+#include "adaptive/noise_threshold.hpp"
 #include "allocation/allocation.hpp"
 #include "experiments/predictor.hpp"
 #include "io/display_client.hpp"
@@ -26,7 +27,9 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <iostream>
+#include <memory>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -245,14 +248,62 @@ void send_to_display(DisplayClient& display, const Frame& frame, bool capture, b
     if (!display.connected()) std::fprintf(stderr, "vkmech: warning: %s\n", display.warning().c_str());
 }
 
+// What every render command starts with (render, --adaptive, --noise-threshold).
+struct CliRender {
+    std::string name;
+    std::unique_ptr<OutputSet> set;
+    std::unique_ptr<vk::Context> ctx;  // declared first, so the session and renderer go before it
+    std::unique_ptr<RenderSession> session;
+    Traversal trav = Traversal::Bvh;
+    Features features;
+    std::unique_ptr<Renderer> renderer;
+    vk::PipelineStats pipes;  // creating the renderer's pipeline
+    double load_seconds = 0.0, build_seconds = 0.0;
+    const Scene& scene() const { return session->scene(); }
+};
+
+// Loads the scene, opens the output set (--out must be writable before anything renders), the device and
+// the scene on it, and makes a renderer of the scene's features (every effect compiled in with `generic`)
+// after `adjust`. The caller holds a SignalGuard.
+CliRender open_cli_render(const RenderOptions& o, Estimator estimator, bool capture, bool generic,
+                          const std::function<void(Features&, const Scene&)>& adjust = {}) {
+    using clock = std::chrono::steady_clock;
+    auto since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
+    CliRender r;
+    const auto t_load = clock::now();
+    Scene loaded = load_for_cli(o.common);
+    r.load_seconds = since(t_load);
+    r.name = scene_stem(o.common.scene);
+    r.set = open_output_set(o.out_dir.empty() ? "out/" + r.name : o.out_dir, r.name);
+    r.ctx = std::make_unique<vk::Context>(context_options(o.common));
+    r.trav = resolve_traversal(*r.ctx, parse_traversal(o.common.traversal));
+    const auto t_build = clock::now();
+    r.session =
+        std::make_unique<RenderSession>(*r.ctx, std::move(loaded), r.trav, parse_light_selection(o.light_selection));
+    r.trav = r.session->traversal();  // an instanced scene's is the software BVH
+    r.build_seconds = since(t_build);
+    r.features = generic ? Features::generic(estimator, capture) : r.session->features(estimator, capture);
+    r.features.end_vertex = parse_end_vertex(o.end_vertex);
+    r.features.direct_glossy = wants_direct_glossy(o, capture);
+    if (adjust) adjust(r.features, r.session->scene());
+    const vk::PipelineStats before = r.ctx->pipeline_cache().stats();
+    r.renderer = r.session->make_renderer(r.features);
+    r.pipes = r.ctx->pipeline_cache().stats() - before;
+    return r;
+}
+
 }  // namespace
 
 void check_curve_for_cli(const std::string& path) { (void)load_curve_for_cli(path); }
 
 int cmd_render_adaptive(const RenderOptions& o);
+int cmd_render_threshold(const RenderOptions& o);
 
 int cmd_render(const RenderOptions& o) {
+    if (!o.adaptive.empty() && o.noise_threshold > 0)
+        throw UsageError("--adaptive and --noise-threshold: choose one (a fixed budget, or a noise target)");
     if (!o.adaptive.empty()) return cmd_render_adaptive(o);
+    if (o.noise_threshold > 0) return cmd_render_threshold(o);
     // --sample-range A:B: samples [A, B) of the seed's stream, B - A of them (else [0, --spp)).
     SampleRange range{0, o.spp};
     try {
@@ -261,42 +312,33 @@ int cmd_render(const RenderOptions& o) {
         throw UsageError(std::string("--sample-range: ") + e.what());
     }
     const uint32_t spp = range.end - range.begin;
-    using clock = std::chrono::steady_clock;
-    const auto t_load = clock::now();
-    Scene loaded = load_for_cli(o.common);
-    const double load_seconds = std::chrono::duration<double>(clock::now() - t_load).count();
-    std::string name = scene_stem(o.common.scene);
-    std::string out_dir = o.out_dir.empty() ? "out/" + name : o.out_dir;
-    Estimator estimator = render_estimator(o, Estimator::Mis);
-    bool capture = o.capture == "on";
-    const bool direct_glossy = wants_direct_glossy(o, capture);
+    const bool capture = o.capture == "on";
     SignalGuard signals;  // SIGINT/SIGTERM: stop at the next batch, remove the staged files, exit 130/143
-    std::unique_ptr<OutputSet> set = open_output_set(out_dir, name);
-
-    vk::Context ctx(context_options(o.common));
-    Traversal trav = resolve_traversal(ctx, parse_traversal(o.common.traversal));
-    const auto t_build = clock::now();
-    RenderSession session(ctx, std::move(loaded), trav, parse_light_selection(o.light_selection));
-    trav = session.traversal();  // an instanced scene's is the software BVH
-    const double build_seconds = std::chrono::duration<double>(clock::now() - t_build).count();
-    const Scene& scene = session.scene();
-    const SceneArrays& arrays = session.arrays();
-    Features features = o.generic ? Features::generic(estimator, capture) : session.features(estimator, capture);
-    features.end_vertex = parse_end_vertex(o.end_vertex);
-    features.direct_glossy = direct_glossy;
     // --pixel-bounds: a window of the film (after --res).
     std::optional<PixelBounds> bounds;
-    try {
-        if (!o.pixel_bounds.empty())
-            bounds = parse_pixel_bounds(o.pixel_bounds, static_cast<uint32_t>(scene.camera.width),
-                                        static_cast<uint32_t>(scene.camera.height));
-    } catch (const std::invalid_argument& e) {
-        throw UsageError(std::string("--pixel-bounds: ") + e.what());
-    }
-    features.window = bounds.has_value();
-    const vk::PipelineStats before = ctx.pipeline_cache().stats();
-    Renderer renderer = session.renderer(features);
-    const vk::PipelineStats pipes = ctx.pipeline_cache().stats() - before;
+    CliRender cr = open_cli_render(
+        o, render_estimator(o, Estimator::Mis), capture, o.generic, [&](Features& f, const Scene& scene) {
+            try {
+                if (!o.pixel_bounds.empty())
+                    bounds = parse_pixel_bounds(o.pixel_bounds, static_cast<uint32_t>(scene.camera.width),
+                                                static_cast<uint32_t>(scene.camera.height));
+            } catch (const std::invalid_argument& e) {
+                throw UsageError(std::string("--pixel-bounds: ") + e.what());
+            }
+            f.window = bounds.has_value();
+        });
+    const std::string& name = cr.name;
+    const Estimator estimator = render_estimator(o, Estimator::Mis);
+    vk::Context& ctx = *cr.ctx;
+    const RenderSession& session = *cr.session;
+    const Traversal trav = cr.trav;
+    const Scene& scene = session.scene();
+    const SceneArrays& arrays = session.arrays();
+    const Features& features = cr.features;
+    Renderer& renderer = *cr.renderer;
+    OutputSet* set = cr.set.get();
+    const vk::PipelineStats pipes = cr.pipes;
+    const double load_seconds = cr.load_seconds, build_seconds = cr.build_seconds;
 
     std::fprintf(stderr,
                  "vkmech: %s: %dx%d, %zu triangles, %zu emitters%s, %u spp on '%s' (%s traversal, %s kernel; %s; %s "
@@ -402,7 +444,7 @@ int cmd_render_adaptive(const RenderOptions& o) {
         }
     }
     if (o.floor > 1 + o.budget) throw UsageError("--floor exceeds the per-pixel average (1 + --budget)");
-    const bool direct_glossy = wants_direct_glossy(o, true);
+    (void)wants_direct_glossy(o, true);  // refused before anything loads
     // The frozen curve is read before anything renders: a bad file is bad input (exit 2).
     // Without --curve: the installed (or source tree's) frozen curve; none found means no prediction.
     std::string curve_path = o.curve;
@@ -417,24 +459,18 @@ int cmd_render_adaptive(const RenderOptions& o) {
         throw UsageError("predictor curve '" + o.curve + "' does not exist");
     std::optional<ReliabilityCurve> curve;
     if (!curve_path.empty() && fs::exists(curve_path)) curve = load_curve_for_cli(curve_path);
-    Scene loaded = load_for_cli(o.common);
-    std::string name = scene_stem(o.common.scene);
-    std::string out_dir = o.out_dir.empty() ? "out/" + name : o.out_dir;
-    Estimator estimator = render_estimator(o, Estimator::Nee);
+    const Estimator estimator = render_estimator(o, Estimator::Nee);
     SignalGuard signals;
-    std::unique_ptr<OutputSet> set = open_output_set(out_dir, name);
-
-    vk::Context ctx(context_options(o.common));
-    Traversal trav = resolve_traversal(ctx, parse_traversal(o.common.traversal));
-    RenderSession session(ctx, std::move(loaded), trav, parse_light_selection(o.light_selection));
-    trav = session.traversal();  // an instanced scene's is the software BVH
+    CliRender cr = open_cli_render(o, estimator, true, /*generic=*/false);
+    const std::string& name = cr.name;
+    vk::Context& ctx = *cr.ctx;
+    const RenderSession& session = *cr.session;
+    const Traversal trav = cr.trav;
     const Scene& scene = session.scene();
-    Features features = session.features(estimator, true);
-    features.end_vertex = parse_end_vertex(o.end_vertex);
-    features.direct_glossy = direct_glossy;
-    const vk::PipelineStats before = ctx.pipeline_cache().stats();
-    Renderer renderer = session.renderer(features);
-    const vk::PipelineStats pipes = ctx.pipeline_cache().stats() - before;
+    const Features& features = cr.features;
+    Renderer& renderer = *cr.renderer;
+    OutputSet* set = cr.set.get();
+    const vk::PipelineStats pipes = cr.pipes;
     const std::string pipe_outcome = vk::pipeline_cache_outcome(pipes, ctx.pipeline_cache().enabled());
     std::printf("pipeline creation: %.2f s (%s; not in the render times)\n", pipes.seconds, pipe_outcome.c_str());
     const size_t pixels = static_cast<size_t>(scene.camera.width) * scene.camera.height;
@@ -533,12 +569,159 @@ int cmd_render_adaptive(const RenderOptions& o) {
     return 0;
 }
 
+namespace {
+
+// The "noise_threshold" member of the render's JSON summary: the settings, each round, and why the
+// pixels stopped.
+std::string threshold_json(const RenderOptions& o, const ThresholdSettings& s, const ThresholdResult& r) {
+    std::ostringstream j;
+    j.precision(9);
+    j << "{\"threshold\": " << s.threshold << ", \"rule\": \"" << alloc::to_string(s.rule)
+      << "\", \"min_spp\": " << s.min_spp << ", \"max_spp\": " << s.max_spp << ", \"time_limit_seconds\": ";
+    if (s.time_limit > 0)
+        j << s.time_limit;
+    else
+        j << "null";
+    j << ", \"seed\": " << o.seed << ", \"pixels\": " << r.n.size() << ", \"converged_pixels\": " << r.converged
+      << ", \"at_max_spp_pixels\": " << r.at_max << ", \"unfinished_pixels\": " << r.unfinished
+      << ", \"time_limit_reached\": " << (r.time_limit_reached ? "true" : "false") << ", \"seconds\": " << r.seconds
+      << ", \"samples\": " << r.frame.samples << ", \"rounds\": [";
+    for (size_t i = 0; i < r.rounds.size(); ++i) {
+        const ThresholdRound& q = r.rounds[i];
+        j << (i ? ", " : "") << "{\"pixels\": " << q.pixels << ", \"samples\": " << q.samples
+          << ", \"above_before\": " << q.above << ", \"worst_before\": " << q.worst << ", \"seconds\": " << q.seconds
+          << ", \"plan_seconds\": " << q.plan_seconds << ", \"cut_by_time\": " << (q.cut_by_time ? "true" : "false")
+          << "}";
+    }
+    j << "]}";
+    return j.str();
+}
+
+}  // namespace
+
+// `vkmech render --noise-threshold T`: rounds of samples where the estimated relative error is above T
+// (docs/descriptor.md §6.8).
+int cmd_render_threshold(const RenderOptions& o) {
+    if (!o.sample_range.empty())
+        throw UsageError("--sample-range and --noise-threshold: a noise-threshold render takes samples [0, n(p))");
+    if (!o.pixel_bounds.empty())
+        throw UsageError("--pixel-bounds and --noise-threshold: the error estimate reads the whole film");
+    if (o.capture != "on") throw UsageError("--noise-threshold needs --capture on (its rule reads the labels)");
+    if (o.spp_given) throw UsageError("--spp and --noise-threshold: use --min-spp and --max-spp");
+    if (o.min_spp > o.max_spp)
+        throw UsageError("--min-spp " + std::to_string(o.min_spp) + " exceeds --max-spp " + std::to_string(o.max_spp));
+    ThresholdSettings ts;
+    ts.threshold = o.noise_threshold;
+    ts.min_spp = o.min_spp;
+    ts.max_spp = o.max_spp;
+    ts.time_limit = o.time_limit;
+    ts.rule = alloc::parse_strategy(o.noise_rule);  // CLI11 has checked the name
+    ts.seed = o.seed;
+    ts.batch_spp = o.batch_spp;
+    const Estimator estimator = render_estimator(o, Estimator::Mis);
+    SignalGuard signals;
+    CliRender cr = open_cli_render(o, estimator, true, o.generic);
+    const std::string& name = cr.name;
+    vk::Context& ctx = *cr.ctx;
+    const RenderSession& session = *cr.session;
+    const Traversal trav = cr.trav;
+    const Scene& scene = session.scene();
+    const Features& features = cr.features;
+    Renderer& renderer = *cr.renderer;
+    OutputSet* set = cr.set.get();
+    const vk::PipelineStats pipes = cr.pipes;
+    char limit[64] = "";
+    if (ts.time_limit > 0) std::snprintf(limit, sizeof limit, ", time limit %.1f s", ts.time_limit);
+    std::fprintf(stderr,
+                 "vkmech: %s: %dx%d to relative error %g (%s rule), %u to %u spp%s, on '%s' (%s traversal, %s "
+                 "kernel; %s)\n",
+                 name.c_str(), scene.camera.width, scene.camera.height, ts.threshold, o.noise_rule.c_str(), ts.min_spp,
+                 ts.max_spp, limit, ctx.info().name.c_str(), to_string(trav), vk::to_string(session.gpu().kernel()),
+                 features.describe().c_str());
+
+    // The display shows every channel of the EXR, err included (0 until the first estimate).
+    std::unique_ptr<DisplayClient> display = open_display(o.display_server, name);
+    auto send = [&](const Frame& f, const std::vector<double>& err, bool force) {
+        if (!display || !display->connected() || !display->due(force)) return;
+        const Descriptor desc = derive_descriptor(f);
+        std::vector<ExrChannel> ch = render_channels(f, &desc);
+        ExrChannel e{"err", std::vector<float>(f.pixels.size(), 0.0f), false};
+        for (size_t i = 0; i < err.size() && i < e.data.size(); ++i) e.data[i] = static_cast<float>(err[i]);
+        ch.push_back(std::move(e));
+        display->update(f.width, f.height, ch, force);
+        if (!display->connected()) std::fprintf(stderr, "vkmech: warning: %s\n", display->warning().c_str());
+    };
+    Progress progress("round 0 " + name);
+    std::unique_ptr<Progress> round_progress;
+    ThresholdCallbacks cb;
+    cb.progress = [&](uint32_t d, uint32_t t) {
+        throw_if_interrupted();
+        (round_progress ? *round_progress : progress)(d, t);
+    };
+    cb.on_round = [&](const ThresholdRound& r, size_t i) {
+        if (i == 0)
+            std::fprintf(stderr, "noise threshold: round 0: %zu pixels x %u spp, %.2f s\n", r.pixels, ts.min_spp,
+                         r.seconds);
+        else
+            std::fprintf(stderr,
+                         "noise threshold: round %zu: %zu pixels above %g (worst %.3g); %zu of them took %llu samples "
+                         "from %u spp on%s, %.2f s\n",
+                         i, r.above, ts.threshold, r.worst, r.pixels, static_cast<unsigned long long>(r.samples),
+                         r.first, r.cut_by_time ? " (cut to the time left)" : "", r.seconds);
+        round_progress = std::make_unique<Progress>("round " + std::to_string(i + 1) + " " + name);
+    };
+    if (display) {
+        cb.frame_due = [&] { return display->connected() && display->due(false); };
+        cb.on_frame = [&](const Frame& f, const std::vector<double>& err) { send(f, err, false); };
+    }
+    throw_if_interrupted();
+    ThresholdResult result = render_to_threshold(renderer, ts, cb);
+    if (display) send(result.frame, result.err, true);
+
+    const Frame& frame = result.frame;
+    const size_t pixels = frame.pixels.size();
+    RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene,
+                                  static_cast<uint32_t>(frame.samples / std::max<size_t>(pixels, 1)), o.seed, true);
+    info.kernel = vk::to_string(session.gpu().kernel());
+    info.features += " noise-threshold=" + o.noise_rule;
+    info.provenance.sample_range = adaptive_sample_range(result.n);
+    info.pipeline_seconds = pipes.seconds;
+    info.pipeline_cache = vk::pipeline_cache_outcome(pipes, ctx.pipeline_cache().enabled());
+    info.extra_json.emplace_back("noise_threshold", threshold_json(o, ts, result));
+    ExrChannel err{"err", std::vector<float>(pixels), false};
+    for (size_t i = 0; i < pixels; ++i) err.data[i] = static_cast<float>(result.err[i]);
+    info.extra_channels.push_back(std::move(err));
+    Descriptor desc = derive_descriptor(frame);
+    DescriptorSummary summary = summarize(frame, desc);
+    WrittenFiles files = write_render_outputs(*set, info, frame, &desc, &summary);
+    report_render_warnings(files);
+    const uint32_t max_n = *std::max_element(result.n.begin(), result.n.end());
+    std::vector<float> nmap(result.n.begin(), result.n.end());
+    write_png_rgb8(set->staged(name + "_spp.png"), frame.width, frame.height,
+                   grey_to_rgb8(nmap, 0.0f, static_cast<float>(max_n)));
+    std::string spp_png = set->final_path(name + "_spp.png");
+    set->commit();
+
+    std::printf(
+        "noise threshold %g (%s rule): %zu rounds, %.2f s, %llu samples (%.2f per pixel, %u to %u); %zu pixels "
+        "below the threshold, %zu above it at --max-spp, %zu above it when %s\n",
+        ts.threshold, o.noise_rule.c_str(), result.rounds.size(), result.seconds,
+        static_cast<unsigned long long>(frame.samples), static_cast<double>(frame.samples) / pixels,
+        *std::min_element(result.n.begin(), result.n.end()), max_n, result.converged, result.at_max, result.unfinished,
+        result.time_limit_reached ? "the time limit stopped it" : "it stopped");
+    for (const auto& f :
+         {files.exr, files.png, files.dominant_png, spp_png, files.json, set->final_path(manifest_file_name(name))})
+        if (!f.empty()) std::printf("wrote %s\n", f.c_str());
+    return 0;
+}
+
 // `vkmech render` (and `vkmech --scene ...`, which main turns into it).
 void register_render(CLI::App& app, CliCommands& commands) {
     auto o = std::make_shared<RenderOptions>();
     auto* render = app.add_subcommand("render", "Render a scene to a multi-layer EXR and PNG previews");
     add_common_options(render, o->common);
     auto* spp_opt = render->add_option("--spp", o->spp, "Samples per pixel")->check(CLI::Range(1u, 1u << 20));
+    spp_opt->each([o](const std::string&) { o->spp_given = true; });
     render
         ->add_option("--sample-range", o->sample_range,
                      "A:B: render exactly samples [A, B) of the seed's stream (B - A per pixel), recorded in the "
@@ -596,6 +779,33 @@ void register_render(CLI::App& app, CliCommands& commands) {
         ->check(CLI::Range(1u, 256u));
     render->add_option("--pilot-draw", o->pilot_draw, "Adaptive: pilot draw k (pilot seed 100000 + 1000k)")
         ->check(CLI::Range(0u, 899u));
+    auto* threshold_opt =
+        render
+            ->add_option(
+                "--noise-threshold", o->noise_threshold,
+                "Render in rounds until every pixel's estimated relative error (the standard error of its mean "
+                "luminance over the mean) is at most T, or the pixel has --max-spp, or --time-limit is up; "
+                "writes an err channel (docs/descriptor.md §6.8)")
+            ->check(CLI::Range(1e-6, 10.0));
+    render->add_option("--min-spp", o->min_spp, "Noise threshold: every pixel's first samples (default 16)")
+        ->check(CLI::Range(2u, 1u << 20))
+        ->needs(threshold_opt);
+    render->add_option("--max-spp", o->max_spp, "Noise threshold: no pixel takes more (default 1024)")
+        ->check(CLI::Range(2u, 1u << 20))
+        ->needs(threshold_opt);
+    render
+        ->add_option("--time-limit", o->time_limit,
+                     "Noise threshold: seconds of rendering; each round is fitted to the time left, the worst pixels "
+                     "first (default: none)")
+        ->check(CLI::Range(0.0, 1e7))
+        ->needs(threshold_opt);
+    render
+        ->add_option("--noise-rule", o->noise_rule,
+                     "Noise threshold: the variance its error reads: guarded (default: bucket-floor's label floor, and "
+                     "the guard's share where the samples cannot be trusted), bucket-floor, or observed-var (the "
+                     "plain sample variance)")
+        ->check(CLI::IsMember({"guarded", "bucket-floor", "observed-var"}))
+        ->needs(threshold_opt);
     render->add_option("--curve", o->curve,
                        "Adaptive: frozen label-reliability curve (default: predictor_curve.json, see `vkmech paths`)");
 

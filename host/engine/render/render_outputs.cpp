@@ -328,7 +328,8 @@ WrittenFiles write_render_outputs(OutputSet& set, const RenderInfo& info, const 
                                   const DescriptorSummary* s) {
     const int w = frame.width, h = frame.height;
     const std::vector<float> rgb = frame.rgb_mean();
-    const std::vector<ExrChannel> ch = render_channels(frame, d);
+    std::vector<ExrChannel> ch = render_channels(frame, d);
+    ch.insert(ch.end(), info.extra_channels.begin(), info.extra_channels.end());
 
     // Nothing non-finite reaches a file unreported: a value beyond float's
     // range (lum_var of radiance ~1e30 is ~1e60) is counted and warned of.

@@ -69,6 +69,8 @@ struct RenderInfo {
     // Further top-level members of the JSON summary, each a key and its value
     // as JSON text, written after "substitutions" (render --adaptive: "adaptive").
     std::vector<std::pair<std::string, std::string>> extra_json;
+    // Further EXR channels, written after the moments (render --noise-threshold: err).
+    std::vector<ExrChannel> extra_channels;
     std::string kernel;     // the device-class kernel (vk::KernelClass): cpu or gpu; empty: not recorded
     Provenance provenance;  // empty version: not recorded
 };

@@ -261,9 +261,11 @@ Frame Renderer::render(const RenderSpec& spec) {
         buffer.insert(buffer.end(), order.begin(), order.end());
         sample_counts_.upload(ctx_, buffer.data(), buffer.size() * sizeof(uint32_t));
         p.per_pixel_counts = 1u;
-        total_spp = *std::max_element(spec.sample_counts.begin(), spec.sample_counts.end());
+        // Pixel p takes samples [first_sample, n(p)): none where n(p) <= first_sample.
+        const uint32_t end = *std::max_element(spec.sample_counts.begin(), spec.sample_counts.end());
+        total_spp = end > spec.first_sample ? end - spec.first_sample : 0u;
         total_samples = 0;
-        for (uint32_t n : spec.sample_counts) total_samples += n;
+        for (uint32_t n : spec.sample_counts) total_samples += n > spec.first_sample ? n - spec.first_sample : 0u;
     }
 
     auto t0 = std::chrono::steady_clock::now();
@@ -276,7 +278,6 @@ Frame Renderer::render(const RenderSpec& spec) {
     uint32_t batch_spp = std::max(1u, spec.batch_spp);
     // Samples [first, first + spp) of the seed's stream (render --sample-range).
     const uint32_t first = spec.first_sample;
-    VKM_ASSERT(first == 0 || spec.sample_counts.empty(), "a sample range of an adaptive render");
     VKM_ASSERT(total_spp <= UINT32_MAX - first, "the sample range ends past 2^32");
     for (uint32_t done = first; done < first + total_spp;) {
         uint32_t n = std::min(batch_spp, first + total_spp - done);

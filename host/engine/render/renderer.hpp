@@ -53,7 +53,7 @@ struct RenderSpec {
     uint32_t seed = 0;
     // The first sample of the seed's stream: the render takes samples [first_sample, first_sample + spp)
     // (render --sample-range; sample i of a seed is the same whatever the batch, so disjoint ranges
-    // merge into the single render). 0 with per-pixel sample_counts.
+    // merge into the single render). With per-pixel sample_counts: samples [first_sample, n(p)).
     uint32_t first_sample = 0;
     // A window of the film, [x0, x1) x [y0, y1) (render --pixel-bounds): the frame is the window's,
     // its pixels' rays and random streams the full film's. Needs Features::window.
@@ -64,7 +64,8 @@ struct RenderSpec {
     uint32_t batch_spp = 8;  // samples per dispatch
     uint32_t mode = gpu::MODE_PATH;
     // Adaptive rendering (docs/descriptor.md §6): when non-empty (one entry per pixel), pixel p
-    // takes exactly samples [0, n(p)) of `seed` and `spp` is ignored. One entry per pixel is the
+    // takes exactly samples [first_sample, n(p)) of `seed` (none where n(p) <= first_sample) and
+    // `spp` is ignored. One entry per pixel is the
     // caller's to ensure (the Python binding checks the array's shape); else InternalError.
     std::vector<uint32_t> sample_counts;
     // Called after each batch with (samples done, samples total).
