@@ -16,6 +16,7 @@
 #include <sys/time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -52,13 +53,19 @@ struct Listener {
     std::string address() const { return "127.0.0.1:" + std::to_string(port); }
 };
 
-// What a viewer holds after the stream: the image created and each update applied.
-struct Decoded {
-    int packets = 0, creates = 0, updates = 0;
-    std::string name, error;
+// An image as a viewer holds it after the stream: created, then each update applied.
+struct Image {
+    std::string name;
     int width = 0, height = 0;
     std::vector<std::string> channels;
     std::map<std::string, std::vector<float>> planes;
+};
+
+// The stream decoded: the first image created (the render's own), and every image by name.
+struct Decoded : Image {
+    int packets = 0, creates = 0, updates = 0;
+    std::string error;
+    std::map<std::string, Image> images;
 };
 
 struct Reader {
@@ -91,6 +98,7 @@ struct Reader {
 // Decodes the packets of `bytes` (as many as are whole).
 Decoded decode(const std::vector<uint8_t>& bytes) {
     Decoded d;
+    std::string first;
     size_t at = 0;
     while (at + 4 <= bytes.size()) {
         Reader r{bytes, at};
@@ -101,18 +109,25 @@ Decoded decode(const std::vector<uint8_t>& bytes) {
         r.at++;  // grab focus
         if (type == 4) {
             ++d.creates;
-            d.name = r.str();
-            d.width = static_cast<int>(r.u32());
-            d.height = static_cast<int>(r.u32());
+            Image img;
+            img.name = r.str();
+            img.width = static_cast<int>(r.u32());
+            img.height = static_cast<int>(r.u32());
             const uint32_t n = r.u32();
-            d.channels.clear();
             for (uint32_t c = 0; c < n; ++c) {
-                d.channels.push_back(r.str());
-                d.planes[d.channels.back()].assign(static_cast<size_t>(d.width) * d.height, 0.0f);
+                img.channels.push_back(r.str());
+                img.planes[img.channels.back()].assign(static_cast<size_t>(img.width) * img.height, 0.0f);
             }
+            if (first.empty()) first = img.name;
+            d.images[img.name] = img;
         } else if (type == 6) {
             ++d.updates;
-            if (r.str() != d.name) d.error = "an update of another image";
+            const std::string name = r.str();
+            if (d.images.count(name) == 0) {
+                d.error = "an update of an image never created: " + name;
+                break;
+            }
+            Image& img = d.images[name];
             const uint32_t n = r.u32();
             std::vector<std::string> names;
             for (uint32_t c = 0; c < n; ++c) names.push_back(r.str());
@@ -126,13 +141,14 @@ Decoded decode(const std::vector<uint8_t>& bytes) {
                 for (int j = 0; j < h; ++j)
                     for (int i = 0; i < w; ++i) {
                         Reader p{bytes, data + 4 * (offset[c] + static_cast<uint64_t>(j * w + i) * stride[c])};
-                        d.planes[names[c]].at(static_cast<size_t>(y + j) * d.width + x + i) = p.f32();
+                        img.planes[names[c]].at(static_cast<size_t>(y + j) * img.width + x + i) = p.f32();
                     }
         } else {
             d.error = "packet type " + std::to_string(type);
         }
         at += length;
     }
+    if (!first.empty()) static_cast<Image&>(d) = d.images.at(first);
     return d;
 }
 
@@ -212,6 +228,63 @@ TEST_SUITE("gpu") {
                 differ += !(std::abs(a[i] - b[i]) <= tol);
             }
             CHECK(differ == 0);
+        }
+    }
+
+    TEST_CASE("display: an adaptive render sends its pilot and allocation map, then streams the final image") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("display_adaptive");
+        Listener l;
+        std::vector<uint8_t> bytes;
+        std::thread viewer([&] { bytes = serve(l); });
+        const testing::CliRun run =
+            testing::run_cli("render --scene ring_caustic --res 24 --adaptive guarded --pilot 16 --budget 8 --out " +
+                             dir.path.string() + " --display-server " + l.address());
+        viewer.join();
+        CAPTURE(run.output);
+        REQUIRE(run.code == 0);
+        const Decoded d = decode(bytes);
+        CHECK(d.error.empty());
+        REQUIRE(d.images.size() == 3);
+        const std::string pid = d.name.substr(d.name.rfind(" ("));
+        CHECK(d.name == "ring_caustic pilot" + pid);
+        REQUIRE(d.images.count("ring_caustic allocation" + pid) == 1);
+        REQUIRE(d.images.count("ring_caustic" + pid) == 1);
+        // The allocation map is the final render's n(p): its spp channel.
+        const ExrImage exr = read_exr_channels(dir.file("ring_caustic.exr"));
+        const Image& alloc = d.images.at("ring_caustic allocation" + pid);
+        CHECK(alloc.channels == std::vector<std::string>{"n", "untrusted"});
+        CHECK(alloc.planes.at("n") == exr.channels.at("spp"));
+        // The final image ends as the EXR (every channel the EXR holds, same pixels in R).
+        const Image& final_image = d.images.at("ring_caustic" + pid);
+        CHECK(final_image.channels.size() == exr.channels.size());
+        CHECK(final_image.planes.at("R") == exr.channels.at("R"));
+        // The pilot has the pilot's samples everywhere: 16.
+        const auto& pilot_spp = d.planes.at("spp");
+        CHECK(std::all_of(pilot_spp.begin(), pilot_spp.end(), [](float v) { return v == 16.0f; }));
+    }
+
+    TEST_CASE("display: a noise-threshold render streams every channel of its EXR, err included") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("display_threshold");
+        Listener l;
+        std::vector<uint8_t> bytes;
+        std::thread viewer([&] { bytes = serve(l); });
+        const testing::CliRun run = testing::run_cli(
+            "render --scene ring_caustic --res 24 --noise-threshold 0.2 --min-spp 8 --max-spp 64 --out " +
+            dir.path.string() + " --display-server " + l.address());
+        viewer.join();
+        CAPTURE(run.output);
+        REQUIRE(run.code == 0);
+        const Decoded d = decode(bytes);
+        CHECK(d.error.empty());
+        CHECK(d.images.size() == 1);
+        const ExrImage exr = read_exr_channels(dir.file("ring_caustic.exr"));
+        CHECK(d.channels.size() == exr.channels.size());
+        for (const char* c : {"R", "spp", "err"}) {
+            CAPTURE(c);
+            REQUIRE(d.planes.count(c) == 1);
+            CHECK(d.planes.at(c) == exr.channels.at(c));
         }
     }
 

@@ -49,10 +49,9 @@ Frame frame_of(int w, int h, std::vector<PixelStats> px) {
 TEST_CASE("noise threshold: the ladder climbs by sqrt 2, rounded up, to max-spp") {
     // 16 * 1.41421 = 22.6 -> 23, 32.5 -> 33, 46.7 -> 47, 66.5 -> 67, 94.8 -> 95, 134.4 -> 135,
     // 190.9 -> 191, 270.1 -> 271, 383.3 -> 384, 543.1 -> 544, 769.3 -> 770, then max-spp 1024.
-    CHECK(sample_ladder(16, 1024) ==
-          std::vector<uint32_t>{16, 23, 33, 47, 67, 95, 135, 191, 271, 384, 544, 770, 1024});
+    CHECK(sample_ladder(16, 1024) == std::vector<uint32_t>{16, 23, 33, 47, 67, 95, 135, 191, 271, 384, 544, 770, 1024});
     CHECK(sample_ladder(2, 4) == std::vector<uint32_t>{2, 3, 4});  // 2.83 -> 3, 4.24 capped at 4
-    CHECK(sample_ladder(1, 2) == std::vector<uint32_t>{1, 2});      // 1.41 -> 2
+    CHECK(sample_ladder(1, 2) == std::vector<uint32_t>{1, 2});     // 1.41 -> 2
     CHECK(sample_ladder(64, 64) == std::vector<uint32_t>{64});
     CHECK_THROWS_AS(sample_ladder(65, 64), std::invalid_argument);
     CHECK_THROWS_AS(sample_ladder(0, 64), std::invalid_argument);
@@ -61,9 +60,8 @@ TEST_CASE("noise threshold: the ladder climbs by sqrt 2, rounded up, to max-spp"
 TEST_CASE("noise threshold: the relative error is the standard error of the mean over the mean plus the dark floor") {
     // Two diffuse pixels: 16 samples of mean 1, variance 4; 64 samples of mean 3, variance 1.
     // Image mean 2, delta = 0.01 * 2 = 0.02.
-    const Frame f = frame_of(2, 1,
-                             {pixel(16, 1.0, 4.0, gpu::BUCKET_DIFFUSE_INDIRECT),
-                              pixel(64, 3.0, 1.0, gpu::BUCKET_DIFFUSE_INDIRECT)});
+    const Frame f = frame_of(
+        2, 1, {pixel(16, 1.0, 4.0, gpu::BUCKET_DIFFUSE_INDIRECT), pixel(64, 3.0, 1.0, gpu::BUCKET_DIFFUSE_INDIRECT)});
     for (Strategy s : {Strategy::ObservedVar, Strategy::BucketFloor, Strategy::Guarded}) {
         CAPTURE(to_string(s));
         const std::vector<double> err = relative_error(f, s);
@@ -101,10 +99,10 @@ TEST_CASE("noise threshold: the guard measures a dark pixel beside lit ones agai
     // gives it err 0 (it stops); guarded gives it D = w^2, w the mean Neyman weight with it at w:
     // w = (1 + 3 + w) / 3 -> w = 2, D = 4, and measures it against its window's largest mean, 4.
     // Image mean (2 + 0 + 4) / 3 = 2, delta 0.02: err = sqrt(4 / 16) / 4.02.
-    const Frame f = frame_of(3, 1,
-                             {pixel(16, 2.0, 1.0, gpu::BUCKET_DIFFUSE_INDIRECT),
-                              pixel(16, 0.0, 0.0, gpu::BUCKET_DIFFUSE_INDIRECT),
-                              pixel(16, 4.0, 9.0, gpu::BUCKET_DIFFUSE_INDIRECT)});
+    const Frame f =
+        frame_of(3, 1,
+                 {pixel(16, 2.0, 1.0, gpu::BUCKET_DIFFUSE_INDIRECT), pixel(16, 0.0, 0.0, gpu::BUCKET_DIFFUSE_INDIRECT),
+                  pixel(16, 4.0, 9.0, gpu::BUCKET_DIFFUSE_INDIRECT)});
     CHECK(relative_error(f, Strategy::ObservedVar)[1] == 0.0);
     CHECK(relative_error(f, Strategy::Guarded)[1] == doctest::Approx(0.5 / 4.02).epsilon(1e-12));
     // Trusted pixels are measured as by bucket-floor.
@@ -230,9 +228,10 @@ TEST_SUITE("gpu") {
     TEST_CASE("noise threshold: the CLI writes err and spp channels and says why the pixels stopped") {
         VKMECH_REQUIRE_GPU(ctx);
         testing::TempDir dir("threshold");
-        const testing::CliRun run = testing::run_cli("render --scene ring_caustic --res 24 --noise-threshold 0.2 "
-                                                     "--min-spp 8 --max-spp 128 --out " +
-                                                     dir.file("t"));
+        const testing::CliRun run = testing::run_cli(
+            "render --scene ring_caustic --res 24 --noise-threshold 0.2 "
+            "--min-spp 8 --max-spp 128 --out " +
+            dir.file("t"));
         CAPTURE(run.output);
         REQUIRE(run.code == 0);
         CHECK(run.output.find("noise threshold 0.2 (guarded rule)") != std::string::npos);
@@ -261,14 +260,14 @@ TEST_CASE("noise threshold: the CLI refuses what it cannot honour, saying why") 
         const char* args;
         const char* says;
     };
-    for (const Bad& b : {Bad{"--noise-threshold 0.1 --spp 64", "--min-spp and --max-spp"},
-                         Bad{"--noise-threshold 0.1 --min-spp 64 --max-spp 32", "exceeds --max-spp"},
-                         Bad{"--min-spp 8", "--noise-threshold"},
-                         Bad{"--noise-threshold 0.1 --adaptive guarded", "choose one"},
-                         Bad{"--noise-threshold 0.1 --sample-range 0:8", "--sample-range"},
-                         Bad{"--noise-threshold 0.1 --capture off", "--capture on"},
-                         Bad{"--noise-threshold 0.1 --noise-rule robust-var", "noise-rule"},
-                         Bad{"--noise-threshold 0", "noise-threshold"}}) {
+    for (const Bad& b :
+         {Bad{"--noise-threshold 0.1 --spp 64", "--min-spp and --max-spp"},
+          Bad{"--noise-threshold 0.1 --min-spp 64 --max-spp 32", "exceeds --max-spp"},
+          Bad{"--min-spp 8", "--noise-threshold"}, Bad{"--noise-threshold 0.1 --adaptive guarded", "choose one"},
+          Bad{"--noise-threshold 0.1 --sample-range 0:8", "--sample-range"},
+          Bad{"--noise-threshold 0.1 --capture off", "--capture on"},
+          Bad{"--noise-threshold 0.1 --noise-rule robust-var", "noise-rule"},
+          Bad{"--noise-threshold 0", "noise-threshold"}}) {
         testing::TempDir dir("threshold_bad");
         const testing::CliRun run =
             testing::run_cli(std::string("render --scene ring_caustic --res 16 ") + b.args + " --out " + dir.file("o"));

@@ -26,12 +26,12 @@ struct ThresholdSettings {
 struct ThresholdRound {
     uint32_t first = 0;  // the rung the round's pixels started at (the smallest, if several)
     uint64_t samples = 0;
-    size_t pixels = 0;         // pixels that took samples
-    size_t above = 0;          // pixels above T before the round (at max-spp or not)
-    double worst = 0.0;        // the largest finite err before the round
-    double seconds = 0.0;      // rendering
+    size_t pixels = 0;          // pixels that took samples
+    size_t above = 0;           // pixels above T before the round (at max-spp or not)
+    double worst = 0.0;         // the largest finite err before the round
+    double seconds = 0.0;       // rendering
     double plan_seconds = 0.0;  // the error estimate and the targets before it
-    bool cut_by_time = false;  // fit to the time left
+    bool cut_by_time = false;   // fit to the time left
 };
 
 struct ThresholdResult {

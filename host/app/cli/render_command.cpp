@@ -527,6 +527,16 @@ int cmd_render_adaptive(const RenderOptions& o) {
         progress(d, t);
     };
     std::unique_ptr<DisplayClient> display = open_display(o.display_server, name);
+    if (display && display->connected()) {  // the pilot and the allocation map, then the final render
+        const Descriptor pilot_desc = derive_descriptor(pilot.frame);
+        display->send_snapshot("pilot", pilot.frame.width, pilot.frame.height,
+                               render_channels(pilot.frame, &pilot_desc));
+        ExrChannel n{"n", std::vector<float>(plan.n.begin(), plan.n.end()), false};
+        ExrChannel untrusted{"untrusted", std::vector<float>(diag.untrusted_map.begin(), diag.untrusted_map.end()),
+                             false};
+        display->send_snapshot("allocation", pilot.frame.width, pilot.frame.height, {n, untrusted});
+        if (!display->connected()) std::fprintf(stderr, "vkmech: warning: %s\n", display->warning().c_str());
+    }
     if (display)
         spec.on_frame = [&](const Frame& f) { send_to_display(*display, f, /*capture=*/true, /*force=*/false); };
     Frame frame = renderer.render(spec);

@@ -191,4 +191,26 @@ bool DisplayClient::update(int width, int height, const std::vector<ExrChannel>&
     return any;
 }
 
+bool DisplayClient::send_snapshot(const std::string& what, int width, int height,
+                                  const std::vector<ExrChannel>& channels) {
+    if (fd_ < 0) return false;
+    // The snapshot's name: the image's own with `what` before its " (<pid>)".
+    const size_t paren = name_.rfind(" (");
+    const std::string name =
+        paren == std::string::npos ? name_ + " " + what : name_.substr(0, paren) + " " + what + name_.substr(paren);
+    std::vector<std::string> names;
+    std::vector<const std::vector<float>*> planes;
+    for (const auto& c : channels) {
+        names.push_back(c.name);
+        planes.push_back(&c.data);
+    }
+    if (!send_bytes(tev_create_image(name, width, height, names))) return false;
+    for (int y = 0; y < height; y += kTile)
+        for (int x = 0; x < width; x += kTile)
+            if (!send_bytes(tev_update_image(name, names, planes, width, x, y, std::min(kTile, width - x),
+                                             std::min(kTile, height - y))))
+                return false;
+    return true;
+}
+
 }  // namespace vkmech

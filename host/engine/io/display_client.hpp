@@ -37,6 +37,9 @@ public:
     // the tiles (kTile x kTile) whose values changed since the last one sent. Unless `force`, a
     // call within kInterval of the last sent is skipped. Returns whether anything was sent.
     bool update(int width, int height, const std::vector<ExrChannel>& channels, bool force);
+    // A second image on the same connection, sent whole once: "<image name> <what>" (render --adaptive:
+    // the pilot, the allocation map). Returns whether it was sent; a failure ends the connection.
+    bool send_snapshot(const std::string& what, int width, int height, const std::vector<ExrChannel>& channels);
     // Whether update(..., force) would send now (connected, and forced or past the interval):
     // callers skip building the channels otherwise.
     bool due(bool force) const {
