@@ -20,7 +20,9 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <map>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -171,6 +173,20 @@ std::vector<uint8_t> serve(Listener& l, size_t stop_after = 0) {
     return bytes;
 }
 
+// Runs `vkmech <args> --display-server` at a loopback viewer of the test's own and decodes what it got.
+struct Streamed {
+    testing::CliRun run;
+    Decoded d;
+};
+Streamed render_streamed(const std::string& args) {
+    Listener l;
+    std::vector<uint8_t> bytes;
+    std::thread viewer([&] { bytes = serve(l); });
+    testing::CliRun run = testing::run_cli(args + " --display-server " + l.address());
+    viewer.join();
+    return {run, decode(bytes)};
+}
+
 }  // namespace
 
 TEST_CASE("display: tev's packets - the create and update layouts decode as documented") {
@@ -197,16 +213,13 @@ TEST_SUITE("gpu") {
     TEST_CASE("display: a render streamed to a loopback viewer ends with the EXR's channels and pixels") {
         VKMECH_REQUIRE_GPU(ctx);
         testing::TempDir dir("display");
-        Listener l;
-        std::vector<uint8_t> bytes;
-        std::thread viewer([&] { bytes = serve(l); });
-        const testing::CliRun run = testing::run_cli("render --scene cubes_dof --res 40 --spp 8 --batch 2 --out " +
-                                                     dir.path.string() + " --display-server " + l.address());
-        viewer.join();
+        const Streamed st =
+            render_streamed("render --scene cubes_dof --res 40 --spp 8 --batch 2 --out " + dir.path.string());
+        const testing::CliRun& run = st.run;
+        const Decoded& d = st.d;
         CAPTURE(run.output);
         REQUIRE(run.code == 0);
         CHECK(run.output.find("display server") == std::string::npos);  // no warning
-        const Decoded d = decode(bytes);
         CHECK(d.error.empty());
         CHECK(d.creates == 1);
         CHECK(d.updates >= 1);
@@ -234,16 +247,11 @@ TEST_SUITE("gpu") {
     TEST_CASE("display: an adaptive render sends its pilot and allocation map, then streams the final image") {
         VKMECH_REQUIRE_GPU(ctx);
         testing::TempDir dir("display_adaptive");
-        Listener l;
-        std::vector<uint8_t> bytes;
-        std::thread viewer([&] { bytes = serve(l); });
-        const testing::CliRun run =
-            testing::run_cli("render --scene ring_caustic --res 24 --adaptive guarded --pilot 16 --budget 8 --out " +
-                             dir.path.string() + " --display-server " + l.address());
-        viewer.join();
-        CAPTURE(run.output);
-        REQUIRE(run.code == 0);
-        const Decoded d = decode(bytes);
+        const Streamed st = render_streamed(
+            "render --scene ring_caustic --res 24 --adaptive guarded --pilot 16 --budget 8 --out " + dir.path.string());
+        const Decoded& d = st.d;
+        CAPTURE(st.run.output);
+        REQUIRE(st.run.code == 0);
         CHECK(d.error.empty());
         REQUIRE(d.images.size() == 3);
         const std::string pid = d.name.substr(d.name.rfind(" ("));
@@ -267,16 +275,12 @@ TEST_SUITE("gpu") {
     TEST_CASE("display: a noise-threshold render streams every channel of its EXR, err included") {
         VKMECH_REQUIRE_GPU(ctx);
         testing::TempDir dir("display_threshold");
-        Listener l;
-        std::vector<uint8_t> bytes;
-        std::thread viewer([&] { bytes = serve(l); });
-        const testing::CliRun run = testing::run_cli(
+        const Streamed st = render_streamed(
             "render --scene ring_caustic --res 24 --noise-threshold 0.2 --min-spp 8 --max-spp 64 --out " +
-            dir.path.string() + " --display-server " + l.address());
-        viewer.join();
-        CAPTURE(run.output);
-        REQUIRE(run.code == 0);
-        const Decoded d = decode(bytes);
+            dir.path.string());
+        const Decoded& d = st.d;
+        CAPTURE(st.run.output);
+        REQUIRE(st.run.code == 0);
         CHECK(d.error.empty());
         CHECK(d.images.size() == 1);
         const ExrImage exr = read_exr_channels(dir.file("ring_caustic.exr"));
@@ -286,6 +290,32 @@ TEST_SUITE("gpu") {
             REQUIRE(d.planes.count(c) == 1);
             CHECK(d.planes.at(c) == exr.channels.at(c));
         }
+    }
+
+    TEST_CASE("display: a study streams its renders, one image per scene variant, and its tables are as without") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("display_study");
+        const std::string study = "study stability --scenes cubes_dof --res 16 --spp-levels 4 8 --seeds 4 --no-plots ";
+        const Streamed st = render_streamed(study + "--out " + dir.file("a"));
+        CAPTURE(st.run.output);
+        REQUIRE(st.run.code == 0);
+        const Decoded& d = st.d;
+        CHECK(d.error.empty());
+        REQUIRE(d.images.size() == 1);
+        CHECK(d.name.rfind("study cubes_dof (", 0) == 0);
+        CHECK(d.updates >= 8);  // at least once per render: eight renders
+        CHECK(d.planes.count("dominant") == 1);
+        // The last render streamed is the last the study rendered: 8 samples per pixel.
+        const auto& spp = d.planes.at("spp");
+        CHECK(std::all_of(spp.begin(), spp.end(), [](float v) { return v == 8.0f; }));
+        const testing::CliRun plain = testing::run_cli(study + "--out " + dir.file("b"));
+        REQUIRE(plain.code == 0);
+        std::ifstream a(dir.file("a/tables/kappa.csv")), b(dir.file("b/tables/kappa.csv"));
+        std::stringstream ta, tb;
+        ta << a.rdbuf();
+        tb << b.rdbuf();
+        CHECK_FALSE(ta.str().empty());
+        CHECK(ta.str() == tb.str());
     }
 
     TEST_CASE("display: a render whose viewer is absent or goes away still completes") {

@@ -13,6 +13,7 @@
 #include "io/png.hpp"
 #include "render/descriptor.hpp"
 #include "render/features.hpp"
+#include "render/live_view.hpp"
 #include "render/render_outputs.hpp"
 #include "render/renderer.hpp"
 #include "render/session.hpp"
@@ -229,25 +230,6 @@ bool wants_direct_glossy(const RenderOptions& o, bool capture) {
     return on;
 }
 
-// --display-server: a client named "<scene> (<pid>)", or none (no address); a failed
-// connection is a warning now and the render goes on.
-std::unique_ptr<DisplayClient> open_display(const std::string& address, const std::string& scene) {
-    if (address.empty()) return nullptr;
-    auto client = std::make_unique<DisplayClient>(address, scene + " (" + std::to_string(::getpid()) + ")");
-    if (!client->connected()) std::fprintf(stderr, "vkmech: warning: %s\n", client->warning().c_str());
-    return client;
-}
-
-// The frame so far as the EXR's channels, sent unless within DisplayClient::kInterval of the last
-// (`force`: the final image). A connection lost now is a warning once.
-void send_to_display(DisplayClient& display, const Frame& frame, bool capture, bool force) {
-    if (!display.connected() || !display.due(force)) return;
-    std::optional<Descriptor> desc;
-    if (capture) desc = derive_descriptor(frame);
-    display.update(frame.width, frame.height, render_channels(frame, desc ? &*desc : nullptr), force);
-    if (!display.connected()) std::fprintf(stderr, "vkmech: warning: %s\n", display.warning().c_str());
-}
-
 // What every render command starts with (render, --adaptive, --noise-threshold).
 struct CliRender {
     std::string name;
@@ -359,10 +341,10 @@ int cmd_render(const RenderOptions& o) {
         throw_if_interrupted();
         progress(d, t);
     };
-    std::unique_ptr<DisplayClient> display = open_display(o.display_server, name);
-    if (display) spec.on_frame = [&](const Frame& f) { send_to_display(*display, f, capture, /*force=*/false); };
+    std::unique_ptr<DisplayClient> display = open_live_view(o.display_server, name);
+    if (display) spec.on_frame = [&](const Frame& f) { send_live_view(*display, f, capture, /*force=*/false); };
     Frame frame = renderer.render(spec);
-    if (display) send_to_display(*display, frame, capture, /*force=*/true);
+    if (display) send_live_view(*display, frame, capture, /*force=*/true);
 
     RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene, spp, o.seed, capture);
     info.kernel = vk::to_string(session.gpu().kernel());
@@ -526,7 +508,7 @@ int cmd_render_adaptive(const RenderOptions& o) {
         throw_if_interrupted();
         progress(d, t);
     };
-    std::unique_ptr<DisplayClient> display = open_display(o.display_server, name);
+    std::unique_ptr<DisplayClient> display = open_live_view(o.display_server, name);
     if (display && display->connected()) {  // the pilot and the allocation map, then the final render
         const Descriptor pilot_desc = derive_descriptor(pilot.frame);
         display->send_snapshot("pilot", pilot.frame.width, pilot.frame.height,
@@ -538,9 +520,9 @@ int cmd_render_adaptive(const RenderOptions& o) {
         if (!display->connected()) std::fprintf(stderr, "vkmech: warning: %s\n", display->warning().c_str());
     }
     if (display)
-        spec.on_frame = [&](const Frame& f) { send_to_display(*display, f, /*capture=*/true, /*force=*/false); };
+        spec.on_frame = [&](const Frame& f) { send_live_view(*display, f, /*capture=*/true, /*force=*/false); };
     Frame frame = renderer.render(spec);
-    if (display) send_to_display(*display, frame, /*capture=*/true, /*force=*/true);
+    if (display) send_live_view(*display, frame, /*capture=*/true, /*force=*/true);
 
     uint32_t max_n = 0, min_n = ~0u;
     for (uint32_t n : plan.n) {
@@ -650,16 +632,12 @@ int cmd_render_threshold(const RenderOptions& o) {
                  features.describe().c_str());
 
     // The display shows every channel of the EXR, err included (0 until the first estimate).
-    std::unique_ptr<DisplayClient> display = open_display(o.display_server, name);
+    std::unique_ptr<DisplayClient> display = open_live_view(o.display_server, name);
     auto send = [&](const Frame& f, const std::vector<double>& err, bool force) {
         if (!display || !display->connected() || !display->due(force)) return;
-        const Descriptor desc = derive_descriptor(f);
-        std::vector<ExrChannel> ch = render_channels(f, &desc);
         ExrChannel e{"err", std::vector<float>(f.pixels.size(), 0.0f), false};
         for (size_t i = 0; i < err.size() && i < e.data.size(); ++i) e.data[i] = static_cast<float>(err[i]);
-        ch.push_back(std::move(e));
-        display->update(f.width, f.height, ch, force);
-        if (!display->connected()) std::fprintf(stderr, "vkmech: warning: %s\n", display->warning().c_str());
+        send_live_view(*display, f, /*capture=*/true, force, {e});
     };
     Progress progress("round 0 " + name);
     std::unique_ptr<Progress> round_progress;

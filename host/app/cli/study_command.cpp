@@ -161,6 +161,9 @@ void add_study_options(CLI::App* app, StudyOptions& o) {
     app->add_option("--jobs", o.jobs_file,
                     "Write one self-contained command per work unit missing from the cache to this file (for Slurm "
                     "job arrays, GNU parallel or xargs) and render nothing");
+    app->add_option("--display-server", o.display_server,
+                    "Show the renders in progress in tev (or HDRView) listening at HOST:PORT: one image per scene "
+                    "variant, each render streamed as it goes; a viewer that is absent or goes away is a warning");
     app->add_flag("--analyse-only", o.analyse_only,
                   "Build the tables from the cache alone; exit 1 listing what is missing instead of rendering it (the "
                   "allocation study's timing renders still run: they are measurements)");

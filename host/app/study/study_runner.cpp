@@ -5,6 +5,7 @@
 #include "io/output_set.hpp"
 #include "render/features.hpp"
 #include "render/gpu_scene.hpp"
+#include "render/live_view.hpp"
 #include "render/renderer.hpp"
 #include "render/session.hpp"
 #include "render/shader_modules.hpp"
@@ -122,7 +123,7 @@ struct StudyPlan {
 
 // The study's device and the digest of the code that renders on it (part of every cache key).
 struct StudyDevice {
-    explicit StudyDevice(const StudyOptions& o) : ctx(context_options(o)) {
+    explicit StudyDevice(const StudyOptions& o) : ctx(context_options(o)), display_server(o.display_server) {
         trav = resolve_traversal(ctx, parse_traversal(o.traversal));
         code_digest = render_code_digest(trav, ctx.kernel());
     }
@@ -136,6 +137,7 @@ struct StudyDevice {
     vk::Context ctx;
     Traversal trav = Traversal::Bvh;
     std::string code_digest;
+    std::string display_server;  // --display-server: each scene variant's renders in progress, as one image
 };
 
 // Cache keys of the planned renders and which of them the cache lacks.
@@ -293,6 +295,8 @@ RenderTally render_missing(const StudyPlan& p, const StudyDevice& dev, RenderCac
             LoadedScene ls = load_variant(variant, cfg.res, trav);
             RenderSession session(ctx, std::move(ls.scene), std::move(ls.arrays), trav);
             std::map<std::pair<Estimator, EndVertex>, std::unique_ptr<Renderer>> renderers;
+            // The variant's renders, one after another, in one image (a viewer that is absent is a warning).
+            std::unique_ptr<DisplayClient> display = open_live_view(dev.display_server, "study " + variant.name);
             for (const auto& r : missing) {
                 if (!(r.scene == variant)) continue;
                 if (int sig = pending_signal()) throw StudyInterrupted(sig);
@@ -320,7 +324,9 @@ RenderTally render_missing(const StudyPlan& p, const StudyDevice& dev, RenderCac
                         std::fflush(stderr);
                     }
                 };
+                if (display) spec.on_frame = [&](const Frame& fr) { send_live_view(*display, fr, true, false); };
                 Frame f = rr->render(spec);
+                if (display) send_live_view(*display, f, true, true);
                 cache.store(keys.at(r), f, describe(r) + ", " + std::to_string(w) + "x" + std::to_string(h));
                 render_seconds += f.seconds;
                 paths_done += r.spp * px;

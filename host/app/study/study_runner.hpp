@@ -49,7 +49,8 @@ struct StudyOptions {
     std::string shard_text;                              // the CLI's "i/N", parsed into `shard` by cmd_study
     std::string jobs_file;
     bool analyse_only = false;
-    std::string command_line;  // for the report
+    std::string command_line;    // for the report
+    std::string display_server;  // host:port of a tev viewer: the renders in progress (render/live_view.hpp)
 };
 
 // Thrown when SIGINT or SIGTERM arrives during rendering: finished renders are cached.
