@@ -225,6 +225,32 @@ TEST_SUITE("gpu") {
         CHECK(res.converged + res.at_max + res.unfinished == res.n.size());
     }
 
+    TEST_CASE("noise threshold: a sample budget holds exactly and gives the same image every time") {
+        VKMECH_REQUIRE_GPU(ctx);
+        Renderer r = testing::project_scene_renderer(*ctx, "glass_caustic", 32);
+        ThresholdSettings s;
+        s.threshold = 1e-3;  // out of reach: the budget stops it
+        s.min_spp = 8;
+        s.max_spp = 4096;
+        const ThresholdResult a0 = render_to_threshold(r, ThresholdSettings{1.0, 1, 1});  // the film's size
+        const uint64_t pixels = a0.frame.pixels.size();
+        s.sample_budget = 40 * pixels;
+        const ThresholdResult a = render_to_threshold(r, s);
+        CHECK(a.budget_reached);
+        CHECK_FALSE(a.time_limit_reached);
+        CHECK(a.frame.samples <= s.sample_budget);
+        // The last round is cut to the samples left: less than one step of every pixel is left over.
+        CHECK(a.frame.samples >= s.sample_budget - pixels * 20);
+        CHECK(a.rounds.back().cut_by_time);
+        const ThresholdResult b = render_to_threshold(r, s);
+        CHECK(b.n == a.n);
+        size_t differ = 0;
+        for (size_t p = 0; p < pixels; ++p) differ += a.frame.pixels[p].lum_mean == b.frame.pixels[p].lum_mean ? 0 : 1;
+        CHECK(differ == 0);
+        const auto [lo, hi] = std::minmax_element(a.n.begin(), a.n.end());
+        CHECK(*lo < *hi);
+    }
+
     TEST_CASE("noise threshold: the CLI writes err and spp channels and says why the pixels stopped") {
         VKMECH_REQUIRE_GPU(ctx);
         testing::TempDir dir("threshold");
@@ -267,7 +293,8 @@ TEST_CASE("noise threshold: the CLI refuses what it cannot honour, saying why") 
           Bad{"--noise-threshold 0.1 --sample-range 0:8", "--sample-range"},
           Bad{"--noise-threshold 0.1 --capture off", "--capture on"},
           Bad{"--noise-threshold 0.1 --noise-rule robust-var", "noise-rule"},
-          Bad{"--noise-threshold 0", "noise-threshold"}}) {
+          Bad{"--noise-threshold 0", "noise-threshold"},
+          Bad{"--noise-threshold 0.1 --spp-budget 8", "below --min-spp 16"}}) {
         testing::TempDir dir("threshold_bad");
         const testing::CliRun run =
             testing::run_cli(std::string("render --scene ring_caustic --res 16 ") + b.args + " --out " + dir.file("o"));

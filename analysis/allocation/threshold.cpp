@@ -20,8 +20,8 @@ std::vector<uint32_t> pixel_samples(const Frame& frame) {
 
 std::vector<double> relative_error(const Frame& frame, Strategy s) {
     if (s != Strategy::ObservedVar && s != Strategy::BucketFloor && s != Strategy::Guarded)
-        throw std::invalid_argument(std::string("a noise threshold's rule is observed-var, bucket-floor or guarded, not ") +
-                                    to_string(s));
+        throw std::invalid_argument(
+            std::string("a noise threshold's rule is observed-var, bucket-floor or guarded, not ") + to_string(s));
     const size_t P = frame.pixels.size();
     std::vector<double> var(P);
     for (size_t p = 0; p < P; ++p) var[p] = frame.pixels[p].lum_var();

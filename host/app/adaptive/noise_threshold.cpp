@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <map>
 
 namespace vkmech {
@@ -68,16 +69,26 @@ ThresholdResult render_to_threshold(Renderer& renderer, const ThresholdSettings&
         uint64_t want = 0;
         for (size_t p = 0; p < n.size(); ++p) want += target[p] - n[p];
         if (want == 0) break;  // every pixel below T or at max-spp
+        // The samples the time left affords at the last round's rate, and the budget's samples left.
+        uint64_t budget = UINT64_MAX;
+        bool by_time = false;
         if (s.time_limit > 0) {
             const double left = s.time_limit - since(t0);
-            const double budget = left > 0 && rate > 0 ? std::floor(left * rate) : 0.0;
-            const uint64_t fitted =
-                alloc::fit_round(target, n, err, ladder, static_cast<uint64_t>(std::min(budget, 1e18)));
+            budget = static_cast<uint64_t>(left > 0 && rate > 0 ? std::min(std::floor(left * rate), 1e18) : 0.0);
+            by_time = true;
+        }
+        if (s.sample_budget > 0) {
+            const uint64_t left = s.sample_budget > out.frame.samples ? s.sample_budget - out.frame.samples : 0;
+            if (left <= budget) by_time = false;
+            budget = std::min(budget, left);
+        }
+        if (budget < want) {
+            const uint64_t fitted = alloc::fit_round(target, n, err, ladder, budget);
             if (fitted == 0) {
-                out.time_limit_reached = true;
+                (by_time ? out.time_limit_reached : out.budget_reached) = true;
                 break;
             }
-            round.cut_by_time = fitted < want;
+            round.cut_by_time = true;
             want = fitted;
         }
         round.plan_seconds = since(t_plan);

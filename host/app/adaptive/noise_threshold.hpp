@@ -17,7 +17,8 @@ struct ThresholdSettings {
     double threshold = 0.05;  // T: the relative standard error each pixel's mean luminance should reach
     uint32_t min_spp = 16;    // every pixel's first round: samples [0, min_spp)
     uint32_t max_spp = 1024;
-    double time_limit = 0.0;  // seconds of rendering (rounds and their planning); 0: none
+    double time_limit = 0.0;     // seconds of rendering (rounds and their planning); 0: none
+    uint64_t sample_budget = 0;  // samples in all (pixels x average spp); 0: none. At least min_spp per pixel.
     alloc::Strategy rule = alloc::Strategy::Guarded;
     uint32_t seed = 0;
     uint32_t batch_spp = 8;
@@ -31,7 +32,7 @@ struct ThresholdRound {
     double worst = 0.0;         // the largest finite err before the round
     double seconds = 0.0;       // rendering
     double plan_seconds = 0.0;  // the error estimate and the targets before it
-    bool cut_by_time = false;   // fit to the time left
+    bool cut_by_time = false;   // fit to the time left or the samples left
 };
 
 struct ThresholdResult {
@@ -41,7 +42,8 @@ struct ThresholdResult {
     std::vector<ThresholdRound> rounds;
     size_t converged = 0, at_max = 0, unfinished = 0;  // err <= T; above T at max-spp; above T below max-spp
     bool time_limit_reached = false;
-    double seconds = 0.0;  // wall time of every round and its planning
+    bool budget_reached = false;  // the sample budget stopped it
+    double seconds = 0.0;         // wall time of every round and its planning
 };
 
 // Progress: called with a line per round (done) and between batches (may throw to stop).

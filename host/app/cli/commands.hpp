@@ -69,6 +69,7 @@ struct RenderOptions {
     double noise_threshold = 0.0;
     uint32_t min_spp = 16, max_spp = 1024;
     double time_limit = 0.0;  // seconds; 0: none
+    double spp_budget = 0.0;  // average samples per pixel in all; 0: none
     std::string noise_rule = "guarded";
 };
 

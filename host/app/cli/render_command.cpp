@@ -332,7 +332,7 @@ int cmd_render(const RenderOptions& o) {
     RenderSpec spec;
     spec.spp = spp;
     spec.first_sample = range.begin;
-    if (bounds) spec.window = RenderSpec::Window{bounds->x0, bounds->x1, bounds->y0, bounds->y1};
+    spec.window = bounds;
     spec.seed = o.seed;
     spec.batch_spp = o.batch_spp;
     spec.mode = o.preview ? gpu::MODE_DIRECT_PREVIEW : gpu::MODE_PATH;
@@ -574,9 +574,15 @@ std::string threshold_json(const RenderOptions& o, const ThresholdSettings& s, c
         j << s.time_limit;
     else
         j << "null";
+    j << ", \"spp_budget\": ";
+    if (o.spp_budget > 0)
+        j << o.spp_budget;
+    else
+        j << "null";
     j << ", \"seed\": " << o.seed << ", \"pixels\": " << r.n.size() << ", \"converged_pixels\": " << r.converged
       << ", \"at_max_spp_pixels\": " << r.at_max << ", \"unfinished_pixels\": " << r.unfinished
-      << ", \"time_limit_reached\": " << (r.time_limit_reached ? "true" : "false") << ", \"seconds\": " << r.seconds
+      << ", \"time_limit_reached\": " << (r.time_limit_reached ? "true" : "false")
+      << ", \"spp_budget_reached\": " << (r.budget_reached ? "true" : "false") << ", \"seconds\": " << r.seconds
       << ", \"samples\": " << r.frame.samples << ", \"rounds\": [";
     for (size_t i = 0; i < r.rounds.size(); ++i) {
         const ThresholdRound& q = r.rounds[i];
@@ -607,6 +613,12 @@ int cmd_render_threshold(const RenderOptions& o) {
     ts.min_spp = o.min_spp;
     ts.max_spp = o.max_spp;
     ts.time_limit = o.time_limit;
+    if (o.spp_budget > 0 && o.spp_budget < o.min_spp) {
+        char what[160];
+        std::snprintf(what, sizeof what, "--spp-budget %g is below --min-spp %u (every pixel takes --min-spp first)",
+                      o.spp_budget, o.min_spp);
+        throw UsageError(what);
+    }
     ts.rule = alloc::parse_strategy(o.noise_rule);  // CLI11 has checked the name
     ts.seed = o.seed;
     ts.batch_spp = o.batch_spp;
@@ -618,6 +630,7 @@ int cmd_render_threshold(const RenderOptions& o) {
     const RenderSession& session = *cr.session;
     const Traversal trav = cr.trav;
     const Scene& scene = session.scene();
+    ts.sample_budget = static_cast<uint64_t>(std::llround(o.spp_budget * scene.camera.width * scene.camera.height));
     const Features& features = cr.features;
     Renderer& renderer = *cr.renderer;
     OutputSet* set = cr.set.get();
@@ -655,7 +668,7 @@ int cmd_render_threshold(const RenderOptions& o) {
                          "noise threshold: round %zu: %zu pixels above %g (worst %.3g); %zu of them took %llu samples "
                          "from %u spp on%s, %.2f s\n",
                          i, r.above, ts.threshold, r.worst, r.pixels, static_cast<unsigned long long>(r.samples),
-                         r.first, r.cut_by_time ? " (cut to the time left)" : "", r.seconds);
+                         r.first, r.cut_by_time ? " (cut to fit the time or samples left)" : "", r.seconds);
         round_progress = std::make_unique<Progress>("round " + std::to_string(i + 1) + " " + name);
     };
     if (display) {
@@ -696,7 +709,8 @@ int cmd_render_threshold(const RenderOptions& o) {
         ts.threshold, o.noise_rule.c_str(), result.rounds.size(), result.seconds,
         static_cast<unsigned long long>(frame.samples), static_cast<double>(frame.samples) / pixels,
         *std::min_element(result.n.begin(), result.n.end()), max_n, result.converged, result.at_max, result.unfinished,
-        result.time_limit_reached ? "the time limit stopped it" : "it stopped");
+        result.time_limit_reached ? "the time limit stopped it"
+                                  : (result.budget_reached ? "the sample budget stopped it" : "it stopped"));
     for (const auto& f :
          {files.exr, files.png, files.dominant_png, spp_png, files.json, set->final_path(manifest_file_name(name))})
         if (!f.empty()) std::printf("wrote %s\n", f.c_str());
@@ -786,6 +800,12 @@ void register_render(CLI::App& app, CliCommands& commands) {
                      "Noise threshold: seconds of rendering; each round is fitted to the time left, the worst pixels "
                      "first (default: none)")
         ->check(CLI::Range(0.0, 1e7))
+        ->needs(threshold_opt);
+    render
+        ->add_option("--spp-budget", o->spp_budget,
+                     "Noise threshold: stop when the image has taken this many samples per pixel on average (a "
+                     "reproducible limit, unlike --time-limit; rounds are fitted to it the same way)")
+        ->check(CLI::Range(1.0, 1048576.0))
         ->needs(threshold_opt);
     render
         ->add_option("--noise-rule", o->noise_rule,

@@ -41,6 +41,12 @@ inline float accum_bucket_rgb(const gpu::GpuPixelAccum& a, uint32_t b, int c) {
 // luminance() uses the same weights (shared/types.h).
 inline double luminance(double r, double g, double b) { return gpu::LUM_R * r + gpu::LUM_G * g + gpu::LUM_B * b; }
 
+// A window of a film, [x0, x1) x [y0, y1): what `render --pixel-bounds x0,x1,y0,y1` renders
+// (RenderSpec::window) and its outputs record (Provenance::pixel_bounds).
+struct PixelBounds {
+    uint32_t x0 = 0, x1 = 0, y0 = 0, y1 = 0;
+};
+
 struct Frame {
     int width = 0, height = 0;
     std::vector<PixelStats> pixels;

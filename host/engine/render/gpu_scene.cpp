@@ -705,18 +705,21 @@ GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal trave
         views_.emplace_back(gpu::BINDING_ENVIRONMENT,
                             texel_view(ctx, environment, texels_of(env_words), "lights at infinity"));
     }
-    if (traversal_ == Traversal::RayQuery) {
+    // The GPU kernel's instances (shaders/instances.glsl): as flattened under ray query, with their
+    // group trees' roots under the software BVH.
+    const bool ray_query = traversal_ == Traversal::RayQuery;
+    const std::vector<gpu::GpuInstance>* gpu_instances =
+        ray_query ? (gpu_kernel ? &a.instances : nullptr) : (gpu_tree ? &gpu_tree->instances : nullptr);
+    if (gpu_instances) {
+        instances = vk::Buffer::from_vector(ctx, *gpu_instances, usage);
+        check_storage_range(ctx, instances, "instances");
+    }
+    if (ray_query) {
         accel_ = std::make_unique<RayTracingAccel>(ctx, tri_positions, static_cast<uint32_t>(a.triangles.size()),
                                                    a.group_triangles, a.instances);
-        if (gpu_kernel) {
-            instances = vk::Buffer::from_vector(ctx, a.instances, usage);
-            check_storage_range(ctx, instances, "instances");
-        }
     } else if (gpu_tree) {
         bvh_nodes = vk::Buffer::from_vector(ctx, gpu_tree->nodes, usage);
-        instances = vk::Buffer::from_vector(ctx, gpu_tree->instances, usage);
         check_storage_range(ctx, bvh_nodes, "BVH nodes");
-        check_storage_range(ctx, instances, "instances");
         check_storage_range(ctx, tri_positions, "triangle positions");
     } else {
         bvh_nodes = vk::Buffer::from_vector(ctx, a.bvh4, usage);

@@ -40,11 +40,8 @@ struct SampleRange {
 // "A:B" with A < B and B - A at most 2^20 samples; throws std::invalid_argument saying what is wrong.
 SampleRange parse_sample_range(const std::string& text);
 
-// A window of a film, [x0, x1) x [y0, y1) (Provenance::pixel_bounds "x0,x1,y0,y1").
-struct PixelBounds {
-    uint32_t x0 = 0, x1 = 0, y0 = 0, y1 = 0;
-};
-// "x0,x1,y0,y1" with x0 < x1 <= width and y0 < y1 <= height; throws std::invalid_argument saying what is wrong.
+// PixelBounds (render/frame.hpp) from "x0,x1,y0,y1" with x0 < x1 <= width and y0 < y1 <= height; throws
+// std::invalid_argument saying what is wrong.
 PixelBounds parse_pixel_bounds(const std::string& text, uint32_t width, uint32_t height);
 
 struct RenderInfo {

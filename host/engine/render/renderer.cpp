@@ -202,7 +202,7 @@ Frame Renderer::render(const RenderSpec& spec) {
                "a window render needs a renderer made with Features::window, and only it");
     uint32_t film_w = static_cast<uint32_t>(cam.width), film_h = static_cast<uint32_t>(cam.height);
     if (spec.window) {
-        const RenderSpec::Window& w = *spec.window;
+        const PixelBounds& w = *spec.window;
         VKM_ASSERT(w.x0 < w.x1 && w.x1 <= film_w && w.y0 < w.y1 && w.y1 <= film_h, "the window lies outside the film");
         film_w = w.x1 - w.x0;
         film_h = w.y1 - w.y0;

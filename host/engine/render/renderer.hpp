@@ -57,10 +57,7 @@ struct RenderSpec {
     uint32_t first_sample = 0;
     // A window of the film, [x0, x1) x [y0, y1) (render --pixel-bounds): the frame is the window's,
     // its pixels' rays and random streams the full film's. Needs Features::window.
-    struct Window {
-        uint32_t x0 = 0, x1 = 0, y0 = 0, y1 = 0;
-    };
-    std::optional<Window> window;
+    std::optional<PixelBounds> window;
     uint32_t batch_spp = 8;  // samples per dispatch
     uint32_t mode = gpu::MODE_PATH;
     // Adaptive rendering (docs/descriptor.md §6): when non-empty (one entry per pixel), pixel p
