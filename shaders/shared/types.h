@@ -276,6 +276,13 @@ struct GpuParams {  // one batch's uniforms (std140): named 4-byte scalars, four
     uint window_y0;
     uint full_width;
     uint full_height;
+    // The camera's clip planes (Mitsuba's near_clip and far_clip, glTF's znear and zfar): camera
+    // depths along its +Z axis; a camera ray is traced over the part of it between them
+    // (shaders/camera.glsl).
+    float near_clip;
+    float far_clip;
+    uint unused1;
+    uint unused2;
 };
 
 // One recorded contribution event (the GPU debug mode): the inputs of the

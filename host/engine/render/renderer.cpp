@@ -227,6 +227,8 @@ Frame Renderer::render(const RenderSpec& spec) {
     p.tan_half_fov_y = tans.y;
     p.aperture_radius = cam.type == CameraType::ThinLens ? cam.aperture_radius : 0.0f;
     p.focus_distance = cam.focus_distance;
+    p.near_clip = cam.near_clip;
+    p.far_clip = cam.far_clip;
     p.film_width = film_w;
     p.film_height = film_h;
     if (spec.window) {
