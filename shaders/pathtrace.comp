@@ -207,7 +207,9 @@ void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_be
 // normalmap). With uv_handed (glTF), b is turned against dp/dv where the uv layout
 // is mirrored: MikkTSpace's bitangent sign, which glTF's stored tangents carry in
 // w, taken per triangle (+y of the map is -v, glTF's uv origin being the image's
-// top left). ns unchanged where the uvs give no tangent.
+// top left). Where the mesh has the file's tangents, surface_hit made dp/du the tangent
+// and dp/dv the bitangent's opposite, so t and b are the file's. ns unchanged where the
+// uvs give no tangent.
 vec3 normal_mapped(SurfaceHit s, uint slot, float scale, bool uv_handed) {
     vec3 t = s.dpdu - s.ns * dot(s.ns, s.dpdu);
     float tl = length(t);
