@@ -10,7 +10,12 @@ layout(constant_id = SPEC_THIN_LENS) const bool HAS_THIN_LENS = false;
 // y in [-h/w, h/w], mapped through to_world, whose scale sizes the view.
 layout(constant_id = SPEC_ORTHOGRAPHIC) const bool CAMERA_ORTHOGRAPHIC = false;
 
-void camera_ray(vec2 film_uv, vec2 lens_u, out vec3 origin, out vec3 dir) {
+// The ray from the lens (origin, unit dir) and the part of it the camera sees, t in
+// [t_range.x, t_range.y]: between its clip planes, which are depths along the camera's +Z
+// (Mitsuba's near_clip and far_clip, whose rays start on the near plane; glTF's znear and zfar).
+// A ray along camera-space d (d.z > 0) reaches depth z at z / d.z times d, a world distance of
+// z |to_world d| / d.z: near_clip / cos(theta) for a pinhole with an unscaled to_world.
+void camera_ray(vec2 film_uv, vec2 lens_u, out vec3 origin, out vec3 dir, out vec2 t_range) {
     vec3 d = vec3((1.0 - 2.0 * film_uv.x) * params.tan_half_fov_x, (1.0 - 2.0 * film_uv.y) * params.tan_half_fov_y, 1.0);
     vec3 o = vec3(0.0);
     if (CAMERA_ORTHOGRAPHIC) {
@@ -27,7 +32,9 @@ void camera_ray(vec2 film_uv, vec2 lens_u, out vec3 origin, out vec3 dir) {
         d = focus - lens;
     }
     origin = (params.camera_to_world * vec4(o, 1.0)).xyz;
-    dir = normalize((params.camera_to_world * vec4(d, 0.0)).xyz);
+    vec3 w = (params.camera_to_world * vec4(d, 0.0)).xyz;
+    dir = normalize(w);
+    t_range = vec2(params.near_clip, params.far_clip) * (length(w) / d.z);
 }
 
 #endif

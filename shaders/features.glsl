@@ -17,6 +17,7 @@ VKM_MATERIAL_FEATURES(VKM_X)
 SPEC_CONST_BOOL(SPEC_TEXTURES, FEATURE_TEXTURES, true)       // bitmap reflectance
 SPEC_CONST_BOOL(SPEC_CAPTURE, FEATURE_CAPTURE, true)         // mechanism capture (the descriptor)
 SPEC_CONST_BOOL(SPEC_ENVIRONMENT, FEATURE_ENVIRONMENT, true) // emitters at infinity (environment, directional)
+SPEC_CONST_BOOL(SPEC_TANGENTS, FEATURE_TANGENTS, true)       // normal maps on the file's tangents (TRI_TANGENT_BIT)
 
 // Whether every feature of `mask` (FEATURE_BIT_*) is compiled in: the guard of
 // a material's code (material_features(type), shaders/bsdf.glsl).

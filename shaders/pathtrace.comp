@@ -77,9 +77,9 @@ const float PI = 3.14159265358979;
 // Provisional estimator (foundation issue): emission seen directly plus one
 // NEE bounce off a Lambertian stand-in for every material. The full docs/descriptor.md §1
 // estimator replaces it.
-vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d) {
+vec3 preview_radiance(inout Rng rng, vec3 o, vec3 d, vec2 t_range) {
     Hit h;
-    if (!trace_closest(o, d, 0.0, RAY_TMAX, h)) return vec3(0.0);
+    if (!trace_closest(o, d, t_range.x, t_range.y, h)) return vec3(0.0);
     SurfaceHit s = surface_hit(h.prim, h.bary);
 #ifdef KERNEL_GPU
     surface_to_world(s, h.inst);
@@ -207,7 +207,9 @@ void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_be
 // normalmap). With uv_handed (glTF), b is turned against dp/dv where the uv layout
 // is mirrored: MikkTSpace's bitangent sign, which glTF's stored tangents carry in
 // w, taken per triangle (+y of the map is -v, glTF's uv origin being the image's
-// top left). ns unchanged where the uvs give no tangent.
+// top left). Where the mesh has the file's tangents, surface_hit made dp/du the tangent
+// and dp/dv the bitangent's opposite, so t and b are the file's. ns unchanged where the
+// uvs give no tangent.
 vec3 normal_mapped(SurfaceHit s, uint slot, float scale, bool uv_handed) {
     vec3 t = s.dpdu - s.ns * dot(s.ns, s.dpdu);
     float tl = length(t);
@@ -278,8 +280,9 @@ void emission_seen(inout Tally tally, vec3 contrib, uint k, float p_light, PrevV
 // The docs/descriptor.md §1 estimator: unidirectional path tracing with NEE at every
 // non-delta vertex, BSDF-sampled emitter hits accepted only from the camera
 // or after a delta lobe (or MIS-weighted in the MIS modes), Russian roulette
-// from depth rr_depth, at most max_depth segments.
-void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
+// from depth rr_depth, at most max_depth segments. The camera ray is traced over t_range
+// (its clip planes, camera_ray), every later segment from its origin on.
+void path_sample(inout Rng rng, vec3 o, vec3 d, vec2 t_range, inout Tally tally) {
     uint max_depth = params.max_depth;
     uint rr_depth = params.rr_depth;
     vec3 throughput = vec3(1.0);
@@ -293,11 +296,12 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, inout Tally tally) {
         Hit h;
 #ifdef VKMECH_COUNTERS
         CLOCK_START(c_trace);
-        bool found = trace_closest(o, d, 0.0, RAY_TMAX, h);
+        bool found = trace_closest(o, d, t_range.x, t_range.y, h);
         CLOCK_ADD(k == 1u ? PHASE_PRIMARY : PHASE_BOUNCE, c_trace);
 #else
-        bool found = trace_closest(o, d, 0.0, RAY_TMAX, h);
+        bool found = trace_closest(o, d, t_range.x, t_range.y, h);
 #endif
+        t_range = vec2(0.0, RAY_TMAX);
         if (!found) {
             // ---- the segment escapes: the environment's emission ----
             if (FEATURE_ENVIRONMENT) {
@@ -543,7 +547,8 @@ void render_slot(uint slot) {
         vec2 lens = rng_next2(rng);
         vec2 film_uv = (vec2(full_px) + jitter) / vec2(full_size);
         vec3 o, d;
-        camera_ray(film_uv, lens, o, d);
+        vec2 t_range;
+        camera_ray(film_uv, lens, o, d, t_range);
         Tally t;
         t.L = vec3(0.0);
         for (uint b = 0u; b < BUCKET_COUNT; ++b) t.bucket[b] = vec3(0.0);
@@ -560,10 +565,10 @@ void render_slot(uint slot) {
         CLOCK_ADD(PHASE_CAMERA, c_camera);
         if (params.mode == MODE_PATH) {
             CLOCK_START(c_path);
-            path_sample(rng, o, d, t);
+            path_sample(rng, o, d, t_range, t);
             CLOCK_ADD(PHASE_PATH, c_path);
         } else {
-            t.L = preview_radiance(rng, o, d);
+            t.L = preview_radiance(rng, o, d, t_range);
         }
         float lum = luminance(t.L);
         // A sample that would overflow the batch sums is as non-finite as

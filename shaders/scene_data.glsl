@@ -230,6 +230,16 @@ SurfaceHit surface_hit(uint prim, vec2 bary) {
             s.dpdu = ((pb.xyz - pa.xyz) * d2.y - (pc.xyz - pa.xyz) * d1.y) / det;
             s.dpdv = ((pc.xyz - pa.xyz) * d1.x - (pb.xyz - pa.xyz) * d2.x) / det;
         }
+        if (FEATURE_TANGENTS && (tri.w & TRI_TANGENT_BIT) != 0u) {
+            // The file's tangents (glTF's TANGENT), interpolated, give the normal map its frame
+            // instead: dp/du along the tangent t, dp/dv against the bitangent w (ns x t) (glTF's v
+            // runs down the image), whose sign normal_mapped's uv_handed test reads back.
+            uint o = params.tangent_word_offset;
+            vec4 t = w0 * SCENE_FETCH_F(vertex_buf, tri.x + o) + bary.x * SCENE_FETCH_F(vertex_buf, tri.y + o) +
+                     bary.y * SCENE_FETCH_F(vertex_buf, tri.z + o);
+            s.dpdu = t.xyz;
+            s.dpdv = cross(s.ns, t.xyz) * (t.w < 0.0 ? 1.0 : -1.0);
+        }
     }
     s.material = tri.w & TRI_MATERIAL_MASK;
     s.emitter = (tri.w >> TRI_EMITTER_SHIFT) & TRI_EMITTER_MASK;

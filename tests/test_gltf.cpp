@@ -1,6 +1,9 @@
 // glTF 2.0 loading (docs/descriptor.md §8, glTF part). Every fixture is written here, by
 // hand: the JSON as text and the buffers byte by byte (base64 and the GLB
 // container too), so the tests are a reference independent of tinygltf.
+#include "gpu_fixture.hpp"
+#include "render/gpu_scene.hpp"
+#include "render_fixture.hpp"
 #include "scene/mesh_ops.hpp"
 #include "scene/scene.hpp"
 #include "temp_dir.hpp"
@@ -229,16 +232,20 @@ void expect_error(const std::string& path, const std::string& fragment, const Lo
 
 float srgb_to_linear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
 
-std::vector<unsigned char> png_2x2() {
-    // Top row: red, mid green; bottom row: blue, white.
-    const unsigned char px[] = {255, 0, 0, 0, 128, 0, 0, 0, 255, 255, 255, 255};
+// A w x h RGB PNG of the 8-bit texels px (row-major, top row first).
+std::vector<unsigned char> png_rgb(int w, int h, const std::vector<unsigned char>& px) {
     std::vector<unsigned char> out;
     auto sink = [](void* ctx, void* data, int size) {
         auto* v = static_cast<std::vector<unsigned char>*>(ctx);
         v->insert(v->end(), static_cast<unsigned char*>(data), static_cast<unsigned char*>(data) + size);
     };
-    REQUIRE(stbi_write_png_to_func(sink, &out, 2, 2, 3, px, 6) != 0);
+    REQUIRE(stbi_write_png_to_func(sink, &out, w, h, 3, px.data(), 3 * w) != 0);
     return out;
+}
+
+std::vector<unsigned char> png_2x2() {
+    // Top row: red, mid green; bottom row: blue, white.
+    return png_rgb(2, 2, {255, 0, 0, 0, 128, 0, 0, 0, 255, 255, 255, 255});
 }
 
 // A quad with TEXCOORD_0 from (0, 0) to (1, 1), its material made of `material` (JSON), whose
@@ -987,4 +994,179 @@ TEST_CASE("gltf: hostile files are SceneErrors naming the file - never a crash")
 
 TEST_CASE("gltf: load_scene names the three formats for an unknown extension") {
     CHECK_THROWS_WITH_AS(load_scene("scene.fbx"), doctest::Contains(".xml (Mitsuba), .gltf or .glb"), SceneError);
+}
+
+// ---- TANGENT (glTF 2.0 §3.7.2.1): the normal map's frame from the file ----
+
+namespace {
+
+// One texel, (r, g, b) in 0..255, as a PNG.
+std::vector<unsigned char> png_1x1(const glm::ivec3& rgb) {
+    return png_rgb(
+        1, 1,
+        {static_cast<unsigned char>(rgb.x), static_cast<unsigned char>(rgb.y), static_cast<unsigned char>(rgb.z)});
+}
+
+// The 2 x 2 quad at z = 0 facing -z (counter-clockwise seen from -z), NORMAL -z, its uvs not
+// mirrored seen from -z: u grows along world -x, v along -y (glTF's v runs down the image), so
+// MikkTSpace's tangent is -x with w = +1 (bitangent n x t = +y). Its material has the normal
+// map `texel` (1 x 1 PNG, linear); TANGENT as given (none when empty); `node` the node's
+// extra JSON (a transform). Returns the file.
+std::string normal_mapped_quad(const TempDir& dir, const std::string& name, const glm::ivec3& texel,
+                               const std::vector<glm::vec4>& tangents, bool normals = true,
+                               const std::string& node = "") {
+    Gltf g;
+    g.images.push_back("{\"uri\":\"data:image/png;base64," + base64(png_1x1(texel)) + "\"}");
+    g.textures.push_back("{\"source\":0}");
+    int mat = g.add(g.materials, "{\"normalTexture\":{\"index\":0}}");
+    std::string attrs = "\"POSITION\":" + std::to_string(g.vec3s({{1, 1, 0}, {1, -1, 0}, {-1, -1, 0}, {-1, 1, 0}}));
+    attrs += ",\"TEXCOORD_0\":" + std::to_string(g.vec2s({{0, 0}, {0, 1}, {1, 1}, {1, 0}}));
+    if (normals) attrs += ",\"NORMAL\":" + std::to_string(g.vec3s(std::vector<glm::vec3>(4, {0, 0, -1})));
+    if (!tangents.empty())
+        attrs += ",\"TANGENT\":" + std::to_string(g.accessor(g.view(tangents.data(), tangents.size() * 16), 5126,
+                                                             tangents.size(), "VEC4"));
+    int idx = g.indices({0, 1, 2, 0, 2, 3});
+    int mesh = g.add(g.meshes, "{\"primitives\":[{\"attributes\":{" + attrs + "},\"indices\":" + std::to_string(idx) +
+                                   ",\"material\":" + std::to_string(mat) + "}]}");
+    g.root("{\"mesh\":" + std::to_string(mesh) + node + "}");
+    return g.write_embedded(dir, name);
+}
+
+}  // namespace
+
+TEST_CASE("gltf: TANGENT is read where there are normals - moved by the node - mirrored handedness flips") {
+    TempDir dir("tangent");
+    const glm::ivec3 flat(128, 128, 255);
+    const std::vector<glm::vec4> t = {{0, 1, 0, 1}, {0, 1, 0, 1}, {0, 1, 0, -1}, {0, 0.5f, 0, 1}};
+    {
+        Scene s = load_scene(normal_mapped_quad(dir, "plain", flat, t));
+        REQUIRE(s.meshes.size() == 1);
+        REQUIRE(s.meshes[0].tangents.size() == 4);
+        CHECK(s.meshes[0].tangents[0] == glm::vec4(0, 1, 0, 1));
+        CHECK(s.meshes[0].tangents[2] == glm::vec4(0, 1, 0, -1));
+        CHECK(s.meshes[0].tangents[3] == glm::vec4(0, 1, 0, 1));  // normalised
+    }
+    {
+        // Turned 90 degrees about z: the tangent +y goes to -x. Mirrored in x: +y stays, the
+        // handedness turns (the bitangent w (n x t) must stay the mirror image of the old one).
+        Scene r =
+            load_scene(normal_mapped_quad(dir, "turned", flat, t, true, ",\"rotation\":[0,0,0.70710678,0.70710678]"));
+        REQUIRE(r.meshes[0].tangents.size() == 4);
+        CHECK(near(glm::vec3(r.meshes[0].tangents[0]), {-1, 0, 0}));
+        CHECK(r.meshes[0].tangents[0].w == 1.0f);
+        Scene m = load_scene(normal_mapped_quad(dir, "mirrored", flat, t, true, ",\"scale\":[-1,1,1]"));
+        REQUIRE(m.meshes[0].tangents.size() == 4);
+        CHECK(near(glm::vec3(m.meshes[0].tangents[0]), {0, 1, 0}));
+        CHECK(m.meshes[0].tangents[0].w == -1.0f);
+        CHECK(m.meshes[0].tangents[2].w == 1.0f);
+        // The mirrored frame is the mirror image: n' x t' times w' is the mirrored bitangent.
+        const glm::vec3 b_old = t[0].w * glm::cross(glm::vec3(0, 0, -1), glm::vec3(t[0]));
+        const glm::vec3 b_new =
+            m.meshes[0].tangents[0].w * glm::cross(m.meshes[0].normals[0], glm::vec3(m.meshes[0].tangents[0]));
+        CHECK(near(b_new, {-b_old.x, b_old.y, b_old.z}));
+    }
+    {
+        // Without NORMAL: flat normals and the tangents ignored (§3.7.2.1), with a warning.
+        Scene s = load_scene(normal_mapped_quad(dir, "no_normals", flat, t, false));
+        CHECK(s.meshes[0].tangents.empty());
+        CHECK(has_warning(s, "TANGENT but no NORMAL"));
+    }
+    {
+        // A count that disagrees with POSITION is an error; non-finite ones too.
+        std::vector<glm::vec4> three(t.begin(), t.begin() + 3);
+        expect_error(normal_mapped_quad(dir, "short", flat, three), "TANGENT has 3 elements");
+        std::vector<glm::vec4> nan = t;
+        nan[1].x = std::nanf("");
+        expect_error(normal_mapped_quad(dir, "nan", flat, nan), "non-finite TANGENT");
+    }
+}
+
+TEST_CASE("gltf: the file's tangents reach the device only for meshes with a normal map") {
+    TempDir dir("tangent_arrays");
+    const std::vector<glm::vec4> t(4, glm::vec4(0, 1, 0, 1));
+    Scene with = load_scene(normal_mapped_quad(dir, "with", {128, 128, 255}, t));
+    Scene without = load_scene(normal_mapped_quad(dir, "without", {128, 128, 255}, {}));
+    // A second, plain mesh before the tangent one: its vertices stay first.
+    for (Scene* s : {&with, &without}) {
+        Mesh plain = s->meshes[0];
+        plain.tangents.clear();
+        plain.material = -1;
+        s->meshes.insert(s->meshes.begin(), plain);
+    }
+    const SceneArrays a = flatten_scene(with), b = flatten_scene(without);
+    REQUIRE(a.tangents.size() == 4);
+    CHECK(a.tangent_vertex_base == 4);
+    CHECK(a.tangents[0] == glm::vec4(0, 1, 0, 1));
+    CHECK(a.vertices.size() == b.vertices.size());
+    CHECK(b.tangents.empty());
+    for (size_t i = 0; i < a.triangles.size(); ++i) {
+        CAPTURE(i);
+        const bool second = a.triangle_mesh[i] == 1;
+        CHECK(((a.triangles[i].w & gpu::TRI_TANGENT_BIT) != 0) == second);
+        CHECK((b.triangles[i].w & gpu::TRI_TANGENT_BIT) == 0);
+        for (int k = 0; k < 3; ++k)
+            if (second) CHECK(a.triangles[i][k] >= a.tangent_vertex_base);
+    }
+    // Without a normal map the file's tangents are not kept.
+    with.materials[with.meshes[1].material].normal_texture = -1;
+    CHECK(flatten_scene(with).tangents.empty());
+}
+
+TEST_SUITE("gpu") {
+    TEST_CASE("gltf: a normal map on the file's TANGENT turns with it - without TANGENT the uv frame") {
+        VKMECH_REQUIRE_GPU(ctx);
+        TempDir dir("tangent_render");
+        // The map's tangent-space normal, as the PNG holds it (8 bits, linear: c / 255 x 2 - 1).
+        const glm::ivec3 texel(166, 179, 238);
+        const glm::vec3 n = glm::vec3(texel) / 255.0f * 2.0f - 1.0f;
+        // The quad seen from z = -3 along +z, diffuse 0.5, lit by one directional light of
+        // irradiance 2 and nothing else: a pixel is 0.5 / pi x 2 x cos(mapped normal, light).
+        const glm::vec3 light = glm::normalize(glm::vec3(0.5f, -0.3f, 0.8f));
+        auto render = [&](const std::string& name, const std::vector<glm::vec4>& tangents) {
+            Scene s = load_scene(normal_mapped_quad(dir, name, texel, tangents));
+            REQUIRE(s.materials.size() == 1);
+            Material& m = s.materials[0];
+            REQUIRE(m.normal_texture >= 0);
+            m.type = BsdfType::Diffuse;
+            m.reflectance = Spectrum3{glm::vec3(0.5f)};
+            s.camera = Camera{};
+            s.camera.to_world[3] = glm::vec4(0, 0, -3, 1);
+            s.camera.fov_deg = 30.0f;
+            s.camera.width = s.camera.height = 8;
+            s.directional_lights.push_back({light, glm::vec3(2.0f)});
+            testing::RenderSetup setup;
+            setup.res = 8;
+            setup.spp = 4;
+            return testing::render_scene(*ctx, s, setup);
+        };
+        // glTF 2.0: the normal is t n.x + b n.y + n n.z with b = w (n x t), t the file's tangent
+        // (made orthogonal to n); without TANGENT MikkTSpace's, here t = -x, w = +1.
+        const glm::vec3 ng(0, 0, -1);
+        auto expected = [&](const glm::vec3& t, float w) {
+            const glm::vec3 b = w * glm::cross(ng, t);
+            const glm::vec3 mapped = glm::normalize(t * n.x + b * n.y + ng * n.z);
+            return 0.5 * 2.0 * glm::dot(mapped, -light) / 3.14159265358979;
+        };
+        const double uv_frame = expected({-1, 0, 0}, 1.0f);
+        struct Case {
+            const char* what;
+            std::vector<glm::vec4> tangents;
+            double value;
+        };
+        const std::vector<Case> cases = {
+            {"no TANGENT", {}, uv_frame},
+            {"TANGENT equal to the uv frame's", std::vector<glm::vec4>(4, {-1, 0, 0, 1}), uv_frame},
+            {"TANGENT turned 90 degrees", std::vector<glm::vec4>(4, {0, 1, 0, 1}), expected({0, 1, 0}, 1.0f)},
+            {"TANGENT with handedness -1", std::vector<glm::vec4>(4, {-1, 0, 0, -1}), expected({-1, 0, 0}, -1.0f)},
+            {"TANGENT off the plane (made orthogonal to n)", std::vector<glm::vec4>(4, {0, 0.8f, 0.6f, 1}),
+             expected({0, 1, 0}, 1.0f)}};
+        CHECK(std::abs(cases[2].value - uv_frame) > 0.05);  // each differs visibly from the uv frame
+        CHECK(std::abs(cases[3].value - uv_frame) > 0.05);
+        for (const Case& c : cases) {
+            const std::string what = c.what;
+            CAPTURE(what);
+            Frame f = render(std::string("q") + std::to_string(&c - cases.data()), c.tangents);
+            for (const PixelStats& p : f.pixels) CHECK(p.lum_mean == doctest::Approx(c.value).epsilon(1e-4));
+        }
+    }
 }

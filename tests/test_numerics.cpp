@@ -24,8 +24,8 @@ namespace {
 
 std::string test_scene(const std::string& name) { return std::string(VKMECH_TEST_DATA) + "/render/" + name + ".xml"; }
 
-// Every shape and the camera position scaled by k about the origin; the
-// radiance stays.
+// Every shape and the camera position scaled by k about the origin, and with them the
+// camera's clip planes (world distances); the radiance stays.
 Scene scaled(Scene s, float k) {
     for (auto& m : s.meshes) {
         for (auto& p : m.positions) p *= k;
@@ -33,6 +33,8 @@ Scene scaled(Scene s, float k) {
         m.radius *= k;
     }
     s.camera.to_world[3] = glm::vec4(glm::vec3(s.camera.to_world[3]) * k, 1.0f);
+    s.camera.near_clip *= k;
+    s.camera.far_clip *= k;
     return s;
 }
 

@@ -48,6 +48,7 @@ VKM_ID SPEC_ENVIRONMENT = 13u;          // features.glsl: emitters at infinity
 VKM_ID SPEC_SHARED_TALLY = 14u;         // pathtrace.comp, GPU kernel only: the bucket tally in shared memory
 VKM_ID SPEC_INSTANCES = 15u;            // trace_bvh_gpu.glsl: the scene has instances (a two-level tree)
 VKM_ID SPEC_WINDOW = 16u;               // pathtrace.comp: the film is a window of the full film (--pixel-bounds)
+VKM_ID SPEC_TANGENTS = 17u;             // features.glsl: meshes with the file's tangents (glTF TANGENT)
 
 #ifdef __cplusplus
 }  // namespace vkmech::gpu

@@ -64,11 +64,15 @@ VKM_REAL LUM_G = 0.7152;
 VKM_REAL LUM_B = 0.0722;
 
 // Triangle word w: bits 0..15 material, 16..29 emitter + 1 (0: none),
-// bit 30: flat shading (use the geometric normal).
+// bit 30: flat shading (use the geometric normal), bit 31: the vertices have the file's
+// tangents (glTF's TANGENT, for the normal map): vertex i's is the vec4 at word
+// i + GpuParams::tangent_word_offset of the vertex array, after every GpuVertex
+// (host SceneArrays::tangents; xyz the tangent, w = +-1 the bitangent's sign).
 VKM_CONST TRI_MATERIAL_MASK = 0xFFFFu;
 VKM_CONST TRI_EMITTER_SHIFT = 16u;
 VKM_CONST TRI_EMITTER_MASK = 0x3FFFu;
 VKM_CONST TRI_FLAT_BIT = 0x40000000u;
+VKM_CONST TRI_TANGENT_BIT = 0x80000000u;
 
 // Render modes (GpuParams::mode).
 VKM_CONST MODE_DIRECT_PREVIEW = 0u;  // provisional: emission + one NEE bounce
@@ -116,7 +120,8 @@ struct GpuMaterial {
     vec4 model1;
     vec4 model2;
     // Textures read at each hit in textured scenes only: x: low 16 bits the normal map's slot
-    // (texture + 1, 0: none; tangent space, +x along dp/du, +y along n x dp/du), high 16 bits
+    // (texture + 1, 0: none; tangent space, +x along dp/du, +y along n x dp/du; on triangles
+    // with TRI_TANGENT_BIT dp/du is the file's tangent), high 16 bits
     // the bump map's (Mitsuba's bumpmap: a height texture); y: the bits of the one present's
     // scale (glTF normalTexture.scale: the map's x and y times it; bumpmap's scale: the
     // height's), z: the roughness
@@ -276,6 +281,13 @@ struct GpuParams {  // one batch's uniforms (std140): named 4-byte scalars, four
     uint window_y0;
     uint full_width;
     uint full_height;
+    // The camera's clip planes (Mitsuba's near_clip and far_clip, glTF's znear and zfar): camera
+    // depths along its +Z axis; a camera ray is traced over the part of it between them
+    // (shaders/camera.glsl).
+    float near_clip;
+    float far_clip;
+    uint tangent_word_offset;    // the file's tangent of vertex i: word i + this of the vertex array (TRI_TANGENT_BIT)
+    uint unused1;
 };
 
 // One recorded contribution event (the GPU debug mode): the inputs of the

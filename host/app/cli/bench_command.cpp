@@ -283,6 +283,7 @@ int bench_render_ablation(const BenchOptions& o, const std::vector<std::string>&
         VKM_MATERIAL_FEATURES(VKM_X)
 #undef VKM_X
         ablate("+textures", spec.textures, [](Features& f) { f.textures = true; });
+        ablate("+tangents", spec.tangents, [](Features& f) { f.tangents = true; });
         Features generic = Features::generic();
         generic.orthographic = spec.orthographic;
         row("generic", measure_paths_per_second(session, generic, o));

@@ -69,6 +69,8 @@ std::string scene_digest(const Scene& scene, const SceneArrays& arrays) {
     // The emitters at infinity (their texels are in `texels`); only where a scene has them, so
     // that the keys of scenes without them are what they were.
     if (arrays.has_infinite_lights()) d.pod(arrays.environment).vec(arrays.directional);
+    // Likewise the file's tangents (their meshes' vertices come last in `vertices`).
+    if (!arrays.tangents.empty()) d.vec(arrays.tangents).pod(arrays.tangent_vertex_base);
     const Camera& c = scene.camera;
     d.pod(static_cast<uint32_t>(c.type))
         .pod(c.to_world)

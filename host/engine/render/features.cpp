@@ -44,10 +44,12 @@ Features Features::from_scene(const Scene& scene, Estimator e, bool capture) {
     f.orthographic = scene.camera.type == CameraType::Orthographic;
     f.materials = 0u;
     f.textures = false;
+    f.tangents = false;
     for (const auto& m : scene.materials) {
         f.materials |= gpu::material_features(static_cast<uint32_t>(m.type));
         if (m.has_texture()) f.textures = true;
     }
+    for (const auto& m : scene.meshes) f.tangents = f.tangents || scene.uses_tangents(m);
     f.environment = scene.environment.kind != EnvironmentKind::None || !scene.directional_lights.empty();
     f.capture = capture;
     f.estimator = e;
@@ -65,6 +67,7 @@ std::string Features::describe() const {
     VKM_MATERIAL_FEATURES(VKM_X)
 #undef VKM_X
     add(textures, "textures");
+    add(tangents, "tangents");
     add(environment, "environment");
     add(capture, "capture");
     add(debug_events, "debug-events");

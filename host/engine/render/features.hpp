@@ -29,6 +29,9 @@ struct Features {
     // the features of the scene's materials (gpu::material_features of each).
     uint32_t materials = gpu::FEATURE_BITS_ALL;
     bool textures = true;
+    // Normal maps on the file's tangents (glTF TANGENT; SceneArrays::tangents): a mesh that keeps
+    // them. Only with textures.
+    bool tangents = true;
     bool environment = true;    // emitters at infinity (Scene::environment, Scene::directional_lights)
     bool capture = true;        // the mechanism descriptor
     bool debug_events = false;  // record one pixel's contribution events (tests)

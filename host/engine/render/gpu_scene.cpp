@@ -195,19 +195,36 @@ SceneArrays flatten_unlit(const Scene& scene, LightSelection selection) {
     if (scene.materials.size() > gpu::TRI_MATERIAL_MASK) throw SceneError(scene.source, 0, "too many materials");
     if (scene.emitters.size() >= gpu::TRI_EMITTER_MASK) throw SceneError(scene.source, 0, "too many emitters");
 
+    // The file's tangents are kept where a normal map reads them; those meshes' vertices go
+    // after every other's (SceneArrays::tangents), each mesh's contiguous.
+    auto keeps_tangents = [&](const Mesh& mesh) { return scene.uses_tangents(mesh); };
+    size_t vertex_count = 0, plain_count = 0;
+    for (const Mesh& mesh : scene.meshes) {
+        vertex_count += mesh.positions.size();
+        if (!keeps_tangents(mesh)) plain_count += mesh.positions.size();
+    }
+    if (vertex_count >= (size_t{1} << 30)) throw SceneError(scene.source, 0, "too many vertices");
+    a.vertices.resize(vertex_count);
+    a.tangents.resize(vertex_count - plain_count);
+    a.tangent_vertex_base = static_cast<uint32_t>(plain_count);
+    uint32_t next_plain = 0, next_tangent = a.tangent_vertex_base;
     // The ordinary meshes' triangles first, then each shape group's, a group's contiguous.
     auto add_mesh = [&](size_t mi) {
         const Mesh& mesh = scene.meshes[mi];
-        uint32_t base = static_cast<uint32_t>(a.vertices.size());
+        const bool tangents = keeps_tangents(mesh);
+        uint32_t& next = tangents ? next_tangent : next_plain;
+        const uint32_t base = next;
+        next += static_cast<uint32_t>(mesh.positions.size());
         bool flat = mesh.normals.empty();
         for (size_t v = 0; v < mesh.positions.size(); ++v) {
             glm::vec2 uv = mesh.uvs.empty() ? glm::vec2(0.0f) : mesh.uvs[v];
             glm::vec3 n = flat ? glm::vec3(0.0f) : mesh.normals[v];
-            a.vertices.push_back(gpu::GpuVertex{glm::vec4(mesh.positions[v], uv.x), glm::vec4(n, uv.y)});
+            a.vertices[base + v] = gpu::GpuVertex{glm::vec4(mesh.positions[v], uv.x), glm::vec4(n, uv.y)};
+            if (tangents) a.tangents[base - a.tangent_vertex_base + v] = mesh.tangents[v];
         }
         uint32_t material = mesh.material < 0 ? 0u : static_cast<uint32_t>(mesh.material);
         uint32_t w = material | (static_cast<uint32_t>(mesh.emitter + 1) << gpu::TRI_EMITTER_SHIFT) |
-                     (flat ? gpu::TRI_FLAT_BIT : 0u);
+                     (flat ? gpu::TRI_FLAT_BIT : 0u) | (tangents ? gpu::TRI_TANGENT_BIT : 0u);
         for (const auto& t : mesh.indices) {
             a.triangles.push_back(glm::uvec4(base + t.x, base + t.y, base + t.z, w));
             a.triangle_mesh.push_back(static_cast<uint32_t>(mi));
@@ -224,6 +241,8 @@ SceneArrays flatten_unlit(const Scene& scene, LightSelection selection) {
             if (scene.meshes[mi].group == static_cast<int>(g)) add_mesh(mi);
         a.group_triangles.push_back(glm::uvec2(first, static_cast<uint32_t>(a.triangles.size()) - first));
     }
+    VKM_ASSERT(next_plain == a.tangent_vertex_base && next_tangent == vertex_count,
+               "flatten_unlit: every mesh's vertices are placed once");
     for (const auto& inst : scene.instances) {
         if (a.group_triangles[static_cast<size_t>(inst.group)].y == 0) continue;  // an empty group: nothing to trace
         const glm::mat4 to_local = glm::inverse(inst.to_world);
@@ -663,7 +682,15 @@ GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal trave
     const bool gpu_kernel = kernel_ == vk::KernelClass::Gpu;
     const ::vk::BufferUsageFlags usage =
         gpu_kernel ? ::vk::BufferUsageFlags(BU::eStorageBuffer) : ::vk::BufferUsageFlags(BU::eUniformTexelBuffer);
-    vertices = vk::Buffer::from_vector(ctx, a.vertices, usage);
+    // The vertices, then the file's tangents where a mesh keeps them (SceneArrays::tangents).
+    std::vector<glm::vec4> vertex_words;
+    if (!a.tangents.empty()) {
+        vertex_words.resize(2 * a.vertices.size() + a.tangents.size());
+        std::memcpy(vertex_words.data(), a.vertices.data(), a.vertices.size() * sizeof(gpu::GpuVertex));
+        std::copy(a.tangents.begin(), a.tangents.end(), vertex_words.begin() + 2 * a.vertices.size());
+    }
+    vertices = a.tangents.empty() ? vk::Buffer::from_vector(ctx, a.vertices, usage)
+                                  : vk::Buffer::from_vector(ctx, vertex_words, usage);
     triangles = vk::Buffer::from_vector(ctx, a.triangles, usage);
     materials = vk::Buffer::from_vector(ctx, a.materials, usage);
     emitters = vk::Buffer::from_vector(ctx, a.emitters, usage);
@@ -694,7 +721,8 @@ GpuScene::GpuScene(const vk::Context& ctx, const SceneArrays& a, Traversal trave
             storage_.emplace_back(arrays[i].first, arrays[i].second->handle());
         }
     } else {
-        views_.emplace_back(gpu::BINDING_VERTICES, texel_view(ctx, vertices, texels_of(a.vertices), "vertices"));
+        views_.emplace_back(gpu::BINDING_VERTICES,
+                            texel_view(ctx, vertices, texels_of(a.vertices) + a.tangents.size(), "vertices"));
         views_.emplace_back(gpu::BINDING_TRIANGLES, texel_view(ctx, triangles, texels_of(a.triangles), "triangles"));
         views_.emplace_back(gpu::BINDING_MATERIALS, texel_view(ctx, materials, texels_of(a.materials), "materials"));
         views_.emplace_back(gpu::BINDING_LIGHT_TRIS,

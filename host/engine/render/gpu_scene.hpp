@@ -35,6 +35,13 @@ LightSelection parse_light_selection(const std::string& s);  // throws std::inva
 // BVH's (bvh.order[i]: the scene's triangle at position i).
 struct SceneArrays {
     std::vector<gpu::GpuVertex> vertices;
+    // The file's tangents (Mesh::tangents) of the meshes that have them and a normal map, whose
+    // vertices come last in `vertices`, from tangent_vertex_base: vertex i's tangent is
+    // tangents[i - tangent_vertex_base]. Uploaded after the vertices, in the same buffer (the
+    // shader reads vertex i's at word i + tangent_word_offset(), shared/types.h TRI_TANGENT_BIT).
+    std::vector<glm::vec4> tangents;
+    uint32_t tangent_vertex_base = 0;
+    uint32_t tangent_word_offset() const { return static_cast<uint32_t>(2 * vertices.size()) - tangent_vertex_base; }
     std::vector<glm::uvec4> triangles;    // i0, i1, i2, material|emitter|flat
     std::vector<uint32_t> triangle_mesh;  // mesh index of each triangle
     // 3 per triangle; w: a quad's fourth vertex (build_scene_bvh), else the first vertex again.

@@ -16,7 +16,8 @@ static_assert(sizeof(GpuInstance) == 112);
 static_assert(sizeof(GpuEnvironment) == ENV_WORDS * 16);
 static_assert(sizeof(GpuDirectional) == 32);
 static_assert(sizeof(GpuBvh4Node) == 48);  // 3 RGBA32 texels (shaders/trace_bvh.glsl)
-static_assert(sizeof(GpuParams) == 64 + 6 * 16);
+static_assert(sizeof(GpuParams) == 64 + 7 * 16);
+static_assert(offsetof(GpuParams, near_clip) == 160);
 static_assert(offsetof(GpuParams, window_x0) == 144);
 static_assert(sizeof(GpuDebugEvent) == 32);
 static_assert(offsetof(GpuParams, tan_half_fov_x) == 64);

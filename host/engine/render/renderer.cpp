@@ -47,7 +47,8 @@ std::vector<vk::SpecConstant> spec_constants(const Features& f, bool instanced) 
                                        {SPEC_ENVIRONMENT, f.environment},
                                        {SPEC_SHARED_TALLY, shared_tally_from_env()},
                                        {SPEC_INSTANCES, instanced},
-                                       {SPEC_WINDOW, f.window}};
+                                       {SPEC_WINDOW, f.window},
+                                       {SPEC_TANGENTS, f.tangents}};
 #define VKM_X(NAME, name, bit, spec_id) c.push_back({SPEC_##NAME, (f.materials & FEATURE_BIT_##NAME) != 0u});
     VKM_MATERIAL_FEATURES(VKM_X)
 #undef VKM_X
@@ -227,6 +228,8 @@ Frame Renderer::render(const RenderSpec& spec) {
     p.tan_half_fov_y = tans.y;
     p.aperture_radius = cam.type == CameraType::ThinLens ? cam.aperture_radius : 0.0f;
     p.focus_distance = cam.focus_distance;
+    p.near_clip = cam.near_clip;
+    p.far_clip = cam.far_clip;
     p.film_width = film_w;
     p.film_height = film_h;
     if (spec.window) {
@@ -240,6 +243,7 @@ Frame Renderer::render(const RenderSpec& spec) {
     p.rr_depth = scene_.integrator.rr_depth;
     p.mode = spec.mode;
     p.light_triangle_count = static_cast<uint32_t>(arrays_.light_triangles.size());
+    p.tangent_word_offset = arrays_.tangent_word_offset();
     p.debug_pixel = debug_pixel_;
     p.debug_capacity = debug_capacity_;
 

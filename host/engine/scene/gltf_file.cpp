@@ -323,7 +323,11 @@ GltfLoader::AccessorData GltfLoader::accessor(int index, int type, const std::st
 
 template <int N>
 std::vector<glm::vec<N, float>> GltfLoader::read_vec(int index, const std::string& what) const {
-    AccessorData d = accessor(index, N == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC2, what);
+    AccessorData d = accessor(index,
+                              N == 4   ? TINYGLTF_TYPE_VEC4
+                              : N == 3 ? TINYGLTF_TYPE_VEC3
+                                       : TINYGLTF_TYPE_VEC2,
+                              what);
     std::vector<glm::vec<N, float>> out(d.count, glm::vec<N, float>(0.0f));
     int cs = component_size(d.component_type);
     if (d.base)
@@ -338,6 +342,9 @@ std::vector<glm::vec3> GltfLoader::read_vec3(int index, const std::string& what)
 }
 std::vector<glm::vec2> GltfLoader::read_vec2(int index, const std::string& what) const {
     return read_vec<2>(index, what);
+}
+std::vector<glm::vec4> GltfLoader::read_vec4(int index, const std::string& what) const {
+    return read_vec<4>(index, what);
 }
 
 std::vector<uint32_t> GltfLoader::read_indices(int index, const std::string& what) const {

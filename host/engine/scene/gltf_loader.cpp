@@ -199,6 +199,23 @@ void GltfLoader::add_primitive(int n, int mi, int pi, const glm::dmat4& world) {
             fail(label + ": TEXCOORD_0 has " + std::to_string(m.uvs.size()) + " elements, POSITION " +
                  std::to_string(nv));
     }
+    if (int a = attr("TANGENT"); a >= 0) {
+        // glTF 2.0 §3.7.2.1: without normals, flat normals and the tangents ignored.
+        if (m.normals.empty()) {
+            warn(label + " has TANGENT but no NORMAL: its tangents are ignored (glTF 2.0 §3.7.2.1: flat normals)");
+        } else {
+            m.tangents = read_vec4(a, label + " TANGENT");
+            if (m.tangents.size() != nv)
+                fail(label + ": TANGENT has " + std::to_string(m.tangents.size()) + " elements, POSITION " +
+                     std::to_string(nv));
+            for (size_t i = 0; i < nv; ++i) {
+                glm::vec4& t = m.tangents[i];
+                if (!std::isfinite(t.x) || !std::isfinite(t.y) || !std::isfinite(t.z) || !std::isfinite(t.w))
+                    fail(label + ": vertex " + std::to_string(i) + " has a non-finite TANGENT");
+                t.w = t.w < 0.0f ? -1.0f : 1.0f;  // the handedness: a sign (exported as +-1)
+            }
+        }
+    }
     if (attr("COLOR_0") >= 0) warn_once("color0", "vertex colours (COLOR_0) are ignored");
     if (attr("JOINTS_0") >= 0 || attr("WEIGHTS_0") >= 0)
         warn_once("skins", "skins are ignored: skinned meshes are placed by their node transforms");

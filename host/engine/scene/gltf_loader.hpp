@@ -51,8 +51,9 @@ private:
     AccessorData accessor(int index, int type, const std::string& what) const;
     std::vector<glm::vec3> read_vec3(int index, const std::string& what) const;
     std::vector<glm::vec2> read_vec2(int index, const std::string& what) const;
+    std::vector<glm::vec4> read_vec4(int index, const std::string& what) const;
     template <int N>
-    std::vector<glm::vec<N, float>> read_vec(int index, const std::string& what) const;  // VEC2 or VEC3
+    std::vector<glm::vec<N, float>> read_vec(int index, const std::string& what) const;  // VEC2, VEC3 or VEC4
     std::vector<uint32_t> read_indices(int index, const std::string& what) const;
     // The bytes of buffer view `view`, checked against its buffer.
     std::pair<const unsigned char*, size_t> view_bytes(int view, const std::string& what) const;

@@ -34,13 +34,23 @@ void transform_mesh(Mesh& m, const glm::mat4& to_world, bool keep_facing) {
         float len = glm::length(t);
         n = len > 0.0f ? t / len : t;
     }
-    if (keep_facing && glm::determinant(glm::mat3(to_world)) < 0.0f)
+    // Tangents lie in the surface: they move with the linear part M. The bitangent w (n x t)
+    // must stay the image M b of the old one; since (M t) x (M b) = det(M) M^-T (t x b), with
+    // t x b = w n, a mirroring map (det < 0) turns w's sign.
+    const float det = glm::determinant(glm::mat3(to_world));
+    for (auto& t : m.tangents) {
+        glm::vec3 v = glm::mat3(to_world) * glm::vec3(t);
+        float len = glm::length(v);
+        t = glm::vec4(len > 0.0f ? v / len : v, det < 0.0f ? -t.w : t.w);
+    }
+    if (keep_facing && det < 0.0f)
         for (auto& t : m.indices) std::swap(t.y, t.z);
 }
 
 void flip_orientation(Mesh& m) {
     for (auto& t : m.indices) std::swap(t.y, t.z);
     for (auto& n : m.normals) n = -n;
+    for (auto& t : m.tangents) t.w = -t.w;  // the bitangent w (n x t) stays where it was
 }
 
 namespace {
@@ -127,11 +137,16 @@ bool finite(const glm::vec2& v) { return std::isfinite(v.x) && std::isfinite(v.y
 void check_mesh(const Mesh& m, const std::string& file) {
     check_attribute_count(m, m.normals.size(), "normals", file);
     check_attribute_count(m, m.uvs.size(), "uvs", file);
+    check_attribute_count(m, m.tangents.size(), "tangents", file);
     auto fail = [&](const std::string& what) { throw SceneError(file, 0, "mesh '" + m.name + "': " + what); };
     for (size_t i = 0; i < m.positions.size(); ++i)
         if (!finite(m.positions[i])) fail("vertex " + std::to_string(i) + " has a non-finite position");
     for (size_t i = 0; i < m.uvs.size(); ++i)
         if (!finite(m.uvs[i])) fail("vertex " + std::to_string(i) + " has a non-finite texture coordinate");
+    if (!m.tangents.empty() && m.normals.empty()) fail("it has tangents but no normals");
+    for (size_t i = 0; i < m.tangents.size(); ++i)
+        if (!finite(glm::vec3(m.tangents[i])) || std::abs(m.tangents[i].w) != 1.0f)
+            fail("vertex " + std::to_string(i) + " has a non-finite tangent or a handedness other than +-1");
     for (size_t t = 0; t < m.indices.size(); ++t)
         for (int k = 0; k < 3; ++k)
             if (m.indices[t][k] >= m.positions.size())

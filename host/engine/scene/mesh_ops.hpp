@@ -21,7 +21,8 @@ bool is_similarity(const glm::mat4& m, float rel_tol = 1e-4f);
 // Unnormalised geometric normal cross(p1 - p0, p2 - p0) of triangle t.
 glm::vec3 triangle_cross(const Mesh& m, const glm::uvec3& t);
 
-// Positions by the matrix, normals by its inverse transpose (renormalised).
+// Positions by the matrix, normals by its inverse transpose (renormalised), tangents by the
+// matrix (renormalised; a mirroring matrix turns their handedness w).
 // With `keep_facing`, a mirroring transform (det < 0) also reverses the
 // winding, so the geometric normal keeps agreeing with the transformed
 // normal field (analytic primitives and meshes with normals); without it
@@ -29,7 +30,7 @@ glm::vec3 triangle_cross(const Mesh& m, const glm::uvec3& t);
 // from the world-space winding).
 void transform_mesh(Mesh& m, const glm::mat4& to_world, bool keep_facing);
 
-// Reverses every triangle's winding and negates the normals.
+// Reverses every triangle's winding, negates the normals and the tangents' handedness.
 void flip_orientation(Mesh& m);
 
 // Angle-weighted vertex normals from the winding (Mitsuba recomputes these
@@ -46,8 +47,8 @@ size_t remove_degenerate_triangles(Mesh& m);
 double surface_area(const Mesh& m);
 
 // The Mesh invariant every loader must deliver and flatten_scene relies on:
-// normals and uvs empty or one per position, indices below the position
-// count, positions and uvs finite. Throws SceneError(file, 0, ...) naming
+// normals, uvs and tangents empty or one per position (tangents only with normals), indices
+// below the position count, positions, uvs and tangents finite, handedness +-1. Throws SceneError(file, 0, ...) naming
 // the mesh otherwise.
 void check_mesh(const Mesh& m, const std::string& file);
 

@@ -189,6 +189,11 @@ struct Mesh {
     std::vector<glm::vec3> normals;    // world space shading normals; empty = flat
     std::vector<glm::vec2> uvs;        // empty = none; Mitsuba's convention: v = 0 is a bitmap's top row
                                        // (OBJ's v is flipped on load, as Mitsuba does)
+    // Per-vertex tangents (glTF's TANGENT): xyz the world-space tangent, along which the normal
+    // map's +x lies; w = +1 or -1, the bitangent being w (n x t) (glTF 2.0 §3.7.2.1), read with
+    // a normal_uv_handed material (glTF's; otherwise b = n x t). Only with normals. Empty: the
+    // normal map's frame comes from the uvs.
+    std::vector<glm::vec4> tangents;
     std::vector<glm::uvec3> indices;
     int material = -1;  // index into Scene::materials
     int emitter = -1;   // index into Scene::emitters, or -1
@@ -295,6 +300,12 @@ struct Scene {
 
     // The triangles stored: a shape group's once, however many instances it has.
     size_t triangle_count() const;
+    // Whether mesh m's own tangents (Mesh::tangents) are read: it has them and its material a
+    // normal map; otherwise the renderer keeps none of them.
+    bool uses_tangents(const Mesh& m) const {
+        return !m.tangents.empty() && m.material >= 0 && static_cast<size_t>(m.material) < materials.size() &&
+               materials[static_cast<size_t>(m.material)].normal_texture >= 0;
+    }
     // The triangles the camera sees: each group's as many times as it is instanced.
     size_t instanced_triangle_count() const;
     // Every mesh keeps the Mesh invariant (check_mesh, mesh_ops.hpp) and
