@@ -4,6 +4,7 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <random>
 #include <set>
 #include <sstream>
 #include <string>
@@ -12,6 +13,7 @@
 #include "mechanism.glsl"
 #include "render/descriptor.hpp"
 #include "render/lpe.hpp"
+#include "render/lpe_ast.hpp"
 
 using namespace vkmech::lpe;
 
@@ -590,4 +592,135 @@ TEST_CASE("lpe: taxonomies/paper-literal.lpe is the cascade under --end-vertex l
     CHECK(mismatches_any_length(t, false, pairs) > 0);
     // C [RT][DG] [RT]S at L and at B: 16 paths of at most 2 vertices.
     CHECK(mismatches_up_to(t, false, 2) == 16);
+}
+
+namespace {
+
+// An independent reference: the syntax tree matched directly against a path (the set of
+// positions each node can reach), labels matched by the slots' names, no automaton.
+struct PathEvent {
+    uint32_t kind;
+    int slot;  // -1: no slot
+};
+
+bool event_matches(const vkmech::lpe::detail::Node& n, const PathEvent& e, const std::vector<LabelSlot>& slots) {
+    const EventKind& k = kEventKinds[e.kind];
+    if (!((n.types >> uint32_t(k.type)) & 1u) || !((n.scatters >> uint32_t(k.scatter)) & 1u)) return false;
+    if (n.label.any) return true;
+    bool some = false;
+    for (const std::string& name : n.label.names)
+        if (e.slot >= 0)
+            for (const std::string& has : slots[e.slot].names) some = some || has == name;
+    return n.label.negated ? !some : some;
+}
+
+std::set<size_t> advance(const vkmech::lpe::detail::Node& n, const std::vector<PathEvent>& path,
+                         const std::set<size_t>& from, const std::vector<LabelSlot>& slots) {
+    using Op = vkmech::lpe::detail::Node::Op;
+    std::set<size_t> out;
+    switch (n.op) {
+        case Op::Event:
+            for (size_t p : from)
+                if (p < path.size() && event_matches(n, path[p], slots)) out.insert(p + 1);
+            return out;
+        case Op::Cat:
+            out = from;
+            for (const auto& c : n.children) out = advance(c, path, out, slots);
+            return out;
+        case Op::Alt:
+            for (const auto& c : n.children) {
+                std::set<size_t> one = advance(c, path, from, slots);
+                out.insert(one.begin(), one.end());
+            }
+            return out;
+        case Op::Repeat: {
+            std::set<size_t> cur = from;
+            for (int i = 0; i < n.min; ++i) cur = advance(n.children[0], path, cur, slots);
+            out = cur;
+            for (int i = n.min; n.max < 0 || i < n.max; ++i) {
+                cur = advance(n.children[0], path, cur, slots);
+                size_t before = out.size();
+                out.insert(cur.begin(), cur.end());
+                if (n.max < 0 && out.size() == before) break;
+            }
+            return out;
+        }
+    }
+    return out;
+}
+
+std::string random_expression(std::mt19937& rng, int depth) {
+    static const char* const kAtoms[] = {"C",        "R",           "T",     "L",           "B",
+                                         "D",        "G",           "S",     ".",           "'glass'",
+                                         "'chrome'", "'key'",       "<R D>", "<.S'glass'>", "<[RT][^S]>",
+                                         "[^S]",     "[^'chrome']", "[RT]",  "<L.'key'>",   "<..[^'glass' 'key']>"};
+    static const char* const kRepeats[] = {"*", "+", "?", "{1,2}", "{2}", "{0,1}", "{2,}"};
+    int pick = depth == 0 ? 0 : int(rng() % 6);
+    switch (pick) {
+        case 1:
+            return random_expression(rng, depth - 1) + " " + random_expression(rng, depth - 1);
+        case 2:
+            return "(" + random_expression(rng, depth - 1) + " | " + random_expression(rng, depth - 1) + ")";
+        case 3:
+            return "(" + random_expression(rng, depth - 1) + ")" + kRepeats[rng() % 7];
+        case 4:
+            return "[" + random_expression(rng, depth - 1) + " " + random_expression(rng, depth - 1) + "]";
+        default:
+            return kAtoms[rng() % 20];
+    }
+}
+
+}  // namespace
+
+TEST_CASE("lpe: the DFA classifies random paths as the syntax trees matched directly do, first match first") {
+    std::mt19937 rng(37);
+    const std::vector<LabelSlot> slots = scene_slots();
+    int taxonomies = 0, refused = 0, paths = 0, matched = 0;
+    for (int round = 0; round < 150; ++round) {
+        std::string text;
+        for (int line = 0; line < 3; ++line) {
+            std::string e = random_expression(rng, 3);
+            if (rng() % 2) e = "C " + e + " [LB]";
+            text += "c" + std::to_string(line) + " = " + e + "\n";
+        }
+        CAPTURE(text);
+        CompiledTaxonomy t;
+        try {
+            t = compile_taxonomy(parse_taxonomy(text, "random.lpe"), slots, CompileOptions{4096});
+        } catch (const LpeError& e) {
+            ++refused;  // over the state limit
+            CHECK(std::string(e.what()).find("over the limit") != std::string::npos);
+            continue;
+        }
+        ++taxonomies;
+        TaxonomySource source = parse_taxonomy(text, "random.lpe");
+        std::vector<vkmech::lpe::detail::Node> trees;
+        for (const TaxonomyLine& l : source.lines)
+            trees.push_back(
+                vkmech::lpe::detail::parse_expression(l.expression, "random.lpe", l.line, l.expression_column));
+        for (int k = 0; k < 200; ++k) {
+            // Half the paths have vkmech's shape, half are any events at all.
+            std::vector<PathEvent> path;
+            bool shaped = rng() % 2;
+            size_t n = rng() % 6;
+            if (shaped) path.push_back({kKindCamera, -1});
+            for (size_t i = 0; i < n; ++i)
+                path.push_back({shaped ? kKindRD + uint32_t(rng() % 6) : uint32_t(rng() % kKindCount),
+                                int(rng() % (slots.size() + 1)) - 1});
+            if (shaped) path.push_back({rng() % 2 ? kKindLight : kKindBackground, int(rng() % 3) + 2});
+            uint32_t expected = t.other_class;
+            for (uint32_t i = 0; i < trees.size() && expected == t.other_class; ++i)
+                if (advance(trees[i], path, {0}, slots).count(path.size())) expected = i;
+            std::vector<uint32_t> symbols;
+            for (const PathEvent& e : path)
+                symbols.push_back(t.symbol(e.kind, e.slot < 0 ? 0 : t.label_class_of_slot[size_t(e.slot)]));
+            ++paths;
+            matched += expected != t.other_class;
+            CHECK(t.classify(symbols) == expected);
+        }
+    }
+    MESSAGE(taxonomies << " random taxonomies, " << refused << " refused, " << paths << " paths, " << matched
+                       << " of them matched by a line");
+    CHECK(taxonomies > 100);
+    CHECK(matched > paths / 10);
 }
