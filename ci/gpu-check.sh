@@ -24,7 +24,8 @@
 # gpu-tests (the GPU suite alone), envmap (the validation scene lit by its sky map, then by
 # the paper's panel, each kernel), bench, main, pipeline-cache, study-quick,
 # cornell (the Cornell box of ci/scenes at 1024^2 x 64 spp, each kernel), profile, ablation, bisect,
-# paper (the paper preset of every study, as far as PAPER_BUDGET_S allows).
+# paper (the paper preset of every study, as far as PAPER_BUDGET_S allows), threshold (a
+# noise-threshold render and uniform sampling at its samples).
 # Results go to docs/gpu.md by hand, with the device, driver and date.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -188,6 +189,20 @@ run() {
             # Where the path tracer's time goes on this device, by the shader's clock.
             section "vkmech bench render --profile --counters --res 512 --spp 16 --batches 16"
             timed "bench render phases" "$vk" bench render --profile --counters --res 512 --spp 16 --batches 16
+        fi
+        if has threshold; then
+            # The noise threshold's rounds on a GPU (descriptor §6.8), and uniform sampling at the
+            # samples per pixel the threshold took, for their seconds side by side.
+            section "noise threshold: glass_caustic at 512 px, T 0.05, max 1024 spp"
+            rm -rf out/nt_glass
+            timed "noise threshold" "$vk" render --scene glass_caustic --res 512 --noise-threshold 0.05 \
+                --max-spp 1024 --out out/nt_glass
+            cp out/nt_glass/glass_caustic.json "$out/noise_threshold_glass_caustic.json" 2>/dev/null
+            local b
+            b=$(python3 -c 'import json,sys; d=json.load(open(sys.argv[1]))["noise_threshold"]; print(max(1, round(d["samples"] / d["pixels"])))' \
+                out/nt_glass/glass_caustic.json 2>/dev/null || echo 256)
+            section "uniform at the same samples: glass_caustic at 512 px, $b spp"
+            timed "uniform" "$vk" render --scene glass_caustic --res 512 --spp "$b" --batch 64 --out out/nt_uniform
         fi
         if has main; then
             section "main job: vkmech --scene ring_caustic --spp 64"

@@ -156,7 +156,8 @@ TEST_CASE("noise threshold: a round is fitted to the time left, the worst pixels
 }
 
 TEST_SUITE("gpu") {
-    TEST_CASE("noise threshold: every pixel ends below T or at max-spp, and the rounds are samples [0, n(p))") {
+    TEST_CASE(
+        "noise threshold: every pixel ends below T or at max-spp, and the rounds are samples 0 to n(p) of the seed") {
         VKMECH_REQUIRE_GPU(ctx);
         Renderer r = testing::project_scene_renderer(*ctx, "ring_caustic", 24);
         ThresholdSettings s;

@@ -10,6 +10,11 @@
 
 namespace vkmech {
 
+namespace {
+// A round's dispatches take up to this many samples per pixel when few pixels are left (RenderSpec::max_batch_spp).
+constexpr uint32_t kMaxRoundBatch = 256;
+}  // namespace
+
 ThresholdResult render_to_threshold(Renderer& renderer, const ThresholdSettings& s, const ThresholdCallbacks& cb) {
     const std::vector<uint32_t> ladder = alloc::sample_ladder(s.min_spp, s.max_spp);
     using clock = std::chrono::steady_clock;
@@ -22,6 +27,7 @@ ThresholdResult render_to_threshold(Renderer& renderer, const ThresholdSettings&
     auto render_part = [&](RenderSpec spec, uint32_t done_before, uint32_t round_total) {
         spec.seed = s.seed;
         spec.batch_spp = s.batch_spp;
+        spec.max_batch_spp = std::max(s.batch_spp, kMaxRoundBatch);  // late rounds: few pixels, many samples each
         spec.progress = [&, done_before, round_total](uint32_t d, uint32_t) {
             if (cb.progress) cb.progress(done_before + d, round_total);
         };

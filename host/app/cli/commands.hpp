@@ -65,6 +65,7 @@ struct RenderOptions {
     std::string sample_range;    // "A:B": samples [A, B) of the seed (render only; not with --adaptive)
     std::string pixel_bounds;    // "x0,x1,y0,y1": a window of the film (render only; not with --adaptive)
     bool spp_given = false;      // --spp was on the command line
+    bool batch_given = false;    // --batch was on the command line
     // render --noise-threshold T (docs/descriptor.md §6.8); 0: off.
     double noise_threshold = 0.0;
     uint32_t min_spp = 16, max_spp = 1024;

@@ -631,6 +631,9 @@ int cmd_render_threshold(const RenderOptions& o) {
     const Traversal trav = cr.trav;
     const Scene& scene = session.scene();
     ts.sample_budget = static_cast<uint64_t>(std::llround(o.spp_budget * scene.camera.width * scene.camera.height));
+    // Every batch is read back and merged on the host: on a GPU, 8 samples a dispatch leave the device idle
+    // (measured on an H100, docs/gpu.md), so the GPU kernel's default is 64.
+    if (!o.batch_given && session.gpu().kernel() == vk::KernelClass::Gpu) ts.batch_spp = 64;
     const Features& features = cr.features;
     Renderer& renderer = *cr.renderer;
     OutputSet* set = cr.set.get();
@@ -733,7 +736,9 @@ void register_render(CLI::App& app, CliCommands& commands) {
                        "x0,x1,y0,y1: render only the window [x0, x1) x [y0, y1) of the film (after --res), each pixel "
                        "exactly as in the whole film's render; vkmech merge puts the windows together");
     render->add_option("--seed", o->seed, "Random seed (docs/descriptor.md §4)");
-    render->add_option("--batch", o->batch_spp, "Samples per GPU dispatch")->check(CLI::Range(1u, 4096u));
+    render->add_option("--batch", o->batch_spp, "Samples per GPU dispatch")
+        ->check(CLI::Range(1u, 4096u))
+        ->each([o](const std::string&) { o->batch_given = true; });
     render->add_option("--out", o->out_dir, "Output directory (default: out/<scene>)");
     render
         ->add_option("--estimator", o->estimator,

@@ -20,28 +20,33 @@ double batch_lum_m2(const gpu::GpuPixelAccum& a) {
 }
 
 void Frame::merge(const std::vector<gpu::GpuPixelAccum>& batch) {
-    for (size_t i = 0; i < pixels.size(); ++i) {
-        const auto& a = batch[i];
-        PixelStats& p = pixels[i];
-        for (int c = 0; c < 3; ++c) p.rgb_sum[c] += a.rgb[c];
-        p.merge_moments(a.rgb.w, a.lum.x, batch_lum_m2(a));
-        p.nonfinite += a.lum.z;
-        double* rgb = bucket_rgb_sum.empty() ? nullptr : &bucket_rgb_sum[i * kBucketRgb];
-        for (uint32_t b = 0; b < gpu::BUCKET_COUNT; ++b) {
-            const double r = accum_bucket_rgb(a, b, 0), g = accum_bucket_rgb(a, b, 1), bl = accum_bucket_rgb(a, b, 2);
-            p.bucket_sum[b] += luminance(r, g, bl);
-            if (rgb) {
-                rgb[3 * b] += r;
-                rgb[3 * b + 1] += g;
-                rgb[3 * b + 2] += bl;
-            }
+    for (size_t i = 0; i < pixels.size(); ++i) merge_pixel(i, batch[i]);
+}
+
+void Frame::merge(const std::vector<gpu::GpuPixelAccum>& batch, const uint32_t* only, size_t count) {
+    for (size_t k = 0; k < count; ++k) merge_pixel(only[k], batch[only[k]]);
+}
+
+void Frame::merge_pixel(size_t i, const gpu::GpuPixelAccum& a) {
+    PixelStats& p = pixels[i];
+    for (int c = 0; c < 3; ++c) p.rgb_sum[c] += a.rgb[c];
+    p.merge_moments(a.rgb.w, a.lum.x, batch_lum_m2(a));
+    p.nonfinite += a.lum.z;
+    double* rgb = bucket_rgb_sum.empty() ? nullptr : &bucket_rgb_sum[i * kBucketRgb];
+    for (uint32_t b = 0; b < gpu::BUCKET_COUNT; ++b) {
+        const double r = accum_bucket_rgb(a, b, 0), g = accum_bucket_rgb(a, b, 1), bl = accum_bucket_rgb(a, b, 2);
+        p.bucket_sum[b] += luminance(r, g, bl);
+        if (rgb) {
+            rgb[3 * b] += r;
+            rgb[3 * b + 1] += g;
+            rgb[3 * b + 2] += bl;
         }
-        p.glossy_sum += a.side.x;
-        p.depth_weighted_sum += a.side.y;
-        p.depth_weight += a.side.z;
-        if (!direct_glossy_sum.empty())  // the variant's; 0 otherwise
-            direct_glossy_sum[i] += luminance(a.bucket_rgb[5].y, a.bucket_rgb[5].z, a.bucket_rgb[5].w);
     }
+    p.glossy_sum += a.side.x;
+    p.depth_weighted_sum += a.side.y;
+    p.depth_weight += a.side.z;
+    if (!direct_glossy_sum.empty())  // the variant's; 0 otherwise
+        direct_glossy_sum[i] += luminance(a.bucket_rgb[5].y, a.bucket_rgb[5].z, a.bucket_rgb[5].w);
 }
 
 void Frame::merge(const Frame& other) {

@@ -65,12 +65,17 @@ struct Frame {
     static constexpr size_t kBucketRgb = 3 * gpu::BUCKET_COUNT;
 
     void merge(const std::vector<gpu::GpuPixelAccum>& batch);
+    // The same for the `count` pixels listed in `only` (the others took no samples in the batch).
+    void merge(const std::vector<gpu::GpuPixelAccum>& batch, const uint32_t* only, size_t count);
     // Another render of the same film on disjoint samples (e.g. a chunk of a
     // reference): sums added, moments merged with Chan's update, samples and
     // seconds added. Throws std::invalid_argument when the films differ. The direct-glossy
     // sums and the buckets' RGB sums are each added when both frames have them and dropped otherwise.
     void merge(const Frame& other);
     std::vector<float> rgb_mean() const;  // 3 per pixel
+
+private:
+    void merge_pixel(size_t i, const gpu::GpuPixelAccum& a);
 };
 
 }  // namespace vkmech

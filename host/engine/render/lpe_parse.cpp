@@ -13,9 +13,9 @@ namespace {
 
 std::string format_error(const std::string& file, int line, int column, const std::string& reason) {
     std::string where = file;
-    if (line > 0) where += ":" + std::to_string(line);
-    if (line > 0 && column > 0) where += ":" + std::to_string(column);
-    return where + ": " + reason;
+    if (line > 0) where.append(":").append(std::to_string(line));
+    if (line > 0 && column > 0) where.append(":").append(std::to_string(column));
+    return where.append(": ").append(reason);
 }
 
 }  // namespace
@@ -92,7 +92,12 @@ private:
     void skip_space() {
         while (!at_end() && (peek() == ' ' || peek() == '\t')) ++pos_;
     }
-    std::string found() const { return at_end() ? "the end of the expression" : "'" + std::string(1, peek()) + "'"; }
+    std::string found() const {
+        if (at_end()) return "the end of the expression";
+        std::string quoted(3, '\'');
+        quoted[1] = peek();
+        return quoted;
+    }
     // The alternation's and the concatenation's ends: `)`, `]`, `|` (and `>` inside a group).
     bool at_sequence_end() {
         skip_space();

@@ -284,17 +284,22 @@ Frame Renderer::render(const RenderSpec& spec) {
     const uint32_t first = spec.first_sample;
     VKM_ASSERT(total_spp <= UINT32_MAX - first, "the sample range ends past 2^32");
     for (uint32_t done = first; done < first + total_spp;) {
-        uint32_t n = std::min(batch_spp, first + total_spp - done);
-        p.batch_samples = n;
-        p.first_sample = done;
         size_t active = pixels;
+        uint32_t dispatch_spp = batch_spp;
         if (!order.empty()) {  // the pixels with n(p) > done form a prefix of `order`
             active =
                 static_cast<size_t>(std::partition_point(order.begin(), order.end(),
                                                          [&](uint32_t q) { return spec.sample_counts[q] > done; }) -
                                     order.begin());
             p.active_pixels = static_cast<uint32_t>(active);
+            // Few pixels left: more samples per dispatch, about a whole film's batch of work each.
+            if (spec.max_batch_spp > batch_spp && active > 0)
+                dispatch_spp = static_cast<uint32_t>(std::clamp<uint64_t>(
+                    static_cast<uint64_t>(batch_spp) * pixels / active, batch_spp, spec.max_batch_spp));
         }
+        uint32_t n = std::min(dispatch_spp, first + total_spp - done);
+        p.batch_samples = n;
+        p.first_sample = done;
         using clk = std::chrono::steady_clock;
         auto t_phase = clk::now();
         auto lap = [&](double RenderProfile::*slot) {  // adds the time since the last lap to the profile's slot
@@ -346,9 +351,14 @@ Frame Renderer::render(const RenderSpec& spec) {
         }
         accum_.download(ctx_, batch.data(), batch.size() * sizeof(gpu::GpuPixelAccum));
         lap(&RenderProfile::readback);
-        // Pixels outside the active prefix were not written in this batch: they took no samples.
-        for (size_t i = active; i < order.size(); ++i) batch[order[i]] = gpu::GpuPixelAccum{};
-        frame.merge(batch);
+        if (order.empty()) {
+            frame.merge(batch);
+        } else {
+            // Pixels outside the active prefix were not written in this batch: they took no samples.
+            frame.merge(batch, order.data(), active);
+            if (spec.on_batch)
+                for (size_t i = active; i < order.size(); ++i) batch[order[i]] = gpu::GpuPixelAccum{};
+        }
         lap(&RenderProfile::accumulate);
         if (spec.on_batch) spec.on_batch(batch);
         if (spec.on_frame) spec.on_frame(frame);

@@ -59,6 +59,10 @@ struct RenderSpec {
     // its pixels' rays and random streams the full film's. Needs Features::window.
     std::optional<PixelBounds> window;
     uint32_t batch_spp = 8;  // samples per dispatch
+    // With per-pixel sample_counts: when only a share s of the film's pixels still takes samples, a
+    // dispatch takes up to batch_spp / s samples, at most this many (about a whole film's batch of
+    // work; 0 or at most batch_spp: batch_spp always). Fewer dispatches, each read back whole.
+    uint32_t max_batch_spp = 0;
     uint32_t mode = gpu::MODE_PATH;
     // Adaptive rendering (docs/descriptor.md §6): when non-empty (one entry per pixel), pixel p
     // takes exactly samples [first_sample, n(p)) of `seed` (none where n(p) <= first_sample) and

@@ -33,9 +33,7 @@ KernelClass parse_kernel_class(const std::string& s) {
     throw std::invalid_argument("kernel '" + s + "': expected auto, cpu or gpu");
 }
 
-struct Context::Messages {
-    std::atomic<uint32_t> count{0};
-};
+struct Context::Messages : MessageTally {};
 
 namespace {
 
@@ -116,8 +114,12 @@ VKAPI_ATTR VkBool32 VKAPI_CALL debug_callback(VkDebugUtilsMessageSeverityFlagBit
                                               VkDebugUtilsMessageTypeFlagsEXT,
                                               const VkDebugUtilsMessengerCallbackDataEXT* data, void* user) {
     if (severity >= VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT) {
-        auto* counter = static_cast<std::atomic<uint32_t>*>(user);
-        counter->fetch_add(1);
+        auto* tally = static_cast<MessageTally*>(user);
+        if (tally->expecting.load() > 0) {
+            std::fprintf(stderr, "vkmech: validation (expected, not counted): %s\n", data->pMessage);
+            return VK_FALSE;
+        }
+        tally->count.fetch_add(1);
         std::fprintf(stderr, "vkmech: validation: %s\n", data->pMessage);
     }
     return VK_FALSE;
@@ -179,7 +181,7 @@ Context::Context(const ContextOptions& options) : messages_(std::make_unique<Mes
                            ::vk::DebugUtilsMessageTypeFlagBitsEXT::eValidation |
                            ::vk::DebugUtilsMessageTypeFlagBitsEXT::ePerformance,
             .pfnUserCallback = debug_callback,
-            .pUserData = &messages_->count};
+            .pUserData = static_cast<MessageTally*>(messages_.get())};
         messenger_ = std::make_unique<::vk::raii::DebugUtilsMessengerEXT>(*instance_, mci);
     }
 
@@ -290,7 +292,7 @@ Context::Context(const ContextOptions& options) : messages_(std::make_unique<Mes
     fence_ = std::make_unique<::vk::raii::Fence>(*device_, ::vk::FenceCreateInfo{});
     std::string cache_dir = options.pipeline_cache_dir.value_or(default_pipeline_cache_dir());
     if (cache_dir == "off") cache_dir.clear();
-    pipeline_cache_ = std::make_unique<PipelineCache>(*device_, *physical_, cache_dir);
+    pipeline_cache_ = std::make_unique<PipelineCache>(*device_, *physical_, cache_dir, messages_.get());
 }
 
 ::vk::raii::Pipeline Context::create_compute_pipeline(const ::vk::ComputePipelineCreateInfo& info) const {

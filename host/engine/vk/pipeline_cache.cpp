@@ -82,8 +82,8 @@ std::string pipeline_cache_outcome(const PipelineStats& s, bool cache_enabled) {
 }
 
 PipelineCache::PipelineCache(const ::vk::raii::Device& device, const ::vk::raii::PhysicalDevice& physical,
-                             const std::string& dir)
-    : device_(&device) {
+                             const std::string& dir, MessageTally* messages)
+    : device_(&device), messages_(messages) {
     const auto props = physical.getProperties();
     id_.vendor_id = props.vendorID;
     id_.device_id = props.deviceID;
@@ -156,6 +156,9 @@ void PipelineCache::save() {
         if (file_valid_ && cache_->getData().size() <= saved_bytes_) return;
         // Keep what another run saved since we loaded (best effort).
         if (std::vector<uint8_t> disk = read_valid_file(/*quiet=*/true); !disk.empty()) {
+            // A driver may refuse another process's data (the NVIDIA driver did, under the GPU suite's
+            // parallel processes), and the validation layer then says so: expected, not counted.
+            if (messages_) messages_->expecting.fetch_add(1);
             try {
                 ::vk::raii::PipelineCache theirs(*device_, ::vk::PipelineCacheCreateInfo{.initialDataSize = disk.size(),
                                                                                          .pInitialData = disk.data()});
@@ -163,6 +166,7 @@ void PipelineCache::save() {
             } catch (const std::exception&) {
                 // Their file is not mergeable: ours replaces it.
             }
+            if (messages_) messages_->expecting.fetch_sub(1);
         }
         std::vector<uint8_t> data = cache_->getData();
         write_file_atomic(path_, std::string(data.begin(), data.end()));

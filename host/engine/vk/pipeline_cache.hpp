@@ -15,6 +15,7 @@
 #include <vulkan/vulkan_raii.hpp>
 
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -64,11 +65,20 @@ PipelineStats operator-(const PipelineStats& after, const PipelineStats& before)
 // (Mesa's in ~/.cache/mesa_shader_cache*), which this one does not see.
 std::string pipeline_cache_outcome(const PipelineStats& s, bool cache_enabled);
 
+// The validation messenger's tally (vk::Context). While `expecting` is above 0, a call runs that may
+// make the layer speak for a reason vkmech handles (the best-effort merge of a cache file another run
+// saved, which a driver may refuse): those messages are printed as expected and not counted.
+struct MessageTally {
+    std::atomic<uint32_t> count{0};
+    std::atomic<int> expecting{0};
+};
+
 class PipelineCache {
 public:
     // `dir` empty: no VkPipelineCache at all (`--pipeline-cache off`).
     // Otherwise loads <dir>/<file name> when it is valid for this device.
-    PipelineCache(const ::vk::raii::Device& device, const ::vk::raii::PhysicalDevice& physical, const std::string& dir);
+    PipelineCache(const ::vk::raii::Device& device, const ::vk::raii::PhysicalDevice& physical, const std::string& dir,
+                  MessageTally* messages = nullptr);
     ~PipelineCache();
     PipelineCache(const PipelineCache&) = delete;
     PipelineCache& operator=(const PipelineCache&) = delete;
@@ -98,6 +108,7 @@ private:
     void note(const std::string& what) const;
 
     const ::vk::raii::Device* device_ = nullptr;
+    MessageTally* messages_ = nullptr;  // the context's, or none
     PipelineCacheIdentity id_;
     std::unique_ptr<::vk::raii::PipelineCache> cache_;
     std::string path_;
