@@ -89,12 +89,12 @@ struct SyntheticSource final : AllocationSource {
         calls.push_back("reference " + v.name);
         return frame_of(w, h, stream(9), 0, 4096);
     }
-    SamplePool pool(const SceneVariant& v) override {
-        calls.push_back("pool " + v.name);
+    SamplePool pool(const SceneVariant& v, uint32_t index) override {
+        calls.push_back(downstream_seeds::pool_label(index) + " " + v.name);
         SamplePool pool;
         pool.frames = downstream_seeds::kPoolSize;
         pool.pixels = static_cast<size_t>(w) * h - pool_pixels_offset;
-        SampleFn s = stream(1);
+        SampleFn s = stream(index == 0 ? 1 : 500 + index);  // pools of disjoint streams
         for (uint32_t f = 0; f < pool.frames; ++f)
             for (size_t p = 0; p < pool.pixels; ++p) {
                 Sample x = s(p, f);
@@ -289,6 +289,85 @@ TEST_CASE(
     CHECK(names == std::vector<std::string>{"uniform", "observed-var", "bucket-floor", "guarded", "shrink"});
     CHECK(robust_names ==
           std::vector<std::string>{"uniform", "observed-var", "robust-var", "robust-floor", "robust-adaptive"});
+}
+
+TEST_CASE(
+    "allocation experiment: resampled pools - each asked for once - uniform's PSNR is each pool's and spreads - "
+    "pool 0 repeats the main table - firefly-robust companions beside") {
+    TempDir tmp("alloc_pools");
+    StudyConfig cfg = small_config();
+    cfg.alloc_pools = 3;
+    SyntheticSource src;
+    StudyOutput out(tmp.path.string());
+    NoFrames no_frames;
+    StudyContext ctx{cfg, no_frames, out, "no device", {}, &src};
+    run_allocation(ctx);
+    for (const char* pool : {"pool 1 synthetic", "pool 2 synthetic"})
+        CHECK(std::count(src.calls.begin(), src.calls.end(), pool) == 1);
+
+    // Uniform at N0 = 4: per pool, the mean of its first 33 frames against the reference, worked out here.
+    const SampleFn ref = SyntheticSource::stream(9);
+    std::vector<double> per_pool;
+    double peak = 0;
+    std::vector<double> r(48);
+    for (size_t p = 0; p < 16; ++p)
+        for (int c = 0; c < 3; ++c) {
+            double sum = 0;
+            for (uint32_t i = 0; i < 4096; ++i) {
+                const Sample x = ref(p, i);
+                sum += c == 0 ? x.r : c == 1 ? x.g : x.b;
+            }
+            r[3 * p + c] = sum / 4096;
+            peak = std::max(peak, r[3 * p + c]);
+        }
+    for (uint32_t j = 0; j < 3; ++j) {
+        const SampleFn pool = SyntheticSource::stream(j == 0 ? 1 : 500 + j);
+        double se = 0;
+        for (size_t p = 0; p < 16; ++p) {
+            double m[3] = {0, 0, 0};
+            for (uint32_t i = 0; i < 33; ++i) {
+                const Sample x = pool(p, i);
+                m[0] += float(x.r);
+                m[1] += float(x.g);
+                m[2] += float(x.b);
+            }
+            for (int c = 0; c < 3; ++c) se += (m[c] / 33 - r[3 * p + c]) * (m[c] / 33 - r[3 * p + c]) / 3;
+        }
+        per_pool.push_back(10 * std::log10(peak * peak / (se / 16)));
+    }
+    const double mean = (per_pool[0] + per_pool[1] + per_pool[2]) / 3;
+    double var = 0;
+    for (double v : per_pool) var += (v - mean) * (v - mean) / 2;
+    auto rows = read_csv(tmp.file("tables/alloc_pools.csv"));
+    REQUIRE(rows.size() == 3);  // header, N0 = 4, N0 = 16
+    CHECK(rows[1][0] == "synthetic");
+    CHECK(rows[1][1] == "4");
+    const std::string uni = rows[1][2];
+    const size_t pm = uni.find("\u00b1") != std::string::npos ? uni.find("\u00b1") : uni.find("\xc2\xb1");
+    REQUIRE(pm != std::string::npos);
+    CHECK(std::stod(uni.substr(0, pm)) == doctest::Approx(mean).epsilon(1e-6));
+    CHECK(std::stod(uni.substr(pm + 2)) == doctest::Approx(std::sqrt(var)).epsilon(1e-4));
+    CHECK(std::sqrt(var) > 0.0);  // one pool alone has no spread; three disjoint ones do
+    // Pool 0 and its draws are the main table's: every pool's uniform is a PSNR of its own, and the first is
+    // tab:downstream's.
+    auto main = read_csv(tmp.file("tables/downstream.csv"));
+    CHECK(std::stod(main[1][1]) == doctest::Approx(per_pool[0]).epsilon(1e-6));
+    // No heavy bucket: bucket-floor ties observed-var on every pool, by every measure.
+    CHECK(rows[1][6] == "tie");
+    auto ff = read_csv(tmp.file("tables/alloc_firefly.csv"));
+    REQUIRE(ff.size() == 3);
+    CHECK(ff[1][9] == "tie");
+    CHECK(ff[1][10] == "tie");
+    CHECK(ff[1][11] == "tie");
+    CHECK(std::stod(ff[1][3]) > 0.0);  // a median squared error, not the mean
+    // One pool: no pool tables.
+    TempDir tmp1("alloc_pools1");
+    cfg.alloc_pools = 1;
+    SyntheticSource src1;
+    StudyOutput out1(tmp1.path.string());
+    StudyContext ctx1{cfg, no_frames, out1, "no device", {}, &src1};
+    run_allocation(ctx1);
+    CHECK_FALSE(std::filesystem::exists(tmp1.file("tables/alloc_pools.csv")));
 }
 
 TEST_CASE("allocation experiment: a pool that does not match the reference's film is refused naming the scene") {

@@ -135,7 +135,9 @@ TEST_CASE("study: docs/descriptor.md §4 seed layouts are disjoint across famili
     for (int s = 0; s < cfg.sweep_seeds; ++s) all.insert(seeds::sweep(s));
     all.insert(seeds::mis_disjoint_reference());
     all.insert(seeds::nee_disjoint_reference());
-    CHECK(all.size() == stability.size() + variance.size() + cost.size() + 1 + cfg.sweep_seeds + 2);
+    for (int s = 0; s < cfg.variance_seeds; ++s) all.insert(seeds::sensitivity(s));
+    CHECK(all.size() ==
+          stability.size() + variance.size() + cost.size() + 1 + cfg.sweep_seeds + 2 + cfg.variance_seeds);
     // The reference is the top stability level and its seed is used by no lower level.
     auto plan = plan_renders(cfg, StudyKind::Stability);
     uint32_t ref_seed = seeds::stability(cfg.stability_spp.size() - 1);
@@ -221,7 +223,9 @@ TEST_SUITE("gpu") {
                               "perbucket_mse",
                               "downstream_all",
                               "alloc_time",
-                              "equal_time"}) {
+                              "equal_time",
+                              "alloc_pools",
+                              "alloc_firefly"}) {
             CAPTURE(t);
             CHECK(fs::file_size(out / "tables" / (std::string(t) + ".md")) > 0);
             CHECK(fs::file_size(out / "tables" / (std::string(t) + ".csv")) > 0);

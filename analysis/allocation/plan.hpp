@@ -12,6 +12,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace vkmech {
@@ -20,6 +21,17 @@ namespace vkmech {
 // the first n frames of the pool are samples [0, n) of the pool seed.
 namespace downstream_seeds {
 constexpr uint32_t kPool = 1000;
+// The allocation study's pools: pool 0 is seed kPool, pool j seed kPool + j (j < 1000).
+inline uint32_t pool(uint32_t index) { return kPool + index; }
+// "pool" for pool 0, "pool j" for the others: how messages name them.
+inline std::string pool_label(uint32_t index) {
+    std::string s("pool");
+    if (index) {
+        s += ' ';
+        s += std::to_string(index);
+    }
+    return s;
+}
 inline uint32_t pilot(uint32_t draw) { return 100000 + 1000 * draw; }
 inline uint32_t reference_chunk(uint32_t c) { return 900000 + c; }
 constexpr uint32_t kPoolSize = 256;

@@ -1,4 +1,5 @@
 #include "experiments/allocation.hpp"
+#include "experiments/allocation_data.hpp"
 
 #include "allocation/allocation.hpp"
 #include "render/descriptor.hpp"
@@ -21,77 +22,7 @@ using report::Table;
 namespace {
 
 using alloc::Strategy;
-
-double lum_of(double r, double g, double b) { return gpu::LUM_R * r + gpu::LUM_G * g + gpu::LUM_B * b; }
-
-// Per-scene data the evaluations share.
-struct SceneData {
-    size_t P = 0;
-    int w = 0, h = 0;
-    std::vector<double> ref_rgb, ref_lum;  // unclamped linear RGB (docs/descriptor.md §6)
-    std::vector<double> ref_rgb_clamped;   // clamped to [0, 1]: the display-range figures beside them
-    double peak = 1.0;                     // the reference's largest RGB value: the PSNR peak
-    std::vector<uint8_t> ref_labels;
-    SamplePool pool;
-    std::map<uint32_t, std::vector<Pilot>> pilots;                     // N0 -> draws
-    std::map<uint32_t, std::vector<alloc::PilotDiagnosis>> diagnoses;  // N0 -> the draws' diagnoses (§6.5)
-};
-
-// The strategy inputs of pilot draw k at N0 (the oracle and the reference labels, for the controls).
-alloc::ScoreInputs pilot_inputs(const SceneData& d, uint32_t n0, uint32_t k) {
-    const Pilot& pl = d.pilots.at(n0)[k];
-    alloc::ScoreInputs in;
-    in.pilot_var = &pl.var;
-    in.pilot_labels = &pl.labels;
-    in.oracle_var = &d.pool.oracle_var;
-    in.reference_labels = &d.ref_labels;
-    if (!pl.mom_var.empty()) in.mom_var = &pl.mom_var;
-    in.untrusted = &d.diagnoses.at(n0)[k].untrusted_map;
-    in.pilot_spp = n0;
-    return in;
-}
-
-// Errors of one final image against the reference. Primary: unclamped linear
-// RGB (MSE; relative MSE (x - r)^2 / (r^2 + 0.01); p99 of the absolute
-// luminance error; per-bucket MSE). Beside them, never instead: the MSE on
-// RGB clamped to [0, 1], which caps the heavy-tailed errors.
-struct Errors {
-    double mse = 0, rel_mse = 0, p99 = 0, mse_clamped = 0;
-    std::array<double, kBucketCount> bucket_mse{};
-};
-
-// The final image of an allocation: per pixel the mean of the first n(p) pool frames.
-Errors evaluate(const SceneData& d, const std::vector<uint32_t>& n) {
-    std::vector<double> lum(d.P);
-    double se = 0, rel = 0, se_clamped = 0;
-    std::array<double, kBucketCount> bse{}, bn{};
-    const std::vector<double> img = final_image_rgb(d.pool, n);
-    for (size_t p = 0; p < d.P; ++p) {
-        const double* v = &img[3 * p];
-        double e = 0;
-        for (int c = 0; c < 3; ++c) {
-            const double r = d.ref_rgb[3 * p + c];
-            const double diff = v[c] - r;
-            e += diff * diff / 3.0;
-            rel += diff * diff / (r * r + 1e-2) / 3.0;
-            const double dc = std::clamp(v[c], 0.0, 1.0) - d.ref_rgb_clamped[3 * p + c];
-            se_clamped += dc * dc / 3.0;
-        }
-        lum[p] = lum_of(v[0], v[1], v[2]);
-        se += e;
-        if (d.ref_labels[p] != kNoLabel) {
-            bse[d.ref_labels[p]] += e;
-            bn[d.ref_labels[p]] += 1;
-        }
-    }
-    Errors out;
-    out.mse = se / d.P;
-    out.rel_mse = rel / d.P;
-    out.mse_clamped = se_clamped / d.P;
-    out.p99 = alloc::p99_abs_error(lum, d.ref_lum);
-    for (uint32_t b = 0; b < kBucketCount; ++b) out.bucket_mse[b] = bn[b] > 0 ? bse[b] / bn[b] : NAN;
-    return out;
-}
+using namespace allocation_data;
 
 // Plot colours (Okabe-Ito), one per strategy that appears in a figure.
 const std::map<Strategy, std::string> kStrategyColors = {
@@ -123,7 +54,8 @@ std::vector<Strategy> allocation_equal_time_strategies(uint32_t n0) {
 }
 
 double allocation_paths_per_pixel(const StudyConfig& cfg) {
-    double per_pixel = cfg.alloc_ref_chunks * cfg.alloc_ref_chunk_spp + 256.0;
+    double per_pixel = cfg.alloc_ref_chunks * cfg.alloc_ref_chunk_spp +
+                       static_cast<double>(downstream_seeds::kPoolSize) * cfg.alloc_pools;
     for (uint32_t n0 : cfg.alloc_pilots)
         per_pixel += cfg.alloc_draws * n0 + allocation_timed_strategies(n0).size() * (1.0 + cfg.alloc_extra);
     if (cfg.equal_time && !cfg.alloc_pilots.empty()) {
@@ -159,44 +91,6 @@ uint32_t first_robust_pilot(const StudyConfig& cfg) {
     for (uint32_t n0 : cfg.alloc_pilots)
         if (alloc::mom_defined(static_cast<int>(n0))) return n0;
     return 0;
-}
-
-// Independent reference (docs/descriptor.md §4: chunks of seeds 900000 + c, merged), the pool, then K disjoint
-// pilot draws per N0 (median-of-means blocks where defined).
-SceneData load_scene_data(AllocationSource& source, const StudyConfig& cfg, const SceneVariant& scene) {
-    SceneData d;
-    const Frame ref = source.reference(scene);
-    d.w = ref.width;
-    d.h = ref.height;
-    d.P = static_cast<size_t>(d.w) * d.h;
-    // The mean over all samples taken (a non-finite one counts out, as in the final images).
-    d.ref_rgb = mean_rgb(ref);
-    d.ref_rgb_clamped.resize(3 * d.P);
-    d.ref_lum.resize(d.P);
-    for (size_t i = 0; i < 3 * d.P; ++i) d.ref_rgb_clamped[i] = std::clamp(d.ref_rgb[i], 0.0, 1.0);
-    for (size_t p = 0; p < d.P; ++p)
-        d.ref_lum[p] = lum_of(d.ref_rgb[3 * p], d.ref_rgb[3 * p + 1], d.ref_rgb[3 * p + 2]);
-    d.peak = psnr_peak(d.ref_rgb);
-    d.ref_labels = derive_descriptor(ref).dominant;
-
-    d.pool = source.pool(scene);
-    if (d.pool.pixels != d.P || d.pool.frames < downstream_seeds::kPoolSize)
-        throw std::runtime_error("allocation study: the pool of " + scene.name + " has " +
-                                 std::to_string(d.pool.frames) + " frames of " + std::to_string(d.pool.pixels) +
-                                 " pixels; the reference has " + std::to_string(d.P) + " pixels and " +
-                                 std::to_string(downstream_seeds::kPoolSize) + " frames are needed");
-    const uint32_t K = static_cast<uint32_t>(cfg.alloc_draws);
-    for (uint32_t n0 : cfg.alloc_pilots)
-        for (uint32_t k = 0; k < K; ++k) {
-            Pilot p = source.pilot(scene, n0, k);
-            if (p.var.size() != d.P)
-                throw std::runtime_error("allocation study: pilot " + std::to_string(k) + " of " + scene.name +
-                                         " has " + std::to_string(p.var.size()) + " pixels, not " +
-                                         std::to_string(d.P));
-            d.diagnoses[n0].push_back(alloc::diagnose_pilot(p));
-            d.pilots[n0].push_back(std::move(p));
-        }
-    return d;
 }
 
 using ErrorsByKey = std::map<Key, std::vector<Errors>>;
@@ -1001,6 +895,7 @@ void write_allocation(StudyOutput& out, const StudyConfig& cfg, const std::strin
 void run_allocation(StudyContext& ctx) {
     if (!ctx.allocation) throw std::logic_error("allocation study: no allocation source in the study context");
     write_allocation(ctx.out, ctx.cfg, ctx.device, compute_allocation(ctx.cfg, *ctx.allocation));
+    run_allocation_pools(ctx);
 }
 
 }  // namespace vkmech

@@ -23,8 +23,10 @@ public:
     // The independent reference of a scene variant (docs/descriptor.md §4: chunks
     // of seeds 900000 + c, merged) at the study's allocation resolution.
     virtual Frame reference(const SceneVariant& v) = 0;
-    // The shared pool (seed 1000, cfg frames) and its converged variance.
-    virtual SamplePool pool(const SceneVariant& v) = 0;
+    // Pool `index` (seed downstream_seeds::pool(index): 1000 + index, kPoolSize
+    // frames) and its converged variance. Pool 0 is the pool every table at
+    // equal samples draws from; the others resample it (cfg.alloc_pools).
+    virtual SamplePool pool(const SceneVariant& v, uint32_t index) = 0;
     // Pilot draw `draw` (seed 100000 + 1000 draw) of n0 samples; with the
     // median-of-means variance where it is defined for n0.
     virtual Pilot pilot(const SceneVariant& v, uint32_t n0, uint32_t draw) = 0;
@@ -41,6 +43,11 @@ public:
 // plain-variance ones, where median-of-means is defined the robust ones.
 std::vector<alloc::Strategy> allocation_timed_strategies(uint32_t n0);
 std::vector<alloc::Strategy> allocation_equal_time_strategies(uint32_t n0);
+
+// The allocation study's pool resampling (allocation_pools.cpp): the main
+// configurations scored on cfg.alloc_pools pools (nothing below two), with
+// firefly-robust companions. run_allocation calls it after its own tables.
+void run_allocation_pools(StudyContext& ctx);
 
 // Paths per pixel the allocation study traces for one scene (reference, pool,
 // pilots, timing renders), for the study's cost estimate.

@@ -33,21 +33,6 @@ std::vector<uint8_t> agreement_classes(const std::vector<uint8_t>& a, const std:
     return c;
 }
 
-// Binned-variance labels over the pixels labelled in both renders (others 255).
-std::vector<uint8_t> variance_bins(const std::vector<double>& var, const std::vector<uint8_t>& mask_a,
-                                   const std::vector<uint8_t>& mask_b, int bins) {
-    std::vector<double> vals;
-    for (size_t i = 0; i < var.size(); ++i)
-        if (mask_a[i] != kNoLabel && mask_b[i] != kNoLabel) vals.push_back(var[i]);
-    std::vector<uint8_t> out(var.size(), 255);
-    if (vals.empty()) return out;
-    auto edges = stats::quantile_edges(vals, bins);  // docs/descriptor.md §5: edges per SPP level
-    auto binned = stats::quantile_bin(vals, edges);
-    for (size_t i = 0, j = 0; i < var.size(); ++i)
-        if (mask_a[i] != kNoLabel && mask_b[i] != kNoLabel) out[i] = binned[j++];
-    return out;
-}
-
 // Nearest-neighbour enlargement so that small study films stay legible (about 256 px wide).
 std::vector<uint8_t> enlarge(const std::vector<uint8_t>& cls, int w, int h, int s) {
     std::vector<uint8_t> out(static_cast<size_t>(w) * s * h * s);

@@ -1,6 +1,9 @@
 #include "experiments/study_config.hpp"
 
 #include <algorithm>
+#include <array>
+#include <cstdio>
+#include <filesystem>
 #include <sstream>
 #include <stdexcept>
 
@@ -14,7 +17,8 @@ const std::vector<std::pair<StudyKind, const char*>> kStudyNames = {{StudyKind::
                                                                     {StudyKind::SweepRoughness, "sweep-roughness"},
                                                                     {StudyKind::SweepLights, "sweep-lights"},
                                                                     {StudyKind::Predictor, "predictor"},
-                                                                    {StudyKind::Allocation, "allocation"}};
+                                                                    {StudyKind::Allocation, "allocation"},
+                                                                    {StudyKind::Sensitivity, "sensitivity"}};
 
 std::string join(const std::vector<uint32_t>& v) {
     std::string s;
@@ -44,7 +48,8 @@ const char* to_string(StudyKind k) {
 std::vector<StudyKind> parse_study(const std::string& name) {
     if (name == "all") {
         std::vector<StudyKind> all;
-        for (const auto& [kind, n] : kStudyNames) all.push_back(kind);
+        for (const auto& [kind, n] : kStudyNames)
+            if (kind != StudyKind::Sensitivity) all.push_back(kind);
         return all;
     }
     for (const auto& [kind, n] : kStudyNames)
@@ -68,6 +73,7 @@ void StudyConfig::validate(bool needs_cost) const {
         throw std::invalid_argument("--seeds must be even and at least 4 (split-half uses two equal halves)");
     if (sweep_seeds < 4 || sweep_seeds % 2) throw std::invalid_argument("sweep seeds must be even and at least 4");
     if (res < 4 || res > 4096) throw std::invalid_argument("--res must be in [4, 4096]");
+    if (alloc_pools < 1 || alloc_pools > 100) throw std::invalid_argument("--pools must be in [1, 100]");
 }
 
 std::string StudyConfig::describe() const {
@@ -78,8 +84,8 @@ std::string StudyConfig::describe() const {
       << cost_tau << "); sweeps " << sweep_seeds << " seeds x " << sweep_spp << " SPP + a " << sweep_ref_spp
       << "-SPP reference per level; allocation at " << alloc_res << " px: pilots " << join(alloc_pilots) << " SPP x "
       << alloc_draws << " draws, extra budget " << alloc_extra << " SPP (sweep " << join(alloc_budget_sweep)
-      << "), floors " << join(alloc_floors) << ", reference " << alloc_ref_chunks * alloc_ref_chunk_spp << " SPP, pool "
-      << 256 << " frames";
+      << "), floors " << join(alloc_floors) << ", reference " << alloc_ref_chunks * alloc_ref_chunk_spp << " SPP, "
+      << alloc_pools << (alloc_pools == 1 ? " pool" : " pools") << " of 256 frames";
     return o.str();
 }
 
@@ -101,6 +107,7 @@ StudyConfig preset_config(const std::string& name) {
         c.alloc_res = 96;
         c.alloc_ref_chunks = 4;
         c.alloc_ref_chunk_spp = 512;
+        c.alloc_pools = 5;
         return c;
     }
     if (name == "paper") {
@@ -116,6 +123,7 @@ StudyConfig preset_config(const std::string& name) {
         c.alloc_res = 256;
         c.alloc_ref_chunks = 8;
         c.alloc_ref_chunk_spp = 512;
+        c.alloc_pools = 5;
         return c;
     }
     throw std::invalid_argument("unknown preset '" + name + "' (valid: quick, reduced, paper)");
@@ -129,6 +137,7 @@ uint32_t variance(size_t level, int s) { return 2000 + 100 * static_cast<uint32_
 uint32_t cost(size_t level) { return 3000 + static_cast<uint32_t>(level); }
 uint32_t sweep(int s) { return 4000 + static_cast<uint32_t>(s); }
 uint32_t sweep_reference() { return 4999; }
+uint32_t sensitivity(int s) { return 6000 + static_cast<uint32_t>(s); }
 }  // namespace seeds
 
 std::vector<SceneVariant> roughness_variants(const StudyConfig& cfg) {
@@ -144,6 +153,110 @@ std::vector<SceneVariant> light_variants(const StudyConfig& cfg) {
         v.push_back(
             {"sweep_lights lights=" + std::to_string(n), cfg.sweep_lights_scene, {{"lights", std::to_string(n)}}});
     return v;
+}
+
+namespace {
+
+std::string number_text(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", v);
+    return buf;
+}
+
+// An RGB radiance scaled by k, as a Mitsuba value list.
+std::string scaled_rgb(const std::array<double, 3>& rgb, double k) {
+    return number_text(rgb[0] * k) + ", " + number_text(rgb[1] * k) + ", " + number_text(rgb[2] * k);
+}
+
+// `name`: the variant's display suffix (its parameters in short).
+SensitivityLevel level_of(const SceneVariant& base, std::map<std::string, std::string> params, double x,
+                          const std::string& label, const std::string& name) {
+    SceneVariant v = base;
+    v.params = std::move(params);
+    v.name = base.name + " " + name;
+    return {v, Estimator::Nee, x, label};
+}
+
+// The light's half-width s at the power of the committed light (half-width s0,
+// radiance rgb): the radiance scales with (s0 / s)^2.
+SensitivityAxis light_size_axis(const SceneVariant& base, double s0, const std::array<double, 3>& rgb,
+                                const std::vector<double>& sizes) {
+    SensitivityAxis a{base.name, "light size at fixed power", "light half-width (m)", true, {}, 0};
+    for (double s : sizes) {
+        if (s == s0) {
+            a.base = a.levels.size();
+            a.levels.push_back({base, Estimator::Nee, s, number_text(s) + " (as committed)"});
+            continue;
+        }
+        const double k = (s0 / s) * (s0 / s);
+        a.levels.push_back(level_of(base, {{"light_size", number_text(s)}, {"light_radiance", scaled_rgb(rgb, k)}}, s,
+                                    number_text(s), "light_size=" + number_text(s) + " (fixed power)"));
+    }
+    return a;
+}
+
+// One parameter over values; `committed` is the scene's own value.
+SensitivityAxis param_axis(const SceneVariant& base, const std::string& name, const std::string& xlabel,
+                           const std::string& param, const std::vector<double>& values, double committed, bool logx) {
+    SensitivityAxis a{base.name, name, xlabel, logx, {}, 0};
+    for (double v : values) {
+        if (v == committed) {
+            a.base = a.levels.size();
+            a.levels.push_back({base, Estimator::Nee, v, number_text(v) + " (as committed)"});
+        } else {
+            a.levels.push_back(
+                level_of(base, {{param, number_text(v)}}, v, number_text(v), param + "=" + number_text(v)));
+        }
+    }
+    return a;
+}
+
+void glass_caustic_axes(const SceneVariant& base, std::vector<SensitivityAxis>& out) {
+    out.push_back(light_size_axis(base, 0.2, {40, 35, 27}, {0.025, 0.05, 0.1, 0.2, 0.4}));
+    out.push_back(param_axis(base, "sphere IOR", "int_ior", "ior", {1.1, 1.33, 1.5, 1.8, 2.4}, 1.5, false));
+    SensitivityAxis rough{base.name, "sphere roughness", "GGX alpha (0: smooth dielectric)", false, {}, 0};
+    rough.levels.push_back({base, Estimator::Nee, 0.0, "smooth (as committed)"});
+    for (double al : {0.01, 0.03, 0.1, 0.3})
+        rough.levels.push_back(level_of(base, {{"sphere", "rough_glass"}, {"alpha", number_text(al)}}, al,
+                                        number_text(al), "rough glass alpha=" + number_text(al)));
+    out.push_back(rough);
+    SensitivityAxis est{base.name, "estimator", "0 nee, 1 mis-restricted, 2 mis", false, {}, 0};
+    est.levels.push_back({base, Estimator::Nee, 0.0, "nee (as committed)"});
+    est.levels.push_back({base, Estimator::MisRestricted, 1.0, "mis-restricted"});
+    est.levels.push_back({base, Estimator::Mis, 2.0, "mis"});
+    out.push_back(est);
+}
+
+void cubes_dof_axes(const StudyConfig& cfg, const SceneVariant& base, std::vector<SensitivityAxis>& out) {
+    out.push_back(param_axis(base, "thin-lens aperture", "aperture radius (m)", "aperture",
+                             {0.0125, 0.025, 0.05, 0.1, 0.2}, 0.1, true));
+    SensitivityAxis film{base.name, "film width (pixel footprint)", "film width (px)", true, {}, 0};
+    for (int r : {cfg.res / 2, cfg.res, cfg.res * 2}) {
+        SceneVariant v = base;
+        if (r != cfg.res) {
+            v.res = r;
+            v.name = base.name + " res=" + std::to_string(r);
+        } else {
+            film.base = film.levels.size();
+        }
+        film.levels.push_back(
+            {v, Estimator::Nee, static_cast<double>(r), std::to_string(r) + (r == cfg.res ? " (the study's)" : "")});
+    }
+    out.push_back(film);
+    out.push_back(light_size_axis(base, 1.0, {10, 10, 10}, {0.25, 0.5, 1.0}));
+}
+
+}  // namespace
+
+std::vector<SensitivityAxis> sensitivity_axes(const StudyConfig& cfg) {
+    std::vector<SensitivityAxis> out;
+    for (const auto& sc : cfg.scenes) {
+        const std::string stem = std::filesystem::path(sc.path).stem().string();
+        if (!sc.params.empty() || sc.res != 0) continue;  // the axes vary the scene as committed
+        if (stem == "glass_caustic") glass_caustic_axes(sc, out);
+        if (stem == "cubes_dof") cubes_dof_axes(cfg, sc, out);
+    }
+    return out;
 }
 
 std::vector<RenderRequest> plan_renders(const StudyConfig& cfg, StudyKind kind) {
@@ -204,6 +317,16 @@ std::vector<RenderRequest> plan_renders(const StudyConfig& cfg, StudyKind kind) 
             break;
         case StudyKind::SweepLights:
             sweep(light_variants(cfg));
+            break;
+        case StudyKind::Sensitivity:
+            for (const auto& axis : sensitivity_axes(cfg))
+                for (const auto& lv : axis.levels) {
+                    out.push_back({lv.variant, cfg.pilot_spp(), seeds::stability(0), lv.estimator});
+                    out.push_back({lv.variant, cfg.stability_reference_spp(),
+                                   seeds::stability(cfg.stability_spp.size() - 1), lv.estimator});
+                    for (int s = 0; s < cfg.variance_seeds; ++s)
+                        out.push_back({lv.variant, cfg.pilot_spp(), seeds::sensitivity(s), lv.estimator});
+                }
             break;
         case StudyKind::Allocation:  // its pool, pilots and reference come from an AllocationSource
                                      // (experiments/allocation.hpp)

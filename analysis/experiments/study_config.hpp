@@ -18,8 +18,11 @@ struct SceneVariant {
     std::string name;  // display name: the file stem, plus "alpha=0.03" style suffixes
     std::string path;  // resolved scene file
     std::map<std::string, std::string> params;
-    bool operator<(const SceneVariant& o) const { return std::tie(path, params) < std::tie(o.path, o.params); }
-    bool operator==(const SceneVariant& o) const { return path == o.path && params == o.params; }
+    int res = 0;  // film width; 0: the study's
+    bool operator<(const SceneVariant& o) const {
+        return std::tie(path, params, res) < std::tie(o.path, o.params, o.res);
+    }
+    bool operator==(const SceneVariant& o) const { return path == o.path && params == o.params && res == o.res; }
 };
 
 // One render of the study: everything that determines it besides the code,
@@ -40,9 +43,20 @@ struct RenderRequest {
     }
 };
 
-enum class StudyKind { Stability, Variance, Cost, Structure, SweepRoughness, SweepLights, Predictor, Allocation };
+enum class StudyKind {
+    Stability,
+    Variance,
+    Cost,
+    Structure,
+    SweepRoughness,
+    SweepLights,
+    Predictor,
+    Allocation,
+    Sensitivity
+};
 const char* to_string(StudyKind k);
-// "all" expands to every kind; throws std::invalid_argument naming the valid ones.
+// "all" expands to the paper's analyses (every kind but Sensitivity, which goes
+// beyond the paper and runs by name); throws std::invalid_argument naming the valid ones.
 std::vector<StudyKind> parse_study(const std::string& name);
 
 struct StudyConfig {
@@ -84,6 +98,10 @@ struct StudyConfig {
     std::vector<int> alloc_mom_k{2, 3, 4, 6, 8};
     uint32_t alloc_ref_chunks = 2, alloc_ref_chunk_spp = 128;
     int alloc_res = 32;
+    // Pools (issue 36): the tables at equal samples draw every final image from
+    // pool 0; alloc_pools - 1 further pools of disjoint seeds resample it for
+    // the spread over pool x pilot draws (tab alloc_pools, alloc_firefly).
+    int alloc_pools = 2;
     bool equal_time = false;
     std::vector<uint32_t> equal_time_budgets{8, 16, 32, 64, 128};
 
@@ -113,7 +131,29 @@ uint32_t variance(size_t level, int seed_index);  // 2000 + 100 * level + s
 uint32_t cost(size_t level);                      // 3000 + level
 uint32_t sweep(int seed_index);                   // 4000 + s
 uint32_t sweep_reference();                       // 4999
+uint32_t sensitivity(int seed_index);             // 6000 + s
 }  // namespace seeds
+
+// The sensitivity study (docs/results/sensitivity): controlled one-at-a-time
+// variations of what makes a scene heavy-tailed. A level is a scene variant
+// and the estimator it is rendered with; every axis passes through the scene
+// as committed (its `base` level, the study's own scene variant).
+struct SensitivityLevel {
+    SceneVariant variant;
+    Estimator estimator = Estimator::Nee;
+    double x = 0.0;     // the level's value on the figure's axis
+    std::string label;  // the level's name in the table
+};
+struct SensitivityAxis {
+    std::string scene;  // the scene's display name
+    std::string name, xlabel;
+    bool logx = false;
+    std::vector<SensitivityLevel> levels;
+    size_t base = 0;  // index of the scene as committed
+};
+// The axes of every scene of cfg.scenes the study knows how to vary
+// (glass_caustic, cubes_dof); other scenes have none.
+std::vector<SensitivityAxis> sensitivity_axes(const StudyConfig& cfg);
 
 // The renders each study needs (stable order, may repeat across studies).
 std::vector<RenderRequest> plan_renders(const StudyConfig& cfg, StudyKind kind);

@@ -1,6 +1,9 @@
 #include "experiments/study_context.hpp"
 
 #include "io/png.hpp"
+#include "stats/agreement.hpp"
+#include "stats/quantiles.hpp"
+#include "stats/summary.hpp"
 
 #include <algorithm>
 #include <filesystem>
@@ -69,6 +72,32 @@ std::vector<double> bucket_field(const Frame& f, uint32_t b) {
     return v;
 }
 
+std::vector<double> intrinsic_variance(const std::vector<std::vector<double>>& m, const std::vector<int>& subset,
+                                       double K) {
+    const size_t P = m.front().size();
+    std::vector<double> v(P);
+    std::vector<double> x(subset.size());
+    for (size_t p = 0; p < P; ++p) {
+        for (size_t i = 0; i < subset.size(); ++i) x[i] = m[subset[i]][p];
+        v[p] = K * stats::sample_variance(x);
+    }
+    return v;
+}
+
+std::vector<uint8_t> variance_bins(const std::vector<double>& var, const std::vector<uint8_t>& labels_a,
+                                   const std::vector<uint8_t>& labels_b, int bins) {
+    std::vector<double> vals;
+    for (size_t i = 0; i < var.size(); ++i)
+        if (labels_a[i] != stats::kNoLabel && labels_b[i] != stats::kNoLabel) vals.push_back(var[i]);
+    std::vector<uint8_t> out(var.size(), 255);
+    if (vals.empty()) return out;
+    auto edges = stats::quantile_edges(vals, bins);  // docs/descriptor.md §5: edges per SPP level
+    auto binned = stats::quantile_bin(vals, edges);
+    for (size_t i = 0, j = 0; i < var.size(); ++i)
+        if (labels_a[i] != stats::kNoLabel && labels_b[i] != stats::kNoLabel) out[i] = binned[j++];
+    return out;
+}
+
 namespace {
 // One entry per bucket: whether its bit is set in a gpu::*_BUCKETS mask.
 std::vector<bool> bucket_family(uint32_t mask) {
@@ -96,7 +125,8 @@ StudyFn study_function(StudyKind k) {
         {StudyKind::SweepRoughness, run_sweep_roughness},
         {StudyKind::SweepLights, run_sweep_lights},
         {StudyKind::Predictor, run_predictor},
-        {StudyKind::Allocation, run_allocation}};
+        {StudyKind::Allocation, run_allocation},
+        {StudyKind::Sensitivity, run_sensitivity}};
     for (const auto& [kind, fn] : kRunners)
         if (kind == k) return fn;
     throw std::logic_error(std::string("study: no runner for the study kind ") + to_string(k));

@@ -65,6 +65,16 @@ std::vector<double> lum_var_field(const Frame& f);  // ddof 1
 std::vector<double> margin_field(const Frame& f);
 // Mean per-sample energy of one bucket.
 std::vector<double> bucket_field(const Frame& f, uint32_t bucket);
+// sigma^2_intrinsic(p) = K * Var_s(m[s][p]) over the seeds of `subset` (ddof 1):
+// the per-sample variance of a K-SPP render, estimated across seeds
+// (docs/descriptor.md §5 split-half reliability).
+std::vector<double> intrinsic_variance(const std::vector<std::vector<double>>& m, const std::vector<int>& subset,
+                                       double K);
+// The quantile-binned variance baseline (docs/descriptor.md §5): `var` binned
+// into `bins` quantile bins over the pixels labelled in both label maps
+// (edges per render); 255 elsewhere.
+std::vector<uint8_t> variance_bins(const std::vector<double>& var, const std::vector<uint8_t>& labels_a,
+                                   const std::vector<uint8_t>& labels_b, int bins);
 
 // The light-tailed family {emitter-direct, direct, diffuse-indirect} and the
 // heavy family {glossy, delta-mediated, specular-direct}: gpu::LIGHT_BUCKETS and
@@ -82,6 +92,7 @@ void run_sweep_roughness(StudyContext& ctx);
 void run_sweep_lights(StudyContext& ctx);
 void run_predictor(StudyContext& ctx);
 void run_allocation(StudyContext& ctx);  // needs ctx.allocation
+void run_sensitivity(StudyContext& ctx);
 
 // The runner of a study kind.
 using StudyFn = void (*)(StudyContext&);

@@ -23,18 +23,6 @@ constexpr size_t kMinBucketPixels = 50;  // docs/descriptor.md §5: buckets with
 // Per-seed mean luminance of one level: m[s][p].
 using SeedMeans = std::vector<std::vector<double>>;
 
-// sigma^2_intrinsic(p) = K * Var_s(m_s(p)) over the seed subset (ddof 1).
-std::vector<double> intrinsic_variance(const SeedMeans& m, const std::vector<int>& subset, double K) {
-    size_t P = m.front().size();
-    std::vector<double> v(P);
-    std::vector<double> x(subset.size());
-    for (size_t p = 0; p < P; ++p) {
-        for (size_t i = 0; i < subset.size(); ++i) x[i] = m[subset[i]][p];
-        v[p] = K * stats::sample_variance(x);
-    }
-    return v;
-}
-
 constexpr size_t kMinPairs = 3;  // a Spearman over fewer foreground pixels is NaN
 
 // Per-pixel OLS of log10 Var(per-seed mean) on log10 spp (paper App. A: alpha_hat = -slope, 1 for a

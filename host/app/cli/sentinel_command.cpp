@@ -265,7 +265,7 @@ int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o) {
         throw UsageError("the scene loads at " + std::to_string(ein.pilots.front().frame.width) + "x" +
                          std::to_string(ein.pilots.front().frame.height) + ", the record's film is " +
                          std::to_string(r.width) + "x" + std::to_string(r.height));
-    const SamplePool pool = source.pool(sv);
+    const SamplePool pool = source.pool(sv, 0);
     renders.push_back("the shared pool: " + std::to_string(downstream_seeds::kPoolSize) + " spp of seed " +
                       std::to_string(downstream_seeds::kPool) + ", one frame per sample");
     const Frame ref = source.reference(sv);

@@ -124,10 +124,12 @@ int cmd_verify_cache(const std::string& dir) {
 void add_study_options(CLI::App* app, StudyOptions& o) {
     app->add_option(
            "name", o.study,
-           "stability, variance, cost, structure, sweep-roughness, sweep-lights, predictor, allocation, or all")
+           "stability, variance, cost, structure, sweep-roughness, sweep-lights, predictor, allocation, all (the "
+           "paper's analyses), or sensitivity (beyond the paper: where its premise holds, by controlled variation "
+           "of glass_caustic and cubes_dof; not part of all)")
         ->required()
         ->check(CLI::IsMember({"stability", "variance", "cost", "structure", "sweep-roughness", "sweep-lights",
-                               "predictor", "allocation", "all"}));
+                               "predictor", "allocation", "all", "sensitivity"}));
     app->add_option("--preset", o.preset,
                     "quick (tiny images, low SPP: minutes, for CI), reduced (96 px, SPP 64/512/2048: what a CPU device "
                     "affords), paper (256², SPP 64/512/4096, 10 seeds per level: the paper's protocol)")
@@ -139,6 +141,11 @@ void add_study_options(CLI::App* app, StudyOptions& o) {
     app->add_option("--spp-levels", o.spp_levels, "Stability SPP levels, ascending; the last is the reference")
         ->delimiter(',')
         ->check(CLI::Range(1u, 1u << 20));
+    app->add_option("--pools", o.pools,
+                    "allocation: pools of 256 frames the final images are drawn from (pool j: seed 1000 + j); pool 0 "
+                    "serves every table at equal samples, the others resample it for the spread over pools "
+                    "(default: 2 quick, 5 reduced and paper)")
+        ->check(CLI::Range(1, 100));
     app->add_option("--seeds", o.seeds, "Seeds per variance level and per sweep level (even, >= 4)")
         ->check(CLI::Range(4, 1000));
     app->add_option("--out", o.out_dir, "Output directory (default: out/study-<name>)");

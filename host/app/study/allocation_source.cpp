@@ -88,11 +88,12 @@ Frame RenderedAllocationSource::reference(const SceneVariant& v) {
     return ref;
 }
 
-SamplePool RenderedAllocationSource::pool(const SceneVariant& v) {
+SamplePool RenderedAllocationSource::pool(const SceneVariant& v, uint32_t index) {
     Loaded& l = load(v);
     check_interrupt();
     const uint32_t F = downstream_seeds::kPoolSize;
-    const std::string k = key(l, F, downstream_seeds::kPool, 1);
+    const std::string k = key(l, F, downstream_seeds::pool(index), 1);
+    const std::string what = v.name + " allocation " + downstream_seeds::pool_label(index);
     const size_t P = static_cast<size_t>(l.session->scene().camera.width) * l.session->scene().camera.height;
     if (std::optional<SamplePool> cached = cache_.try_load_pool(k)) {
         if (cached->pixels == P && cached->frames == F) return std::move(*cached);
@@ -101,14 +102,14 @@ SamplePool RenderedAllocationSource::pool(const SceneVariant& v) {
                      "again\n",
                      cache_.path(k, "pool").c_str(), cached->frames, cached->pixels, F, P);
     }
-    need(v.name + " allocation pool");
+    need(what);
     SamplePool pool;
     pool.frames = F;
     pool.pixels = P;
     pool.samples.assign(static_cast<size_t>(F) * P * 4, 0.0f);
     RenderSpec spec;
     spec.spp = F;
-    spec.seed = downstream_seeds::kPool;
+    spec.seed = downstream_seeds::pool(index);
     spec.batch_spp = 1;
     uint32_t f = 0;
     spec.on_batch = [&](const std::vector<gpu::GpuPixelAccum>& b) {  // one batch per sample index: one pool frame
@@ -202,8 +203,9 @@ std::vector<std::string> RenderedAllocationSource::missing(const SceneVariant& v
     for (uint32_t ch = 0; ch < cfg_.alloc_ref_chunks; ++ch)
         if (absent(key(cfg_.alloc_ref_chunk_spp, downstream_seeds::reference_chunk(ch), kReferenceBatch), "frame"))
             out.push_back(v.name + " allocation reference chunk " + std::to_string(ch));
-    if (absent(key(downstream_seeds::kPoolSize, downstream_seeds::kPool, 1), "pool"))
-        out.push_back(v.name + " allocation pool");
+    for (uint32_t j = 0; j < static_cast<uint32_t>(cfg_.alloc_pools); ++j)
+        if (absent(key(downstream_seeds::kPoolSize, downstream_seeds::pool(j), 1), "pool"))
+            out.push_back(v.name + " allocation " + downstream_seeds::pool_label(j));
     for (uint32_t n0 : cfg_.alloc_pilots)
         for (uint32_t d = 0; d < static_cast<uint32_t>(cfg_.alloc_draws); ++d) {
             if (absent(key(n0, downstream_seeds::pilot(d), pilot_batch(n0)), "pilot"))
@@ -217,7 +219,7 @@ std::vector<std::string> RenderedAllocationSource::missing(const SceneVariant& v
 
 void RenderedAllocationSource::render_all(const SceneVariant& v) {
     reference(v);
-    pool(v);
+    for (uint32_t j = 0; j < static_cast<uint32_t>(cfg_.alloc_pools); ++j) pool(v, j);
     for (uint32_t n0 : cfg_.alloc_pilots)
         for (uint32_t d = 0; d < static_cast<uint32_t>(cfg_.alloc_draws); ++d) {
             pilot(v, n0, d);

@@ -24,7 +24,7 @@ public:
                              const RenderCache& cache, std::string code_digest, std::function<bool()> interrupted);
 
     Frame reference(const SceneVariant& v) override;
-    SamplePool pool(const SceneVariant& v) override;
+    SamplePool pool(const SceneVariant& v, uint32_t index) override;
     Pilot pilot(const SceneVariant& v, uint32_t n0, uint32_t draw) override;
     PilotSamples pilot_samples(const SceneVariant& v, uint32_t n0, uint32_t draw) override;
     double final_render_seconds(const SceneVariant& v, const std::vector<uint32_t>& n) override;

@@ -85,7 +85,7 @@ LoadedScene load_variant(const SceneVariant& v, int res, Traversal traversal) {
     lo.params = v.params;
     LoadedScene ls;
     ls.scene = load_scene(v.path, lo);
-    ls.scene.camera.set_film_width(res);
+    ls.scene.camera.set_film_width(v.res > 0 ? v.res : res);  // a variant's own width wins (the sensitivity axes)
     ls.arrays = flatten_scene(ls.scene, traversal);
     ls.digest = scene_digest(ls.scene, ls.arrays);
     return ls;
@@ -159,6 +159,7 @@ StudyPlan make_plan(const StudyOptions& o) {
     cfg.equal_time = o.equal_time;
     if (!o.spp_levels.empty()) cfg.stability_spp = o.spp_levels;
     if (o.seeds) cfg.variance_seeds = cfg.sweep_seeds = *o.seeds;
+    if (o.pools) cfg.alloc_pools = *o.pools;
     cfg.predictor_curve = o.curve;
     cfg.sweep_roughness_scene = o.sweep_roughness_scene;
     cfg.sweep_lights_scene = o.sweep_lights_scene;
@@ -490,6 +491,7 @@ std::string unit_command(const StudyOptions& o, const StudyPlan& p, size_t k, si
         a.insert(a.end(), {"--spp-levels", list});
     }
     if (o.seeds) a.insert(a.end(), {"--seeds", std::to_string(*o.seeds)});
+    if (o.pools) a.insert(a.end(), {"--pools", std::to_string(*o.pools)});
     a.insert(a.end(), {"--out", absolute_path(p.out_dir), "--cache", absolute_path(p.cache_dir)});
     if (!o.curve.empty()) a.insert(a.end(), {"--curve", absolute_path(o.curve)});
     if (o.device) a.insert(a.end(), {"--device", std::to_string(*o.device)});

@@ -26,6 +26,7 @@ struct StudyOptions {
     std::optional<int> res;                                 // film width
     std::vector<uint32_t> spp_levels;                       // stability levels (last = reference)
     std::optional<int> seeds;                               // seeds per variance level (and per sweep level)
+    std::optional<int> pools;                               // allocation: pools resampled (StudyConfig::alloc_pools)
     std::string out_dir;                                    // default out/study-<study>
     std::string cache_dir;                                  // default <out>/cache
     std::string curve;                                      // predictor: frozen curve for new scenes
@@ -62,8 +63,9 @@ public:
 // Returns the process exit code (0 ok; 1 when plotting failed).
 int run_study(const StudyOptions& options);
 
-// A scene variant loaded at a film width and flattened for a resolved
-// traversal (flatten_scene), with the digest of its content.
+// A scene variant loaded at a film width (the variant's own, where it has one)
+// and flattened for a resolved traversal (flatten_scene), with the digest of
+// its content.
 struct LoadedScene {
     Scene scene;
     SceneArrays arrays;
