@@ -36,6 +36,10 @@ def results_copy(tmp_path):
     dst = tmp_path / "results"
     shutil.copytree(os.path.join(RESULTS, "tables"), dst / "tables")
     shutil.copy(os.path.join(RESULTS, "README.md"), dst / "README.md")
+    # The sentinel claims read ../sentinels/**/summary.csv beside the results folder.
+    for rel in ("summary.csv", "paper-set/summary.csv", "paper-set/clearcoat_sweep.csv"):
+        (tmp_path / "sentinels" / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(os.path.join(ROOT, "docs", "sentinels", rel), tmp_path / "sentinels" / rel)
     return dst
 
 
