@@ -234,15 +234,15 @@ TEST_CASE(
     // No heavy-tailed bucket: the bucket floor changes nothing, so bucket-floor ties observed-var exactly.
     CHECK(rows[1][2] == rows[1][3]);
     CHECK(rows[1][7] == "tie");
-    // Every configuration is listed: 2 pilots x (6 base strategies + guarded and shrink) + 4 robust at N0 = 16
-    // (the budget sweep's extra 32 is the main budget).
-    // The block-count sweep asks for each N0 = 16 draw's samples once, and has one row per valid k.
+    // Every configuration is listed: 2 pilots x (6 base strategies + guarded, shrink and shrink-global) + 4 robust at
+    // N0 = 16 (the budget sweep's extra 32 is the main budget). The block-count sweep asks for each N0 = 16 draw's
+    // samples once, and has one row per valid k.
     CHECK(std::count(src.calls.begin(), src.calls.end(), "pilot samples synthetic 16 0") == 1);
     CHECK(std::count(src.calls.begin(), src.calls.end(), "pilot samples synthetic 4 0") == 0);  // MoM undefined at 4
     auto mom = read_csv(tmp.file("tables/mom_sweep.csv"));
     CHECK(mom.size() == 1 + 5);  // k = 2, 3, 4, 6, 8 all give blocks of >= 2 samples at N0 = 16
     auto all = read_csv(tmp.file("tables/downstream_all.csv"));
-    CHECK(all.size() == 1 + 2 * 8 + 4);
+    CHECK(all.size() == 1 + 2 * 9 + 4);
     // robust-adaptive against the others at N0 = 16 (the only pilot where median-of-means is defined here); the
     // synthetic labels have no rare-tail pixel, so it is robust-var exactly.
     auto adaptive = read_csv(tmp.file("tables/robust_adaptive.csv"));
@@ -260,8 +260,11 @@ TEST_CASE(
         CAPTURE(r);
         if (std::stod(beyond[r][2]) == 0.0) {
             CHECK(beyond[r][6] == beyond[r][5]);
-            CHECK(beyond[r][9] == "tie");
+            CHECK(beyond[r][10] == "tie");
         }
+        // Every synthetic pixel is direct: one label, so shrink's prior is the global placebo's.
+        CHECK(beyond[r][7] == beyond[r][8]);
+        CHECK(beyond[r][12] == "tie");
     }
 }
 

@@ -61,13 +61,13 @@ const Material& material_of_shape(const Scene& s, const std::string& shape) {
 TEST_CASE("sensitivity: each axis passes once through the scene as committed and varies only its parameter") {
     const StudyConfig cfg = two_scene_config();
     const auto axes = sensitivity_axes(cfg);
-    REQUIRE(axes.size() == 7);  // glass_caustic: light size, IOR, roughness, estimator; cubes_dof: aperture, film, light
+    REQUIRE(axes.size() ==
+            7);  // glass_caustic: light size, IOR, roughness, estimator; cubes_dof: aperture, film, light
     for (const auto& a : axes) {
         CAPTURE(a.name);
         const SceneVariant& committed = a.scene == "glass_caustic" ? cfg.scenes[0] : cfg.scenes[1];
         size_t as_committed = 0;
-        for (const auto& lv : a.levels)
-            as_committed += lv.variant == committed && lv.estimator == Estimator::Nee;
+        for (const auto& lv : a.levels) as_committed += lv.variant == committed && lv.estimator == Estimator::Nee;
         CHECK(as_committed == 1);
         REQUIRE(a.base < a.levels.size());
         CHECK(a.levels[a.base].variant == committed);
@@ -77,12 +77,14 @@ TEST_CASE("sensitivity: each axis passes once through the scene as committed and
     }
     // A scene of another stem, or a variant, has no axes.
     StudyConfig other = preset_config("quick");
-    other.scenes = {{"snooker", scene_path("snooker"), {}}, {"glass_caustic", scene_path("glass_caustic"), {{"ior", "2"}}}};
+    other.scenes = {{"snooker", scene_path("snooker"), {}},
+                    {"glass_caustic", scene_path("glass_caustic"), {{"ior", "2"}}}};
     CHECK(sensitivity_axes(other).empty());
 }
 
-TEST_CASE("sensitivity: the light-size levels keep the committed light's power, and the other levels load what they "
-          "name") {
+TEST_CASE(
+    "sensitivity: the light-size levels keep the committed light's power, and the other levels load what they "
+    "name") {
     const StudyConfig cfg = two_scene_config();
     const auto axes = sensitivity_axes(cfg);
     // The committed lights: glass_caustic 40 x (0.4 m)^2, cubes_dof 10 x (2 m)^2 (their XML files).
@@ -147,8 +149,9 @@ TEST_CASE("sensitivity: the plan renders each level's pilot, reference and seeds
 }
 
 TEST_SUITE("gpu") {
-    TEST_CASE("sensitivity: vkmech study sensitivity writes its table and figure, and the committed scene measures "
-              "the same on every axis") {
+    TEST_CASE(
+        "sensitivity: vkmech study sensitivity writes its table and figure, and the committed scene measures "
+        "the same on every axis") {
         VKMECH_REQUIRE_GPU(ctx);
         const fs::path out = fs::temp_directory_path() / ("vkmech_sensitivity_" + std::to_string(::getpid()));
         fs::remove_all(out);

@@ -99,3 +99,31 @@ TEST_CASE("shrink: a long pilot keeps each pixel's own variance - pure noise is 
     CHECK(log_sd(D) < 0.3 * log_sd(var));
     CHECK_THROWS_AS(shrink_score(var, std::vector<uint8_t>(P - 1, 2), 4), std::invalid_argument);
 }
+
+TEST_CASE("shrink: the global placebo fits one prior over every labelled pixel, whatever their labels") {
+    // Two labels with different typical variances; the placebo must pool them.
+    const std::vector<double> var = {1.0, 2.0, 4.0, 100.0, 200.0, 400.0, 7.0};
+    const std::vector<uint8_t> labels = {1, 1, 1, 3, 3, 3, 255};
+    ScoreInputs in;
+    in.pilot_var = &var;
+    in.pilot_labels = &labels;
+    in.pilot_spp = 4;
+    const auto global = strategy_score(Strategy::ShrinkGlobal, in, 0);
+    // By hand: y = log var over the six labelled pixels, one population.
+    double mu = 0, s2 = 0;
+    for (int i = 0; i < 6; ++i) mu += std::log(var[i]) / 6;
+    for (int i = 0; i < 6; ++i) s2 += (std::log(var[i]) - mu) * (std::log(var[i]) - mu) / 5;
+    const double v = log_variance_noise(4), tau2 = std::max(0.0, s2 - v), w = tau2 / (tau2 + v);
+    REQUIRE(global.size() == var.size());
+    for (int i = 0; i < 6; ++i) CHECK(global[i] == doctest::Approx(std::exp(mu + w * (std::log(var[i]) - mu))));
+    CHECK(global[6] == 7.0);  // unlabelled: no prior speaks for it
+    // The same pixels under one label: the placebo is shrink itself.
+    const std::vector<uint8_t> one = {2, 2, 2, 2, 2, 2, 255};
+    ScoreInputs same = in;
+    same.pilot_labels = &one;
+    CHECK(strategy_score(Strategy::Shrink, same, 0) == global);
+    // With the two labels, shrink keeps the labels' own means: different from the placebo.
+    CHECK(strategy_score(Strategy::Shrink, in, 0) != global);
+    CHECK(std::string(to_string(Strategy::ShrinkGlobal)) == "shrink-global");
+    CHECK(parse_strategy("shrink-global") == Strategy::ShrinkGlobal);
+}

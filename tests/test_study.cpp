@@ -225,7 +225,11 @@ TEST_SUITE("gpu") {
                               "alloc_time",
                               "equal_time",
                               "alloc_pools",
-                              "alloc_firefly"}) {
+                              "alloc_firefly",
+                              "per_bucket_kept",
+                              "mis_flips",
+                              "sidefield_drift",
+                              "has_glossy"}) {
             CAPTURE(t);
             CHECK(fs::file_size(out / "tables" / (std::string(t) + ".md")) > 0);
             CHECK(fs::file_size(out / "tables" / (std::string(t) + ".csv")) > 0);
@@ -270,6 +274,20 @@ TEST_SUITE("gpu") {
             ++rows;
         }
         CHECK(rows == 7 * 5);
+        // cubes_dof has no glossy surface: no pixel has glossy energy, so has_glossy is 0 and its gamma columns are
+        // empty; kitchen_counter's glossy counter has it on most pixels.
+        const std::string hg = slurp(out / "tables" / "has_glossy.csv");
+        CAPTURE(hg);
+        auto has_glossy_of = [&](const std::string& scene) {
+            const size_t at = hg.find("\n" + scene + ",");
+            REQUIRE(at != std::string::npos);
+            std::stringstream row(hg.substr(at + 1, hg.find('\n', at + 1) - at - 1));
+            std::string field;
+            for (int i = 0; i < 3; ++i) std::getline(row, field, ',');
+            return std::stod(field);
+        };
+        CHECK(has_glossy_of("cubes_dof") == 0.0);
+        CHECK(has_glossy_of("kitchen_counter") > 0.5);
 
         // A new scene predicted from its own pilot with the frozen curve (no reference render).
         fs::path pred = out.string() + "_pred";

@@ -5,6 +5,7 @@
 #include "allocation/guard.hpp"
 #include "allocation/shrink.hpp"
 #include "io/invariant.hpp"
+#include "shared/types.h"
 
 #include <stdexcept>
 #include <string>
@@ -37,6 +38,8 @@ const char* to_string(Strategy s) {
             return "shrink";
         case Strategy::RobustAdaptive:
             return "robust-adaptive";
+        case Strategy::ShrinkGlobal:
+            return "shrink-global";
     }
     return "unknown";
 }
@@ -113,12 +116,16 @@ std::vector<double> strategy_score(Strategy s, const ScoreInputs& in, uint64_t p
             const auto& labels = need(in.pilot_labels, s, "pilot_labels");
             return guard_score(bucket_floor(var, labels), need(in.untrusted, s, "untrusted"));
         }
-        case Strategy::Shrink: {
+        case Strategy::Shrink:
+        case Strategy::ShrinkGlobal: {
             if (in.pilot_spp < 2)
-                throw std::invalid_argument("alloc::strategy_score: strategy 'shrink' needs pilot_spp >= 2, got " +
-                                            std::to_string(in.pilot_spp));
-            return shrink_score(need(in.pilot_var, s, "pilot_var"), need(in.pilot_labels, s, "pilot_labels"),
-                                in.pilot_spp);
+                throw std::invalid_argument(std::string("alloc::strategy_score: strategy '") + to_string(s) +
+                                            "' needs pilot_spp >= 2, got " + std::to_string(in.pilot_spp));
+            const auto& labels = need(in.pilot_labels, s, "pilot_labels");
+            if (s == Strategy::Shrink) return shrink_score(need(in.pilot_var, s, "pilot_var"), labels, in.pilot_spp);
+            std::vector<uint8_t> one(labels.size());  // every labelled pixel in population 0, unlabelled kept
+            for (size_t i = 0; i < labels.size(); ++i) one[i] = labels[i] == gpu::NO_LABEL ? gpu::NO_LABEL : 0;
+            return shrink_score(need(in.pilot_var, s, "pilot_var"), one, in.pilot_spp);
         }
         case Strategy::RobustAdaptive:
             return adaptive_mom_score(need(in.pilot_var, s, "pilot_var"), need(in.mom_var, s, "mom_var"),

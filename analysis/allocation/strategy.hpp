@@ -21,13 +21,14 @@ enum class Strategy {
     Guarded,         // "guarded": bucket-floor, at least the uniform share on untrusted pixels (guard.hpp)
     Shrink,          // "shrink": the pilot variance shrunk towards its label's prior (shrink.hpp)
     RobustAdaptive,  // "robust-adaptive": the MoM block count chosen per pixel from its pilot label (adaptive_mom.hpp)
+    ShrinkGlobal,    // "shrink-global": shrink's placebo, every labelled pixel in one population (no label)
 };
 
 // Every strategy, in declaration order.
 inline constexpr Strategy kAllStrategies[] = {
-    Strategy::Uniform,       Strategy::ObservedVar, Strategy::Oracle,    Strategy::BucketFloor,
-    Strategy::Placebo,       Strategy::LabelOracle, Strategy::RobustVar, Strategy::RobustFloor,
-    Strategy::RobustPlacebo, Strategy::Guarded,     Strategy::Shrink,    Strategy::RobustAdaptive,
+    Strategy::Uniform,     Strategy::ObservedVar,    Strategy::Oracle,       Strategy::BucketFloor,   Strategy::Placebo,
+    Strategy::LabelOracle, Strategy::RobustVar,      Strategy::RobustFloor,  Strategy::RobustPlacebo, Strategy::Guarded,
+    Strategy::Shrink,      Strategy::RobustAdaptive, Strategy::ShrinkGlobal,
 };
 
 // The command-line / report name ("uniform", "observed-var", ...).
@@ -65,6 +66,9 @@ struct ScoreInputs {
 //   Guarded       -> guard_score(bucket_floor(*pilot_var, *pilot_labels), *untrusted)
 //   Shrink        -> shrink_score(*pilot_var, *pilot_labels, pilot_spp)
 //   RobustAdaptive -> adaptive_mom_score(*pilot_var, *mom_var, *pilot_labels)
+//   ShrinkGlobal  -> shrink_score(*pilot_var, one_population(*pilot_labels), pilot_spp): the same
+//                    shrinkage towards one prior fitted over every labelled pixel, so what shrink
+//                    gains beyond it is the label's (the paper's bucket-free global-shrinkage placebo)
 // placebo_seed is used by the two placebo strategies only.
 // Throws std::invalid_argument when sizes differ (bucket_floor and the other
 // scores) or shrink has pilot_spp < 2. A needed pointer left null, or Uniform

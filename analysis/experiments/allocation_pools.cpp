@@ -134,9 +134,14 @@ void add_rows(const StudyConfig& cfg, const PoolScene& sc, PoolTables& t) {
         const auto [w, per_pool] = wins(bf, ov, &Errors::mse);
         const double g_bf = psnr_spread(bf, sc.peak).first - psnr_spread(ov, sc.peak).first;
         const double g_pl = psnr_spread(pl, sc.peak).first - psnr_spread(ov, sc.peak).first;
-        std::vector<Cell> row{Cell::str(sc.name),       Cell::integer(n0),          psnr_cell(uni, sc.peak),
-                              psnr_cell(ov, sc.peak),   psnr_cell(bf, sc.peak),     psnr_cell(pl, sc.peak),
-                              wins_cell(w, tie),        Cell::str(tie ? "tie" : per_pool),
+        std::vector<Cell> row{Cell::str(sc.name),
+                              Cell::integer(n0),
+                              psnr_cell(uni, sc.peak),
+                              psnr_cell(ov, sc.peak),
+                              psnr_cell(bf, sc.peak),
+                              psnr_cell(pl, sc.peak),
+                              wins_cell(w, tie),
+                              Cell::str(tie ? "tie" : per_pool),
                               Cell::num(tie ? NAN : g_pl / g_bf, "%.2f")};
         if (alloc::mom_defined(static_cast<int>(n0))) {
             const PerPool &rv = r.at(Strategy::RobustVar), &rf = r.at(Strategy::RobustFloor);
@@ -171,13 +176,13 @@ PoolTables make_tables(const StudyConfig& cfg) {
     const std::string P = std::to_string(cfg.alloc_pools), K = std::to_string(cfg.alloc_draws),
                       ex = std::to_string(cfg.alloc_extra);
     PoolTables t;
-    t.spread = {"alloc_pools",
-                "Allocation over " + P + " pools x " + K + " pilot draws (floor 1, extra budget " + ex + ")",
-                {"scene", "N0", "uniform", "obs-var", "b-floor", "placebo", "MSE wins b-floor vs obs-var", "per pool",
-                 "placebo gain / b-floor gain", "robust-var", "robust-floor", "MSE wins r-floor vs r-var",
-                 "per pool (robust)"},
-                {},
-                ""};
+    t.spread = {
+        "alloc_pools",
+        "Allocation over " + P + " pools x " + K + " pilot draws (floor 1, extra budget " + ex + ")",
+        {"scene", "N0", "uniform", "obs-var", "b-floor", "placebo", "MSE wins b-floor vs obs-var", "per pool",
+         "placebo gain / b-floor gain", "robust-var", "robust-floor", "MSE wins r-floor vs r-var", "per pool (robust)"},
+        {},
+        ""};
     t.spread.note =
         "PSNR (dB, unclamped linear RGB, the reference's peak): the mean over the " + P + " x " + K +
         " pool x draw pairs, ± the standard deviation over pools of each pool's mean (the spread the one-pool "
@@ -186,14 +191,14 @@ PoolTables make_tables(const StudyConfig& cfg) {
         "MSE (\"tie\": identical everywhere); per pool: the fewest and most wins within one pool. Placebo gain / "
         "b-floor gain: the shuffled-label floor's PSNR gain over observed-var divided by the real floor's (the "
         "paper bounds it at one half); not shown on a tie.";
-    t.firefly = {"alloc_firefly",
-                 "Firefly-robust companions over " + P + " pools x " + K +
-                     " draws (beside tab:downstream, never instead)",
-                 {"scene", "N0", "p99.9 clamp", "median SE uniform", "median SE obs-var", "median SE b-floor",
-                  "clamped PSNR uniform", "clamped PSNR obs-var", "clamped PSNR b-floor", "MSE wins b-floor vs obs-var",
-                  "median-SE wins", "clamped-MSE wins"},
-                 {},
-                 ""};
+    t.firefly = {
+        "alloc_firefly",
+        "Firefly-robust companions over " + P + " pools x " + K + " draws (beside tab:downstream, never instead)",
+        {"scene", "N0", "p99.9 clamp", "median SE uniform", "median SE obs-var", "median SE b-floor",
+         "clamped PSNR uniform", "clamped PSNR obs-var", "clamped PSNR b-floor", "MSE wins b-floor vs obs-var",
+         "median-SE wins", "clamped-MSE wins"},
+        {},
+        ""};
     t.firefly.note =
         "Median SE: the median over pixels of the per-pixel squared error (unclamped RGB, mean over channels), "
         "mean over the pairs; a few firefly pixels cannot move it. Clamped PSNR: both the final image and the "

@@ -30,15 +30,15 @@ constexpr int kK = static_cast<int>(kBucketCount);
 
 // The paper's values that the premise rests on (paper §4.5, tab:variance-baseline).
 constexpr double kPaperSplitHalfLo = 0.18, kPaperSplitHalfHi = 0.26;  // glass_caustic
-constexpr double kPaperCubesSplitHalf = 0.31;                          // cubes_dof, flat over levels
-constexpr double kPaperCrossRho = 0.26;                                // rho(sigma^2_64, sigma^2_ref), glass_caustic
+constexpr double kPaperCubesSplitHalf = 0.31;                         // cubes_dof, flat over levels
+constexpr double kPaperCrossRho = 0.26;                               // rho(sigma^2_64, sigma^2_ref), glass_caustic
 
 struct Point {
     size_t fg_px = 0;
     double heavy_share = 0;  // energy share of the heavy buckets in the reference
     double split_half = NAN, split_half_sd = NAN;
     double cross_rho = NAN;
-    size_t heavy_px = 0;                         // foreground pixels whose reference label is a heavy bucket
+    size_t heavy_px = 0;                               // foreground pixels whose reference label is a heavy bucket
     double heavy_split_half = NAN, heavy_cross = NAN;  // the same two rhos over those pixels (NaN below 50)
     double agree = NAN, bin3 = NAN, bin7 = NAN;
 };
@@ -107,28 +107,28 @@ void write_table(StudyOutput& out, const StudyConfig& cfg, const std::string& sc
             {},
             ""};
     const std::string n0 = std::to_string(cfg.pilot_spp()), ref = std::to_string(cfg.stability_reference_spp());
-    t.note = "One parameter varied at a time; \"as committed\" is the scene of the other studies. Per level: the "
-             "foreground pixels (reference and seed mean above 1e-4); heavy share = glossy + delta-mediated + "
-             "specular-direct energy of the " +
-             ref + "-SPP reference; split-half rho of sigma^2 over " + std::to_string(cfg.variance_seeds) + " seeds x " +
-             n0 + " SPP, mean (and sd) over " + std::to_string(partitions) +
-             " random halves; rho(sigma^2 pilot, ref): Spearman of the per-pixel sample variance of the " + n0 +
-             "-SPP pilot against the reference's; heavy px: foreground pixels whose reference label is glossy, "
-             "delta-mediated or specular-direct, with the two rhos over them alone (\"---\" below 50 pixels); label "
-             "agreement: the pilot's dominant label against the "
-             "reference's; the binned columns: the same agreement for quantile-binned variance labels. The "
-             "paper's glass_caustic has split-half 0.18-0.26 and rho(sigma^2_64, sigma^2_ref) 0.26; its cubes_dof "
-             "0.31.";
+    t.note =
+        "One parameter varied at a time; \"as committed\" is the scene of the other studies. Per level: the "
+        "foreground pixels (reference and seed mean above 1e-4); heavy share = glossy + delta-mediated + "
+        "specular-direct energy of the " +
+        ref + "-SPP reference; split-half rho of sigma^2 over " + std::to_string(cfg.variance_seeds) + " seeds x " +
+        n0 + " SPP, mean (and sd) over " + std::to_string(partitions) +
+        " random halves; rho(sigma^2 pilot, ref): Spearman of the per-pixel sample variance of the " + n0 +
+        "-SPP pilot against the reference's; heavy px: foreground pixels whose reference label is glossy, "
+        "delta-mediated or specular-direct, with the two rhos over them alone (\"---\" below 50 pixels); label "
+        "agreement: the pilot's dominant label against the "
+        "reference's; the binned columns: the same agreement for quantile-binned variance labels. The "
+        "paper's glass_caustic has split-half 0.18-0.26 and rho(sigma^2_64, sigma^2_ref) 0.26; its cubes_dof "
+        "0.31.";
     for (size_t a = 0; a < axes.size(); ++a)
         for (size_t l = 0; l < axes[a].levels.size(); ++l) {
             const Point& p = points[a][l];
             t.add({Cell::str(axes[a].name), Cell::str(axes[a].levels[l].label),
-                   Cell::integer(static_cast<long long>(p.fg_px)), Cell::pct(p.heavy_share, 1),
-                   Cell::num(p.split_half), Cell::num(p.split_half_sd), Cell::num(p.cross_rho),
+                   Cell::integer(static_cast<long long>(p.fg_px)), Cell::pct(p.heavy_share, 1), Cell::num(p.split_half),
+                   Cell::num(p.split_half_sd), Cell::num(p.cross_rho),
                    Cell::integer(static_cast<long long>(p.heavy_px)), Cell::num(p.heavy_split_half),
-                   Cell::num(p.heavy_cross), Cell::num(p.agree),
-                   Cell::num(p.bin3), Cell::num(p.bin7), Cell::num(p.agree / p.bin3, "%.2fx"),
-                   Cell::num(p.agree / p.bin7, "%.2fx")});
+                   Cell::num(p.heavy_cross), Cell::num(p.agree), Cell::num(p.bin3), Cell::num(p.bin7),
+                   Cell::num(p.agree / p.bin3, "%.2fx"), Cell::num(p.agree / p.bin7, "%.2fx")});
         }
     out.table("Sensitivity: " + scene, t,
               "the premise is that sigma^2 is an unreliable difficulty signal (low split-half and pilot-reference "
@@ -138,8 +138,11 @@ void write_table(StudyOutput& out, const StudyConfig& cfg, const std::string& sc
 
 void write_figure(StudyOutput& out, const std::string& scene, const std::vector<SensitivityAxis>& axes,
                   const std::vector<std::vector<Point>>& points, bool glass) {
-    report::Figure fig{"sensitivity_" + scene, "Sensitivity of the premise on " + scene, "",
-                       static_cast<int>(std::min<size_t>(axes.size(), 4)), {}};
+    report::Figure fig{"sensitivity_" + scene,
+                       "Sensitivity of the premise on " + scene,
+                       "",
+                       static_cast<int>(std::min<size_t>(axes.size(), 4)),
+                       {}};
     for (size_t a = 0; a < axes.size(); ++a) {
         report::Panel p;
         p.title = axes[a].name;
@@ -196,16 +199,16 @@ void write_verdict(StudyOutput& out, const std::string& scene, const std::vector
                 lowest_at = axes[a].name + " = " + axes[a].levels[l].label;
             }
             if (!(p.split_half <= hi)) continue;
-            found += (found.empty() ? "" : "; ") + axes[a].name + " = " + axes[a].levels[l].label +
-                     " (split-half " + report::format("%.3f", p.split_half) + ", rho(pilot, ref) " +
-                     report::format("%.3f", p.cross_rho) + ", label agreement " + report::format("%.3f", p.agree) +
-                     ", label / 3-bin " + report::format("%.2fx", p.agree / p.bin3) + ")";
+            found += (found.empty() ? "" : "; ") + axes[a].name + " = " + axes[a].levels[l].label + " (split-half " +
+                     report::format("%.3f", p.split_half) + ", rho(pilot, ref) " + report::format("%.3f", p.cross_rho) +
+                     ", label agreement " + report::format("%.3f", p.agree) + ", label / 3-bin " +
+                     report::format("%.2fx", p.agree / p.bin3) + ")";
         }
     md += found.empty() ? "none. The lowest is " + report::format("%.3f", lowest) + " at " + lowest_at + "."
                         : found + ".";
     if (glass)
-        md += " (The paper's rho(sigma^2_64, sigma^2_ref) on glass_caustic is " + report::format("%.2f", kPaperCrossRho) +
-              ".)";
+        md += " (The paper's rho(sigma^2_64, sigma^2_ref) on glass_caustic is " +
+              report::format("%.2f", kPaperCrossRho) + ".)";
     out.text("Sensitivity: " + scene, md);
 }
 

@@ -556,6 +556,9 @@ void write_stability(StudyOutput& out, const StudyConfig& cfg, const std::vector
 
 }  // namespace
 
-void run_stability(StudyContext& ctx) { write_stability(ctx.out, ctx.cfg, compute_stability(ctx)); }
+void run_stability(StudyContext& ctx) {
+    write_stability(ctx.out, ctx.cfg, compute_stability(ctx));
+    run_stability_sidefields(ctx);
+}
 
 }  // namespace vkmech

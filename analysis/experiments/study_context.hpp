@@ -85,6 +85,8 @@ const std::vector<bool>& heavy_buckets();
 // One function per study (docs/descriptor.md §5); each computes a typed result
 // and hands it to its writers (tables, figures, images, checks).
 void run_stability(StudyContext& ctx);
+// The stability study's per-bucket, MIS-flip and sidefield tables (stability_sidefields.cpp); run_stability calls it.
+void run_stability_sidefields(StudyContext& ctx);
 void run_variance(StudyContext& ctx);
 void run_cost(StudyContext& ctx);
 void run_structure(StudyContext& ctx);
