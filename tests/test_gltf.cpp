@@ -1,6 +1,7 @@
 // glTF 2.0 loading (docs/descriptor.md §8, glTF part). Every fixture is written here, by
 // hand: the JSON as text and the buffers byte by byte (base64 and the GLB
 // container too), so the tests are a reference independent of tinygltf.
+#include "cli_run.hpp"
 #include "gpu_fixture.hpp"
 #include "render/gpu_scene.hpp"
 #include "render_fixture.hpp"
@@ -1079,6 +1080,24 @@ TEST_CASE("gltf: TANGENT is read where there are normals - moved by the node - m
         nan[1].x = std::nanf("");
         expect_error(normal_mapped_quad(dir, "nan", flat, nan), "non-finite TANGENT");
     }
+}
+
+TEST_CASE("gltf: vkmech check says which normal maps read the file's TANGENT and which the uv frame") {
+    TempDir dir("tangent_check");
+    const std::vector<glm::vec4> t(4, glm::vec4(0, 1, 0, 1));
+    const auto with = vkmech::testing::run_cli("check --scene " + normal_mapped_quad(dir, "with", {128, 128, 255}, t));
+    CHECK(with.code == 0);
+    CHECK(
+        with.output.find("normal maps: 1 shape; tangents from the file's TANGENT on 1, from the uv derivatives on 0") !=
+        std::string::npos);
+    const auto uv = vkmech::testing::run_cli("check --scene " + normal_mapped_quad(dir, "uv", {128, 128, 255}, {}));
+    CHECK(uv.code == 0);
+    CHECK(uv.output.find("normal maps: 1 shape; tangents from the file's TANGENT on 0, from the uv derivatives on 1") !=
+          std::string::npos);
+    // A scene without a normal map has no such line.
+    const auto plain = vkmech::testing::run_cli("check --scene cubes_dof");
+    CHECK(plain.code == 0);
+    CHECK(plain.output.find("normal maps:") == std::string::npos);
 }
 
 TEST_CASE("gltf: the file's tangents reach the device only for meshes with a normal map") {

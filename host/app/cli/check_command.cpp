@@ -58,6 +58,26 @@ int cmd_check(const CommonOptions& o) {
         std::printf("  %-24s %-16s lobes %-4s %d shape%s%s%s\n", m.id.c_str(), to_string(m.type),
                     lobe_classes(m).c_str(), users, users == 1 ? "" : "s", m.twosided ? ", twosided" : "", tex.c_str());
     }
+    // Normal maps and the frame they are read in (glTF TANGENT, else the uv derivatives).
+    size_t mapped = 0, file_frame = 0, no_uv = 0;
+    for (const auto& mesh : scene.meshes) {
+        if (mesh.material < 0 || scene.materials[static_cast<size_t>(mesh.material)].normal_texture < 0) continue;
+        ++mapped;
+        file_frame += scene.uses_tangents(mesh);
+        no_uv += !scene.uses_tangents(mesh) && mesh.uvs.empty();
+    }
+    if (mapped > 0) {
+        std::string without;
+        if (no_uv > 0) {
+            without = ", ";
+            without += std::to_string(no_uv);
+            without += " without uvs";
+        }
+        std::printf(
+            "normal maps: %zu shape%s; tangents from the file's TANGENT on %zu, from the uv derivatives on "
+            "%zu%s\n",
+            mapped, mapped == 1 ? "" : "s", file_frame, mapped - file_frame - no_uv, without.c_str());
+    }
     std::printf("emitters: %zu\n", scene.emitters.size());
     for (const auto& e : scene.emitters) {
         const auto& ge = arrays.emitters[&e - scene.emitters.data()];
