@@ -129,8 +129,11 @@ void run_stability_sidefields(StudyContext& ctx) {
                {"scene", "bucket", "reference px", "kept at " + pilot + " SPP", "kept under MIS"},
                {},
                ""};
-    kept.note = "Of the " + top + "-SPP NEE reference's pixels dominated by each bucket: the share of those labelled "
-                "by the " + pilot + "-SPP pilot that it gives the same bucket, and the share of those labelled by the "
+    kept.note = "Of the " + top +
+                "-SPP NEE reference's pixels dominated by each bucket: the share of those labelled "
+                "by the " +
+                pilot +
+                "-SPP pilot that it gives the same bucket, and the share of those labelled by the "
                 "restricted-MIS reference (same seed) that it gives the same bucket. \"---\": no such pixel.";
     Table flips{"mis_flips",
                 "Where the NEE reference's glossy pixels go under restricted MIS (fig:flip-mechanism)",
@@ -138,33 +141,36 @@ void run_stability_sidefields(StudyContext& ctx) {
                  "median L_G ratio, flipped", "median L_G ratio, stayed"},
                 {},
                 ""};
-    flips.note = "Both " + top + "-SPP references share the seed. L_G ratio: the pixel's glossy-bucket energy under "
+    flips.note = "Both " + top +
+                 "-SPP references share the seed. L_G ratio: the pixel's glossy-bucket energy under "
                  "restricted MIS over its energy under NEE (the paper: about 0.22 for snooker's FLIPPED pixels, near "
                  "1 for the STAYED).";
-    Table drift{"sidefield_drift", "Sidefield drift across SPP: median purity and mean glossy energy fraction", {}, {},
-                ""};
+    Table drift{
+        "sidefield_drift", "Sidefield drift across SPP: median purity and mean glossy energy fraction", {}, {}, ""};
     drift.columns.push_back("scene");
     for (uint32_t s : cfg.stability_spp) drift.columns.push_back("median purity " + std::to_string(s));
     drift.columns.push_back("purity drift");
     for (uint32_t s : cfg.stability_spp) drift.columns.push_back("mean gamma " + std::to_string(s));
     drift.columns.push_back("gamma drift (points)");
-    drift.note = "Over the labelled pixels of each NEE stability render. Purity drift: (largest - smallest median) "
-                 "over the reference's median; gamma drift: largest - smallest mean, in percentage points.";
+    drift.note =
+        "Over the labelled pixels of each NEE stability render. Purity drift: (largest - smallest median) "
+        "over the reference's median; gamma drift: largest - smallest mean, in percentage points.";
     Table hg{"has_glossy",
              "The boolean has_glossy_in_path against the continuous gamma at the reference",
              {"scene", "labelled px", "has_glossy (gamma > 0)", "gamma = 1", "0 < gamma < 1", "median gamma > 0",
               "p90 gamma > 0"},
              {},
              ""};
-    hg.note = "has_glossy: a pixel with any glossy-touching energy; the paper reports the boolean saturating (0.0, "
-              "0.0, 1.0 on glass_caustic, cubes_dof, snooker) while gamma keeps the distribution.";
+    hg.note =
+        "has_glossy: a pixel with any glossy-touching energy; the paper reports the boolean saturating (0.0, "
+        "0.0, 1.0 on glass_caustic, cubes_dof, snooker) while gamma keeps the distribution.";
     for (const auto& scene : cfg.scenes) {
         std::vector<Descriptor> levels;
         for (size_t i = 0; i < nl; ++i)
             levels.push_back(
                 derive_descriptor(ctx.frames.get({scene, cfg.stability_spp[i], seeds::stability(i), Estimator::Nee})));
-        const Descriptor mis = derive_descriptor(ctx.frames.get(
-            {scene, cfg.stability_reference_spp(), seeds::stability(nl - 1), Estimator::MisRestricted}));
+        const Descriptor mis = derive_descriptor(
+            ctx.frames.get({scene, cfg.stability_reference_spp(), seeds::stability(nl - 1), Estimator::MisRestricted}));
         kept_rows(scene.name, levels.back(), levels.front(), mis, kept);
         flip_row(scene.name, levels.back(), mis, flips);
         drift_row(scene.name, levels, drift);
