@@ -108,12 +108,14 @@ TEST_CASE(
         for (const auto& lv : a.levels) {
             CAPTURE(lv.variant.name);
             if (a.name == "sphere IOR") {
-                const Material& m = material_of_shape(load_level(lv), "glass_sphere");
+                const Scene s = load_level(lv);  // kept alive: m refers into it
+                const Material& m = material_of_shape(s, "glass_sphere");
                 CHECK(m.type == BsdfType::Dielectric);
                 CHECK(m.int_ior == doctest::Approx(lv.x));
             }
             if (a.name == "sphere roughness") {
-                const Material& m = material_of_shape(load_level(lv), "glass_sphere");
+                const Scene s = load_level(lv);
+                const Material& m = material_of_shape(s, "glass_sphere");
                 if (lv.x == 0.0) {
                     CHECK(m.type == BsdfType::Dielectric);
                 } else {
