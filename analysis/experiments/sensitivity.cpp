@@ -15,6 +15,8 @@
 #include "stats/summary.hpp"
 
 #include <cmath>
+#include <map>
+#include <utility>
 
 namespace vkmech {
 
@@ -228,10 +230,16 @@ void run_sensitivity(StudyContext& ctx) {
         size_t last = first;
         while (last < all.size() && all[last].scene == all[first].scene) ++last;
         const std::vector<SensitivityAxis> axes(all.begin() + first, all.begin() + last);
+        // The committed scene is a level of every axis: measure each (variant, estimator) once.
+        std::map<std::pair<SceneVariant, Estimator>, Point> measured;
         std::vector<std::vector<Point>> points;
         for (const auto& axis : axes) {
             points.emplace_back();
-            for (const auto& lv : axis.levels) points.back().push_back(measure_level(ctx, lv, partitions));
+            for (const auto& lv : axis.levels) {
+                auto [it, fresh] = measured.try_emplace({lv.variant, lv.estimator});
+                if (fresh) it->second = measure_level(ctx, lv, partitions);
+                points.back().push_back(it->second);
+            }
         }
         const std::string& scene = axes.front().scene;
         const bool glass = scene.find("glass_caustic") != std::string::npos;
