@@ -323,8 +323,8 @@ int cmd_render(const RenderOptions& o) {
     const double load_seconds = cr.load_seconds, build_seconds = cr.build_seconds;
 
     std::fprintf(stderr,
-                 "vkmech: %s: %dx%d, %zu triangles, %zu emitters%s, %u spp on '%s' (%s traversal, %s kernel; %s; %s "
-                 "light selection)\n",
+                 "vkmech: %s: %dx%d, %zu triangles, %zu area emitters%s, %u spp on '%s' (%s traversal, %s kernel; %s; "
+                 "%s light selection)\n",
                  name.c_str(), scene.camera.width, scene.camera.height, arrays.triangles.size(), scene.emitters.size(),
                  arrays.has_infinite_lights() ? " and lights at infinity" : "", spp, ctx.info().name.c_str(),
                  to_string(trav), vk::to_string(session.gpu().kernel()), features.describe().c_str(),

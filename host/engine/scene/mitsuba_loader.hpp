@@ -69,6 +69,12 @@ private:
     glm::vec3 area_radiance(const XNode& n, const XProps& ep, int& radiance_texture);
     // envmap / constant: Scene::environment, or with LoadOptions::environment_panel a pending panel.
     void environment(const XNode& n, const XProps& p, const std::string& type);
+    // sunsky (and Mitsuba 0.x's sun and sky) under --substitute: scene/sunsky.hpp's
+    // Preetham sky as the environment and its sun as a directional light.
+    void sunsky(const XNode& n, const XProps& p, const std::string& type);
+    // Scene::environment, or with LoadOptions::environment_panel a pending panel;
+    // a second environment is an error.
+    void set_environment(const XNode& n, Environment env);
     std::string resolve(const XNode& n, const std::string& filename) const;
     [[noreturn]] void unsupported(const XNode& n, const std::string& kind, const std::string& extra = {}) const;
 
@@ -101,6 +107,7 @@ private:
     int default_material_ = -1;
     bool have_sensor_ = false;
     bool have_integrator_ = false;
+    int major_version_ = 3;  // the root <scene version="...">'s major number (0.x files keep 0.x semantics)
     int shape_count_ = 0;
     int current_group_ = -1;  // the shapegroup whose shapes are being read, or -1
     TriangleBudget budget_;

@@ -9,11 +9,15 @@
 #include "scene/mesh_ops.hpp"
 #include "scene/primitives.hpp"
 #include "scene/serialized_io.hpp"
+#include "scene/sunsky.hpp"
 #include "scene/text_parse.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
+#include <iomanip>
 #include <limits>
 #include <sstream>
 
@@ -89,6 +93,9 @@ Scene MitsubaLoader::load() {
 void MitsubaLoader::scene_element(const XmlDocument& doc, int depth, Pass pass) {
     XNode root(doc, doc.root(), params_);
     if (root.tag() != "scene") root.fail("the root element must be <scene>, not <" + root.tag() + ">");
+    if (depth == 0 && pass == Pass::Declarations)
+        if (auto v = root.attr("version"); v && !v->empty() && std::isdigit(static_cast<unsigned char>((*v)[0])))
+            major_version_ = std::atoi(v->c_str());
     for (const XNode& c : root.children()) child_of_scene(c, depth, pass);
 }
 
@@ -529,6 +536,10 @@ void MitsubaLoader::emitter_top(const XNode& n) {
         environment(n, p, type);
         return;
     }
+    if (type == "sunsky" || type == "sun" || type == "sky") {
+        sunsky(n, p, type);
+        return;
+    }
     if (type == "point" || type == "spot") {
         require_substitute(n, "emitter", "a small spherical area emitter of the same power");
         PendingPointLight l;
@@ -558,15 +569,12 @@ void MitsubaLoader::emitter_top(const XNode& n) {
         return;
     }
     unsupported(n, "emitter",
-                " (docs/descriptor.md §1: area, envmap, constant and directional emitters; point and spot only with "
-                "--substitute)");
+                " (docs/descriptor.md §1: area, envmap, constant and directional emitters; point and spot, and sunsky, "
+                "only with --substitute)");
 }
 
 void MitsubaLoader::environment(const XNode& n, const XProps& p, const std::string& type) {
     const std::string what = n.file() + ":" + std::to_string(n.line()) + ": emitter '" + type + "'";
-    if (scene_.environment.kind != EnvironmentKind::None || !panels_.empty())
-        n.fail("a second environment emitter (Mitsuba renders one per scene; the first is " +
-               (panels_.empty() ? scene_.environment.what : panels_.front().what) + ")");
     float scale = p.get_float({"scale"}, 1.0f);
     if (!(scale >= 0.0f)) n.fail("'scale' must not be negative");
     glm::mat3 to_world(p.get_transform({"to_world", "toWorld"}));
@@ -590,13 +598,98 @@ void MitsubaLoader::environment(const XNode& n, const XProps& p, const std::stri
     }
     warn_unused(p);
     env.what = what;
+    set_environment(n, std::move(env));
+}
+
+void MitsubaLoader::set_environment(const XNode& n, Environment env) {
+    if (scene_.environment.kind != EnvironmentKind::None || !panels_.empty())
+        n.fail("a second environment emitter (Mitsuba renders one per scene; the first is " +
+               (panels_.empty() ? scene_.environment.what : panels_.front().what) + ")");
     if (options_.environment_panel) {
         // docs/descriptor.md §8 (the paper's matpreview treatment): an overhead area panel
         // whose radiance keeps the environment's mean radiance times its scale.
-        panels_.push_back({what, environment_mean_radiance(env)});
+        panels_.push_back({env.what, environment_mean_radiance(env)});
         return;
     }
     scene_.environment = std::move(env);
+}
+
+void MitsubaLoader::sunsky(const XNode& n, const XProps& p, const std::string& type) {
+    require_substitute(n, "emitter",
+                       "Preetham's analytic daylight (a baked sky map and a directional sun, in Mitsuba's units)");
+    SunskySpec s;
+    s.mitsuba3 = major_version_ >= 2;
+    s.want_sun = type != "sky";
+    s.want_sky = type != "sun";
+    const float scale = p.get_float({"scale"}, 1.0f);  // Mitsuba 0.x: both parts
+    s.turbidity = p.get_float({"turbidity"}, 3.0f);
+    if (!(s.turbidity >= 1.0 && s.turbidity <= 10.0)) n.fail("'turbidity' must be within [1, 10]");
+    s.sun_scale = p.get_float({"sun_scale", "sunScale"}, scale);
+    s.sky_scale = p.get_float({"sky_scale", "skyScale"}, scale);
+    if (!(s.sun_scale >= 0.0 && s.sky_scale >= 0.0 && scale >= 0.0)) n.fail("the scales must not be negative");
+    try {
+        s.rotation = environment_rotation(glm::mat3(p.get_transform({"to_world", "toWorld"})));
+    } catch (const std::exception& e) {
+        n.fail(e.what());
+    }
+    const char* when[] = {"latitude", "longitude", "timezone", "year", "month", "day", "hour", "minute", "second"};
+    const XNode* given = nullptr;
+    for (const char* k : when)
+        if (const XNode* w = p.find({k}); w && !given) given = w;
+    if (p.find({"sun_direction", "sunDirection"})) {
+        if (given)
+            n.fail("give either 'sun_direction' or the location and time ('" +
+                   std::string(given->raw().attribute("name").as_string()) + "'), not both");
+        glm::dvec3 d(p.get_vector({"sun_direction", "sunDirection"}, glm::vec3(0, 0, 1)));
+        if (!(glm::length(d) > 0.0) || !std::isfinite(glm::length(d))) n.fail("'sun_direction' is zero");
+        s.sun_world = glm::normalize(d);
+    } else {
+        SunTime t;
+        t.latitude = p.get_float({"latitude"}, static_cast<float>(t.latitude));
+        t.longitude = p.get_float({"longitude"}, static_cast<float>(t.longitude));
+        t.timezone = p.get_float({"timezone"}, static_cast<float>(t.timezone));
+        t.year = p.opt_int({"year"}).value_or(t.year);
+        t.month = p.opt_int({"month"}).value_or(t.month);
+        t.day = p.opt_int({"day"}).value_or(t.day);
+        t.hour = p.get_float({"hour"}, static_cast<float>(t.hour));
+        t.minute = p.get_float({"minute"}, static_cast<float>(t.minute));
+        t.second = p.get_float({"second"}, static_cast<float>(t.second));
+        if (t.month < 1 || t.month > 12 || t.day < 1 || t.day > 31) n.fail("the date's month or day is out of range");
+        if (!(std::abs(t.latitude) <= 90.0)) n.fail("'latitude' must be within [-90, 90] degrees");
+        s.sun_world = glm::dmat3(s.rotation) * sun_direction_local(solar_angles(t), s.mitsuba3);
+    }
+    std::string ignored;
+    for (const char* k : {"albedo", "sun_aperture", "sunRadiusScale", "complex_sun", "stretch", "resolution", "extend"})
+        if (p.find({k})) ignored += std::string(ignored.empty() ? "" : ", ") + k;
+    warn_unused(p);
+
+    const glm::dvec3 up = glm::dmat3(s.rotation) * (s.mitsuba3 ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0));
+    const double elevation =
+        90.0 - std::acos(std::clamp(glm::dot(up, s.sun_world), -1.0, 1.0)) * 180.0 / 3.14159265358979;
+    std::ostringstream rec;
+    rec << "Preetham's daylight at turbidity " << std::clamp(s.turbidity, 2.0, 10.0) << ", the sun " << std::fixed
+        << std::setprecision(1) << elevation << " deg above the horizon";
+    if (s.turbidity < 2.0) rec << " (turbidity " << s.turbidity << " raised to 2, the model's limit)";
+    if (!ignored.empty()) rec << "; not modelled: " << ignored;
+    if (elevation < 0.0) {
+        rec << "; the sun is below the horizon, so there is no sun and the sky is the one at sunset";
+        warn(n,
+             "the sun is below the horizon: the substituted daylight has no twilight (the sky is evaluated "
+             "with the sun at the horizon)");
+    }
+    const std::string what = n.file() + ":" + std::to_string(n.line()) + ": emitter '" + type + "' (substituted)";
+    if (s.want_sky && s.sky_scale > 0.0) {
+        Environment env = bake_preetham_sky(s);
+        env.what = what;
+        set_environment(n, std::move(env));
+    }
+    if (s.want_sun && s.sun_scale > 0.0 && elevation > 0.0) {
+        DirectionalLight sun = sun_light(s);
+        rec << "; sun irradiance " << std::setprecision(4) << sun.irradiance.x << ", " << sun.irradiance.y << ", "
+            << sun.irradiance.z;
+        scene_.directional_lights.push_back(sun);
+    }
+    record_substitution(n, "emitter", rec.str());
 }
 
 void MitsubaLoader::sensor(const XNode& n) {
