@@ -122,6 +122,23 @@ layout(constant_id = SPEC_DEBUG_EVENTS) const bool DEBUG_EVENTS = false;
 layout(constant_id = SPEC_END_VERTEX_LITERAL) const bool END_VERTEX_LITERAL = false;
 // render --pixel-bounds: the film is a window of the full film (GpuParams::window_x0...).
 layout(constant_id = SPEC_WINDOW) const bool WINDOW = false;
+// render --taxonomy (docs/lpe.md): each contribution event's tally slot is the class of a user
+// taxonomy's DFA, whose state the path carries (after the camera and each vertex), instead of the
+// built-in cascade's bucket. Off, none of this is compiled in.
+layout(constant_id = SPEC_TAXONOMY) const bool TAXONOMY = false;
+layout(std430, set = 0, binding = BINDING_TAXONOMY) readonly buffer Taxonomy { uint tax[]; };
+uint tax_step(uint state, uint kind, uint label) {
+    return tax[TAX_HEADER_WORDS + state * tax[0] + kind * tax[1] + label];
+}
+// The class of an event that reaches an emitter of `kind` (TAX_KIND_LIGHT, _BACKGROUND) from `state`.
+uint tax_class(uint state, uint kind, uint label) { return tax[tax[3] + tax_step(state, kind, label)]; }
+uint tax_material_label(uint material) { return tax[tax[4] + material]; }
+uint tax_emitter_label(uint emitter) { return tax[tax[5] + emitter]; }
+// A surface vertex's event: reflection or transmission (wi on the other side of the shading
+// normal from wo), with the lobe class sampled there (or NEE's lobe).
+uint tax_vertex(uint state, uint lobe, bool transmitted, uint material) {
+    return tax_step(state, (transmitted ? TAX_KIND_TRANSMIT : TAX_KIND_REFLECT) + lobe, tax_material_label(material));
+}
 
 // Adaptive rendering (docs/descriptor.md §6): n(p) per pixel; a pixel takes only the samples
 // of this batch whose index is below n(p), so n(p) samples of a seed are
@@ -165,11 +182,13 @@ shared float s_pixel_tally[SHARED_TALLY ? 64u * TALLY_FLOATS : 1u];
 uint tally_base() { return gl_LocalInvocationIndex * TALLY_FLOATS; }  // 21 is odd: no bank conflicts
 #endif
 
-void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_before, bool glossy_before) {
+// tax_cls: the event's class under a user taxonomy (read only when TAXONOMY).
+void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_before, bool glossy_before,
+               uint tax_cls) {
     t.L += contrib;
     if (!FEATURE_CAPTURE) return;
     float e = luminance(contrib);
-    uint b = classify_event(n, end_lobe, delta_before);
+    uint b = TAXONOMY ? tax_cls : classify_event(n, end_lobe, delta_before);
 #ifdef KERNEL_GPU
     if (SHARED_TALLY) {
         uint i = tally_base() + 3u * b;
@@ -265,15 +284,17 @@ struct PrevVertex {
 // density (solid angle, selection included) is p_light: counted from the camera
 // (k = 1) and after a delta lobe; after a non-delta lobe MIS-weighted in the
 // MIS modes, else left to NEE (docs/descriptor.md §1).
-void emission_seen(inout Tally tally, vec3 contrib, uint k, float p_light, PrevVertex pv) {
+// (tax_cls: the event's class under a user taxonomy.)
+void emission_seen(inout Tally tally, vec3 contrib, uint k, float p_light, PrevVertex pv, uint tax_cls) {
     if (k == 1u) {
-        add_event(tally, contrib, 0u, LOBE_NONE, false, false);
+        add_event(tally, contrib, 0u, LOBE_NONE, false, false, tax_cls);
     } else if (pv.lobe == LOBE_S) {
         add_event(tally, contrib, k - 1u, bsdf_hit_end_lobe(END_VERTEX_LITERAL, pv.lobe, pv.last_nondelta),
-                  bsdf_hit_delta(END_VERTEX_LITERAL, pv.lobe, pv.last_nondelta, pv.delta_before), pv.glossy_before);
+                  bsdf_hit_delta(END_VERTEX_LITERAL, pv.lobe, pv.last_nondelta, pv.delta_before), pv.glossy_before,
+                  tax_cls);
     } else if (pv.mis && pv.pdf > 0.0) {
         float w = power_heuristic(pv.pdf, p_light);
-        add_event(tally, contrib * w, k - 1u, pv.lobe, pv.delta_before, pv.glossy_before);
+        add_event(tally, contrib * w, k - 1u, pv.lobe, pv.delta_before, pv.glossy_before, tax_cls);
     }
 }
 
@@ -291,6 +312,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, vec2 t_range, inout Tally tally)
     PrevVertex pv = PrevVertex(LOBE_NONE, 0.0, false, false, false, LOBE_NONE);
     uint last_nondelta = LOBE_NONE;  // lobe of the last non-delta vertex among V1..V(k-1)
     float eta_path = 1.0;  // product of the relative IORs crossed (docs/descriptor.md §1 Russian roulette)
+    uint tax_state = TAXONOMY ? tax[2] : 0u;  // the taxonomy's state after the camera and V1..V(k-1)
     CLOCK_START(c_busy);
     for (uint k = 1u; k <= max_depth; ++k) {
         Hit h;
@@ -307,7 +329,8 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, vec2 t_range, inout Tally tally)
             if (FEATURE_ENVIRONMENT) {
                 GpuEnvironment env = environment_at();
                 if (env.map.x != ENV_NONE)
-                    emission_seen(tally, throughput * env_eval(env, d), k, env.radiance.w * env_pdf(env, d), pv);
+                    emission_seen(tally, throughput * env_eval(env, d), k, env.radiance.w * env_pdf(env, d), pv,
+                                  TAXONOMY ? tax_class(tax_state, TAX_KIND_BACKGROUND, 0u) : 0u);
             }
             PATH_BREAK;
         }
@@ -324,7 +347,8 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, vec2 t_range, inout Tally tally)
             // NEE's area pdf of this point: the emitter's selection probability
             // over its area (uniform or power selection), in solid angle.
             float p_light = uintBitsToFloat(em.info.w) * dist2 / max(cos_l, 1e-12);
-            emission_seen(tally, throughput * (em.radiance.rgb * emission_scale(s.material, s.uv)), k, p_light, pv);
+            emission_seen(tally, throughput * (em.radiance.rgb * emission_scale(s.material, s.uv)), k, p_light, pv,
+                          TAXONOMY ? tax_class(tax_state, TAX_KIND_LIGHT, tax_emitter_label(s.emitter - 1u)) : 0u);
         }
         if (k >= max_depth) PATH_BREAK;  // no segment left for NEE or a bounce
 
@@ -393,8 +417,12 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, vec2 t_range, inout Tally tally)
                                         RAY_TMAX)) {
                         float w = 1.0;
                         if (vertex_mis && !is.delta) w = power_heuristic(is.pdf, bsdf_pdf(m, albedo, wo, wi));
+                        // An environment is B; a directional light is L (docs/lpe.md), without a label.
+                        uint cls = TAXONOMY ? tax_class(tax_vertex(tax_state, nee_lobe, wi.z * wo.z < 0.0, s.material),
+                                                        lt.info.y == 0u ? TAX_KIND_BACKGROUND : TAX_KIND_LIGHT, 0u)
+                                            : 0u;
                         add_event(tally, throughput * f * is.radiance * (w / is.pdf), k, nee_lobe, delta_before,
-                                  glossy_before);
+                                  glossy_before, cls);
                     }
                 }
                 CLOCK_ADD(PHASE_NEE, c_nee);
@@ -418,8 +446,12 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, vec2 t_range, inout Tally tally)
                             float p_light = ls.pdf_area * dist2 / cos_l;
                             float w = 1.0;
                             if (vertex_mis) w = power_heuristic(p_light, bsdf_pdf(m, albedo, wo, wi));
+                            uint cls = TAXONOMY ? tax_class(tax_vertex(tax_state, nee_lobe, wi.z * wo.z < 0.0,
+                                                                       s.material),
+                                                            TAX_KIND_LIGHT, tax_emitter_label(light_tri_at(li).info.y))
+                                                : 0u;
                             add_event(tally, throughput * f * ls.radiance * (w / p_light), k, nee_lobe, delta_before,
-                                      glossy_before);
+                                      glossy_before, cls);
                         }
                     }
                 }
@@ -440,6 +472,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, vec2 t_range, inout Tally tally)
         throughput *= bs.weight;
 
         pv = PrevVertex(bs.lobe, bs.pdf, vertex_mis && bs.lobe != LOBE_S, delta_before, glossy_before, last_nondelta);
+        if (TAXONOMY) tax_state = tax_vertex(tax_state, bs.lobe, bs.wi.z * wo.z < 0.0, s.material);
         if (bs.lobe == LOBE_S) delta_before = true;
         else last_nondelta = bs.lobe;
         if (bs.lobe == LOBE_G) glossy_before = true;

@@ -557,6 +557,7 @@ void write_stability(StudyOutput& out, const StudyConfig& cfg, const std::vector
 }  // namespace
 
 void run_stability(StudyContext& ctx) {
+    if (ctx.cfg.taxonomy) return run_stability_taxonomy(ctx);
     write_stability(ctx.out, ctx.cfg, compute_stability(ctx));
     run_stability_sidefields(ctx);
 }

@@ -279,6 +279,7 @@ std::vector<RenderRequest> plan_renders(const StudyConfig& cfg, StudyKind kind) 
             for (const auto& s : cfg.scenes) {
                 for (size_t i = 0; i < cfg.stability_spp.size(); ++i)
                     out.push_back({s, cfg.stability_spp[i], seeds::stability(i), Estimator::Nee});
+                if (cfg.taxonomy) continue;  // a user taxonomy's stability needs the levels only
                 // docs/descriptor.md §5 / paper tab:robust-mis: the restricted-MIS estimator at the pilot and the
                 // reference.
                 pilot(s, Estimator::MisRestricted);

@@ -85,6 +85,9 @@ const std::vector<bool>& heavy_buckets();
 // One function per study (docs/descriptor.md §5); each computes a typed result
 // and hands it to its writers (tables, figures, images, checks).
 void run_stability(StudyContext& ctx);
+// `study stability --taxonomy FILE`: the class-agnostic stability measures of a user taxonomy's
+// classes (stability_taxonomy.cpp); run_stability calls it instead when StudyConfig::taxonomy is set.
+void run_stability_taxonomy(StudyContext& ctx);
 // The stability study's per-bucket, MIS-flip and sidefield tables (stability_sidefields.cpp); run_stability calls it.
 void run_stability_sidefields(StudyContext& ctx);
 void run_variance(StudyContext& ctx);

@@ -218,7 +218,7 @@ PyFrame make_frame(const PyScene& s, const PyRender& r, Frame frame, uint32_t sp
         out.summary = summarize(frame, *out.descriptor);
     }
     out.set_channels(render_channels(frame, out.descriptor ? &*out.descriptor : nullptr));
-    out.header = render_attributes(info, info.warnings, "", capture);
+    out.header = render_attributes(info, info.warnings, "", out.descriptor ? &*out.descriptor : nullptr);
     out.info = std::move(info);
     out.frame = std::move(frame);
     return out;

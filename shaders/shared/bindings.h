@@ -34,6 +34,7 @@ VKM_ID BINDING_COUNTERS = 16u;  // pathtrace.comp's VKMECH_COUNTERS variant only
 VKM_ID BINDING_WORK = 17u;      // pathtrace.comp: the pixel-slot counter of claimed pixels (params.claimed_pixels)
 VKM_ID BINDING_ENVIRONMENT = 18u;  // the emitters at infinity (shared/types.h GpuEnvironment)
 VKM_ID BINDING_INSTANCES = 19u;    // the GPU kernel's software BVH: the instances of shape groups (GpuInstance)
+VKM_ID BINDING_TAXONOMY = 20u;     // pathtrace.comp: a user taxonomy's DFA (shared/types.h TAX_*), when SPEC_TAXONOMY
 
 // Specialization-constant ids (layout(constant_id = ...)).
 // 1..5 and 12 on: the material features, SPEC_<NAME> of shared/materials.h.
@@ -49,6 +50,7 @@ VKM_ID SPEC_SHARED_TALLY = 14u;         // pathtrace.comp, GPU kernel only: the 
 VKM_ID SPEC_INSTANCES = 15u;            // trace_bvh_gpu.glsl: the scene has instances (a two-level tree)
 VKM_ID SPEC_WINDOW = 16u;               // pathtrace.comp: the film is a window of the full film (--pixel-bounds)
 VKM_ID SPEC_TANGENTS = 17u;             // features.glsl: meshes with the file's tangents (glTF TANGENT)
+VKM_ID SPEC_TAXONOMY = 18u;             // pathtrace.comp: events classified by a user taxonomy (--taxonomy)
 
 #ifdef __cplusplus
 }  // namespace vkmech::gpu

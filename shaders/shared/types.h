@@ -39,6 +39,19 @@ VKM_CONST HEAVY_BUCKETS = (1u << BUCKET_GLOSSY) | (1u << BUCKET_DELTA_MEDIATED) 
 // The label of a pixel without one (zero total energy, docs/descriptor.md §3).
 VKM_CONST NO_LABEL = 255u;
 
+// A user taxonomy (docs/lpe.md; host/engine/render/taxonomy.hpp): the words of BINDING_TAXONOMY.
+// Header: [0] the alphabet's size, [1] label classes, [2] the state after the camera event, [3]
+// the offset of the class per state, [4] of the label class per material, [5] per area emitter;
+// the transition table (state * alphabet + kind * label classes + label class) follows the
+// header. Event kinds as lpe::kKind*: the camera, then reflection and transmission per lobe
+// (1 + lobe, 4 + lobe), an emitter L, the background B. Classes are tally slots, at most
+// BUCKET_COUNT of them.
+VKM_CONST TAX_HEADER_WORDS = 8u;
+VKM_CONST TAX_KIND_REFLECT = 1u;
+VKM_CONST TAX_KIND_TRANSMIT = 4u;
+VKM_CONST TAX_KIND_LIGHT = 7u;
+VKM_CONST TAX_KIND_BACKGROUND = 8u;
+
 // End-vertex lobes (docs/descriptor.md §2): diffuse, glossy, delta specular; NONE for "no
 // lobe" (primary ray hits the emitter) and anything unclassifiable.
 VKM_CONST LOBE_D = 0u;

@@ -17,6 +17,7 @@
 #include "render/render_outputs.hpp"
 #include "render/renderer.hpp"
 #include "render/session.hpp"
+#include "render/taxonomy.hpp"
 #include "scene/environment.hpp"
 #include "scene/scene.hpp"
 #include "vk/context.hpp"
@@ -230,6 +231,28 @@ bool wants_direct_glossy(const RenderOptions& o, bool capture) {
     return on;
 }
 
+// `--taxonomy FILE` (docs/lpe.md): read, and the shapes it names given materials of their own
+// (before the scene goes to the device); then compiled against the scene on the device, its
+// warnings printed. Its errors are usage errors (exit 2) naming file, line and column.
+lpe::TaxonomySource read_taxonomy_for_cli(const std::string& file, Scene& scene) {
+    try {
+        lpe::TaxonomySource source = lpe::read_taxonomy(file);
+        give_named_shapes_own_materials(scene, source);
+        return source;
+    } catch (const lpe::LpeError& e) {
+        throw UsageError(std::string("--taxonomy: ") + e.what());
+    }
+}
+SceneTaxonomy taxonomy_for_cli(const lpe::TaxonomySource& source, const Scene& scene) {
+    try {
+        SceneTaxonomy t = compile_scene_taxonomy(source, scene);
+        for (const auto& w : t.compiled.warnings) std::fprintf(stderr, "vkmech: %s\n", w.str().c_str());
+        return t;
+    } catch (const lpe::LpeError& e) {
+        throw UsageError(std::string("--taxonomy: ") + e.what());
+    }
+}
+
 // What every render command starts with (render, --adaptive, --noise-threshold).
 struct CliRender {
     std::string name;
@@ -241,6 +264,7 @@ struct CliRender {
     std::unique_ptr<Renderer> renderer;
     vk::PipelineStats pipes;  // creating the renderer's pipeline
     double load_seconds = 0.0, build_seconds = 0.0;
+    std::optional<SceneTaxonomy> taxonomy;  // --taxonomy
     const Scene& scene() const { return session->scene(); }
 };
 
@@ -254,6 +278,8 @@ CliRender open_cli_render(const RenderOptions& o, Estimator estimator, bool capt
     CliRender r;
     const auto t_load = clock::now();
     Scene loaded = load_for_cli(o.common);
+    std::optional<lpe::TaxonomySource> taxonomy;
+    if (!o.taxonomy.empty()) taxonomy = read_taxonomy_for_cli(o.taxonomy, loaded);
     r.load_seconds = since(t_load);
     r.name = scene_stem(o.common.scene);
     r.set = open_output_set(o.out_dir.empty() ? "out/" + r.name : o.out_dir, r.name);
@@ -267,6 +293,15 @@ CliRender open_cli_render(const RenderOptions& o, Estimator estimator, bool capt
     r.features = generic ? Features::generic(estimator, capture) : r.session->features(estimator, capture);
     r.features.end_vertex = parse_end_vertex(o.end_vertex);
     r.features.direct_glossy = wants_direct_glossy(o, capture);
+    if (!o.taxonomy.empty()) {
+        if (!capture) throw UsageError("--taxonomy needs --capture on (its classes are what the capture records)");
+        if (r.features.direct_glossy)
+            throw UsageError(
+                "--taxonomy and --extra-output direct_glossy: the direct-glossy split is of the built-in "
+                "direct bucket; choose one");
+        r.taxonomy = taxonomy_for_cli(*taxonomy, r.session->scene());
+        r.features.taxonomy = r.taxonomy->words;
+    }
     if (adjust) adjust(r.features, r.session->scene());
     const vk::PipelineStats before = r.ctx->pipeline_cache().stats();
     r.renderer = r.session->make_renderer(r.features);
@@ -366,8 +401,10 @@ int cmd_render(const RenderOptions& o) {
     std::optional<DescriptorSummary> summary;
     if (capture) {
         desc = derive_descriptor(frame);
+        if (cr.taxonomy) use_taxonomy_classes(*desc, cr.taxonomy->class_names());
         summary = summarize(frame, *desc);
     }
+    if (cr.taxonomy) info.extra_json.emplace_back("taxonomy", taxonomy_json(*cr.taxonomy));
     WrittenFiles files =
         write_render_outputs(*set, info, frame, desc ? &*desc : nullptr, summary ? &*summary : nullptr);
     set->commit();
@@ -381,9 +418,9 @@ int cmd_render(const RenderOptions& o) {
     std::printf("pipeline creation: %.2f s (%s; not in the render time)\n", info.pipeline_seconds,
                 info.pipeline_cache.c_str());
     if (summary) {
-        std::printf("%-18s %12s %12s\n", "bucket", "pixel share", "energy share");
-        for (uint32_t b = 0; b < kBucketCount; ++b)
-            std::printf("%-18s %11.2f%% %11.2f%%\n", kBucketNames[b], 100.0 * summary->pixel_share[b],
+        std::printf("%-18s %12s %12s\n", cr.taxonomy ? "class" : "bucket", "pixel share", "energy share");
+        for (size_t b = 0; b < summary->class_names.size(); ++b)
+            std::printf("%-18s %11.2f%% %11.2f%%\n", summary->class_names[b].c_str(), 100.0 * summary->pixel_share[b],
                         100.0 * summary->energy_share[b]);
         std::printf("labelled pixels: %llu of %zu; other energy: %g\n",
                     static_cast<unsigned long long>(summary->labelled_pixels), frame.pixels.size(),
@@ -404,6 +441,10 @@ int cmd_render(const RenderOptions& o) {
 // `vkmech render --adaptive STRATEGY --pilot N0 --budget B`: pilot, predicted
 // label reliability, Neyman allocation, final render of n(p) pool samples.
 int cmd_render_adaptive(const RenderOptions& o) {
+    if (!o.taxonomy.empty())
+        throw UsageError(
+            "--taxonomy and --adaptive: the allocation strategies name the paper's buckets; a "
+            "taxonomy's classes are not yet an adaptive render's labels (docs/lpe.md)");
     if (!o.sample_range.empty())
         throw UsageError("--sample-range and --adaptive: an adaptive render takes samples [0, n(p)) at each pixel");
     if (!o.pixel_bounds.empty()) throw UsageError("--pixel-bounds and --adaptive: an adaptive render takes the film");
@@ -600,6 +641,10 @@ std::string threshold_json(const RenderOptions& o, const ThresholdSettings& s, c
 // `vkmech render --noise-threshold T`: rounds of samples where the estimated relative error is above T
 // (docs/descriptor.md §6.8).
 int cmd_render_threshold(const RenderOptions& o) {
+    if (!o.taxonomy.empty())
+        throw UsageError(
+            "--taxonomy and --noise-threshold: the threshold's rule floors by the paper's buckets; a "
+            "taxonomy's classes are not yet its labels (docs/lpe.md)");
     if (!o.sample_range.empty())
         throw UsageError("--sample-range and --noise-threshold: a noise-threshold render takes samples [0, n(p))");
     if (!o.pixel_bounds.empty())
@@ -763,6 +808,13 @@ void register_render(CLI::App& app, CliCommands& commands) {
                      "§3.4; a second shader variant, needs --capture on)")
         ->delimiter(',')
         ->check(CLI::IsMember({"direct_glossy"}));
+    render
+        ->add_option("--taxonomy", o->taxonomy,
+                     "Label paths by your own taxonomy: a file of `name = light path expression` lines (OSL's LPE "
+                     "grammar, first match wins, an implicit `other`; docs/lpe.md), compiled to a DFA the path "
+                     "tracer steps at each vertex; its classes replace the seven buckets in every output. At most "
+                     "6 lines. taxonomies/paper.lpe is the built-in one")
+        ->check(CLI::ExistingFile);
     render->add_option("--display-server", o->display_server,
                        "Show the render in progress in tev (or HDRView) listening at HOST:PORT (tev's default "
                        "127.0.0.1:14158): every channel of the EXR, updated at most every 250 ms; a viewer that is "

@@ -168,6 +168,14 @@ void add_study_options(CLI::App* app, StudyOptions& o) {
     app->add_option("--jobs", o.jobs_file,
                     "Write one self-contained command per work unit missing from the cache to this file (for Slurm "
                     "job arrays, GNU parallel or xargs) and render nothing");
+    app->add_option("--taxonomy", o.taxonomy,
+                    "`study stability` by a user taxonomy's classes (a file of `name = light path expression` lines, "
+                    "docs/lpe.md): every render classifies by it; the tables are the classes' shares, their "
+                    "cross-SPP agreement and the binned-variance baseline")
+        ->check(CLI::ExistingFile);
+    app->add_option("-D,--define", o.defines,
+                    "Set a parameter of every --scenes scene: -D name=value (as Mitsuba's -D; e.g. -D lights=4 for "
+                    "sweep_lights)");
     app->add_option("--display-server", o.display_server,
                     "Show the renders in progress in tev (or HDRView) listening at HOST:PORT: one image per scene "
                     "variant, each render streamed as it goes; a viewer that is absent or goes away is a warning");

@@ -87,6 +87,7 @@ std::string cache_key(const CacheKeyParts& k) {
     Digest d;
     d.str("vkmech-render-cache-v2").str(k.scene_digest).pod(k.width).pod(k.height).pod(k.spp).pod(k.seed);
     d.pod(k.estimator).pod(k.batch_spp).str(k.traversal).str(k.device).str(k.code_digest).pod(k.end_vertex);
+    if (!k.taxonomy.empty()) d.str("taxonomy").str(k.taxonomy);  // the buckets' keys stay what they were
     return d.hex();
 }
 

@@ -9,6 +9,7 @@
 #include "render/renderer.hpp"
 #include "render/session.hpp"
 #include "render/shader_modules.hpp"
+#include "render/taxonomy.hpp"
 #include "scene/scene.hpp"
 #include "study/allocation_source.hpp"
 #include "study/render_cache.hpp"
@@ -80,11 +81,12 @@ std::string now_utc() {
 
 }  // namespace
 
-LoadedScene load_variant(const SceneVariant& v, int res, Traversal traversal) {
+LoadedScene load_variant(const SceneVariant& v, int res, Traversal traversal, const lpe::TaxonomySource* taxonomy) {
     LoadOptions lo;
     lo.params = v.params;
     LoadedScene ls;
     ls.scene = load_scene(v.path, lo);
+    if (taxonomy) give_named_shapes_own_materials(ls.scene, *taxonomy);
     ls.scene.camera.set_film_width(v.res > 0 ? v.res : res);  // a variant's own width wins (the sensitivity axes)
     ls.arrays = flatten_scene(ls.scene, traversal);
     ls.digest = scene_digest(ls.scene, ls.arrays);
@@ -163,8 +165,38 @@ StudyPlan make_plan(const StudyOptions& o) {
     cfg.predictor_curve = o.curve;
     cfg.sweep_roughness_scene = o.sweep_roughness_scene;
     cfg.sweep_lights_scene = o.sweep_lights_scene;
-    for (const auto& path : o.scenes) cfg.scenes.push_back({fs::path(path).stem().string(), path, {}});
+    std::map<std::string, std::string> params;
+    for (const auto& d : o.defines) {
+        const size_t eq = d.find('=');
+        if (eq == std::string::npos || eq == 0) throw std::invalid_argument("-D expects name=value, got '" + d + "'");
+        params[d.substr(0, eq)] = d.substr(eq + 1);
+    }
+    for (const auto& path : o.scenes) {
+        std::string name = fs::path(path).stem().string();
+        for (const auto& [k, v] : params) name += " " + k + "=" + v;
+        cfg.scenes.push_back({name, path, params});
+    }
     const std::vector<StudyKind> kinds = parse_study(o.study);
+    if (!o.taxonomy.empty()) {
+        if (kinds != std::vector<StudyKind>{StudyKind::Stability})
+            throw std::invalid_argument(
+                "--taxonomy applies to `vkmech study stability` only: the other studies' "
+                "analyses name the paper's buckets (docs/lpe.md)");
+        if (!o.jobs_file.empty())
+            throw std::invalid_argument("--taxonomy and --jobs: the job commands do not carry the taxonomy yet");
+        try {
+            cfg.taxonomy = lpe::read_taxonomy(o.taxonomy);
+            const lpe::CompiledTaxonomy probe = lpe::compile_taxonomy(*cfg.taxonomy, {});  // errors before rendering
+            if (probe.class_names.size() > gpu::BUCKET_COUNT)
+                throw lpe::LpeError(o.taxonomy, 0, 0,
+                                    "a taxonomy has at most " + std::to_string(gpu::BUCKET_COUNT - 1) + " lines");
+        } catch (const lpe::LpeError& e) {
+            throw std::invalid_argument(std::string("--taxonomy: ") + e.what());
+        }
+        Digest d;
+        for (const auto& line : cfg.taxonomy->lines) d.str(line.name).str(line.expression);
+        cfg.taxonomy_digest = d.hex();
+    }
     cfg.validate(std::find(kinds.begin(), kinds.end(), StudyKind::Cost) != kinds.end());
     const std::string out_dir = o.out_dir;
     const std::string cache_dir = o.cache_dir.empty() ? (fs::path(out_dir) / "cache").string() : o.cache_dir;
@@ -200,14 +232,14 @@ CacheState key_renders(const StudyPlan& p, const StudyDevice& dev, const RenderC
         std::map<SceneVariant, std::string> digests;
         for (const auto& r : plan) {
             if (!digests.count(r.scene)) {
-                LoadedScene ls = load_variant(r.scene, cfg.res, trav);
+                LoadedScene ls = load_variant(r.scene, cfg.res, trav, cfg.taxonomy ? &*cfg.taxonomy : nullptr);
                 digests[r.scene] = ls.digest;
                 film[r.scene] = {ls.scene.camera.width, ls.scene.camera.height};
             }
             auto [w, h] = film[r.scene];
-            keys[r] =
-                cache_key({digests[r.scene], w, h, r.spp, r.seed, static_cast<uint32_t>(r.estimator), cfg.batch_spp,
-                           to_string(trav), ctx.info().name, code_digest, static_cast<uint32_t>(r.end_vertex)});
+            keys[r] = cache_key({digests[r.scene], w, h, r.spp, r.seed, static_cast<uint32_t>(r.estimator),
+                                 cfg.batch_spp, to_string(trav), ctx.info().name, code_digest,
+                                 static_cast<uint32_t>(r.end_vertex), cfg.taxonomy_digest});
         }
     }
 
@@ -293,9 +325,16 @@ RenderTally render_missing(const StudyPlan& p, const StudyDevice& dev, RenderCac
         for (const auto& r : missing)
             if (std::find(order.begin(), order.end(), r.scene) == order.end()) order.push_back(r.scene);
         for (const auto& variant : order) {
-            LoadedScene ls = load_variant(variant, cfg.res, trav);
+            LoadedScene ls = load_variant(variant, cfg.res, trav, cfg.taxonomy ? &*cfg.taxonomy : nullptr);
             RenderSession session(ctx, std::move(ls.scene), std::move(ls.arrays), trav);
             std::map<std::pair<Estimator, EndVertex>, std::unique_ptr<Renderer>> renderers;
+            std::vector<uint32_t> taxonomy_words;  // the taxonomy against this variant's labels
+            if (cfg.taxonomy) {
+                const SceneTaxonomy t = compile_scene_taxonomy(*cfg.taxonomy, session.scene());
+                for (const auto& w : t.compiled.warnings)
+                    std::fprintf(stderr, "vkmech: %s: %s\n", variant.name.c_str(), w.str().c_str());
+                taxonomy_words = t.words;
+            }
             // The variant's renders, one after another, in one image (a viewer that is absent is a warning).
             std::unique_ptr<DisplayClient> display = open_live_view(dev.display_server, "study " + variant.name);
             for (const auto& r : missing) {
@@ -305,6 +344,7 @@ RenderTally render_missing(const StudyPlan& p, const StudyDevice& dev, RenderCac
                 if (!rr) {
                     Features f = session.features(r.estimator);
                     f.end_vertex = r.end_vertex;
+                    f.taxonomy = taxonomy_words;
                     rr = session.make_renderer(f);
                 }
                 RenderSpec spec;

@@ -50,8 +50,10 @@ struct StudyOptions {
     std::string shard_text;                              // the CLI's "i/N", parsed into `shard` by cmd_study
     std::string jobs_file;
     bool analyse_only = false;
-    std::string command_line;    // for the report
-    std::string display_server;  // host:port of a tev viewer: the renders in progress (render/live_view.hpp)
+    std::string command_line;          // for the report
+    std::string display_server;        // host:port of a tev viewer: the renders in progress (render/live_view.hpp)
+    std::string taxonomy;              // --taxonomy FILE (docs/lpe.md): `study stability` by a user taxonomy's classes
+    std::vector<std::string> defines;  // -D name=value: parameters of every --scenes scene
 };
 
 // Thrown when SIGINT or SIGTERM arrives during rendering: finished renders are cached.
@@ -71,7 +73,9 @@ struct LoadedScene {
     SceneArrays arrays;
     std::string digest;
 };
-LoadedScene load_variant(const SceneVariant& v, int res, Traversal traversal);
+// `taxonomy`: a user taxonomy's named shapes get materials of their own (render/taxonomy.hpp).
+LoadedScene load_variant(const SceneVariant& v, int res, Traversal traversal,
+                         const lpe::TaxonomySource* taxonomy = nullptr);
 
 // The digest of the code that renders with traversal t (version and
 // path-tracing SPIR-V): part of every render-cache key and of a sentinel record.

@@ -1,5 +1,7 @@
 #include "render/descriptor.hpp"
 
+#include "io/invariant.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -41,6 +43,7 @@ Descriptor derive_descriptor(const Frame& f) {
     d.caustic_frac.resize(n);
     d.depth.resize(n);
     d.total_energy.resize(n);
+    d.class_names.assign(kBucketNames.begin(), kBucketNames.end());
     for (size_t i = 0; i < n; ++i) {
         const PixelStats& p = f.pixels[i];
         std::array<double, kBucketCount> e{};
@@ -68,8 +71,18 @@ Descriptor derive_descriptor(const Frame& f) {
     return d;
 }
 
+void use_taxonomy_classes(Descriptor& d, const std::vector<std::string>& class_names) {
+    VKM_ASSERT(!class_names.empty() && class_names.size() <= kBucketCount,
+               "a taxonomy has 1 to " + std::to_string(kBucketCount) + " classes");
+    d.class_names = class_names;
+    d.other_class = static_cast<uint32_t>(class_names.size()) - 1;
+    d.taxonomy = true;
+    std::fill(d.caustic_frac.begin(), d.caustic_frac.end(), 0.0f);
+}
+
 DescriptorSummary summarize(const Frame& f, const Descriptor& d) {
     DescriptorSummary s;
+    s.class_names = d.class_names;
     std::array<double, kBucketCount> energy{};
     double total = 0.0;
     for (size_t i = 0; i < f.pixels.size(); ++i) {
@@ -90,7 +103,7 @@ DescriptorSummary summarize(const Frame& f, const Descriptor& d) {
         if (s.labelled_pixels) s.pixel_share[b] /= static_cast<double>(s.labelled_pixels);
         s.energy_share[b] = total > 0 ? energy[b] / total : 0.0;
     }
-    s.other_energy = energy[gpu::BUCKET_OTHER];
+    s.other_energy = energy[d.other_class];
     if (!d.direct_glossy.empty()) {
         double direct_glossy = 0.0;
         for (float v : d.direct_glossy) direct_glossy += v;

@@ -29,12 +29,20 @@ struct Descriptor {
     // docs/descriptor.md §3.4, only when the frame has the split (render --extra-output direct_glossy):
     // the part of L_direct whose events end at a glossy vertex (mean per-sample energy, <= L_direct).
     std::vector<float> direct_glossy;
+    // The names of the tally slots in use, in index order: the seven buckets, or a user
+    // taxonomy's classes (use_taxonomy_classes), whose last is `other`.
+    std::vector<std::string> class_names;
+    uint32_t other_class = gpu::BUCKET_OTHER;
+    bool taxonomy = false;  // classes of a user taxonomy: caustic_frac (a bucket's share) is not defined
 };
 
 // argmax with ties broken to the lower index; kNoLabel when every entry is 0.
 uint8_t dominant_bucket(const std::array<double, kBucketCount>& energy);
 
 Descriptor derive_descriptor(const Frame& frame);
+// Names the slots by a user taxonomy's classes (docs/lpe.md), `other` last; the slots beyond are
+// empty. Call before summarize.
+void use_taxonomy_classes(Descriptor& d, const std::vector<std::string>& class_names);
 
 struct DescriptorSummary {
     std::array<double, kBucketCount> pixel_share{};   // share of labelled pixels per dominant bucket
@@ -48,6 +56,7 @@ struct DescriptorSummary {
     bool has_direct_glossy = false;
     double direct_glossy_energy_share = 0.0;
     double direct_glossy_share_of_direct = 0.0;
+    std::vector<std::string> class_names;  // Descriptor::class_names
 };
 
 DescriptorSummary summarize(const Frame& frame, const Descriptor& d);

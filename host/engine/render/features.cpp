@@ -73,6 +73,7 @@ std::string Features::describe() const {
     add(debug_events, "debug-events");
     add(direct_glossy, "direct-glossy");
     add(counters, "counters");
+    add(!taxonomy.empty(), "taxonomy");
     if (s.empty()) s = "diffuse-only";
     s += std::string(" estimator=") + to_string(estimator);
     if (end_vertex != EndVertex::LastNonDelta) s += std::string(" end-vertex=") + to_string(end_vertex);

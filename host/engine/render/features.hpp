@@ -48,6 +48,10 @@ struct Features {
     bool counters = false;
     Estimator estimator = Estimator::Nee;
     EndVertex end_vertex = EndVertex::LastNonDelta;
+    // `--taxonomy` (docs/lpe.md): a user taxonomy's words (SceneTaxonomy::words), whose classes
+    // replace the built-in cascade's buckets in the tally (SPEC_TAXONOMY); empty: the cascade.
+    // Needs capture.
+    std::vector<uint32_t> taxonomy;
 
     // Everything on: the generic pipeline (for `bench render`).
     static Features generic(Estimator e = Estimator::Nee, bool capture = true);

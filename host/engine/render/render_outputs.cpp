@@ -92,7 +92,8 @@ std::vector<uint8_t> categorical_map_with_legend(int width, int height, const st
 
 std::vector<uint8_t> dominant_map_with_legend(const Descriptor& d, int* out_w, int* out_h) {
     std::vector<std::array<uint8_t, 3>> colors(kBucketColors.begin(), kBucketColors.end());
-    std::vector<std::string> names(kBucketNames.begin(), kBucketNames.end());
+    const std::vector<std::string>& names = d.class_names;
+    colors.resize(names.size());
     return categorical_map_with_legend(d.width, d.height, d.dominant, colors, names, "none (no energy)", out_w, out_h);
 }
 
@@ -190,11 +191,12 @@ std::string summary_json(const RenderInfo& info, const Frame& frame, const Descr
         o << "  \"other_energy\": " << s->other_energy << ",\n";
         o << "  \"max_bucket_sum_relative_error\": " << s->max_bucket_sum_error << ",\n";
         o << "  \"buckets\": {\n";
-        for (uint32_t b = 0; b < kBucketCount; ++b) {
-            o << "    \"" << kBucketNames[b] << "\": {\"pixel_share\": " << s->pixel_share[b]
-              << ", \"energy_share\": " << s->energy_share[b] << "}" << (b + 1 < kBucketCount ? "," : "") << "\n";
+        const size_t classes = s->class_names.size();
+        for (size_t b = 0; b < classes; ++b) {
+            o << "    \"" << json_escape(s->class_names[b]) << "\": {\"pixel_share\": " << s->pixel_share[b]
+              << ", \"energy_share\": " << s->energy_share[b] << "}" << (b + 1 < classes ? "," : "") << "\n";
         }
-        o << "  },\n  \"dominant_legend\": " << dominant_legend_json();
+        o << "  },\n  \"dominant_legend\": " << dominant_legend_json(s->class_names);
         if (s->has_direct_glossy)
             o << ",\n  \"direct_glossy\": {\"energy_share\": " << s->direct_glossy_energy_share
               << ", \"share_of_direct\": " << s->direct_glossy_share_of_direct << "}";
@@ -203,10 +205,12 @@ std::string summary_json(const RenderInfo& info, const Frame& frame, const Descr
     return o.str();
 }
 
-std::string dominant_legend_json() {
+std::string dominant_legend_json(const std::vector<std::string>& class_names) {
+    const std::vector<std::string> buckets(kBucketNames.begin(), kBucketNames.end());
+    const std::vector<std::string>& names = class_names.empty() ? buckets : class_names;
     std::string s = "{";
-    for (uint32_t b = 0; b < kBucketCount; ++b)
-        s += (b ? ", \"" : "\"") + std::to_string(b) + "\": \"" + kBucketNames[b] + "\"";
+    for (size_t b = 0; b < names.size(); ++b)
+        s += (b ? ", \"" : "\"") + std::to_string(b) + "\": \"" + json_escape(names[b]) + "\"";
     return s + ", \"" + std::to_string(kNoLabel) + "\": \"unlabelled\"}";
 }
 
@@ -263,22 +267,23 @@ std::vector<ExrChannel> render_channels(const Frame& frame, const Descriptor* d)
         VKM_ASSERT(frame.bucket_rgb_sum.size() == n * Frame::kBucketRgb,
                    "render_channels: the frame has no per-bucket RGB (a frame from the render "
                    "cache, or merged with one) and cannot be written as a render's EXR");
-        for (uint32_t b = 0; b < kBucketCount; ++b)
+        const size_t classes = d->class_names.size();
+        for (size_t b = 0; b < classes; ++b)
             for (int c = 0; c < 3; ++c)
-                channel(std::string("bucket.") + kBucketNames[b] + "." + "RGB"[c], [&](size_t i) {
+                channel("bucket." + d->class_names[b] + "." + "RGB"[c], [&](size_t i) {
                     const double count = frame.pixels[i].count;
                     return count > 0 ? frame.bucket_rgb_sum[i * Frame::kBucketRgb + 3 * b + c] / count : 0.0;
                 });
-        for (uint32_t b = 0; b < kBucketCount; ++b)
-            channel(std::string("lum.") + kBucketNames[b], [&](size_t i) { return d->bucket_energy[i][b]; });
+        for (size_t b = 0; b < classes; ++b)
+            channel("lum." + d->class_names[b], [&](size_t i) { return d->bucket_energy[i][b]; });
         if (!d->direct_glossy.empty()) channel("lum.direct_glossy", [&](size_t i) { return d->direct_glossy[i]; });
         channel("dominant", [&](size_t i) { return static_cast<float>(d->dominant[i]); });
         channel("purity", [&](size_t i) { return d->purity[i]; });
         channel("glossy_frac", [&](size_t i) { return d->glossy_frac[i]; });
-        channel("caustic_frac", [&](size_t i) { return d->caustic_frac[i]; });
+        if (!d->taxonomy) channel("caustic_frac", [&](size_t i) { return d->caustic_frac[i]; });
         channel("depth", [&](size_t i) { return d->depth[i]; });
-        for (uint32_t b = 0; b < kBucketCount; ++b)
-            channel(std::string("frac.") + kBucketNames[b], [&](size_t i) {
+        for (size_t b = 0; b < classes; ++b)
+            channel("frac." + d->class_names[b], [&](size_t i) {
                 return d->total_energy[i] > 0 ? d->bucket_energy[i][b] / d->total_energy[i] : 0.0f;
             });
     }
@@ -291,7 +296,7 @@ std::vector<ExrChannel> render_channels(const Frame& frame, const Descriptor* d)
 
 std::map<std::string, std::vector<std::string>> render_attributes(const RenderInfo& info,
                                                                   const std::vector<std::string>& warnings,
-                                                                  const std::string& run_id, bool capture) {
+                                                                  const std::string& run_id, const Descriptor* d) {
     std::map<std::string, std::vector<std::string>> attrs = {{"vkmech.scene", {info.scene_path}},
                                                              {"vkmech.estimator", {info.estimator}},
                                                              {"vkmech.lightSelection", {info.light_selection}},
@@ -304,7 +309,7 @@ std::map<std::string, std::vector<std::string>> render_attributes(const RenderIn
                                                              {"vkmech.substitutions", info.substitutions}};
     if (!run_id.empty()) attrs["vkmech.runId"] = {run_id};
     if (!info.lights_at_infinity.empty()) attrs["vkmech.lightsAtInfinity"] = {info.lights_at_infinity};
-    if (capture) attrs["vkmech.dominantLegend"] = {dominant_legend_json()};
+    if (d) attrs["vkmech.dominantLegend"] = {dominant_legend_json(d->class_names)};
     if (const Provenance& p = info.provenance; !p.version.empty()) {
         attrs["vkmech.version"] = {p.version};
         attrs["vkmech.codeDigest"] = {p.code_digest};
@@ -359,7 +364,7 @@ WrittenFiles write_render_outputs(OutputSet& set, const RenderInfo& info, const 
         final_path = set.final_path(file);
         fault_point(("staged-" + file.substr(name.size())).c_str());
     };
-    const auto attrs = render_attributes(info, reported.warnings, set.run_id(), d != nullptr);
+    const auto attrs = render_attributes(info, reported.warnings, set.run_id(), d);
     stage(out.exr, name + ".exr", [&](const std::string& p) { write_exr_layers(p, w, h, ch, attrs); });
     stage(out.png, name + ".png", [&](const std::string& p) {
         write_png_rgb8(p, w, h,

@@ -87,14 +87,15 @@ std::vector<std::string> exr_channel_names(bool capture, bool direct_glossy = fa
 // The EXR's channels, in the file's order (R G B, the descriptor's when `d`, the moments).
 std::vector<ExrChannel> render_channels(const Frame& frame, const Descriptor* d);
 // The EXR's header attributes (io/exr.hpp): how the image was made, its
-// warnings, provenance, run id (when not empty), the dominant legend (`capture`).
+// warnings, provenance, run id (when not empty), the dominant legend (with the descriptor `d`).
 std::map<std::string, std::vector<std::string>> render_attributes(const RenderInfo& info,
                                                                   const std::vector<std::string>& warnings,
-                                                                  const std::string& run_id, bool capture);
+                                                                  const std::string& run_id, const Descriptor* d);
 
 // The `dominant` channel's legend as JSON, {"0": "emitter_direct", ..., "255": "unlabelled"}:
-// in the EXR header (vkmech.dominantLegend) and the JSON (dominant_legend).
-std::string dominant_legend_json();
+// in the EXR header (vkmech.dominantLegend) and the JSON (dominant_legend). `class_names`: a
+// descriptor's (a user taxonomy's classes); empty: the seven buckets.
+std::string dominant_legend_json(const std::vector<std::string>& class_names = {});
 
 // Stages the files in `set` (their final paths are returned); checks for
 // SIGINT/SIGTERM between files (throws Interrupted). The caller adds any

@@ -48,7 +48,8 @@ std::vector<vk::SpecConstant> spec_constants(const Features& f, bool instanced) 
                                        {SPEC_SHARED_TALLY, shared_tally_from_env()},
                                        {SPEC_INSTANCES, instanced},
                                        {SPEC_WINDOW, f.window},
-                                       {SPEC_TANGENTS, f.tangents}};
+                                       {SPEC_TANGENTS, f.tangents},
+                                       {SPEC_TAXONOMY, !f.taxonomy.empty()}};
 #define VKM_X(NAME, name, bit, spec_id) c.push_back({SPEC_##NAME, (f.materials & FEATURE_BIT_##NAME) != 0u});
     VKM_MATERIAL_FEATURES(VKM_X)
 #undef VKM_X
@@ -144,10 +145,13 @@ Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Feature
     std::vector<vk::BindingDesc> bindings = {
         {BINDING_PARAMS, DT::eUniformBuffer},   {BINDING_ACCUM, DT::eStorageBuffer},
         {BINDING_DEBUG, DT::eStorageBuffer},    {BINDING_SAMPLE_COUNTS, DT::eStorageBuffer},
-        {BINDING_COUNTERS, DT::eStorageBuffer}, {BINDING_WORK, DT::eStorageBuffer}};
+        {BINDING_COUNTERS, DT::eStorageBuffer}, {BINDING_WORK, DT::eStorageBuffer},
+        {BINDING_TAXONOMY, DT::eStorageBuffer}};
     for (const auto& b : scene_bindings(gpu_.traversal(), gpu_.kernel())) bindings.push_back(b);
     VKM_ASSERT(!features_.direct_glossy || features_.capture,
                "the direct_glossy output needs the mechanism capture on (the CLI refuses it without)");
+    VKM_ASSERT(features_.taxonomy.empty() || (features_.capture && !features_.direct_glossy),
+               "a taxonomy needs the capture on and the direct_glossy output off (the CLI refuses them)");
     if (features_.counters && !ctx.shader_clock_enabled())
         throw std::invalid_argument(
             "the path tracer's counters time its phases with VK_KHR_shader_clock's subgroup "
@@ -190,6 +194,11 @@ Renderer::Renderer(std::shared_ptr<const SceneOnDevice> on_device, const Feature
     // Claimed pixels' slot counter (zeroed before each batch that uses it).
     work_ = vk::Buffer(ctx, 16, ::vk::BufferUsageFlagBits::eStorageBuffer, vk::MemoryUse::Upload);
     pipeline_->bind_buffer(BINDING_WORK, work_.handle());
+    // A user taxonomy's DFA (docs/lpe.md); bound always, read only under SPEC_TAXONOMY.
+    const std::vector<uint32_t> no_taxonomy(gpu::TAX_HEADER_WORDS, 0u);
+    taxonomy_ = vk::Buffer::from_vector(ctx, features_.taxonomy.empty() ? no_taxonomy : features_.taxonomy,
+                                        ::vk::BufferUsageFlagBits::eStorageBuffer);
+    pipeline_->bind_buffer(BINDING_TAXONOMY, taxonomy_.handle());
     // Compile now (lavapipe compiles at the first dispatch), so that a
     // Frame's seconds count rendering only.
     pipeline_->warm_up();

@@ -104,7 +104,7 @@ private:
     const GpuScene& gpu_;
     Features features_;
     std::unique_ptr<vk::ComputePipeline> pipeline_;
-    vk::Buffer params_, accum_, debug_, sample_counts_, counter_buffer_, work_;
+    vk::Buffer params_, accum_, debug_, sample_counts_, counter_buffer_, work_, taxonomy_;
     TraversalCounters counters_;
     uint32_t debug_pixel_ = 0, debug_capacity_ = 0;
 };

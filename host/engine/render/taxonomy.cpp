@@ -1,0 +1,111 @@
+#include "render/taxonomy.hpp"
+
+#include "io/json.hpp"
+#include "shared/types.h"
+
+#include <algorithm>
+#include <sstream>
+
+namespace vkmech {
+
+static_assert(lpe::kKindCamera == 0 && lpe::kKindRD == gpu::TAX_KIND_REFLECT + gpu::LOBE_D &&
+                  lpe::kKindRG == gpu::TAX_KIND_REFLECT + gpu::LOBE_G &&
+                  lpe::kKindRS == gpu::TAX_KIND_REFLECT + gpu::LOBE_S &&
+                  lpe::kKindTD == gpu::TAX_KIND_TRANSMIT + gpu::LOBE_D &&
+                  lpe::kKindTG == gpu::TAX_KIND_TRANSMIT + gpu::LOBE_G &&
+                  lpe::kKindTS == gpu::TAX_KIND_TRANSMIT + gpu::LOBE_S && lpe::kKindLight == gpu::TAX_KIND_LIGHT &&
+                  lpe::kKindBackground == gpu::TAX_KIND_BACKGROUND,
+              "the shader's event kinds are the LPE compiler's");
+
+std::vector<lpe::LabelSlot> taxonomy_label_slots(const Scene& scene) {
+    std::vector<lpe::LabelSlot> slots;
+    // The device has one default material when the scene has none (gpu_scene.cpp).
+    if (scene.materials.empty()) slots.push_back({});
+    std::vector<int> users(scene.materials.size(), 0), user(scene.materials.size(), -1);
+    for (size_t k = 0; k < scene.meshes.size(); ++k) {
+        const int m = scene.meshes[k].material;
+        if (m < 0 || static_cast<size_t>(m) >= scene.materials.size()) continue;
+        users[static_cast<size_t>(m)]++;
+        user[static_cast<size_t>(m)] = static_cast<int>(k);
+    }
+    for (size_t m = 0; m < scene.materials.size(); ++m) {
+        lpe::LabelSlot slot{{scene.materials[m].id}};
+        if (users[m] == 1) slot.names.push_back(scene.meshes[static_cast<size_t>(user[m])].name);
+        slots.push_back(std::move(slot));
+    }
+    for (const AreaEmitter& e : scene.emitters) {
+        lpe::LabelSlot slot;
+        if (e.mesh >= 0 && static_cast<size_t>(e.mesh) < scene.meshes.size()) {
+            const Mesh& mesh = scene.meshes[static_cast<size_t>(e.mesh)];
+            if (!mesh.name.empty()) slot.names.push_back(mesh.name);
+            if (mesh.material >= 0 && static_cast<size_t>(mesh.material) < scene.materials.size())
+                slot.names.push_back(scene.materials[static_cast<size_t>(mesh.material)].id);
+        }
+        slots.push_back(std::move(slot));
+    }
+    return slots;
+}
+
+int give_named_shapes_own_materials(Scene& scene, const lpe::TaxonomySource& source) {
+    // The labels the taxonomy names: compiled against no slots, they are all unknown, and listed.
+    const lpe::CompiledTaxonomy probe = lpe::compile_taxonomy(source, {});
+    std::vector<int> users(scene.materials.size(), 0);
+    for (const Mesh& mesh : scene.meshes)
+        if (mesh.material >= 0 && static_cast<size_t>(mesh.material) < scene.materials.size())
+            users[static_cast<size_t>(mesh.material)]++;
+    int copies = 0;
+    for (Mesh& mesh : scene.meshes) {
+        const int m = mesh.material;
+        if (m < 0 || static_cast<size_t>(m) >= users.size() || users[static_cast<size_t>(m)] < 2) continue;
+        if (std::find(probe.labels.begin(), probe.labels.end(), mesh.name) == probe.labels.end()) continue;
+        users[static_cast<size_t>(m)]--;
+        scene.materials.push_back(scene.materials[static_cast<size_t>(m)]);
+        mesh.material = static_cast<int>(scene.materials.size()) - 1;
+        users.push_back(1);
+        ++copies;
+    }
+    return copies;
+}
+
+SceneTaxonomy compile_scene_taxonomy(const lpe::TaxonomySource& source, const Scene& scene) {
+    const uint32_t classes = static_cast<uint32_t>(source.lines.size()) + 1;
+    if (classes > gpu::BUCKET_COUNT)
+        throw lpe::LpeError(source.file, source.lines.size() > 6 ? source.lines[6].line : 0, 0,
+                            "a taxonomy has at most " + std::to_string(gpu::BUCKET_COUNT - 1) +
+                                " lines (with the implicit `other`, one tally slot per class); this one has " +
+                                std::to_string(source.lines.size()));
+    SceneTaxonomy t;
+    t.source = source;
+    t.compiled = lpe::compile_taxonomy(source, taxonomy_label_slots(scene));
+    const lpe::CompiledTaxonomy& c = t.compiled;
+    const uint32_t materials = static_cast<uint32_t>(std::max<size_t>(scene.materials.size(), 1));
+    std::vector<uint32_t>& w = t.words;
+    w.assign(gpu::TAX_HEADER_WORDS, 0u);
+    w[0] = c.alphabet_size;
+    w[1] = c.label_class_count;
+    w[2] = c.step(c.start_state, c.symbol(lpe::kKindCamera, 0));
+    for (uint16_t next : c.next_state) w.push_back(next);
+    w[3] = static_cast<uint32_t>(w.size());
+    for (uint8_t cls : c.accept_class) w.push_back(cls);
+    w[4] = static_cast<uint32_t>(w.size());
+    for (uint32_t m = 0; m < materials; ++m) w.push_back(c.label_class_of_slot.at(m));
+    w[5] = static_cast<uint32_t>(w.size());
+    for (size_t e = 0; e < scene.emitters.size(); ++e) w.push_back(c.label_class_of_slot.at(materials + e));
+    if (scene.emitters.empty()) w.push_back(0u);  // never read; keeps the buffer non-empty past the offsets
+    return t;
+}
+
+std::string taxonomy_json(const SceneTaxonomy& t) {
+    std::ostringstream o;
+    o << "{\"file\": \"" << json_escape(t.source.file) << "\", \"lines\": [";
+    for (size_t i = 0; i < t.source.lines.size(); ++i)
+        o << (i ? ", " : "") << "{\"name\": \"" << json_escape(t.source.lines[i].name) << "\", \"expression\": \""
+          << json_escape(t.source.lines[i].expression) << "\"}";
+    o << "], \"classes\": [";
+    for (size_t i = 0; i < t.compiled.class_names.size(); ++i)
+        o << (i ? ", " : "") << "\"" << json_escape(t.compiled.class_names[i]) << "\"";
+    o << "], \"states\": " << t.compiled.state_count << "}";
+    return o.str();
+}
+
+}  // namespace vkmech

@@ -1,0 +1,305 @@
+// User taxonomies on the device (docs/lpe.md; render/taxonomy.hpp): the paper's buckets written
+// as a taxonomy (taxonomies/paper.lpe, paper-literal.lpe) render every project scene exactly as
+// the built-in cascade; a user taxonomy's classes partition the energy by the labels it names.
+#include "cli_run.hpp"
+#include "gpu_fixture.hpp"
+#include "scene_fixtures.hpp"
+#include "temp_dir.hpp"
+
+#include "io/exr.hpp"
+#include "render/descriptor.hpp"
+#include "render/renderer.hpp"
+#include "render/session.hpp"
+#include "render/taxonomy.hpp"
+#include "scene/primitives.hpp"
+
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+using namespace vkmech;
+
+namespace {
+
+std::string source_path(const std::string& rel) { return std::string(VKMECH_SOURCE_DIR) + "/" + rel; }
+
+Frame render(RenderSession& session, const Features& f, uint32_t spp) {
+    Renderer r = session.renderer(f);
+    RenderSpec spec;
+    spec.spp = spp;
+    spec.seed = 7;
+    spec.batch_spp = spp;
+    return r.render(spec);
+}
+
+// The number of pixels whose tally differs in any bit (moments, RGB, every slot).
+size_t differing_pixels(const Frame& a, const Frame& b) {
+    REQUIRE(a.pixels.size() == b.pixels.size());
+    REQUIRE(a.bucket_rgb_sum.size() == b.bucket_rgb_sum.size());
+    size_t n = 0;
+    for (size_t i = 0; i < a.pixels.size(); ++i) {
+        const PixelStats &p = a.pixels[i], &q = b.pixels[i];
+        bool same = p.count == q.count && p.lum_mean == q.lum_mean && p.lum_m2 == q.lum_m2 && p.rgb_sum == q.rgb_sum &&
+                    p.bucket_sum == q.bucket_sum && p.glossy_sum == q.glossy_sum;
+        same = same && std::memcmp(&a.bucket_rgb_sum[i * Frame::kBucketRgb], &b.bucket_rgb_sum[i * Frame::kBucketRgb],
+                                   Frame::kBucketRgb * sizeof(double)) == 0;
+        n += same ? 0 : 1;
+    }
+    return n;
+}
+
+// Two unit quads facing a diffuse floor, each its own emitter (shape ids "lamp_a", "lamp_b"),
+// and a floor of material "floor".
+Scene two_lamp_scene(float radiance_a, float radiance_b) {
+    Scene s = testing::quad_scene();
+    s.materials[0].id = "floor";
+    s.meshes[0].name = "ground";
+    s.meshes[0].positions = {{-4, -4, 0}, {-4, 4, 0}, {4, 4, 0}, {4, -4, 0}};  // faces -z, towards the camera
+    Material lamp;
+    lamp.id = "lamp_material";
+    s.materials.push_back(lamp);
+    for (int k = 0; k < 2; ++k) {
+        Mesh q;
+        q.name = k == 0 ? "lamp_a" : "lamp_b";
+        q.kind = ShapeKind::Rectangle;
+        const float x = k == 0 ? -1.5f : 1.5f;
+        q.positions = {{x - 0.5f, -0.5f, -2}, {x + 0.5f, -0.5f, -2}, {x + 0.5f, 0.5f, -2}, {x - 0.5f, 0.5f, -2}};
+        q.indices = {{0, 1, 2}, {0, 2, 3}};  // faces +z, towards the floor
+        q.material = 1;
+        q.emitter = static_cast<int>(s.emitters.size());
+        s.meshes.push_back(q);
+        AreaEmitter e;
+        e.mesh = static_cast<int>(s.meshes.size()) - 1;
+        e.radiance = glm::vec3(k == 0 ? radiance_a : radiance_b);
+        s.emitters.push_back(e);
+    }
+    s.camera.to_world[3] = glm::vec4(0, 0, -6, 1);
+    return s;
+}
+
+lpe::TaxonomySource taxonomy_text(const std::string& text) { return lpe::parse_taxonomy(text, "<test>"); }
+
+}  // namespace
+
+TEST_CASE("taxonomy: the GPU words hold the DFA, the classes and the labels of the scene's materials and emitters") {
+    Scene s = two_lamp_scene(1.0f, 1.0f);
+    const SceneTaxonomy t =
+        compile_scene_taxonomy(taxonomy_text("a = C .* <L.'lamp_a'>\nfloor_b = C 'floor' <L.'lamp_b'>\n"), s);
+    CHECK(t.class_names() == std::vector<std::string>{"a", "floor_b", "other"});
+    const auto& w = t.words;
+    REQUIRE(w.size() > gpu::TAX_HEADER_WORDS);
+    const uint32_t alphabet = w[0], labels = w[1];
+    CHECK(alphabet == lpe::kKindCount * labels);
+    auto step = [&](uint32_t state, uint32_t kind, uint32_t label) {
+        return w[gpu::TAX_HEADER_WORDS + state * alphabet + kind * labels + label];
+    };
+    auto cls = [&](uint32_t state) { return w[w[3] + state]; };
+    const uint32_t floor_label = w[w[4] + 0], lamp_a = w[w[5] + 0], lamp_b = w[w[5] + 1];
+    CHECK(lamp_a != lamp_b);
+    // C RD:floor L:lamp_b is floor_b; C RD:floor L:lamp_a is a (the first line); C L:lamp_b is other.
+    const uint32_t after_floor = step(w[2], gpu::TAX_KIND_REFLECT + gpu::LOBE_D, floor_label);
+    CHECK(cls(step(after_floor, gpu::TAX_KIND_LIGHT, lamp_b)) == 1);
+    CHECK(cls(step(after_floor, gpu::TAX_KIND_LIGHT, lamp_a)) == 0);
+    CHECK(cls(step(w[2], gpu::TAX_KIND_LIGHT, lamp_b)) == 2);
+    CHECK(cls(step(w[2], gpu::TAX_KIND_LIGHT, lamp_a)) == 0);
+
+    // Seven lines leave no slot for `other`: refused, naming the line.
+    std::string seven;
+    for (int i = 0; i < 7; ++i) seven += "c" + std::to_string(i) + " = C .* L\n";
+    CHECK_THROWS_WITH_AS(compile_scene_taxonomy(taxonomy_text(seven), s), doctest::Contains("at most 6 lines"),
+                         lpe::LpeError);
+}
+
+TEST_CASE("taxonomy: a shape the taxonomy names gets its own material, so its events answer to its id") {
+    Scene s = two_lamp_scene(1.0f, 1.0f);
+    Mesh wall = s.meshes[0];  // a second shape of material "floor"
+    wall.name = "wall";
+    s.meshes.push_back(wall);
+    const auto src = taxonomy_text("on_ground = C <.D'ground'> .* [LB]\n");
+    const size_t materials = s.materials.size();
+    CHECK(give_named_shapes_own_materials(s, src) == 1);
+    REQUIRE(s.materials.size() == materials + 1);
+    CHECK(s.meshes[0].material == static_cast<int>(materials));  // ground: the copy
+    CHECK(s.materials.back().id == "floor");
+    CHECK(s.materials.back().reflectance.value == s.materials[0].reflectance.value);
+    const auto slots = taxonomy_label_slots(s);
+    CHECK(slots[0].names == std::vector<std::string>{"floor", "wall"});  // now the wall's alone
+    CHECK(slots[materials].names == std::vector<std::string>{"floor", "ground"});
+    CHECK(slots[1].names == std::vector<std::string>{"lamp_material"});  // two lamps share it
+    CHECK(slots[materials + 1].names == std::vector<std::string>{"lamp_a", "lamp_material"});
+    CHECK(give_named_shapes_own_materials(s, src) == 0);  // nothing left to split
+}
+
+TEST_SUITE("gpu") {
+    TEST_CASE(
+        "taxonomy: taxonomies/paper.lpe renders every project scene bit for bit as the built-in cascade (both "
+        "readings)") {
+        VKMECH_REQUIRE_GPU(ctx);
+        const lpe::TaxonomySource paper = lpe::read_taxonomy(source_path("taxonomies/paper.lpe"));
+        const lpe::TaxonomySource literal = lpe::read_taxonomy(source_path("taxonomies/paper-literal.lpe"));
+        for (const char* name : {"cubes_dof", "glass_caustic", "kitchen_counter", "ring_caustic", "snooker",
+                                 "sweep_lights", "sweep_roughness", "tabletop_mixed", "tabletop_separated"}) {
+            Scene scene = load_scene(source_path(std::string("scenes/") + name + ".xml"));
+            scene.camera.set_film_width(24);
+            RenderSession session(*ctx, std::move(scene), Traversal::Bvh);
+            // The readings differ only after a delta vertex: the literal one on the scenes that have them.
+            const std::string n(name);
+            const bool delta = n != "cubes_dof" && n != "sweep_lights" && n != "sweep_roughness";
+            for (EndVertex reading : {EndVertex::LastNonDelta, EndVertex::Literal}) {
+                if (reading == EndVertex::Literal && !delta) continue;
+                Features f = session.features(Estimator::Mis);
+                f.end_vertex = reading;
+                const Frame cascade = render(session, f, 4);
+                f.taxonomy =
+                    compile_scene_taxonomy(reading == EndVertex::Literal ? literal : paper, session.scene()).words;
+                const Frame taxonomy = render(session, f, 4);
+                CAPTURE(std::string(name));
+                CAPTURE(std::string(to_string(reading)));
+                CHECK(differing_pixels(cascade, taxonomy) == 0);
+                double energy = 0.0;
+                for (const auto& p : cascade.pixels) energy += p.lum_mean;
+                CHECK(energy > 0.0);
+            }
+        }
+    }
+
+    TEST_CASE("taxonomy: the GPU kernel classifies as the CPU kernel does (paper.lpe, two scenes)") {
+        VKMECH_REQUIRE_GPU(ctx);
+        const lpe::TaxonomySource paper = lpe::read_taxonomy(source_path("taxonomies/paper.lpe"));
+        for (const char* name : {"glass_caustic", "kitchen_counter"}) {
+            Scene scene = load_scene(source_path(std::string("scenes/") + name + ".xml"));
+            scene.camera.set_film_width(24);
+            RenderSession session(*ctx, std::move(scene), Traversal::Bvh, LightSelection::Uniform,
+                                  vkmech::vk::KernelClass::Gpu);
+            Features f = session.features(Estimator::Mis);
+            const Frame cascade = render(session, f, 4);
+            f.taxonomy = compile_scene_taxonomy(paper, session.scene()).words;
+            CAPTURE(std::string(name));
+            CHECK(differing_pixels(cascade, render(session, f, 4)) == 0);
+            // The same six lines in reverse order (they are disjoint): the classes swap slots, so the
+            // tally is the cascade's, slot b moved to slot 5 - b, bit for bit. The taxonomy is live.
+            lpe::TaxonomySource reversed = paper;
+            std::reverse(reversed.lines.begin(), reversed.lines.end());
+            f.taxonomy = compile_scene_taxonomy(reversed, session.scene()).words;
+            const Frame swapped = render(session, f, 4);
+            size_t moved = 0, same = 0;
+            for (size_t i = 0; i < cascade.pixels.size(); ++i)
+                for (uint32_t b = 0; b < 6; ++b) {
+                    same += swapped.pixels[i].bucket_sum[5 - b] == cascade.pixels[i].bucket_sum[b];
+                    moved += cascade.pixels[i].bucket_sum[b] != 0.0 && swapped.pixels[i].bucket_sum[b] == 0.0;
+                }
+            CHECK(same == 6 * cascade.pixels.size());
+            CHECK(moved > 0);
+        }
+    }
+
+    TEST_CASE("taxonomy: per-light classes partition the image, each the image of its light alone") {
+        VKMECH_REQUIRE_GPU(ctx);
+        const char* text = "lamp_a = C .* <L.'lamp_a'>\nlamp_b = C .* <L.'lamp_b'>\n";
+        RenderSession both(*ctx, two_lamp_scene(1.0f, 3.0f), Traversal::Bvh);
+        Features f = both.features(Estimator::Mis);
+        f.taxonomy = compile_scene_taxonomy(taxonomy_text(text), both.scene()).words;
+        const Frame split = render(both, f, 1024);
+        double a = 0.0, b = 0.0, rest = 0.0, total = 0.0;
+        for (const auto& p : split.pixels) {
+            a += p.bucket_sum[0] / p.count;
+            b += p.bucket_sum[1] / p.count;
+            for (uint32_t k = 2; k < gpu::BUCKET_COUNT; ++k) rest += p.bucket_sum[k] / p.count;
+            total += p.lum_mean;
+        }
+        CHECK(rest == 0.0);
+        CHECK(a + b == doctest::Approx(total).epsilon(1e-6));
+        // Each class against a render lit by that lamp alone (the other's radiance 0).
+        for (int k = 0; k < 2; ++k) {
+            RenderSession alone(*ctx, two_lamp_scene(k == 0 ? 1.0f : 0.0f, k == 0 ? 0.0f : 3.0f), Traversal::Bvh);
+            const Frame lit = render(alone, alone.features(Estimator::Mis), 1024);
+            double mean = 0.0, var = 0.0;
+            for (const auto& p : lit.pixels) {
+                mean += p.lum_mean;
+                var += p.lum_var() / p.count;
+            }
+            const double cls = k == 0 ? a : b;
+            CAPTURE(k);
+            CAPTURE(cls);
+            CAPTURE(mean);
+            CHECK(std::abs(cls - mean) < 5.0 * std::sqrt(2.0 * var));  // both renders' noise
+            CHECK(cls > 0.1 * total);
+        }
+    }
+}
+
+TEST_SUITE("gpu") {
+    TEST_CASE("taxonomy: vkmech render --taxonomy names every output by class, and refuses what it cannot do") {
+        testing::TempDir dir("taxcli");
+        std::ofstream(dir.file("lights.lpe")) << "# per light\nfirst = C .* <L.'sweep_light_0'>\n"
+                                                 "second = C .* <L.'sweep_light_1'>\n";
+        auto r = testing::run_cli("render --scene sweep_lights -D lights=2 --res 24 --spp 8 --taxonomy " +
+                                  dir.file("lights.lpe") + " --out " + dir.file("out"));
+        REQUIRE(r.code == 0);
+        CHECK(r.output.find("first ") != std::string::npos);
+        const ExrImage exr = read_exr_channels(dir.file("out/sweep_lights.exr"));
+        for (const char* c : {"bucket.first.R", "lum.second", "frac.other", "dominant"}) {
+            CAPTURE(std::string(c));
+            CHECK(exr.channels.count(c) == 1);
+        }
+        CHECK(exr.channels.count("lum.direct") == 0);
+        CHECK(exr.channels.count("caustic_frac") == 0);
+        // The two lights of equal power share the image; nothing is `other`.
+        double first = 0, second = 0, other = 0;
+        for (size_t i = 0; i < exr.channels.at("lum.first").size(); ++i) {
+            first += exr.channels.at("lum.first")[i];
+            second += exr.channels.at("lum.second")[i];
+            other += exr.channels.at("lum.other")[i];
+        }
+        CHECK(other == 0.0);
+        CHECK(first > 0.2 * (first + second));
+        CHECK(second > 0.2 * (first + second));
+        std::ifstream json(dir.file("out/sweep_lights.json"));
+        const std::string js((std::istreambuf_iterator<char>(json)), std::istreambuf_iterator<char>());
+        CHECK(js.find("\"taxonomy\": {\"file\": ") != std::string::npos);
+        CHECK(js.find("\"1\": \"second\"") != std::string::npos);  // the dominant legend
+
+        std::ofstream(dir.file("bad.lpe")) << "ok = C D L\nbad = C (D L\n";
+        r = testing::run_cli("render --scene cubes_dof --res 16 --spp 1 --taxonomy " + dir.file("bad.lpe") + " --out " +
+                             dir.file("o2"));
+        CHECK(r.code == 2);
+        CHECK(r.output.find("bad.lpe:2:") != std::string::npos);
+        r = testing::run_cli("render --scene cubes_dof --res 16 --spp 1 --capture off --taxonomy " +
+                             dir.file("lights.lpe") + " --out " + dir.file("o3"));
+        CHECK(r.code == 2);
+        CHECK(r.output.find("--capture on") != std::string::npos);
+        r = testing::run_cli("render --scene cubes_dof --adaptive bucket-floor --pilot 4 --budget 8 --taxonomy " +
+                             dir.file("lights.lpe") + " --out " + dir.file("o4"));
+        CHECK(r.code == 2);
+        CHECK(r.output.find("--taxonomy and --adaptive") != std::string::npos);
+    }
+
+    TEST_CASE("taxonomy: vkmech study stability --taxonomy measures the classes, and only stability takes one") {
+        testing::TempDir dir("taxstudy");
+        std::ofstream(dir.file("lights.lpe"))
+            << "first = C .* <L.'sweep_light_0'>\nsecond = C .* <L.'sweep_light_1'>\n";
+        auto r = testing::run_cli(
+            "study stability --preset quick --res 16 --spp-levels 2,8 --scenes sweep_lights -D "
+            "lights=2 --no-plots --taxonomy " +
+            dir.file("lights.lpe") + " --out " + dir.file("st"));
+        REQUIRE(r.code == 0);
+        CHECK(r.output.find("plan 2 renders") != std::string::npos);  // the levels only
+        std::ifstream csv(dir.file("st/tables/taxonomy_shares.csv"));
+        std::string header;
+        std::getline(csv, header);
+        CHECK(header == "scene,first,second,other");
+        std::ifstream stab(dir.file("st/tables/taxonomy_stability.csv"));
+        std::getline(stab, header);
+        CHECK(header.find("var3") != std::string::npos);
+        r = testing::run_cli("study variance --preset quick --scenes cubes_dof --no-plots --taxonomy " +
+                             dir.file("lights.lpe") + " --out " + dir.file("sv"));
+        CHECK(r.code == 2);
+        CHECK(r.output.find("`vkmech study stability` only") != std::string::npos);
+    }
+}
