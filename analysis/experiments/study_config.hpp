@@ -86,10 +86,10 @@ struct StudyConfig {
     uint32_t sweep_ref_spp = 64;
     std::string sweep_roughness_scene, sweep_lights_scene;  // resolved paths
     std::string predictor_curve;                            // --curve: predict new scenes from their pilots only
-    // --taxonomy FILE (docs/lpe.md; `study stability` only): every render classifies by it, and the
-    // stability study measures its classes; taxonomy_digest keys the render cache.
+    // --taxonomy FILE (docs/lpe.md; `study stability` only): every render classifies by it (the
+    // render cache keys each variant's renders by the compiled words), and the stability study
+    // measures its classes.
     std::optional<lpe::TaxonomySource> taxonomy;
-    std::string taxonomy_digest;
 
     // Downstream allocation (docs/descriptor.md §6): pilots N0, K disjoint pilot draws, extra
     // budget (on top of the baseline 1), the budget sweep, the f = 4 control,

@@ -11,6 +11,7 @@
 #include "render/features.hpp"
 #include "render/render_outputs.hpp"
 #include "render/session.hpp"
+#include "render/taxonomy.hpp"
 #include "scene/environment.hpp"
 #include "scene/scene.hpp"
 #include "vk/context.hpp"
@@ -144,13 +145,25 @@ struct PyRender {
     Features features;
     std::optional<Renderer> renderer;
     std::string light_selection, end_vertex;
+    std::vector<std::string> class_names;  // a user taxonomy's (docs/lpe.md); empty: the buckets
+    std::string taxonomy_json;
 };
 
 PyRender prepare(const PyScene& s, std::optional<uint32_t> res, const std::string& estimator,
                  const std::string& light_selection, const std::string& end_vertex, bool capture,
-                 std::optional<uint32_t> device, const std::string& kernel) {
+                 std::optional<uint32_t> device, const std::string& kernel, const std::string& taxonomy = "") {
     PyRender r;
     r.scene = s.scene;
+    std::optional<lpe::TaxonomySource> source;
+    if (!taxonomy.empty()) {
+        if (!capture) throw py::value_error("taxonomy needs capture=True (its classes are what the capture records)");
+        try {
+            source = lpe::read_taxonomy(taxonomy);
+            give_named_shapes_own_materials(r.scene, *source);
+        } catch (const lpe::LpeError& e) {
+            throw py::value_error(std::string("taxonomy: ") + e.what());
+        }
+    }
     if (res) {
         if (*res < 4 || *res > 16384) throw py::value_error("res must be 4..16384");
         r.scene.camera.set_film_width(static_cast<int>(*res));
@@ -163,6 +176,17 @@ PyRender prepare(const PyScene& s, std::optional<uint32_t> res, const std::strin
     r.session = std::make_unique<RenderSession>(*r.ctx, r.scene, r.trav, parse_light_selection(light_selection));
     r.features = r.session->features(parse_estimator(estimator), capture);
     r.features.end_vertex = parse_end_vertex(end_vertex);
+    if (source) {
+        try {
+            const SceneTaxonomy t = compile_scene_taxonomy(*source, r.session->scene());
+            for (const auto& w : t.compiled.warnings) PyErr_WarnEx(PyExc_UserWarning, w.str().c_str(), 1);
+            r.features.taxonomy = t.words;
+            r.class_names = t.class_names();
+            r.taxonomy_json = taxonomy_json(t);
+        } catch (const lpe::LpeError& e) {
+            throw py::value_error(std::string("taxonomy: ") + e.what());
+        }
+    }
     r.renderer.emplace(r.session->renderer(r.features));
     r.light_selection = light_selection;
     r.end_vertex = end_vertex;
@@ -215,8 +239,10 @@ PyFrame make_frame(const PyScene& s, const PyRender& r, Frame frame, uint32_t sp
     if (!sample_range.empty()) info.provenance.sample_range = sample_range;
     if (capture) {
         out.descriptor = derive_descriptor(frame);
+        if (!r.class_names.empty()) use_taxonomy_classes(*out.descriptor, r.class_names);
         out.summary = summarize(frame, *out.descriptor);
     }
+    if (!r.taxonomy_json.empty()) info.extra_json.emplace_back("taxonomy", r.taxonomy_json);
     out.set_channels(render_channels(frame, out.descriptor ? &*out.descriptor : nullptr));
     out.header = render_attributes(info, info.warnings, "", out.descriptor ? &*out.descriptor : nullptr);
     out.info = std::move(info);
@@ -259,7 +285,7 @@ std::vector<uint32_t> sample_counts_of(const py::array& a, int width, int height
 PyFrame render(const PyScene& s, uint32_t spp, uint32_t seed, std::optional<uint32_t> res, const std::string& estimator,
                const std::string& light_selection, const std::string& end_vertex, bool capture,
                std::optional<uint32_t> device, const std::string& kernel, uint32_t batch,
-               const std::optional<py::array>& sample_counts, const ProgressFn& progress) {
+               const std::optional<py::array>& sample_counts, const ProgressFn& progress, const std::string& taxonomy) {
     if (spp == 0 || spp > kMaxSpp) throw py::value_error("spp must be 1.." + std::to_string(kMaxSpp));
     if (batch == 0 || batch > 4096) throw py::value_error("batch must be 1..4096");
     if (res && (*res < 4 || *res > 16384)) throw py::value_error("res must be 4..16384");
@@ -277,7 +303,7 @@ PyFrame render(const PyScene& s, uint32_t spp, uint32_t seed, std::optional<uint
         range = adaptive_sample_range(spec.sample_counts);
         spp = mean_spp(spec.sample_counts);
     }
-    PyRender r = prepare(s, res, estimator, light_selection, end_vertex, capture, device, kernel);
+    PyRender r = prepare(s, res, estimator, light_selection, end_vertex, capture, device, kernel, taxonomy);
     Frame frame = render_spec(*r.renderer, std::move(spec), progress);
     return make_frame(s, r, std::move(frame), spp, seed, range, sample_counts ? " adaptive=sample_counts" : "");
 }
@@ -406,10 +432,11 @@ PYBIND11_MODULE(vkmech, m) {
           py::arg("res") = py::none(), py::arg("estimator") = "mis", py::arg("light_selection") = "uniform",
           py::arg("end_vertex") = "last-nondelta", py::arg("capture") = true, py::arg("device") = py::none(),
           py::arg("kernel") = "auto", py::arg("batch") = 8, py::arg("sample_counts") = py::none(),
-          py::arg("progress") = py::none(),
+          py::arg("progress") = py::none(), py::arg("taxonomy") = "",
           "Renders the scene; releases the GIL, calls progress(done, total) between batches, and raises "
           "KeyboardInterrupt at the next batch on Ctrl-C. sample_counts: an (H, W) array n(p); pixel p then "
-          "takes exactly samples [0, n(p)) of the seed and spp is ignored");
+          "takes exactly samples [0, n(p)) of the seed and spp is ignored. taxonomy: a file of `name = "
+          "light path expression` lines (docs/lpe.md); the channels are then by its classes");
     m.def("adaptive", &adaptive, py::arg("scene"), py::arg("strategy") = "bucket-floor", py::kw_only(),
           py::arg("pilot") = 16, py::arg("budget") = 32, py::arg("floor") = 1, py::arg("pilot_draw") = 0,
           py::arg("res") = py::none(), py::arg("estimator") = "nee", py::arg("light_selection") = "uniform",

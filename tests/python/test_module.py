@@ -131,6 +131,32 @@ def test_an_environment_map_lights_a_scene_and_is_recorded(tmp_path):
         vkmech.load("cubes_dof", environment=str(tmp_path / "none.exr"))
 
 
+def test_a_taxonomy_names_the_channels_and_matches_the_cli(tmp_path):
+    # docs/lpe.md: per-light classes; the paper's taxonomy equals the built-in cascade.
+    tax = tmp_path / "lights.lpe"
+    tax.write_text("first = C .* <L.'sweep_light_0'>\nsecond = C .* <L.'sweep_light_1'>\n")
+    scene = vkmech.load("sweep_lights", defines={"lights": "2"})
+    f = vkmech.render(scene, spp=4, res=16, seed=2, taxonomy=str(tax))
+    assert ["lum." + c for c in ("first", "second", "other")] == [n for n in f.channels if n.startswith("lum.")]
+    total = sum(f["lum." + c].astype(np.float64) for c in ("first", "second", "other"))
+    assert np.allclose(total, f["lum_mean"].astype(np.float64), rtol=1e-4, atol=1e-7)
+    assert f["lum.first"].sum() > 0 and f["lum.second"].sum() > 0 and f["lum.other"].sum() == 0
+    out = tmp_path / "cli"
+    subprocess.run([CLI, "render", "--scene", "sweep_lights", "-D", "lights=2", "--spp", "4", "--res", "16", "--seed",
+                    "2", "--taxonomy", str(tax), "--out", str(out)], check=True, capture_output=True)
+    cli = vkmech.read(str(out / "sweep_lights.exr"))
+    assert cli.channels == f.channels
+    for name in f.channels:
+        assert np.array_equal(cli[name], f[name]), name
+    paper = vkmech.render(scene, spp=4, res=16, seed=2, taxonomy=os.path.join(ROOT, "taxonomies", "paper.lpe"))
+    builtin = vkmech.render(scene, spp=4, res=16, seed=2)
+    for b in BUCKETS:
+        assert np.array_equal(paper["lum." + b], builtin["lum." + b]), b
+    with pytest.raises(ValueError, match="lights.lpe"):
+        (tmp_path / "lights.lpe").write_text("broken = C (D L\n")
+        vkmech.render(scene, spp=1, res=8, taxonomy=str(tax))
+
+
 def test_progress_is_called_between_batches():
     calls = []
     vkmech.render(vkmech.load("cubes_dof"), spp=6, res=16, batch=2, progress=lambda d, t: calls.append((d, t)))

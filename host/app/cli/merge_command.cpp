@@ -100,6 +100,10 @@ void check_same_render(const MergeInput& a, const MergeInput& b) {
 Frame frame_from_exr(const MergeInput& in) {
     const ExrImage& e = in.exr;
     const size_t n = static_cast<size_t>(e.width) * e.height;
+    if (auto it = e.attributes.find("vkmech.features");
+        it != e.attributes.end() && !it->second.empty() && it->second.front().find("taxonomy") != std::string::npos)
+        throw UsageError("merge: " + in.path +
+                         " was rendered with --taxonomy: merging a taxonomy's class channels is not supported yet");
     auto plane = [&](const std::string& name) -> const std::vector<float>& {
         auto it = e.channels.find(name);
         if (it == e.channels.end() || it->second.size() != n)

@@ -299,6 +299,10 @@ CliRender open_cli_render(const RenderOptions& o, Estimator estimator, bool capt
             throw UsageError(
                 "--taxonomy and --extra-output direct_glossy: the direct-glossy split is of the built-in "
                 "direct bucket; choose one");
+        if (!o.sample_range.empty() || !o.pixel_bounds.empty())
+            throw UsageError(
+                "--taxonomy with --sample-range or --pixel-bounds: `vkmech merge` does not read a "
+                "taxonomy's class channels yet, so such parts could not be merged");
         r.taxonomy = taxonomy_for_cli(*taxonomy, r.session->scene());
         r.features.taxonomy = r.taxonomy->words;
     }
@@ -377,9 +381,11 @@ int cmd_render(const RenderOptions& o) {
         progress(d, t);
     };
     std::unique_ptr<DisplayClient> display = open_live_view(o.display_server, name);
-    if (display) spec.on_frame = [&](const Frame& f) { send_live_view(*display, f, capture, /*force=*/false); };
+    const std::vector<std::string> classes = cr.taxonomy ? cr.taxonomy->class_names() : std::vector<std::string>{};
+    if (display)
+        spec.on_frame = [&](const Frame& f) { send_live_view(*display, f, capture, /*force=*/false, {}, classes); };
     Frame frame = renderer.render(spec);
-    if (display) send_live_view(*display, frame, capture, /*force=*/true);
+    if (display) send_live_view(*display, frame, capture, /*force=*/true, {}, classes);
 
     RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene, spp, o.seed, capture);
     info.kernel = vk::to_string(session.gpu().kernel());

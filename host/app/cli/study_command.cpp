@@ -188,6 +188,8 @@ void add_study_options(CLI::App* app, StudyOptions& o) {
 // CLI resolves scene names to files and the default --out.
 int cmd_study(StudyOptions o) {
     // The CLI's scene names become files; the study runner sees paths only.
+    if (!o.defines.empty() && o.scenes.empty())
+        throw UsageError("-D sets parameters of the --scenes scenes: name the scenes it is for");
     std::vector<std::string> names = o.scenes.empty() ? first_party_scenes() : o.scenes;
     o.scenes.clear();
     for (const auto& s : names) o.scenes.push_back(resolve_scene_path(s));

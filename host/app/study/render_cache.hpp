@@ -43,7 +43,7 @@ struct CacheKeyParts {
     uint32_t spp = 0, seed = 0, estimator = 0, batch_spp = 0;
     std::string traversal, device, code_digest;
     uint32_t end_vertex = 0;  // EndVertex (docs/descriptor.md §2 reading)
-    std::string taxonomy;     // a user taxonomy's digest (StudyConfig::taxonomy_digest); "" for the buckets
+    std::string taxonomy;     // a user taxonomy's compiled words' digest; "" for the buckets
 };
 std::string cache_key(const CacheKeyParts& k);
 

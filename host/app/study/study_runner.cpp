@@ -166,6 +166,8 @@ StudyPlan make_plan(const StudyOptions& o) {
     cfg.sweep_roughness_scene = o.sweep_roughness_scene;
     cfg.sweep_lights_scene = o.sweep_lights_scene;
     std::map<std::string, std::string> params;
+    if (!o.defines.empty() && !o.jobs_file.empty())
+        throw std::invalid_argument("-D and --jobs: the job commands do not carry the scene parameters yet");
     for (const auto& d : o.defines) {
         const size_t eq = d.find('=');
         if (eq == std::string::npos || eq == 0) throw std::invalid_argument("-D expects name=value, got '" + d + "'");
@@ -188,14 +190,12 @@ StudyPlan make_plan(const StudyOptions& o) {
             cfg.taxonomy = lpe::read_taxonomy(o.taxonomy);
             const lpe::CompiledTaxonomy probe = lpe::compile_taxonomy(*cfg.taxonomy, {});  // errors before rendering
             if (probe.class_names.size() > gpu::BUCKET_COUNT)
-                throw lpe::LpeError(o.taxonomy, 0, 0,
-                                    "a taxonomy has at most " + std::to_string(gpu::BUCKET_COUNT - 1) + " lines");
+                throw lpe::LpeError(o.taxonomy, cfg.taxonomy->lines[gpu::BUCKET_COUNT - 1].line, 0,
+                                    "a taxonomy has at most " + std::to_string(gpu::BUCKET_COUNT - 1) +
+                                        " lines (one tally slot per class, `other` included)");
         } catch (const lpe::LpeError& e) {
             throw std::invalid_argument(std::string("--taxonomy: ") + e.what());
         }
-        Digest d;
-        for (const auto& line : cfg.taxonomy->lines) d.str(line.name).str(line.expression);
-        cfg.taxonomy_digest = d.hex();
     }
     cfg.validate(std::find(kinds.begin(), kinds.end(), StudyKind::Cost) != kinds.end());
     const std::string out_dir = o.out_dir;
@@ -218,6 +218,19 @@ StudyPlan make_plan(const StudyOptions& o) {
     return StudyPlan{std::move(cfg), kinds, out_dir, cache_dir, std::move(plan)};
 }
 
+// A user taxonomy compiled against a variant's labels (its errors and warnings said before anything
+// renders; an error is bad input, exit 2): the digest of the words the renders use keys them.
+std::string taxonomy_key(const lpe::TaxonomySource& source, const SceneVariant& v, const Scene& scene) {
+    try {
+        const SceneTaxonomy t = compile_scene_taxonomy(source, scene);
+        for (const auto& w : t.compiled.warnings)
+            std::fprintf(stderr, "vkmech: %s: %s\n", v.name.c_str(), w.str().c_str());
+        return Digest().vec(t.words).hex();
+    } catch (const lpe::LpeError& e) {
+        throw std::invalid_argument("--taxonomy on " + v.name + ": " + e.what());
+    }
+}
+
 CacheState key_renders(const StudyPlan& p, const StudyDevice& dev, const RenderCache& cache) {
     const StudyConfig& cfg = p.cfg;
     const auto& plan = p.renders;
@@ -229,17 +242,19 @@ CacheState key_renders(const StudyPlan& p, const StudyDevice& dev, const RenderC
     auto& film = cs.film;
     // Keys: load each scene variant once to digest its content at the study's film size.
     {
-        std::map<SceneVariant, std::string> digests;
+        std::map<SceneVariant, std::string> digests, taxonomy_keys;
         for (const auto& r : plan) {
             if (!digests.count(r.scene)) {
                 LoadedScene ls = load_variant(r.scene, cfg.res, trav, cfg.taxonomy ? &*cfg.taxonomy : nullptr);
                 digests[r.scene] = ls.digest;
+                if (cfg.taxonomy) taxonomy_keys[r.scene] = taxonomy_key(*cfg.taxonomy, r.scene, ls.scene);
                 film[r.scene] = {ls.scene.camera.width, ls.scene.camera.height};
             }
             auto [w, h] = film[r.scene];
-            keys[r] = cache_key({digests[r.scene], w, h, r.spp, r.seed, static_cast<uint32_t>(r.estimator),
-                                 cfg.batch_spp, to_string(trav), ctx.info().name, code_digest,
-                                 static_cast<uint32_t>(r.end_vertex), cfg.taxonomy_digest});
+            keys[r] =
+                cache_key({digests[r.scene], w, h, r.spp, r.seed, static_cast<uint32_t>(r.estimator), cfg.batch_spp,
+                           to_string(trav), ctx.info().name, code_digest, static_cast<uint32_t>(r.end_vertex),
+                           cfg.taxonomy ? taxonomy_keys[r.scene] : std::string()});
         }
     }
 
@@ -329,11 +344,12 @@ RenderTally render_missing(const StudyPlan& p, const StudyDevice& dev, RenderCac
             RenderSession session(ctx, std::move(ls.scene), std::move(ls.arrays), trav);
             std::map<std::pair<Estimator, EndVertex>, std::unique_ptr<Renderer>> renderers;
             std::vector<uint32_t> taxonomy_words;  // the taxonomy against this variant's labels
+            std::vector<std::string> taxonomy_classes;
             if (cfg.taxonomy) {
-                const SceneTaxonomy t = compile_scene_taxonomy(*cfg.taxonomy, session.scene());
-                for (const auto& w : t.compiled.warnings)
-                    std::fprintf(stderr, "vkmech: %s: %s\n", variant.name.c_str(), w.str().c_str());
+                const SceneTaxonomy t =
+                    compile_scene_taxonomy(*cfg.taxonomy, session.scene());  // key_renders checked it
                 taxonomy_words = t.words;
+                taxonomy_classes = t.class_names();
             }
             // The variant's renders, one after another, in one image (a viewer that is absent is a warning).
             std::unique_ptr<DisplayClient> display = open_live_view(dev.display_server, "study " + variant.name);
@@ -365,9 +381,12 @@ RenderTally render_missing(const StudyPlan& p, const StudyDevice& dev, RenderCac
                         std::fflush(stderr);
                     }
                 };
-                if (display) spec.on_frame = [&](const Frame& fr) { send_live_view(*display, fr, true, false); };
+                if (display)
+                    spec.on_frame = [&](const Frame& fr) {
+                        send_live_view(*display, fr, true, false, {}, taxonomy_classes);
+                    };
                 Frame f = rr->render(spec);
-                if (display) send_live_view(*display, f, true, true);
+                if (display) send_live_view(*display, f, true, true, {}, taxonomy_classes);
                 cache.store(keys.at(r), f, describe(r) + ", " + std::to_string(w) + "x" + std::to_string(h));
                 render_seconds += f.seconds;
                 paths_done += r.spp * px;

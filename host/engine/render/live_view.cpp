@@ -18,10 +18,11 @@ std::unique_ptr<DisplayClient> open_live_view(const std::string& address, const 
 }
 
 void send_live_view(DisplayClient& display, const Frame& frame, bool capture, bool force,
-                    const std::vector<ExrChannel>& extra) {
+                    const std::vector<ExrChannel>& extra, const std::vector<std::string>& class_names) {
     if (!display.connected() || !display.due(force)) return;
     std::optional<Descriptor> desc;
     if (capture) desc = derive_descriptor(frame);
+    if (desc && !class_names.empty()) use_taxonomy_classes(*desc, class_names);
     std::vector<ExrChannel> channels = render_channels(frame, desc ? &*desc : nullptr);
     channels.insert(channels.end(), extra.begin(), extra.end());
     display.update(frame.width, frame.height, channels, force);

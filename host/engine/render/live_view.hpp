@@ -19,7 +19,8 @@ std::unique_ptr<DisplayClient> open_live_view(const std::string& address, const 
 // Sends `frame` (with the descriptor's channels when `capture`, and `extra` after them) unless within
 // DisplayClient::kInterval of the last send; `force`: the final image. A connection lost now is a
 // warning once.
+// `class_names`: a user taxonomy's classes (docs/lpe.md), which then name the channels; empty: the buckets.
 void send_live_view(DisplayClient& display, const Frame& frame, bool capture, bool force,
-                    const std::vector<ExrChannel>& extra = {});
+                    const std::vector<ExrChannel>& extra = {}, const std::vector<std::string>& class_names = {});
 
 }  // namespace vkmech

@@ -671,23 +671,23 @@ void MitsubaLoader::sunsky(const XNode& n, const XProps& p, const std::string& t
         << std::setprecision(1) << elevation << " deg above the horizon";
     if (s.turbidity < 2.0) rec << " (turbidity " << s.turbidity << " raised to 2, the model's limit)";
     if (!ignored.empty()) rec << "; not modelled: " << ignored;
-    if (elevation < 0.0) {
-        rec << "; the sun is below the horizon, so there is no sun and the sky is the one at sunset";
-        warn(n,
-             "the sun is below the horizon: the substituted daylight has no twilight (the sky is evaluated "
-             "with the sun at the horizon)");
-    }
     const std::string what = n.file() + ":" + std::to_string(n.line()) + ": emitter '" + type + "' (substituted)";
-    if (s.want_sky && s.sky_scale > 0.0) {
-        Environment env = bake_preetham_sky(s);
-        env.what = what;
-        set_environment(n, std::move(env));
-    }
-    if (s.want_sun && s.sun_scale > 0.0 && elevation > 0.0) {
-        DirectionalLight sun = sun_light(s);
-        rec << "; sun irradiance " << std::setprecision(4) << sun.irradiance.x << ", " << sun.irradiance.y << ", "
-            << sun.irradiance.z;
-        scene_.directional_lights.push_back(sun);
+    if (elevation <= 0.0) {
+        // Mitsuba 3's sunsky emits nothing with the sun below the horizon (sky and sun alike).
+        rec << "; the sun is below the horizon, so it emits nothing (as Mitsuba 3's sunsky)";
+        warn(n, "the sun is below the horizon: sunsky emits no light (set the time, or sun_direction, for daylight)");
+    } else {
+        if (s.want_sky && s.sky_scale > 0.0) {
+            Environment env = bake_preetham_sky(s);
+            env.what = what;
+            set_environment(n, std::move(env));
+        }
+        if (s.want_sun && s.sun_scale > 0.0) {
+            DirectionalLight sun = sun_light(s);
+            rec << "; sun irradiance " << std::setprecision(4) << sun.irradiance.x << ", " << sun.irradiance.y << ", "
+                << sun.irradiance.z;
+            scene_.directional_lights.push_back(sun);
+        }
     }
     record_substitution(n, "emitter", rec.str());
 }

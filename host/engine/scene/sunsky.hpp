@@ -37,8 +37,10 @@ struct SunTime {
 };
 SolarAngles solar_angles(const SunTime& t);
 
-// The unit direction towards the sun in the emitter's local frame: Mitsuba 3
-// is z-up with x north; Mitsuba 0.x is y-up (its own spherical mapping).
+// The unit direction towards the sun in the emitter's local frame, as each
+// Mitsuba places it: Mitsuba 3 is z-up, the azimuth turned by pi (so the noon
+// sun of the northern hemisphere lies towards +x); Mitsuba 0.x is y-up, its
+// own spherical mapping (the noon sun towards +z).
 glm::dvec3 sun_direction_local(const SolarAngles& a, bool mitsuba3);
 
 // Preetham's sky: linear sRGB radiance in Mitsuba's sunsky units towards a
