@@ -411,3 +411,36 @@ TEST_SUITE("gpu") {
         CHECK(untrusted_below(r.output) == 0);
     }
 }
+
+TEST_CASE("guard: the heavy and the constant classes are the caller's, as a taxonomy declares them") {
+    // Row 0: class 1 (the paper's direct, light-tailed) with variances 0.1 .. 0.8; everything else
+    // class 2 (diffuse_indirect) except one zero-variance pixel lit by class 0 alone.
+    Frame f = lit_frame(8, 6);
+    for (int x = 0; x < 8; ++x) at(f, x, 0) = pixel(1.0, 0.1 * (x + 1), 1);
+    at(f, 4, 3) = pixel(10.0, 0.0, 0);
+    const Pilot pilot = make_pilot(f, {});
+    // The paper's buckets: no heavy label, and class 0 is emitter_direct, trusted at zero variance.
+    const PilotDiagnosis paper = diagnose_pilot(pilot);
+    CHECK(paper.heavy == 0);
+    CHECK(paper.floor_abstains);
+    CHECK(paper.untrusted == 0);
+    // A taxonomy whose class 1 is heavy and whose constant class is 2: row 0 is floored at its median
+    // (0.45: four pixels raised), and the pixel lit by class 0 alone is no longer vouched for.
+    ClassTraits t;
+    t.heavy = 1u << 1;
+    t.constant = 1u << 2;
+    const PilotDiagnosis d = diagnose_pilot(pilot, t);
+    CHECK(d.heavy == 8);
+    CHECK(d.floor_changed == 4);
+    CHECK(d.lit_no_variance == 1);
+    CHECK(d.untrusted_map[3 * 8 + 4] == kLitNoVariance);
+    ScoreInputs in = inputs(pilot, d);
+    in.heavy = t.heavy;
+    const std::vector<double> floor = strategy_score(Strategy::BucketFloor, in, 0);
+    CHECK(floor == bucket_floor(pilot.var, pilot.labels, t.heavy));
+    for (int x = 0; x < 8; ++x) CHECK(floor[static_cast<size_t>(x)] == doctest::Approx(std::max(0.1 * (x + 1), 0.45)));
+    // No heavy class at all: every floor abstains, bit for bit.
+    in.heavy = 0;
+    CHECK(bit_identical(strategy_score(Strategy::BucketFloor, in, 0), pilot.var));
+    CHECK(diagnose_pilot(pilot, ClassTraits{0, 0}).floor_abstains);
+}

@@ -410,6 +410,27 @@ TEST_CASE("lpe: the taxonomy file: comments, blank lines, unique identifier name
     for (int i = 0; i < 256; ++i) many += "c" + std::to_string(i) + " = C L\n";
     CHECK(error_of(many).find("256:1: a taxonomy has at most 255 lines") == 0);
 
+    // Class properties: `name [heavy constant] = ...`, in any order, for the allocation strategies.
+    TaxonomySource props =
+        parse_taxonomy("a [heavy] = C D L\nb [constant heavy]= C L\nc = C S L\nd[ constant ] = C G L\n", "p.lpe");
+    REQUIRE(props.lines.size() == 4);
+    CHECK(props.lines[0].name == "a");
+    CHECK(props.lines[0].heavy);
+    CHECK_FALSE(props.lines[0].constant);
+    CHECK(props.lines[1].name == "b");
+    CHECK(props.lines[1].heavy);
+    CHECK(props.lines[1].constant);
+    CHECK_FALSE(props.lines[2].heavy);
+    CHECK_FALSE(props.lines[2].constant);
+    CHECK(props.lines[3].name == "d");
+    CHECK_FALSE(props.lines[3].heavy);
+    CHECK(props.lines[3].constant);
+    CHECK(error_of("a [fast] = C L") ==
+          "1:4: unknown class property `fast`: the properties are `heavy` and `constant`");
+    CHECK(error_of("a] = C L") == "1:2: a ']' without '[' before '='");
+    CHECK(error_of(" [heavy] = C L") == "1:2: expected a class name before '='");
+    CHECK(error_of("a [heavy] b = C L").find("1:1: `a [heavy] b` is not a class name") == 0);
+
     // --lpe style lines, and a file that is not there.
     TaxonomySource cli = taxonomy_from_lines({"key=C .* 'key'", "fill = C .* 'fill'"}, "--lpe");
     CHECK(cli.lines.size() == 2);

@@ -10,7 +10,10 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <utility>
 #include <vector>
@@ -23,6 +26,28 @@ namespace {
 testing::CliRun render(const std::string& out, const std::string& samples, const std::string& extra = "") {
     return testing::run_cli("render --scene ring_caustic --res 24 --batch 8 " + samples + " --out " + out + " " +
                             extra);
+}
+
+// Every channel of `full` is in `merged` and agrees with it: the labels exactly, every other value
+// within relative 1e-6 (the EXR's float means; measured: 2.3e-7 at most on ring_caustic).
+void check_equal_to_single_render(const ExrImage& full, const ExrImage& merged) {
+    REQUIRE(merged.channels.size() == full.channels.size());
+    for (const auto& channel : full.channels) {
+        const std::string& name = channel.first;  // not a structured binding: clang 14 cannot capture one
+        const std::vector<float>& a = channel.second;
+        CAPTURE(name);
+        REQUIRE(merged.channels.count(name) == 1);
+        const auto& b = merged.channels.at(name);
+        REQUIRE(a.size() == b.size());
+        double worst = 0.0;
+        for (size_t i = 0; i < a.size(); ++i)
+            if (a[i] != b[i]) worst = std::max(worst, std::abs(static_cast<double>(a[i]) - b[i]) / std::abs(a[i]));
+        CAPTURE(worst);
+        if (name == "dominant")
+            CHECK(worst == 0.0);
+        else
+            CHECK(worst < 1e-6);
+    }
 }
 
 }  // namespace
@@ -69,24 +94,7 @@ TEST_SUITE("gpu") {
         const ExrImage merged = read_exr_channels(dir.file("m/ring_caustic.exr"));
         CHECK(merged.attributes.at("vkmech.sampleRange").at(0) == "0:64");
         CHECK(merged.attributes.at("vkmech.spp").at(0) == "64");
-        REQUIRE(merged.channels.size() == full.channels.size());
-        for (const auto& channel : full.channels) {
-            const std::string& name = channel.first;  // not a structured binding: clang 14 cannot capture one
-            const std::vector<float>& a = channel.second;
-            CAPTURE(name);
-            REQUIRE(merged.channels.count(name) == 1);
-            const auto& b = merged.channels.at(name);
-            REQUIRE(a.size() == b.size());
-            double worst = 0.0;
-            for (size_t i = 0; i < a.size(); ++i)
-                if (a[i] != b[i]) worst = std::max(worst, std::abs(static_cast<double>(a[i]) - b[i]) / std::abs(a[i]));
-            CAPTURE(worst);
-            // The labels are equal; every value within relative 1e-6 (measured: 2.3e-7 at most).
-            if (name == "dominant")
-                CHECK(worst == 0.0);
-            else
-                CHECK(worst < 1e-6);
-        }
+        check_equal_to_single_render(full, merged);
     }
 
     TEST_CASE("merge: the four quarters of a --pixel-bounds split make the whole film's render") {
@@ -125,17 +133,7 @@ TEST_SUITE("gpu") {
         REQUIRE(merged.width == 24);
         REQUIRE(merged.height == 24);
         CHECK(merged.attributes.count("vkmech.pixelBounds") == 0);
-        for (const auto& channel : full.channels) {
-            const std::string& name = channel.first;  // not a structured binding: clang 14 cannot capture one
-            const std::vector<float>& a = channel.second;
-            CAPTURE(name);
-            const auto& b = merged.channels.at(name);
-            double worst = 0.0;
-            for (size_t i = 0; i < a.size(); ++i)
-                if (a[i] != b[i]) worst = std::max(worst, std::abs(static_cast<double>(a[i]) - b[i]) / std::abs(a[i]));
-            CAPTURE(worst);
-            CHECK(worst < 1e-6);
-        }
+        check_equal_to_single_render(full, merged);
         // Three quarters do not cover the film; bounds past the film are refused before rendering.
         const testing::CliRun three = testing::run_cli("merge " + dir.file("m3") + " " + dir.file("q0,10,0,13") + " " +
                                                        dir.file("q10,24,0,13") + " " + dir.file("q0,10,13,24"));
@@ -144,6 +142,57 @@ TEST_SUITE("gpu") {
         const testing::CliRun past = render(dir.file("past"), "--spp 1", "--pixel-bounds 0,25,0,4");
         CHECK(past.code == 2);
         CHECK(past.output.find("x1 <= 24") != std::string::npos);
+    }
+
+    TEST_CASE("merge: a --taxonomy render's sample ranges and windows merge into its single render, class by class") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("merge_taxonomy");
+        // Paths seen in the gold ring (the dominant class of about 10 % of the pixels), one-bounce paths, other.
+        std::ofstream(dir.file("t.lpe")) << "mirrored = C S+ [DG] .* [LB]\none_bounce = C [DGS] [LB]\n";
+        std::ofstream(dir.file("reversed.lpe")) << "one_bounce = C [DGS] [LB]\nmirrored = C S+ [DG] .* [LB]\n";
+        const std::string tax = "--taxonomy " + dir.file("t.lpe");
+        REQUIRE(render(dir.file("full"), "--spp 16", tax).code == 0);
+        // Samples 0:6 of the whole film, then 6:16 in two windows.
+        REQUIRE(render(dir.file("a"), "--sample-range 0:6", tax).code == 0);
+        REQUIRE(render(dir.file("top"), "--sample-range 6:16", tax + " --pixel-bounds 0,24,0,10").code == 0);
+        REQUIRE(render(dir.file("bottom"), "--sample-range 6:16", tax + " --pixel-bounds 0,24,10,24").code == 0);
+        const testing::CliRun m = testing::run_cli("merge " + dir.file("m") + " " + dir.file("bottom") + " " +
+                                                   dir.file("a") + " " + dir.file("top"));
+        CAPTURE(m.output);
+        REQUIRE(m.code == 0);
+        const ExrImage full = read_exr_channels(dir.file("full/ring_caustic.exr"));
+        const ExrImage merged = read_exr_channels(dir.file("m/ring_caustic.exr"));
+        REQUIRE(full.attributes.count("vkmech.taxonomy") == 1);
+        CHECK(merged.attributes.at("vkmech.taxonomy") == full.attributes.at("vkmech.taxonomy"));
+        CHECK(merged.attributes.at("vkmech.dominantLegend") == full.attributes.at("vkmech.dominantLegend"));
+        for (const char* c : {"lum.mirrored", "bucket.one_bounce.G", "frac.other", "depth_energy"}) {
+            CAPTURE(std::string(c));
+            CHECK(full.channels.count(c) == 1);
+        }
+        // Every class has energy, and more than one class is some pixel's dominant one.
+        for (const char* c : {"lum.mirrored", "lum.one_bounce", "lum.other"}) {
+            double sum = 0.0;
+            for (float v : full.channels.at(c)) sum += v;
+            CAPTURE(std::string(c));
+            CHECK(sum > 0.0);
+        }
+        const auto& dominant = full.channels.at("dominant");
+        CHECK(std::count(dominant.begin(), dominant.end(), 0.0f) > 0);
+        CHECK(std::count(dominant.begin(), dominant.end(), 1.0f) > 0);
+        check_equal_to_single_render(full, merged);
+        std::ifstream json(dir.file("m/ring_caustic.json"));
+        const std::string js((std::istreambuf_iterator<char>(json)), std::istreambuf_iterator<char>());
+        CHECK(js.find("\"taxonomy\": {\"file\": ") != std::string::npos);
+        CHECK(js.find("\"mirrored\": {\"pixel_share\"") != std::string::npos);
+        // The same classes in another order are another taxonomy; and a taxonomy is not the buckets.
+        REQUIRE(render(dir.file("rev"), "--sample-range 6:16", "--taxonomy " + dir.file("reversed.lpe")).code == 0);
+        REQUIRE(render(dir.file("plain"), "--sample-range 6:16").code == 0);
+        testing::CliRun r = testing::run_cli("merge " + dir.file("m2") + " " + dir.file("a") + " " + dir.file("rev"));
+        CHECK(r.code == 2);
+        CHECK(r.output.find("different taxonomies") != std::string::npos);
+        r = testing::run_cli("merge " + dir.file("m3") + " " + dir.file("a") + " " + dir.file("plain"));
+        CHECK(r.code == 2);
+        CHECK(r.output.find("has no channel") != std::string::npos);
     }
 
     TEST_CASE("merge: overlapping ranges, another seed, scene, film or output, and adaptive renders are refused") {

@@ -276,10 +276,12 @@ TEST_SUITE("gpu") {
                              dir.file("lights.lpe") + " --out " + dir.file("o3"));
         CHECK(r.code == 2);
         CHECK(r.output.find("--capture on") != std::string::npos);
-        r = testing::run_cli("render --scene cubes_dof --adaptive bucket-floor --pilot 4 --budget 8 --taxonomy " +
-                             dir.file("lights.lpe") + " --out " + dir.file("o4"));
+        // The frozen reliability curve is of the buckets, not of a taxonomy's classes.
+        r = testing::run_cli("render --scene cubes_dof --adaptive bucket-floor --pilot 4 --budget 8 --curve " +
+                             dir.file("lights.lpe") + " --taxonomy " + dir.file("lights.lpe") + " --out " +
+                             dir.file("o4"));
         CHECK(r.code == 2);
-        CHECK(r.output.find("--taxonomy and --adaptive") != std::string::npos);
+        CHECK(r.output.find("--curve and --taxonomy") != std::string::npos);
     }
 
     TEST_CASE("taxonomy: vkmech study stability --taxonomy measures the classes, and only stability takes one") {
@@ -330,5 +332,83 @@ TEST_SUITE("gpu") {
         CHECK(sun == doctest::Approx(0.5 * 2.0 / 3.14159265358979).epsilon(0.05));
         CHECK(sky == doctest::Approx(0.5 * 0.25).epsilon(0.05));
         CHECK(other == 0.0);
+    }
+}
+
+TEST_SUITE("gpu") {
+    TEST_CASE("taxonomy: under paper.lpe, --adaptive and --noise-threshold allocate as with the built-in buckets") {
+        testing::TempDir dir("taxadaptive");
+        const std::string paper = " --taxonomy " + source_path("taxonomies/paper.lpe");
+        // Every channel both EXRs have (the taxonomy's lack caustic_frac and add depth_energy), bit for bit.
+        auto same = [&](const std::string& a, const std::string& b) {
+            const ExrImage x = read_exr_channels(dir.file(a + "/glass_caustic.exr"));
+            const ExrImage y = read_exr_channels(dir.file(b + "/glass_caustic.exr"));
+            size_t compared = 0;
+            for (const auto& channel : x.channels) {
+                const std::string& name = channel.first;  // not a structured binding: clang 14 cannot capture one
+                if (!y.channels.count(name)) continue;
+                CAPTURE(name);
+                CHECK(channel.second == y.channels.at(name));
+                ++compared;
+            }
+            CHECK(compared >= 30);  // RGB, the seven buckets' channels, the moments, spp (and err)
+            CHECK(y.attributes.count("vkmech.taxonomy") == 1);
+        };
+        for (const std::string strategy : {"bucket-floor", "guarded"}) {
+            CAPTURE(strategy);
+            const std::string cmd = "render --scene glass_caustic --res 24 --adaptive " + strategy +
+                                    " --pilot 4 --budget 8 --out " + dir.file("b_" + strategy);
+            const auto builtin = testing::run_cli(cmd);
+            REQUIRE(builtin.code == 0);
+            // The floor acts on glass_caustic's pilot (its caustic is heavy-tailed), and the guard flags 23 dark
+            // pixels while it trusts the lamp seen directly: equality is not an abstention.
+            CHECK(builtin.output.find("identical to observed-var") == std::string::npos);
+            CHECK(builtin.output.find("0 seen without a usable variance, 23 dark beside seen pixels") !=
+                  std::string::npos);
+            const std::string tcmd = "render --scene glass_caustic --res 24 --adaptive " + strategy +
+                                     " --pilot 4 --budget 8 --out " + dir.file("t_" + strategy) + paper;
+            const auto tax = testing::run_cli(tcmd);
+            CAPTURE(tax.output);
+            REQUIRE(tax.code == 0);
+            same("b_" + strategy, "t_" + strategy);
+        }
+        const std::string thr = "render --scene glass_caustic --res 24 --noise-threshold 0.2 --min-spp 4 --max-spp 32 ";
+        REQUIRE(testing::run_cli(thr + "--out " + dir.file("b_thr")).code == 0);
+        const auto t = testing::run_cli(thr + "--out " + dir.file("t_thr") + paper);
+        CAPTURE(t.output);
+        REQUIRE(t.code == 0);
+        same("b_thr", "t_thr");
+
+        // Without [constant], a lamp pixel's zero pilot variance is no longer vouched for.
+        std::ifstream in(source_path("taxonomies/paper.lpe"));
+        std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        const size_t at = text.find("emitter_direct [constant]");
+        REQUIRE(at != std::string::npos);
+        text.replace(at, std::strlen("emitter_direct [constant]"), "emitter_direct");
+        std::ofstream(dir.file("no_constant.lpe")) << text;
+        const auto nc = testing::run_cli(
+            "render --scene glass_caustic --res 24 --adaptive guarded --pilot 4 --budget 8 --taxonomy " +
+            dir.file("no_constant.lpe") + " --out " + dir.file("nc"));
+        CHECK(nc.code == 0);
+        CHECK(nc.output.find("1 seen without a usable variance, 23 dark beside seen pixels") != std::string::npos);
+
+        // A taxonomy that declares no class heavy: the floor has nothing to floor.
+        std::ofstream(dir.file("plain.lpe")) << "caustic = C D [SG]+ [LB]\n";
+        const auto plain = testing::run_cli(
+            "render --scene glass_caustic --res 24 --adaptive bucket-floor --pilot 4 --budget 8 --taxonomy " +
+            dir.file("plain.lpe") + " --out " + dir.file("plain"));
+        CHECK(plain.code == 0);
+        CHECK(plain.output.find("bucket-floor: no heavy-tailed pilot pixels, identical to observed-var") !=
+              std::string::npos);
+        std::ifstream json(dir.file("t_guarded/glass_caustic.json"));
+        const std::string js((std::istreambuf_iterator<char>(json)), std::istreambuf_iterator<char>());
+        CHECK(js.find("\"name\": \"glossy\", \"expression\": \"C [DG]+ G [LB]\", \"heavy\": true") !=
+              std::string::npos);
+        // robust-adaptive's rule names two buckets; a taxonomy's classes are not those.
+        const auto robust = testing::run_cli(
+            "render --scene glass_caustic --res 24 --adaptive robust-adaptive --pilot 16 --budget 8 --out " +
+            dir.file("r") + paper);
+        CHECK(robust.code == 2);
+        CHECK(robust.output.find("robust-adaptive") != std::string::npos);
     }
 }

@@ -11,17 +11,17 @@
 
 namespace vkmech::alloc {
 
-std::vector<double> bucket_floor(const std::vector<double>& var, const std::vector<uint8_t>& labels) {
+std::vector<double> bucket_floor(const std::vector<double>& var, const std::vector<uint8_t>& labels, uint32_t heavy) {
     if (var.size() != labels.size())
         throw std::invalid_argument("alloc::bucket_floor: variance map has " + std::to_string(var.size()) +
                                     " pixels but label map has " + std::to_string(labels.size()));
     std::vector<double> out = var;  // bit-identical copy; only heavy pixels change below
 
-    // Finite variances per heavy label (3, 4, 5).
+    // Finite variances per heavy label (3, 4, 5 for the paper's buckets).
     std::array<std::vector<double>, 256> per_label;
     bool any_heavy = false;
     for (size_t i = 0; i < var.size(); ++i) {
-        if (!is_heavy_tailed(labels[i])) continue;
+        if (!is_heavy_tailed(labels[i], heavy)) continue;
         any_heavy = true;
         if (std::isfinite(var[i])) per_label[labels[i]].push_back(var[i]);
     }
@@ -36,7 +36,7 @@ std::vector<double> bucket_floor(const std::vector<double>& var, const std::vect
     }
     for (size_t i = 0; i < var.size(); ++i) {
         const uint8_t b = labels[i];
-        if (!is_heavy_tailed(b) || !has_med[b] || !std::isfinite(var[i])) continue;
+        if (!is_heavy_tailed(b, heavy) || !has_med[b] || !std::isfinite(var[i])) continue;
         if (var[i] < med[b]) out[i] = med[b];
     }
     return out;

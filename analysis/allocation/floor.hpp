@@ -19,10 +19,22 @@
 
 namespace vkmech::alloc {
 
-// True for the heavy-tailed family (gpu::HEAVY_BUCKETS: glossy, delta_mediated,
-// specular_direct); false for every other bucket and for gpu::NO_LABEL.
-constexpr bool is_heavy_tailed(uint8_t label) {
-    return label < gpu::BUCKET_COUNT && ((gpu::HEAVY_BUCKETS >> label) & 1u) != 0;
+// The label classes the floor and the guard treat apart, a bit per class: the paper's buckets by
+// default; a user taxonomy's classes as its lines declare them (docs/lpe.md, `[heavy]` and
+// `[constant]`).
+struct ClassTraits {
+    // The heavy-tailed family, which the floor floors (gpu::HEAVY_BUCKETS: glossy, delta_mediated,
+    // specular_direct).
+    uint32_t heavy = gpu::HEAVY_BUCKETS;
+    // Classes whose energy is constant per pixel (an emitter seen directly): a pixel whose pilot energy
+    // lies in them alone may truly have zero variance, and the guard trusts it (guard.hpp).
+    uint32_t constant = 1u << gpu::BUCKET_EMITTER_DIRECT;
+};
+
+// True for a label in the heavy-tailed family `heavy` (a bit per class; the paper's by default);
+// false for every other class and for gpu::NO_LABEL.
+constexpr bool is_heavy_tailed(uint8_t label, uint32_t heavy = gpu::HEAVY_BUCKETS) {
+    return label < gpu::BUCKET_COUNT && ((heavy >> label) & 1u) != 0;
 }
 
 // D(p) = max(var(p), median of var over the pixels with label labels[p]) for
@@ -36,7 +48,9 @@ constexpr bool is_heavy_tailed(uint8_t label) {
 //    passed through, for the Neyman allocator to count, see neyman.hpp);
 //  - a label whose variances are all non-finite has no floor.
 // Throws std::invalid_argument if the sizes differ.
-std::vector<double> bucket_floor(const std::vector<double>& var, const std::vector<uint8_t>& labels);
+// `heavy`: the heavy-tailed family, a bit per class (ClassTraits::heavy).
+std::vector<double> bucket_floor(const std::vector<double>& var, const std::vector<uint8_t>& labels,
+                                 uint32_t heavy = gpu::HEAVY_BUCKETS);
 
 // A uniformly random permutation of the label map: identical class sizes
 // (the 255 class included), pixel assignment shuffled. Deterministic for a

@@ -16,8 +16,8 @@ namespace {
 bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof(double)) == 0; }
 
 // Pixels where the floor's output differs, bit for bit, from its input.
-size_t changed_by_floor(const std::vector<double>& var, const std::vector<uint8_t>& labels) {
-    const std::vector<double> floored = bucket_floor(var, labels);
+size_t changed_by_floor(const std::vector<double>& var, const std::vector<uint8_t>& labels, uint32_t heavy) {
+    const std::vector<double> floored = bucket_floor(var, labels, heavy);
     size_t n = 0;
     for (size_t p = 0; p < var.size(); ++p) n += same_bits(floored[p], var[p]) ? 0 : 1;
     return n;
@@ -25,11 +25,18 @@ size_t changed_by_floor(const std::vector<double>& var, const std::vector<uint8_
 
 bool seen(const PixelStats& s) { return s.lum_mean != 0.0 || s.nonfinite > 0.0; }
 
-// All of the pilot's energy at the pixel is emitter_direct (a light seen directly).
-bool emitter_only(const PixelStats& s) {
-    for (uint32_t b = 0; b < gpu::BUCKET_COUNT; ++b)
-        if (b != gpu::BUCKET_EMITTER_DIRECT && s.bucket_sum[b] != 0.0) return false;
-    return s.bucket_sum[gpu::BUCKET_EMITTER_DIRECT] > 0.0;
+// All of the pilot's energy at the pixel is in the constant classes (the paper's emitter_direct: a
+// light seen directly), and there is some.
+bool constant_only(const PixelStats& s, uint32_t constant) {
+    double in_constant = 0.0;
+    for (uint32_t b = 0; b < gpu::BUCKET_COUNT; ++b) {
+        if (((constant >> b) & 1u) == 0) {
+            if (s.bucket_sum[b] != 0.0) return false;
+        } else {
+            in_constant += s.bucket_sum[b];
+        }
+    }
+    return in_constant > 0.0;
 }
 
 void check_size(size_t got, size_t want, const char* what) {
@@ -41,7 +48,7 @@ void check_size(size_t got, size_t want, const char* what) {
 }  // namespace
 
 PilotDiagnosis diagnose_pilot(const Frame& frame, const std::vector<double>& var, const std::vector<uint8_t>& labels,
-                              const std::vector<double>* mom_var) {
+                              const std::vector<double>* mom_var, const ClassTraits& traits) {
     const size_t P = frame.pixels.size();
     if (static_cast<size_t>(frame.width) * static_cast<size_t>(frame.height) != P)
         throw std::invalid_argument("alloc::diagnose_pilot: the frame is " + std::to_string(frame.width) + " x " +
@@ -55,14 +62,14 @@ PilotDiagnosis diagnose_pilot(const Frame& frame, const std::vector<double>& var
     d.pixels = P;
     for (size_t p = 0; p < P; ++p) {
         d.labelled += labels[p] != gpu::NO_LABEL ? 1 : 0;
-        d.heavy += is_heavy_tailed(labels[p]) ? 1 : 0;
+        d.heavy += is_heavy_tailed(labels[p], traits.heavy) ? 1 : 0;
         d.seen += seen(frame.pixels[p]) ? 1 : 0;
     }
-    d.floor_changed = changed_by_floor(var, labels);
+    d.floor_changed = changed_by_floor(var, labels, traits.heavy);
     d.floor_abstains = d.floor_changed == 0;
     if (robust) {
         d.robust_checked = true;
-        d.robust_floor_changed = changed_by_floor(*mom_var, labels);
+        d.robust_floor_changed = changed_by_floor(*mom_var, labels, traits.heavy);
         d.robust_floor_abstains = d.robust_floor_changed == 0;
     }
 
@@ -75,7 +82,7 @@ PilotDiagnosis diagnose_pilot(const Frame& frame, const std::vector<double>& var
             if (seen(s)) {
                 const bool usable = std::isfinite(var[p]) && var[p] != 0.0;
                 const bool constant_light =
-                    std::isfinite(var[p]) && s.count >= 2.0 && s.nonfinite == 0.0 && emitter_only(s);
+                    std::isfinite(var[p]) && s.count >= 2.0 && s.nonfinite == 0.0 && constant_only(s, traits.constant);
                 if (!usable && !constant_light) d.untrusted_map[p] = kLitNoVariance;
                 continue;
             }
@@ -97,8 +104,8 @@ PilotDiagnosis diagnose_pilot(const Frame& frame, const std::vector<double>& var
     return d;
 }
 
-PilotDiagnosis diagnose_pilot(const Pilot& pilot) {
-    return diagnose_pilot(pilot.frame, pilot.var, pilot.labels, &pilot.mom_var);
+PilotDiagnosis diagnose_pilot(const Pilot& pilot, const ClassTraits& traits) {
+    return diagnose_pilot(pilot.frame, pilot.var, pilot.labels, &pilot.mom_var, traits);
 }
 
 std::vector<double> guard_score(std::vector<double> D0, const std::vector<uint8_t>& untrusted) {

@@ -33,6 +33,7 @@
 //     `guarded` strategy at most its uniform share.
 #pragma once
 
+#include "allocation/floor.hpp"
 #include "allocation/plan.hpp"
 #include "render/frame.hpp"
 
@@ -75,10 +76,11 @@ struct PilotDiagnosis {
 // bucket sums, counts), its variance sigma^2 and labels (one per pixel), and
 // optionally the median-of-means variance (nullptr or empty: robust-floor not
 // checked). Throws std::invalid_argument if the sizes differ from the frame's
-// width * height.
+// width * height. `traits`: which classes are heavy-tailed (the floor) and constant (the
+// emitter-seen-directly exemption above, for which `emitter_direct` stands in the paper's buckets).
 PilotDiagnosis diagnose_pilot(const Frame& frame, const std::vector<double>& var, const std::vector<uint8_t>& labels,
-                              const std::vector<double>* mom_var = nullptr);
-PilotDiagnosis diagnose_pilot(const Pilot& pilot);
+                              const std::vector<double>* mom_var = nullptr, const ClassTraits& traits = {});
+PilotDiagnosis diagnose_pilot(const Pilot& pilot, const ClassTraits& traits = {});
 
 // The `guarded` score from the bucket-floor score D0 and the untrusted map
 // (nonzero: untrusted). Trusted pixels keep D0 bit for bit; with no untrusted

@@ -96,25 +96,26 @@ std::vector<double> strategy_score(Strategy s, const ScoreInputs& in, uint64_t p
         case Strategy::Oracle:
             return need(in.oracle_var, s, "oracle_var");
         case Strategy::BucketFloor:
-            return bucket_floor(need(in.pilot_var, s, "pilot_var"), need(in.pilot_labels, s, "pilot_labels"));
+            return bucket_floor(need(in.pilot_var, s, "pilot_var"), need(in.pilot_labels, s, "pilot_labels"), in.heavy);
         case Strategy::Placebo: {
             const auto& var = need(in.pilot_var, s, "pilot_var");
-            return bucket_floor(var, placebo_labels(need(in.pilot_labels, s, "pilot_labels"), placebo_seed));
+            return bucket_floor(var, placebo_labels(need(in.pilot_labels, s, "pilot_labels"), placebo_seed), in.heavy);
         }
         case Strategy::LabelOracle:
-            return bucket_floor(need(in.pilot_var, s, "pilot_var"), need(in.reference_labels, s, "reference_labels"));
+            return bucket_floor(need(in.pilot_var, s, "pilot_var"), need(in.reference_labels, s, "reference_labels"),
+                                in.heavy);
         case Strategy::RobustVar:
             return need(in.mom_var, s, "mom_var");
         case Strategy::RobustFloor:
-            return bucket_floor(need(in.mom_var, s, "mom_var"), need(in.pilot_labels, s, "pilot_labels"));
+            return bucket_floor(need(in.mom_var, s, "mom_var"), need(in.pilot_labels, s, "pilot_labels"), in.heavy);
         case Strategy::RobustPlacebo: {
             const auto& var = need(in.mom_var, s, "mom_var");
-            return bucket_floor(var, placebo_labels(need(in.pilot_labels, s, "pilot_labels"), placebo_seed));
+            return bucket_floor(var, placebo_labels(need(in.pilot_labels, s, "pilot_labels"), placebo_seed), in.heavy);
         }
         case Strategy::Guarded: {
             const auto& var = need(in.pilot_var, s, "pilot_var");
             const auto& labels = need(in.pilot_labels, s, "pilot_labels");
-            return guard_score(bucket_floor(var, labels), need(in.untrusted, s, "untrusted"));
+            return guard_score(bucket_floor(var, labels, in.heavy), need(in.untrusted, s, "untrusted"));
         }
         case Strategy::Shrink:
         case Strategy::ShrinkGlobal: {

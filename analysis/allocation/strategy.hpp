@@ -2,6 +2,8 @@
 // and the score D(p) each one hands to the Neyman allocator (neyman.hpp).
 #pragma once
 
+#include "shared/types.h"
+
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -51,6 +53,7 @@ struct ScoreInputs {
     const std::vector<double>* mom_var = nullptr;            // median-of-means pilot variance
     const std::vector<uint8_t>* untrusted = nullptr;         // PilotDiagnosis::untrusted_map (guard.hpp)
     uint32_t pilot_spp = 0;                                  // N0, for shrink's noise model (0: not given)
+    uint32_t heavy = gpu::HEAVY_BUCKETS;  // the floor's heavy-tailed classes (ClassTraits::heavy, floor.hpp)
 };
 
 // The score D(p) of strategy s:

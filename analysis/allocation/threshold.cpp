@@ -18,7 +18,7 @@ std::vector<uint32_t> pixel_samples(const Frame& frame) {
     return n;
 }
 
-std::vector<double> relative_error(const Frame& frame, Strategy s) {
+std::vector<double> relative_error(const Frame& frame, Strategy s, const ClassTraits& traits) {
     if (s != Strategy::ObservedVar && s != Strategy::BucketFloor && s != Strategy::Guarded)
         throw std::invalid_argument(
             std::string("a noise threshold's rule is observed-var, bucket-floor or guarded, not ") + to_string(s));
@@ -30,8 +30,9 @@ std::vector<double> relative_error(const Frame& frame, Strategy s) {
     ScoreInputs in;
     in.pilot_var = &var;
     in.pilot_labels = &labels;
+    in.heavy = traits.heavy;
     if (s == Strategy::Guarded) {
-        untrusted = diagnose_pilot(frame, var, labels).untrusted_map;
+        untrusted = diagnose_pilot(frame, var, labels, nullptr, traits).untrusted_map;
         in.untrusted = &untrusted;
     }
     const std::vector<double> D = strategy_score(s, in, 0);

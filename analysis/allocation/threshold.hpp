@@ -5,6 +5,7 @@
 // time budget. The rounds themselves are rendered by host/app/adaptive/noise_threshold.cpp.
 #pragma once
 
+#include "allocation/floor.hpp"
 #include "allocation/strategy.hpp"
 #include "render/frame.hpp"
 
@@ -33,8 +34,9 @@ inline constexpr uint32_t kMaxGrowth = 4;
 //   delta  kDarkFloor times the image's mean luminance (over the pixels with samples).
 // err is 0 where D(p) is 0 and mu + delta > 0 (a black pixel in a black image: 0 too), +inf where
 // n(p) = 0 or D(p) is not finite. Only observed-var, bucket-floor and guarded are rules
-// (std::invalid_argument otherwise): the others need inputs a render does not have.
-std::vector<double> relative_error(const Frame& frame, Strategy s);
+// (std::invalid_argument otherwise): the others need inputs a render does not have. `traits`: the
+// labels' heavy and constant classes (the paper's buckets, or a taxonomy's declared ones).
+std::vector<double> relative_error(const Frame& frame, Strategy s, const ClassTraits& traits = {});
 
 // The sample counts a pixel can stop at: min_spp, then each rung kLadderRatio times the last
 // (rounded up, at least one more), up to max_spp, which is always the last rung.

@@ -147,6 +147,7 @@ struct PyRender {
     std::string light_selection, end_vertex;
     std::vector<std::string> class_names;  // a user taxonomy's (docs/lpe.md); empty: the buckets
     std::string taxonomy_json;
+    alloc::ClassTraits traits;  // the labels' heavy and constant classes (a taxonomy's declared ones)
 };
 
 PyRender prepare(const PyScene& s, std::optional<uint32_t> res, const std::string& estimator,
@@ -183,6 +184,8 @@ PyRender prepare(const PyScene& s, std::optional<uint32_t> res, const std::strin
             r.features.taxonomy = t.words;
             r.class_names = t.class_names();
             r.taxonomy_json = taxonomy_json(t);
+            r.traits.heavy = t.heavy_classes();
+            r.traits.constant = t.constant_classes();
         } catch (const lpe::LpeError& e) {
             throw py::value_error(std::string("taxonomy: ") + e.what());
         }
@@ -242,7 +245,7 @@ PyFrame make_frame(const PyScene& s, const PyRender& r, Frame frame, uint32_t sp
         if (!r.class_names.empty()) use_taxonomy_classes(*out.descriptor, r.class_names);
         out.summary = summarize(frame, *out.descriptor);
     }
-    if (!r.taxonomy_json.empty()) info.extra_json.emplace_back("taxonomy", r.taxonomy_json);
+    info.taxonomy = r.taxonomy_json;
     out.set_channels(render_channels(frame, out.descriptor ? &*out.descriptor : nullptr));
     out.header = render_attributes(info, info.warnings, "", out.descriptor ? &*out.descriptor : nullptr);
     out.info = std::move(info);
@@ -313,8 +316,12 @@ PyFrame render(const PyScene& s, uint32_t spp, uint32_t seed, std::optional<uint
 PyFrame adaptive(const PyScene& s, const std::string& strategy_name, uint32_t pilot, uint32_t budget, uint32_t floor,
                  uint32_t pilot_draw, std::optional<uint32_t> res, const std::string& estimator,
                  const std::string& light_selection, const std::string& end_vertex, std::optional<uint32_t> device,
-                 const std::string& kernel, uint32_t batch, const ProgressFn& progress) {
+                 const std::string& kernel, uint32_t batch, const ProgressFn& progress, const std::string& taxonomy) {
     const alloc::Strategy strategy = alloc::parse_strategy(strategy_name);  // ValueError on an unknown name
+    if (!taxonomy.empty() && strategy == alloc::Strategy::RobustAdaptive)
+        throw py::value_error(
+            "robust-adaptive's rule names two of the paper's buckets (delta_mediated, specular_direct), which a "
+            "taxonomy's classes are not");
     if (strategy == alloc::Strategy::Oracle || strategy == alloc::Strategy::LabelOracle)
         throw py::value_error(strategy_name + " needs a converged reference: a control of the allocation study");
     // The CLI's ranges (render --pilot, --budget, --floor, --pilot-draw, --batch).
@@ -326,7 +333,7 @@ PyFrame adaptive(const PyScene& s, const std::string& strategy_name, uint32_t pi
     if (floor > 1 + budget) throw py::value_error("floor exceeds the per-pixel average (1 + budget)");
     const bool robust = alloc::needs_mom(strategy);
     if (robust) (void)alloc::mom_block_size(static_cast<int>(pilot));  // ValueError where MoM is undefined
-    PyRender r = prepare(s, res, estimator, light_selection, end_vertex, true, device, kernel);
+    PyRender r = prepare(s, res, estimator, light_selection, end_vertex, true, device, kernel, taxonomy);
     Pilot p;
     {
         const ProgressFn none;  // the pilot checks for Ctrl-C; progress() reports the final render
@@ -334,8 +341,8 @@ PyFrame adaptive(const PyScene& s, const std::string& strategy_name, uint32_t pi
         py::gil_scoped_release nogil;
         p = render_pilot(*r.renderer, pilot, downstream_seeds::pilot(pilot_draw), robust, check);
     }
-    const alloc::PilotDiagnosis diag = alloc::diagnose_pilot(p);
-    const AdaptivePlan plan = plan_from_pilot(strategy, p, diag, pilot, budget, floor, pilot_draw);
+    const alloc::PilotDiagnosis diag = alloc::diagnose_pilot(p, r.traits);
+    const AdaptivePlan plan = plan_from_pilot(strategy, p, diag, pilot, budget, floor, pilot_draw, r.traits);
     Frame frame = render_spec(*r.renderer, adaptive_render_spec(plan, batch), progress);
     return make_frame(s, r, std::move(frame), mean_spp(plan.n), downstream_seeds::kPool, adaptive_sample_range(plan.n),
                       std::string(" adaptive=") + alloc::to_string(strategy));
@@ -441,9 +448,11 @@ PYBIND11_MODULE(vkmech, m) {
           py::arg("pilot") = 16, py::arg("budget") = 32, py::arg("floor") = 1, py::arg("pilot_draw") = 0,
           py::arg("res") = py::none(), py::arg("estimator") = "nee", py::arg("light_selection") = "uniform",
           py::arg("end_vertex") = "last-nondelta", py::arg("device") = py::none(), py::arg("kernel") = "auto",
-          py::arg("batch") = 8, py::arg("progress") = py::none(),
+          py::arg("batch") = 8, py::arg("progress") = py::none(), py::arg("taxonomy") = "",
           "`vkmech render --adaptive`: a pilot, the strategy's Neyman allocation of 1 + budget samples per pixel "
-          "on average, and the final render; n(p) is the frame's 'spp' channel");
+          "on average, and the final render; n(p) is the frame's 'spp' channel. taxonomy: a file of `name = "
+          "expression` lines (docs/lpe.md); its classes label the pilot, and its `[heavy]` and `[constant]` "
+          "classes are what the floor and the guard read");
     m.def("read", &frame_read, py::arg("path"), "Reads a vkmech EXR back as a Frame");
     bind_stats(m);
 }

@@ -237,6 +237,16 @@ def test_adaptive_allocates_the_budget_and_matches_the_cli(tmp_path):
         vkmech.adaptive(scene, "no-such-strategy", res=24)
     with pytest.raises(ValueError):
         vkmech.adaptive(scene, "oracle", res=24)
+    # Under the paper's buckets written as a taxonomy ([heavy] and [constant] declared), the same
+    # allocation and image, bit for bit; robust-adaptive names buckets and refuses a taxonomy.
+    paper = os.path.join(ROOT, "taxonomies", "paper.lpe")
+    t = vkmech.adaptive(scene, "guarded", pilot=4, budget=4, res=24, taxonomy=paper)
+    g = vkmech.adaptive(scene, "guarded", pilot=4, budget=4, res=24)
+    for name in ("R", "spp", "dominant", "lum.glossy"):
+        assert np.array_equal(t[name], g[name]), name
+    assert "vkmech.taxonomy" in t.header
+    with pytest.raises(ValueError, match="robust-adaptive"):
+        vkmech.adaptive(scene, "robust-adaptive", pilot=16, res=24, taxonomy=paper)
 
 
 def test_label_agreement_on_hand_made_maps():

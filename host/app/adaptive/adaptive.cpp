@@ -31,8 +31,10 @@ Pilot render_pilot(Renderer& r, uint32_t n0, uint32_t seed, bool robust,
 }
 
 AdaptivePlan plan_from_pilot(alloc::Strategy s, const Pilot& pilot, const alloc::PilotDiagnosis& diag, uint32_t n0,
-                             uint32_t extra_spp, uint32_t floor, uint32_t pilot_draw) {
+                             uint32_t extra_spp, uint32_t floor, uint32_t pilot_draw,
+                             const alloc::ClassTraits& traits) {
     alloc::ScoreInputs in;
+    in.heavy = traits.heavy;
     in.pilot_var = &pilot.var;
     in.pilot_labels = &pilot.labels;
     if (alloc::needs_mom(s)) in.mom_var = &pilot.mom_var;

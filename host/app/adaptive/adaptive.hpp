@@ -29,9 +29,11 @@ Pilot render_pilot(Renderer& r, uint32_t n0, uint32_t seed, bool robust,
 
 // Strategy `s`'s allocation from a pilot of n0 samples and its diagnosis (allocation/guard.hpp):
 // 1 + extra_spp samples per pixel on average, at least `floor` each; `pilot_draw` seeds the
-// placebo. The robust strategies read the pilot's median-of-means variance.
+// placebo. The robust strategies read the pilot's median-of-means variance. `traits`: the labels'
+// heavy classes (a --taxonomy's declared ones; the paper's buckets by default).
 AdaptivePlan plan_from_pilot(alloc::Strategy s, const Pilot& pilot, const alloc::PilotDiagnosis& diag, uint32_t n0,
-                             uint32_t extra_spp, uint32_t floor, uint32_t pilot_draw);
+                             uint32_t extra_spp, uint32_t floor, uint32_t pilot_draw,
+                             const alloc::ClassTraits& traits = {});
 
 // The provenance's sample range of a render with per-pixel counts n(p): "0:max n (adaptive: ...)".
 std::string adaptive_sample_range(const std::vector<uint32_t>& n);

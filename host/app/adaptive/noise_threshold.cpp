@@ -64,7 +64,7 @@ ThresholdResult render_to_threshold(Renderer& renderer, const ThresholdSettings&
     std::vector<uint32_t> n;
     for (;;) {
         const auto t_plan = clock::now();
-        err = alloc::relative_error(out.frame, s.rule);
+        err = alloc::relative_error(out.frame, s.rule, s.traits);
         n = alloc::pixel_samples(out.frame);
         std::vector<uint32_t> target = alloc::threshold_targets(n, err, s.threshold, ladder);
         ThresholdRound round;

@@ -4,6 +4,7 @@
 // analysis/allocation/threshold.hpp; this renders its rounds.
 #pragma once
 
+#include "allocation/floor.hpp"
 #include "allocation/strategy.hpp"
 #include "render/renderer.hpp"
 
@@ -22,6 +23,7 @@ struct ThresholdSettings {
     alloc::Strategy rule = alloc::Strategy::Guarded;
     uint32_t seed = 0;
     uint32_t batch_spp = 8;
+    alloc::ClassTraits traits;  // the labels' heavy and constant classes (a --taxonomy's declared ones)
 };
 
 struct ThresholdRound {

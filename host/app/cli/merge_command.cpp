@@ -6,9 +6,12 @@
 // again from the merged buckets. The EXR holds every pixel's means, so each
 // input is turned back into the sums it came from; float storage makes the
 // result equal the single render to about 1e-7 relative, not bit for bit.
+// Renders with a user taxonomy (render --taxonomy) merge by its classes, named
+// by the header's vkmech.taxonomy record.
 #include "cli/commands.hpp"
 
 #include "io/exr.hpp"
+#include "io/json_value.hpp"
 #include "io/output_set.hpp"
 #include "render/descriptor.hpp"
 #include "render/frame.hpp"
@@ -42,6 +45,11 @@ struct MergeInput {
     SampleRange range;
     uint32_t film_w = 0, film_h = 0;  // the whole film (vkmech.filmSize, else the image)
     PixelBounds window;               // the part of it the image is (vkmech.pixelBounds, else all of it)
+    // render --taxonomy: the record (vkmech.taxonomy), its classes (the slots' names) and its lines as
+    // "name = expression" text; all empty for the built-in buckets.
+    std::string taxonomy;
+    std::vector<std::string> classes;
+    std::string taxonomy_lines;
 };
 
 // An EXR, or an output directory holding exactly one.
@@ -65,6 +73,32 @@ std::string attribute(const MergeInput& in, const std::string& key) {
     return joined;
 }
 
+// A render --taxonomy's record from its header: the classes name the EXR's slots.
+void read_taxonomy(MergeInput& m) {
+    m.taxonomy = attribute(m, "vkmech.taxonomy");
+    const bool rendered_with = (" " + attribute(m, "vkmech.features") + " ").find(" taxonomy ") != std::string::npos;
+    if (!rendered_with && m.taxonomy.empty()) return;
+    if (m.taxonomy.empty())
+        throw UsageError("merge: " + m.path +
+                         " was rendered with --taxonomy by a vkmech that did not record the taxonomy in the EXR "
+                         "header (vkmech.taxonomy, since 2026-11-27): render it again to merge it");
+    std::string why;
+    const std::optional<JsonValue> j = parse_json(m.taxonomy, &why);
+    const JsonValue* classes = j ? j->find("classes") : nullptr;
+    const JsonValue* lines = j ? j->find("lines") : nullptr;
+    const bool sound = classes && lines && classes->kind == JsonValue::Array && lines->kind == JsonValue::Array &&
+                       !classes->array.empty() && classes->array.size() <= kBucketCount;
+    if (!sound)
+        throw UsageError("merge: " + m.path + ": its vkmech.taxonomy is not a taxonomy's record (" +
+                         (j ? std::string("no classes or lines, or more classes than slots") : why) + ")");
+    for (const JsonValue& c : classes->array) m.classes.push_back(c.string);
+    for (const JsonValue& l : lines->array) {
+        const JsonValue* name = l.find("name");
+        const JsonValue* expression = l.find("expression");
+        m.taxonomy_lines += (name ? name->string : "?") + " = " + (expression ? expression->string : "?") + "\n";
+    }
+}
+
 // Refuses inputs that are not parts of one render: a different film, channels,
 // scene, seed, estimator or code, each said with both values.
 void check_same_render(const MergeInput& a, const MergeInput& b) {
@@ -79,6 +113,10 @@ void check_same_render(const MergeInput& a, const MergeInput& b) {
                 throw UsageError("merge: " + y.path + " has no channel '" + name + "' (" + x.path +
                                  " has): different outputs (--capture, --extra-output)");
     }
+    if (a.taxonomy_lines != b.taxonomy_lines)
+        throw UsageError("merge: " + b.path + " and " + a.path +
+                         " were rendered with different taxonomies (--taxonomy): their classes are not the same "
+                         "paths");
     static const std::pair<const char*, const char*> keys[] = {{"vkmech.sceneSha256", "scene (SHA-256)"},
                                                                {"vkmech.sceneFiles", "scene's files"},
                                                                {"vkmech.defines", "-D values"},
@@ -100,10 +138,6 @@ void check_same_render(const MergeInput& a, const MergeInput& b) {
 Frame frame_from_exr(const MergeInput& in) {
     const ExrImage& e = in.exr;
     const size_t n = static_cast<size_t>(e.width) * e.height;
-    if (auto it = e.attributes.find("vkmech.features");
-        it != e.attributes.end() && !it->second.empty() && it->second.front().find("taxonomy") != std::string::npos)
-        throw UsageError("merge: " + in.path +
-                         " was rendered with --taxonomy: merging a taxonomy's class channels is not supported yet");
     auto plane = [&](const std::string& name) -> const std::vector<float>& {
         auto it = e.channels.find(name);
         if (it == e.channels.end() || it->second.size() != n)
@@ -134,24 +168,30 @@ Frame frame_from_exr(const MergeInput& in) {
     f.samples = static_cast<uint64_t>(expected) * n;
     if (!capture) return f;
     f.bucket_rgb_sum.assign(n * Frame::kBucketRgb, 0.0);
-    for (uint32_t b = 0; b < gpu::BUCKET_COUNT; ++b) {
-        const auto& lum = plane(std::string("lum.") + kBucketNames[b]);
+    // The slots' names: the seven buckets, or the taxonomy's classes (the slots beyond them stay 0).
+    std::vector<std::string> names = in.classes;
+    if (names.empty()) names.assign(kBucketNames.begin(), kBucketNames.end());
+    for (uint32_t b = 0; b < names.size(); ++b) {
+        const auto& lum = plane("lum." + names[b]);
         for (size_t i = 0; i < n; ++i) f.pixels[i].bucket_sum[b] = static_cast<double>(lum[i]) * f.pixels[i].count;
         for (int c = 0; c < 3; ++c) {
-            const auto& ch = plane(std::string("bucket.") + kBucketNames[b] + "." + "RGB"[c]);
+            const auto& ch = plane("bucket." + names[b] + "." + "RGB"[c]);
             for (size_t i = 0; i < n; ++i)
                 f.bucket_rgb_sum[i * Frame::kBucketRgb + 3 * b + c] = static_cast<double>(ch[i]) * f.pixels[i].count;
         }
     }
     // The side fields: the glossy share and the mean depth are over the energy of the events
-    // (depth: those with n >= 1, all but emitter_direct's), so each is weighted back by it.
+    // (depth: those with n >= 1, all but emitter_direct's; a taxonomy's render writes that energy,
+    // depth_energy, since its classes do not say it), so each is weighted back by it.
     const auto &glossy = plane("glossy_frac"), &depth = plane("depth");
+    const std::vector<float>* depth_energy = in.classes.empty() ? nullptr : &plane("depth_energy");
     for (size_t i = 0; i < n; ++i) {
         PixelStats& p = f.pixels[i];
         double total = 0.0;
         for (uint32_t b = 0; b < gpu::BUCKET_COUNT; ++b) total += p.bucket_sum[b];
         p.glossy_sum = static_cast<double>(glossy[i]) * total;
-        p.depth_weight = total - p.bucket_sum[gpu::BUCKET_EMITTER_DIRECT];
+        p.depth_weight = depth_energy ? static_cast<double>((*depth_energy)[i]) * p.count
+                                      : total - p.bucket_sum[gpu::BUCKET_EMITTER_DIRECT];
         p.depth_weighted_sum = static_cast<double>(depth[i]) * p.depth_weight;
     }
     if (e.channels.count("lum.direct_glossy")) {
@@ -248,6 +288,7 @@ RenderInfo merged_info(const MergeInput& first, const std::string& name, const s
     info.spp = spp;
     info.seed = static_cast<uint32_t>(std::stoul("0" + attribute(first, "vkmech.seed")));
     info.capture = first.exr.channels.count("dominant") > 0;
+    info.taxonomy = first.taxonomy;
     info.lights_at_infinity = attribute(first, "vkmech.lightsAtInfinity");
     auto list = [&](const char* key) {
         auto it = first.exr.attributes.find(key);
@@ -299,6 +340,7 @@ int cmd_merge(const MergeOptions& o) {
                 m.window.y1 - m.window.y0 != static_cast<uint32_t>(m.exr.height))
                 throw UsageError("merge: " + m.path + " is not the size of its pixel bounds " + bounds);
         }
+        read_taxonomy(m);
         in.push_back(std::move(m));
     }
     for (size_t k = 1; k < in.size(); ++k) check_same_render(in[0], in[k]);
@@ -314,6 +356,7 @@ int cmd_merge(const MergeOptions& o) {
     std::optional<DescriptorSummary> summary;
     if (info.capture) {
         desc = derive_descriptor(frame);
+        if (!in[0].classes.empty()) use_taxonomy_classes(*desc, in[0].classes);
         summary = summarize(frame, *desc);
     }
     require_writable_dir(o.out, "OUT");

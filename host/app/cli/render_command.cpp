@@ -266,6 +266,26 @@ struct CliRender {
     double load_seconds = 0.0, build_seconds = 0.0;
     std::optional<SceneTaxonomy> taxonomy;  // --taxonomy
     const Scene& scene() const { return session->scene(); }
+    // The labels' names: a --taxonomy's classes; empty for the seven buckets.
+    std::vector<std::string> class_names() const {
+        return taxonomy ? taxonomy->class_names() : std::vector<std::string>{};
+    }
+    // The labels' heavy and constant classes for the allocation rules: a --taxonomy's declared ones, else the
+    // paper's buckets'.
+    alloc::ClassTraits class_traits() const {
+        alloc::ClassTraits t;
+        if (taxonomy) {
+            t.heavy = taxonomy->heavy_classes();
+            t.constant = taxonomy->constant_classes();
+        }
+        return t;
+    }
+    // A descriptor of this render's frames, its slots named by the taxonomy's classes when there is one.
+    Descriptor descriptor(const Frame& f) const {
+        Descriptor d = derive_descriptor(f);
+        if (taxonomy) use_taxonomy_classes(d, taxonomy->class_names());
+        return d;
+    }
 };
 
 // Loads the scene, opens the output set (--out must be writable before anything renders), the device and
@@ -299,10 +319,6 @@ CliRender open_cli_render(const RenderOptions& o, Estimator estimator, bool capt
             throw UsageError(
                 "--taxonomy and --extra-output direct_glossy: the direct-glossy split is of the built-in "
                 "direct bucket; choose one");
-        if (!o.sample_range.empty() || !o.pixel_bounds.empty())
-            throw UsageError(
-                "--taxonomy with --sample-range or --pixel-bounds: `vkmech merge` does not read a "
-                "taxonomy's class channels yet, so such parts could not be merged");
         r.taxonomy = taxonomy_for_cli(*taxonomy, r.session->scene());
         r.features.taxonomy = r.taxonomy->words;
     }
@@ -381,7 +397,7 @@ int cmd_render(const RenderOptions& o) {
         progress(d, t);
     };
     std::unique_ptr<DisplayClient> display = open_live_view(o.display_server, name);
-    const std::vector<std::string> classes = cr.taxonomy ? cr.taxonomy->class_names() : std::vector<std::string>{};
+    const std::vector<std::string> classes = cr.class_names();
     if (display)
         spec.on_frame = [&](const Frame& f) { send_live_view(*display, f, capture, /*force=*/false, {}, classes); };
     Frame frame = renderer.render(spec);
@@ -406,11 +422,10 @@ int cmd_render(const RenderOptions& o) {
     std::optional<Descriptor> desc;
     std::optional<DescriptorSummary> summary;
     if (capture) {
-        desc = derive_descriptor(frame);
-        if (cr.taxonomy) use_taxonomy_classes(*desc, cr.taxonomy->class_names());
+        desc = cr.descriptor(frame);
         summary = summarize(frame, *desc);
     }
-    if (cr.taxonomy) info.extra_json.emplace_back("taxonomy", taxonomy_json(*cr.taxonomy));
+    if (cr.taxonomy) info.taxonomy = taxonomy_json(*cr.taxonomy);
     WrittenFiles files =
         write_render_outputs(*set, info, frame, desc ? &*desc : nullptr, summary ? &*summary : nullptr);
     set->commit();
@@ -447,10 +462,6 @@ int cmd_render(const RenderOptions& o) {
 // `vkmech render --adaptive STRATEGY --pilot N0 --budget B`: pilot, predicted
 // label reliability, Neyman allocation, final render of n(p) pool samples.
 int cmd_render_adaptive(const RenderOptions& o) {
-    if (!o.taxonomy.empty())
-        throw UsageError(
-            "--taxonomy and --adaptive: the allocation strategies name the paper's buckets; a "
-            "taxonomy's classes are not yet an adaptive render's labels (docs/lpe.md)");
     if (!o.sample_range.empty())
         throw UsageError("--sample-range and --adaptive: an adaptive render takes samples [0, n(p)) at each pixel");
     if (!o.pixel_bounds.empty()) throw UsageError("--pixel-bounds and --adaptive: an adaptive render takes the film");
@@ -463,6 +474,11 @@ int cmd_render_adaptive(const RenderOptions& o) {
     if (strategy == alloc::Strategy::Oracle || strategy == alloc::Strategy::LabelOracle)
         throw UsageError(std::string("--adaptive ") + alloc::to_string(strategy) +
                          " needs a converged reference; it is a control of `vkmech study allocation`, not a renderer");
+    if (!o.taxonomy.empty() && strategy == alloc::Strategy::RobustAdaptive)
+        throw UsageError(
+            "--taxonomy and --adaptive robust-adaptive: its rule names two of the paper's buckets "
+            "(delta_mediated, specular_direct), which a taxonomy's classes are not; the other strategies "
+            "read a taxonomy's [heavy] and [constant] classes (docs/lpe.md)");
     const bool robust = alloc::needs_mom(strategy);
     if (robust) {
         try {
@@ -476,8 +492,17 @@ int cmd_render_adaptive(const RenderOptions& o) {
     (void)wants_direct_glossy(o, true);  // refused before anything loads
     // The frozen curve is read before anything renders: a bad file is bad input (exit 2).
     // Without --curve: the installed (or source tree's) frozen curve; none found means no prediction.
+    // A taxonomy's labels are not the buckets the curve was fitted on: no prediction.
     std::string curve_path = o.curve;
-    if (curve_path.empty()) {
+    if (!o.taxonomy.empty()) {
+        if (!o.curve.empty())
+            throw UsageError(
+                "--curve and --taxonomy: the reliability curve was fitted on the paper's buckets, not on a "
+                "taxonomy's classes");
+        std::fprintf(stderr,
+                     "vkmech: note: the pilot's label reliability is not predicted: the frozen curve is of the "
+                     "paper's buckets, not of the taxonomy's classes\n");
+    } else if (curve_path.empty()) {
         const Resource found = find_predictor_curve();
         curve_path = found.path;
         if (!found.found())
@@ -519,7 +544,8 @@ int cmd_render_adaptive(const RenderOptions& o) {
     std::printf("pilot: %u spp (seed %u), %.2f s\n", o.pilot, downstream_seeds::pilot(o.pilot_draw), pilot.seconds);
 
     // What the pilot alone says about the strategies' assumptions (docs/descriptor.md §6.5).
-    const alloc::PilotDiagnosis diag = alloc::diagnose_pilot(pilot);
+    const alloc::ClassTraits traits = cr.class_traits();
+    const alloc::PilotDiagnosis diag = alloc::diagnose_pilot(pilot, traits);
 
     // The pilot's predicted label reliability (paper §8.2), before anything is allocated. It is
     // a statement about the pixels the pilot labelled, and only about them.
@@ -537,6 +563,9 @@ int cmd_render_adaptive(const RenderOptions& o) {
                 "note: this pilot has %u spp; the curve was fitted on %u-spp pilots, so the prediction is "
                 "indicative only\n",
                 o.pilot, curve->pilot_spp);
+    } else if (cr.taxonomy) {
+        std::printf(
+            "predicted label reliability: none for a taxonomy's classes (the frozen curve is of the buckets)\n");
     } else {
         std::printf("predicted label reliability: no frozen curve at %s (run `vkmech study predictor`)\n",
                     curve_path.c_str());
@@ -545,7 +574,7 @@ int cmd_render_adaptive(const RenderOptions& o) {
     print_diagnosis(strategy, diag);
     if (strategy == alloc::Strategy::RobustAdaptive) print_adaptive_k(pilot.labels, o.pilot);
 
-    AdaptivePlan plan = plan_from_pilot(strategy, pilot, diag, o.pilot, o.budget, o.floor, o.pilot_draw);
+    AdaptivePlan plan = plan_from_pilot(strategy, pilot, diag, o.pilot, o.budget, o.floor, o.pilot_draw, traits);
     const double uniform_share = static_cast<double>(plan.total) / static_cast<double>(pixels);
     const UntrustedAllocation untrusted_n = untrusted_allocation(diag, plan.n, uniform_share);
 
@@ -557,7 +586,7 @@ int cmd_render_adaptive(const RenderOptions& o) {
     };
     std::unique_ptr<DisplayClient> display = open_live_view(o.display_server, name);
     if (display && display->connected()) {  // the pilot and the allocation map, then the final render
-        const Descriptor pilot_desc = derive_descriptor(pilot.frame);
+        const Descriptor pilot_desc = cr.descriptor(pilot.frame);
         display->send_snapshot("pilot", pilot.frame.width, pilot.frame.height,
                                render_channels(pilot.frame, &pilot_desc));
         ExrChannel n{"n", std::vector<float>(plan.n.begin(), plan.n.end()), false};
@@ -567,9 +596,11 @@ int cmd_render_adaptive(const RenderOptions& o) {
         if (!display->connected()) std::fprintf(stderr, "vkmech: warning: %s\n", display->warning().c_str());
     }
     if (display)
-        spec.on_frame = [&](const Frame& f) { send_live_view(*display, f, /*capture=*/true, /*force=*/false); };
+        spec.on_frame = [&](const Frame& f) {
+            send_live_view(*display, f, /*capture=*/true, /*force=*/false, {}, cr.class_names());
+        };
     Frame frame = renderer.render(spec);
-    if (display) send_live_view(*display, frame, /*capture=*/true, /*force=*/true);
+    if (display) send_live_view(*display, frame, /*capture=*/true, /*force=*/true, {}, cr.class_names());
 
     uint32_t max_n = 0, min_n = ~0u;
     for (uint32_t n : plan.n) {
@@ -584,7 +615,8 @@ int cmd_render_adaptive(const RenderOptions& o) {
     info.pipeline_seconds = pipes.seconds;
     info.pipeline_cache = pipe_outcome;
     info.extra_json.emplace_back("adaptive", adaptive_json(strategy, o, diag, pred, plan, untrusted_n));
-    Descriptor desc = derive_descriptor(frame);
+    if (cr.taxonomy) info.taxonomy = taxonomy_json(*cr.taxonomy);
+    Descriptor desc = cr.descriptor(frame);
     DescriptorSummary summary = summarize(frame, desc);
     WrittenFiles files = write_render_outputs(*set, info, frame, &desc, &summary);
     report_render_warnings(files);
@@ -647,10 +679,6 @@ std::string threshold_json(const RenderOptions& o, const ThresholdSettings& s, c
 // `vkmech render --noise-threshold T`: rounds of samples where the estimated relative error is above T
 // (docs/descriptor.md §6.8).
 int cmd_render_threshold(const RenderOptions& o) {
-    if (!o.taxonomy.empty())
-        throw UsageError(
-            "--taxonomy and --noise-threshold: the threshold's rule floors by the paper's buckets; a "
-            "taxonomy's classes are not yet its labels (docs/lpe.md)");
     if (!o.sample_range.empty())
         throw UsageError("--sample-range and --noise-threshold: a noise-threshold render takes samples [0, n(p))");
     if (!o.pixel_bounds.empty())
@@ -682,6 +710,7 @@ int cmd_render_threshold(const RenderOptions& o) {
     const Traversal trav = cr.trav;
     const Scene& scene = session.scene();
     ts.sample_budget = static_cast<uint64_t>(std::llround(o.spp_budget * scene.camera.width * scene.camera.height));
+    ts.traits = cr.class_traits();
     // Every batch is read back and merged on the host: on a GPU, 8 samples a dispatch leave the device idle
     // (measured on an H100, docs/gpu.md), so the GPU kernel's default is 64.
     if (!o.batch_given && session.gpu().kernel() == vk::KernelClass::Gpu) ts.batch_spp = 64;
@@ -704,7 +733,7 @@ int cmd_render_threshold(const RenderOptions& o) {
         if (!display || !display->connected() || !display->due(force)) return;
         ExrChannel e{"err", std::vector<float>(f.pixels.size(), 0.0f), false};
         for (size_t i = 0; i < err.size() && i < e.data.size(); ++i) e.data[i] = static_cast<float>(err[i]);
-        send_live_view(*display, f, /*capture=*/true, force, {e});
+        send_live_view(*display, f, /*capture=*/true, force, {e}, cr.class_names());
     };
     Progress progress("round 0 " + name);
     std::unique_ptr<Progress> round_progress;
@@ -746,7 +775,8 @@ int cmd_render_threshold(const RenderOptions& o) {
     ExrChannel err{"err", std::vector<float>(pixels), false};
     for (size_t i = 0; i < pixels; ++i) err.data[i] = static_cast<float>(result.err[i]);
     info.extra_channels.push_back(std::move(err));
-    Descriptor desc = derive_descriptor(frame);
+    if (cr.taxonomy) info.taxonomy = taxonomy_json(*cr.taxonomy);
+    Descriptor desc = cr.descriptor(frame);
     DescriptorSummary summary = summarize(frame, desc);
     WrittenFiles files = write_render_outputs(*set, info, frame, &desc, &summary);
     report_render_warnings(files);
@@ -819,7 +849,9 @@ void register_render(CLI::App& app, CliCommands& commands) {
                      "Label paths by your own taxonomy: a file of `name = light path expression` lines (OSL's LPE "
                      "grammar, first match wins, an implicit `other`; docs/lpe.md), compiled to a DFA the path "
                      "tracer steps at each vertex; its classes replace the seven buckets in every output. At most "
-                     "6 lines. taxonomies/paper.lpe is the built-in one")
+                     "6 lines. With --adaptive or --noise-threshold the classes are the labels, and lines "
+                     "declared `name [heavy] = ...` are what the floor floors. taxonomies/paper.lpe is the "
+                     "built-in one")
         ->check(CLI::ExistingFile);
     render->add_option("--display-server", o->display_server,
                        "Show the render in progress in tev (or HDRView) listening at HOST:PORT (tev's default "

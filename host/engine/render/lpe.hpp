@@ -72,6 +72,11 @@ struct TaxonomyLine {
     std::string expression;
     int line = 0;               // 1-based line in the file
     int expression_column = 0;  // 1-based column of the expression's first character
+    // `name [heavy constant] = ...`: properties the allocation strategies read (docs/lpe.md). heavy: the
+    // class is heavy-tailed (the bucket floor floors it); constant: its energy is constant per pixel
+    // (an emitter seen directly), so the guard trusts a zero variance of a pixel lit by it alone.
+    bool heavy = false;
+    bool constant = false;
 };
 struct TaxonomySource {
     std::string file;  // for messages

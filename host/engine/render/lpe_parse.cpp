@@ -463,6 +463,33 @@ std::string strip_comment(const std::string& line) {
 }
 
 // One `name = expression` line into `out`; blank and comment lines add nothing.
+struct ClassProperties {
+    bool heavy = false, constant = false;
+};
+
+// `name [heavy constant]`: strips the bracketed properties off `name` (trimmed) and reads them.
+ClassProperties class_properties(std::string& name, const std::string& file, int lineno, int start) {
+    ClassProperties p;
+    if (name.empty() || name.back() != ']') return p;
+    const size_t open = name.rfind('[');
+    if (open == std::string::npos)
+        throw LpeError(file, lineno, start + int(name.size()), "a ']' without '[' before '='");
+    std::istringstream words(name.substr(open + 1, name.size() - open - 2));
+    std::string w;
+    while (words >> w) {
+        if (w == "heavy")
+            p.heavy = true;
+        else if (w == "constant")
+            p.constant = true;
+        else
+            throw LpeError(file, lineno, start + int(open) + 2,
+                           "unknown class property `" + w + "`: the properties are `heavy` and `constant`");
+    }
+    name.resize(open);
+    while (!name.empty() && (name.back() == ' ' || name.back() == '\t')) name.pop_back();
+    return p;
+}
+
 void parse_line(const std::string& raw, int lineno, TaxonomySource& out, std::map<std::string, int>& seen) {
     std::string content = strip_comment(raw);
     while (!content.empty() && (content.back() == ' ' || content.back() == '\t' || content.back() == '\r'))
@@ -474,6 +501,7 @@ void parse_line(const std::string& raw, int lineno, TaxonomySource& out, std::ma
         throw LpeError(out.file, lineno, int(start) + 1, "expected `name = expression`, found no '='");
     std::string name = content.substr(start, eq - start);
     while (!name.empty() && (name.back() == ' ' || name.back() == '\t')) name.pop_back();
+    const ClassProperties props = class_properties(name, out.file, lineno, int(start));
     if (name.empty()) throw LpeError(out.file, lineno, int(start) + 1, "expected a class name before '='");
     if (!is_identifier(name))
         throw LpeError(out.file, lineno, int(start) + 1,
@@ -493,7 +521,7 @@ void parse_line(const std::string& raw, int lineno, TaxonomySource& out, std::ma
         throw LpeError(out.file, lineno, int(start) + 1,
                        "a taxonomy has at most " + std::to_string(kMaxLines) + " lines (classes)");
     seen.emplace(name, lineno);
-    out.lines.push_back(TaxonomyLine{name, content.substr(expr), lineno, int(expr) + 1});
+    out.lines.push_back(TaxonomyLine{name, content.substr(expr), lineno, int(expr) + 1, props.heavy, props.constant});
 }
 
 void require_lines(const TaxonomySource& s) {

@@ -185,6 +185,7 @@ std::string summary_json(const RenderInfo& info, const Frame& frame, const Descr
           << ", \"sample_range\": \"" << p.sample_range << "\", \"driver\": \"" << json_escape(p.driver)
           << "\", \"date_utc\": \"" << p.date_utc << "\"}";
     }
+    if (!info.taxonomy.empty()) o << ",\n  \"taxonomy\": " << info.taxonomy;
     for (const auto& [key, value] : info.extra_json) o << ",\n  \"" << json_escape(key) << "\": " << value;
     if (s) {
         o << ",\n  \"labelled_pixels\": " << s->labelled_pixels << ",\n";
@@ -282,6 +283,14 @@ std::vector<ExrChannel> render_channels(const Frame& frame, const Descriptor* d)
         channel("glossy_frac", [&](size_t i) { return d->glossy_frac[i]; });
         if (!d->taxonomy) channel("caustic_frac", [&](size_t i) { return d->caustic_frac[i]; });
         channel("depth", [&](size_t i) { return d->depth[i]; });
+        // A taxonomy's classes do not say which energy `depth` averages over (every event but the
+        // camera's direct view of an emitter: the built-in cascade's all but emitter_direct), so its
+        // renders write that energy, per sample, for `vkmech merge` to weigh depth by.
+        if (d->taxonomy)
+            channel("depth_energy", [&](size_t i) {
+                const PixelStats& p = frame.pixels[i];
+                return p.count > 0 ? p.depth_weight / p.count : 0.0;
+            });
         for (size_t b = 0; b < classes; ++b)
             channel("frac." + d->class_names[b], [&](size_t i) {
                 return d->total_energy[i] > 0 ? d->bucket_energy[i][b] / d->total_energy[i] : 0.0f;
@@ -310,6 +319,7 @@ std::map<std::string, std::vector<std::string>> render_attributes(const RenderIn
     if (!run_id.empty()) attrs["vkmech.runId"] = {run_id};
     if (!info.lights_at_infinity.empty()) attrs["vkmech.lightsAtInfinity"] = {info.lights_at_infinity};
     if (d) attrs["vkmech.dominantLegend"] = {dominant_legend_json(d->class_names)};
+    if (!info.taxonomy.empty()) attrs["vkmech.taxonomy"] = {info.taxonomy};
     if (const Provenance& p = info.provenance; !p.version.empty()) {
         attrs["vkmech.version"] = {p.version};
         attrs["vkmech.codeDigest"] = {p.code_digest};

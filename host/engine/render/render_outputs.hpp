@@ -68,7 +68,10 @@ struct RenderInfo {
     std::vector<std::pair<std::string, std::string>> extra_json;
     // Further EXR channels, written after the moments (render --noise-threshold: err).
     std::vector<ExrChannel> extra_channels;
-    std::string kernel;     // the device-class kernel (vk::KernelClass): cpu or gpu; empty: not recorded
+    std::string kernel;  // the device-class kernel (vk::KernelClass): cpu or gpu; empty: not recorded
+    // render --taxonomy: the taxonomy's record (taxonomy_json: file, lines, classes, states), in the JSON
+    // ("taxonomy") and the EXR header (vkmech.taxonomy), so that `vkmech merge` knows the classes.
+    std::string taxonomy;
     Provenance provenance;  // empty version: not recorded
 };
 

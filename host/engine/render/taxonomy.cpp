@@ -95,12 +95,27 @@ SceneTaxonomy compile_scene_taxonomy(const lpe::TaxonomySource& source, const Sc
     return t;
 }
 
+uint32_t SceneTaxonomy::heavy_classes() const {
+    uint32_t mask = 0;
+    for (size_t k = 0; k < source.lines.size() && k < 32; ++k) mask |= source.lines[k].heavy ? 1u << k : 0u;
+    return mask;
+}
+
+uint32_t SceneTaxonomy::constant_classes() const {
+    uint32_t mask = 0;
+    for (size_t k = 0; k < source.lines.size() && k < 32; ++k) mask |= source.lines[k].constant ? 1u << k : 0u;
+    return mask;
+}
+
 std::string taxonomy_json(const SceneTaxonomy& t) {
     std::ostringstream o;
     o << "{\"file\": \"" << json_escape(t.source.file) << "\", \"lines\": [";
-    for (size_t i = 0; i < t.source.lines.size(); ++i)
-        o << (i ? ", " : "") << "{\"name\": \"" << json_escape(t.source.lines[i].name) << "\", \"expression\": \""
-          << json_escape(t.source.lines[i].expression) << "\"}";
+    for (size_t i = 0; i < t.source.lines.size(); ++i) {
+        const lpe::TaxonomyLine& l = t.source.lines[i];
+        o << (i ? ", " : "") << "{\"name\": \"" << json_escape(l.name) << "\", \"expression\": \""
+          << json_escape(l.expression) << "\"" << (l.heavy ? ", \"heavy\": true" : "")
+          << (l.constant ? ", \"constant\": true" : "") << "}";
+    }
     o << "], \"classes\": [";
     for (size_t i = 0; i < t.compiled.class_names.size(); ++i)
         o << (i ? ", " : "") << "\"" << json_escape(t.compiled.class_names[i]) << "\"";

@@ -30,14 +30,18 @@ struct SceneTaxonomy {
     lpe::CompiledTaxonomy compiled;
     std::vector<uint32_t> words;  // BINDING_TAXONOMY's contents
     const std::vector<std::string>& class_names() const { return compiled.class_names; }
+    // The classes its lines declare `[heavy]` and `[constant]`, a bit per class (class k is line k;
+    // `other` is neither): the allocation strategies' alloc::ClassTraits.
+    uint32_t heavy_classes() const;
+    uint32_t constant_classes() const;
 };
 
 // Compiles `source` against the scene's labels and packs it. Throws lpe::LpeError for a malformed
 // expression, a DFA over the state limit, or more classes than the tally has slots.
 SceneTaxonomy compile_scene_taxonomy(const lpe::TaxonomySource& source, const Scene& scene);
 
-// The outputs' record of it (the JSON's "taxonomy"): {"file", "lines": [{"name", "expression"}],
-// "classes", "states"}.
+// The outputs' record of it (the JSON's "taxonomy"): {"file", "lines": [{"name", "expression"[, "heavy":
+// true][, "constant": true]}], "classes", "states"}.
 std::string taxonomy_json(const SceneTaxonomy& t);
 
 }  // namespace vkmech
