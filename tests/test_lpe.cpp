@@ -427,9 +427,17 @@ TEST_CASE("lpe: the taxonomy file: comments, blank lines, unique identifier name
     CHECK(props.lines[3].constant);
     CHECK(error_of("a [fast] = C L") ==
           "1:4: unknown class property `fast`: the properties are `heavy` and `constant`");
+    CHECK(error_of("  a [heavy  fast] = C L") ==
+          "1:13: unknown class property `fast`: the properties are `heavy` and `constant`");
     CHECK(error_of("a] = C L") == "1:2: a ']' without '[' before '='");
     CHECK(error_of(" [heavy] = C L") == "1:2: expected a class name before '='");
     CHECK(error_of("a [heavy] b = C L").find("1:1: `a [heavy] b` is not a class name") == 0);
+
+    // The labels a taxonomy names, without compiling it (a shape named there gets its own material).
+    CHECK(taxonomy_labels(parse_taxonomy("a = C <.S'glass'> L\nb = C ['chrome' 'glass' D] L\n", "l.lpe")) ==
+          std::vector<std::string>{"glass", "chrome"});
+    CHECK(taxonomy_labels(parse_taxonomy("a = C D L\n", "l.lpe")).empty());
+    CHECK_THROWS_AS(taxonomy_labels(parse_taxonomy("a = C (D L\n", "l.lpe")), LpeError);
 
     // --lpe style lines, and a file that is not there.
     TaxonomySource cli = taxonomy_from_lines({"key=C .* 'key'", "fill = C .* 'fill'"}, "--lpe");

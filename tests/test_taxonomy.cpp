@@ -116,6 +116,20 @@ TEST_CASE("taxonomy: the GPU words hold the DFA, the classes and the labels of t
                          lpe::LpeError);
 }
 
+TEST_CASE("taxonomy: paper.lpe and paper-literal.lpe declare the paper's heavy family and emitter_direct constant") {
+    for (const char* file : {"taxonomies/paper.lpe", "taxonomies/paper-literal.lpe"}) {
+        CAPTURE(std::string(file));
+        const SceneTaxonomy t = compile_scene_taxonomy(lpe::read_taxonomy(source_path(file)), testing::quad_scene());
+        CHECK(t.heavy_classes() == gpu::HEAVY_BUCKETS);
+        CHECK(t.constant_classes() == (1u << gpu::BUCKET_EMITTER_DIRECT));
+    }
+    // A line declares both, or neither.
+    const SceneTaxonomy u =
+        compile_scene_taxonomy(taxonomy_text("a = C D L\nb [heavy constant] = C L\n"), testing::quad_scene());
+    CHECK(u.heavy_classes() == 2u);
+    CHECK(u.constant_classes() == 2u);
+}
+
 TEST_CASE("taxonomy: a shape the taxonomy names gets its own material, so its events answer to its id") {
     Scene s = two_lamp_scene(1.0f, 1.0f);
     Mesh wall = s.meshes[0];  // a second shape of material "floor"
@@ -379,6 +393,37 @@ TEST_SUITE("gpu") {
         REQUIRE(t.code == 0);
         same("b_thr", "t_thr");
 
+        // The same lines in reverse order put every bucket in another slot (b -> 5 - b), so only the
+        // declared properties, not the slots, can make the floor and the guard act as the built-in ones:
+        // the same allocation (spp) and image. Without the properties the allocation differs.
+        const std::string reversed =
+            "specular_direct [heavy] = C S+ [LB]\ndelta_mediated [heavy] = C (S+ [DG] | [DG]+ S) .* [LB]\n"
+            "glossy [heavy] = C [DG]+ G [LB]\ndiffuse_indirect = C [DG]+ D [LB]\ndirect = C [DG] [LB]\n"
+            "emitter_direct [constant] = C [LB]\n";
+        std::ofstream(dir.file("reversed.lpe")) << reversed;
+        std::string bare = reversed;
+        for (const std::string p : {" [heavy]", " [constant]"})
+            for (size_t at = bare.find(p); at != std::string::npos; at = bare.find(p)) bare.erase(at, p.size());
+        std::ofstream(dir.file("bare.lpe")) << bare;
+        auto planes = [&](const std::string& out) {
+            const ExrImage x = read_exr_channels(dir.file(out + "/glass_caustic.exr"));
+            std::vector<std::vector<float>> v;
+            for (const char* c : {"spp", "R", "G", "B", "lum_var"}) v.push_back(x.channels.at(c));
+            return v;
+        };
+        const std::string guarded = "render --scene glass_caustic --res 24 --adaptive guarded --pilot 4 --budget 8 ";
+        REQUIRE(
+            testing::run_cli(guarded + "--taxonomy " + dir.file("reversed.lpe") + " --out " + dir.file("rev")).code ==
+            0);
+        CHECK(planes("rev") == planes("b_guarded"));
+        REQUIRE(
+            testing::run_cli(thr + "--taxonomy " + dir.file("reversed.lpe") + " --out " + dir.file("rev_thr")).code ==
+            0);
+        CHECK(planes("rev_thr") == planes("b_thr"));
+        REQUIRE(testing::run_cli(guarded + "--taxonomy " + dir.file("bare.lpe") + " --out " + dir.file("bare")).code ==
+                0);
+        CHECK(planes("bare")[0] != planes("b_guarded")[0]);
+
         // Without [constant], a lamp pixel's zero pilot variance is no longer vouched for.
         std::ifstream in(source_path("taxonomies/paper.lpe"));
         std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -409,6 +454,6 @@ TEST_SUITE("gpu") {
             "render --scene glass_caustic --res 24 --adaptive robust-adaptive --pilot 16 --budget 8 --out " +
             dir.file("r") + paper);
         CHECK(robust.code == 2);
-        CHECK(robust.output.find("robust-adaptive") != std::string::npos);
+        CHECK(robust.output.find("--taxonomy and --adaptive robust-adaptive") != std::string::npos);
     }
 }

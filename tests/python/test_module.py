@@ -245,7 +245,14 @@ def test_adaptive_allocates_the_budget_and_matches_the_cli(tmp_path):
     for name in ("R", "spp", "dominant", "lum.glossy"):
         assert np.array_equal(t[name], g[name]), name
     assert "vkmech.taxonomy" in t.header
-    with pytest.raises(ValueError, match="robust-adaptive"):
+    # The lines reversed: other slots, the same declared properties, the same allocation.
+    rev = tmp_path / "reversed.lpe"
+    rev.write_text("specular_direct [heavy] = C S+ [LB]\ndelta_mediated [heavy] = C (S+ [DG] | [DG]+ S) .* [LB]\n"
+                   "glossy [heavy] = C [DG]+ G [LB]\ndiffuse_indirect = C [DG]+ D [LB]\ndirect = C [DG] [LB]\n"
+                   "emitter_direct [constant] = C [LB]\n")
+    r = vkmech.adaptive(scene, "guarded", pilot=4, budget=4, res=24, taxonomy=str(rev))
+    assert np.array_equal(r["spp"], g["spp"]) and np.array_equal(r["R"], g["R"])
+    with pytest.raises(ValueError, match="names two of the paper's buckets"):
         vkmech.adaptive(scene, "robust-adaptive", pilot=16, res=24, taxonomy=paper)
 
 

@@ -91,7 +91,14 @@ void read_taxonomy(MergeInput& m) {
     if (!sound)
         throw UsageError("merge: " + m.path + ": its vkmech.taxonomy is not a taxonomy's record (" +
                          (j ? std::string("no classes or lines, or more classes than slots") : why) + ")");
-    for (const JsonValue& c : classes->array) m.classes.push_back(c.string);
+    for (const JsonValue& c : classes->array) {
+        if (c.kind != JsonValue::String || c.string.empty())
+            throw UsageError("merge: " + m.path + ": its vkmech.taxonomy names a class that is not a name");
+        m.classes.push_back(c.string);
+    }
+    if (m.classes.size() != lines->array.size() + 1)
+        throw UsageError("merge: " + m.path + ": its vkmech.taxonomy has " + std::to_string(m.classes.size()) +
+                         " classes for " + std::to_string(lines->array.size()) + " lines (one per line and `other`)");
     for (const JsonValue& l : lines->array) {
         const JsonValue* name = l.find("name");
         const JsonValue* expression = l.find("expression");
@@ -194,7 +201,7 @@ Frame frame_from_exr(const MergeInput& in) {
                                       : total - p.bucket_sum[gpu::BUCKET_EMITTER_DIRECT];
         p.depth_weighted_sum = static_cast<double>(depth[i]) * p.depth_weight;
     }
-    if (e.channels.count("lum.direct_glossy")) {
+    if (in.classes.empty() && e.channels.count("lum.direct_glossy")) {  // a class may be named direct_glossy
         const auto& dg = plane("lum.direct_glossy");
         f.direct_glossy_sum.resize(n);
         for (size_t i = 0; i < n; ++i) f.direct_glossy_sum[i] = static_cast<double>(dg[i]) * f.pixels[i].count;

@@ -130,7 +130,7 @@ void print_diagnosis(alloc::Strategy s, const alloc::PilotDiagnosis& d) {
         else
             std::printf(
                 "%s: the floor changes none of the %zu heavy-tailed pilot pixels (each at or above its "
-                "bucket's median), identical to %s\n",
+                "label's median), identical to %s\n",
                 floor, d.heavy, base);
     };
     if (s == Strategy::BucketFloor || s == Strategy::Guarded)
@@ -499,9 +499,6 @@ int cmd_render_adaptive(const RenderOptions& o) {
             throw UsageError(
                 "--curve and --taxonomy: the reliability curve was fitted on the paper's buckets, not on a "
                 "taxonomy's classes");
-        std::fprintf(stderr,
-                     "vkmech: note: the pilot's label reliability is not predicted: the frozen curve is of the "
-                     "paper's buckets, not of the taxonomy's classes\n");
     } else if (curve_path.empty()) {
         const Resource found = find_predictor_curve();
         curve_path = found.path;
@@ -849,9 +846,9 @@ void register_render(CLI::App& app, CliCommands& commands) {
                      "Label paths by your own taxonomy: a file of `name = light path expression` lines (OSL's LPE "
                      "grammar, first match wins, an implicit `other`; docs/lpe.md), compiled to a DFA the path "
                      "tracer steps at each vertex; its classes replace the seven buckets in every output. At most "
-                     "6 lines. With --adaptive or --noise-threshold the classes are the labels, and lines "
-                     "declared `name [heavy] = ...` are what the floor floors. taxonomies/paper.lpe is the "
-                     "built-in one")
+                     "6 lines. With --adaptive or --noise-threshold the classes are the labels: lines declared "
+                     "`name [heavy] = ...` are what the floor floors, and `[constant]` ones (an emitter seen "
+                     "directly) what the guard trusts at zero variance. taxonomies/paper.lpe is the built-in one")
         ->check(CLI::ExistingFile);
     render->add_option("--display-server", o->display_server,
                        "Show the render in progress in tev (or HDRView) listening at HOST:PORT (tev's default "

@@ -55,6 +55,18 @@ void collect_labels(const Node& n, int line, Labels& out) {
     for (const Node& c : n.children) collect_labels(c, line, out);
 }
 
+}  // namespace
+
+std::vector<std::string> taxonomy_labels(const TaxonomySource& source) {
+    Labels labels;
+    for (const TaxonomyLine& l : source.lines)
+        collect_labels(detail::parse_expression(l.expression, source.file, l.line, l.expression_column), l.line,
+                       labels);
+    return labels.names;
+}
+
+namespace {
+
 // Slots that answer to the same set of the taxonomy's labels are one class; class 0 answers to none
 // (events without a slot, and slots the taxonomy names nowhere).
 void label_classes(const std::vector<LabelSlot>& slots, Labels& out) {

@@ -134,4 +134,8 @@ struct CompiledTaxonomy {
 CompiledTaxonomy compile_taxonomy(const TaxonomySource& source, const std::vector<LabelSlot>& slots,
                                   const CompileOptions& options = {});
 
+// The quoted labels the taxonomy's expressions name, first use first (CompiledTaxonomy::labels without
+// compiling): parses every expression, so a malformed one throws LpeError as compile_taxonomy does.
+std::vector<std::string> taxonomy_labels(const TaxonomySource& source);
+
 }  // namespace vkmech::lpe

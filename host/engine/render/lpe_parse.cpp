@@ -462,7 +462,6 @@ std::string strip_comment(const std::string& line) {
     return line;
 }
 
-// One `name = expression` line into `out`; blank and comment lines add nothing.
 struct ClassProperties {
     bool heavy = false, constant = false;
 };
@@ -474,22 +473,31 @@ ClassProperties class_properties(std::string& name, const std::string& file, int
     const size_t open = name.rfind('[');
     if (open == std::string::npos)
         throw LpeError(file, lineno, start + int(name.size()), "a ']' without '[' before '='");
-    std::istringstream words(name.substr(open + 1, name.size() - open - 2));
-    std::string w;
-    while (words >> w) {
+    // The words between the brackets, each at its own column.
+    size_t at = open + 1;
+    while (at < name.size() - 1) {
+        if (name[at] == ' ' || name[at] == '\t') {
+            ++at;
+            continue;
+        }
+        size_t end = at;
+        while (end < name.size() - 1 && name[end] != ' ' && name[end] != '\t') ++end;
+        const std::string w = name.substr(at, end - at);
         if (w == "heavy")
             p.heavy = true;
         else if (w == "constant")
             p.constant = true;
         else
-            throw LpeError(file, lineno, start + int(open) + 2,
+            throw LpeError(file, lineno, start + int(at) + 1,
                            "unknown class property `" + w + "`: the properties are `heavy` and `constant`");
+        at = end;
     }
     name.resize(open);
     while (!name.empty() && (name.back() == ' ' || name.back() == '\t')) name.pop_back();
     return p;
 }
 
+// One `name = expression` line into `out`; blank and comment lines add nothing.
 void parse_line(const std::string& raw, int lineno, TaxonomySource& out, std::map<std::string, int>& seen) {
     std::string content = strip_comment(raw);
     while (!content.empty() && (content.back() == ' ' || content.back() == '\t' || content.back() == '\r'))

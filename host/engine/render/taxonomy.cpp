@@ -47,8 +47,7 @@ std::vector<lpe::LabelSlot> taxonomy_label_slots(const Scene& scene) {
 }
 
 int give_named_shapes_own_materials(Scene& scene, const lpe::TaxonomySource& source) {
-    // The labels the taxonomy names: compiled against no slots, they are all unknown, and listed.
-    const lpe::CompiledTaxonomy probe = lpe::compile_taxonomy(source, {});
+    const std::vector<std::string> named = lpe::taxonomy_labels(source);
     std::vector<int> users(scene.materials.size(), 0);
     for (const Mesh& mesh : scene.meshes)
         if (mesh.material >= 0 && static_cast<size_t>(mesh.material) < scene.materials.size())
@@ -57,7 +56,7 @@ int give_named_shapes_own_materials(Scene& scene, const lpe::TaxonomySource& sou
     for (Mesh& mesh : scene.meshes) {
         const int m = mesh.material;
         if (m < 0 || static_cast<size_t>(m) >= users.size() || users[static_cast<size_t>(m)] < 2) continue;
-        if (std::find(probe.labels.begin(), probe.labels.end(), mesh.name) == probe.labels.end()) continue;
+        if (std::find(named.begin(), named.end(), mesh.name) == named.end()) continue;
         users[static_cast<size_t>(m)]--;
         scene.materials.push_back(scene.materials[static_cast<size_t>(m)]);
         mesh.material = static_cast<int>(scene.materials.size()) - 1;
