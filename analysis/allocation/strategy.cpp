@@ -60,6 +60,8 @@ bool needs_mom(Strategy s) {
            s == Strategy::RobustAdaptive;
 }
 
+bool names_paper_buckets(Strategy s) { return s == Strategy::RobustAdaptive; }
+
 namespace {
 
 template <class T>

@@ -43,6 +43,11 @@ Strategy parse_strategy(const std::string& name);
 // N0 = 4, see mom.hpp).
 bool needs_mom(Strategy s);
 
+// True for the strategies whose rule names the paper's buckets themselves (robust-adaptive's
+// delta_mediated and specular_direct), so that they cannot run on a taxonomy's classes; the others
+// read a taxonomy's classes through ClassTraits (floor.hpp).
+bool names_paper_buckets(Strategy s);
+
 // Inputs of strategy_score, all per pixel and of one size; a strategy reads
 // only the ones it needs, the others may be null.
 struct ScoreInputs {

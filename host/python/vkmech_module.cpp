@@ -184,8 +184,7 @@ PyRender prepare(const PyScene& s, std::optional<uint32_t> res, const std::strin
             r.features.taxonomy = t.words;
             r.class_names = t.class_names();
             r.taxonomy_json = taxonomy_json(t);
-            r.traits.heavy = t.heavy_classes();
-            r.traits.constant = t.constant_classes();
+            r.traits = class_traits(&t);
         } catch (const lpe::LpeError& e) {
             throw py::value_error(std::string("taxonomy: ") + e.what());
         }
@@ -318,10 +317,7 @@ PyFrame adaptive(const PyScene& s, const std::string& strategy_name, uint32_t pi
                  const std::string& light_selection, const std::string& end_vertex, std::optional<uint32_t> device,
                  const std::string& kernel, uint32_t batch, const ProgressFn& progress, const std::string& taxonomy) {
     const alloc::Strategy strategy = alloc::parse_strategy(strategy_name);  // ValueError on an unknown name
-    if (!taxonomy.empty() && strategy == alloc::Strategy::RobustAdaptive)
-        throw py::value_error(
-            "robust-adaptive's rule names two of the paper's buckets (delta_mediated, specular_direct), which a "
-            "taxonomy's classes are not");
+    if (!taxonomy.empty()) check_strategy_for_taxonomy(strategy);           // std::invalid_argument: ValueError
     if (strategy == alloc::Strategy::Oracle || strategy == alloc::Strategy::LabelOracle)
         throw py::value_error(strategy_name + " needs a converged reference: a control of the allocation study");
     // The CLI's ranges (render --pilot, --budget, --floor, --pilot-draw, --batch).

@@ -43,6 +43,23 @@ AdaptivePlan plan_from_pilot(alloc::Strategy s, const Pilot& pilot, const alloc:
     return plan_allocation(s, in, extra_spp, floor, pilot_draw);
 }
 
+alloc::ClassTraits class_traits(const SceneTaxonomy* taxonomy) {
+    alloc::ClassTraits t;
+    if (taxonomy) {
+        t.heavy = taxonomy->heavy_classes();
+        t.constant = taxonomy->constant_classes();
+    }
+    return t;
+}
+
+void check_strategy_for_taxonomy(alloc::Strategy s) {
+    if (alloc::names_paper_buckets(s))
+        throw std::invalid_argument(
+            std::string(alloc::to_string(s)) +
+            "'s rule names two of the paper's buckets (delta_mediated, specular_direct), which a taxonomy's classes "
+            "are not; the other strategies read a taxonomy's [heavy] and [constant] classes (docs/lpe.md)");
+}
+
 std::string adaptive_sample_range(const std::vector<uint32_t>& n) {
     const uint32_t max_n = n.empty() ? 0u : *std::max_element(n.begin(), n.end());
     return "0:" + std::to_string(max_n) + " (adaptive: samples 0:n(p) at pixel p, n(p) in the spp channel)";

@@ -11,6 +11,7 @@
 #include "allocation/plan.hpp"
 #include "render/descriptor.hpp"
 #include "render/renderer.hpp"
+#include "render/taxonomy.hpp"
 
 #include <functional>
 #include <optional>
@@ -34,6 +35,14 @@ Pilot render_pilot(Renderer& r, uint32_t n0, uint32_t seed, bool robust,
 AdaptivePlan plan_from_pilot(alloc::Strategy s, const Pilot& pilot, const alloc::PilotDiagnosis& diag, uint32_t n0,
                              uint32_t extra_spp, uint32_t floor, uint32_t pilot_draw,
                              const alloc::ClassTraits& traits = {});
+
+// The heavy and constant classes of a render's labels: a taxonomy's declared ones, or, with none, the
+// paper's buckets' (the ClassTraits defaults).
+alloc::ClassTraits class_traits(const SceneTaxonomy* taxonomy);
+
+// Throws std::invalid_argument, saying why, when strategy `s` cannot allocate by a taxonomy's classes
+// (alloc::names_paper_buckets).
+void check_strategy_for_taxonomy(alloc::Strategy s);
 
 // The provenance's sample range of a render with per-pixel counts n(p): "0:max n (adaptive: ...)".
 std::string adaptive_sample_range(const std::vector<uint32_t>& n);

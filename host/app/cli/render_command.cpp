@@ -272,14 +272,7 @@ struct CliRender {
     }
     // The labels' heavy and constant classes for the allocation rules: a --taxonomy's declared ones, else the
     // paper's buckets'.
-    alloc::ClassTraits class_traits() const {
-        alloc::ClassTraits t;
-        if (taxonomy) {
-            t.heavy = taxonomy->heavy_classes();
-            t.constant = taxonomy->constant_classes();
-        }
-        return t;
-    }
+    alloc::ClassTraits class_traits() const { return vkmech::class_traits(taxonomy ? &*taxonomy : nullptr); }
     // A descriptor of this render's frames, its slots named by the taxonomy's classes when there is one.
     Descriptor descriptor(const Frame& f) const {
         Descriptor d = derive_descriptor(f);
@@ -474,11 +467,13 @@ int cmd_render_adaptive(const RenderOptions& o) {
     if (strategy == alloc::Strategy::Oracle || strategy == alloc::Strategy::LabelOracle)
         throw UsageError(std::string("--adaptive ") + alloc::to_string(strategy) +
                          " needs a converged reference; it is a control of `vkmech study allocation`, not a renderer");
-    if (!o.taxonomy.empty() && strategy == alloc::Strategy::RobustAdaptive)
-        throw UsageError(
-            "--taxonomy and --adaptive robust-adaptive: its rule names two of the paper's buckets "
-            "(delta_mediated, specular_direct), which a taxonomy's classes are not; the other strategies "
-            "read a taxonomy's [heavy] and [constant] classes (docs/lpe.md)");
+    if (!o.taxonomy.empty()) {
+        try {
+            check_strategy_for_taxonomy(strategy);
+        } catch (const std::invalid_argument& e) {
+            throw UsageError(std::string("--taxonomy and --adaptive ") + alloc::to_string(strategy) + ": " + e.what());
+        }
+    }
     const bool robust = alloc::needs_mom(strategy);
     if (robust) {
         try {

@@ -94,17 +94,15 @@ SceneTaxonomy compile_scene_taxonomy(const lpe::TaxonomySource& source, const Sc
     return t;
 }
 
-uint32_t SceneTaxonomy::heavy_classes() const {
+uint32_t SceneTaxonomy::classes_with(bool lpe::TaxonomyLine::*property) const {
     uint32_t mask = 0;
-    for (size_t k = 0; k < source.lines.size() && k < 32; ++k) mask |= source.lines[k].heavy ? 1u << k : 0u;
+    for (size_t k = 0; k < source.lines.size() && k < 32; ++k) mask |= source.lines[k].*property ? 1u << k : 0u;
     return mask;
 }
 
-uint32_t SceneTaxonomy::constant_classes() const {
-    uint32_t mask = 0;
-    for (size_t k = 0; k < source.lines.size() && k < 32; ++k) mask |= source.lines[k].constant ? 1u << k : 0u;
-    return mask;
-}
+uint32_t SceneTaxonomy::heavy_classes() const { return classes_with(&lpe::TaxonomyLine::heavy); }
+
+uint32_t SceneTaxonomy::constant_classes() const { return classes_with(&lpe::TaxonomyLine::constant); }
 
 std::string taxonomy_json(const SceneTaxonomy& t) {
     std::ostringstream o;

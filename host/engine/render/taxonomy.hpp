@@ -34,6 +34,9 @@ struct SceneTaxonomy {
     // `other` is neither): the allocation strategies' alloc::ClassTraits.
     uint32_t heavy_classes() const;
     uint32_t constant_classes() const;
+
+private:
+    uint32_t classes_with(bool lpe::TaxonomyLine::*property) const;
 };
 
 // Compiles `source` against the scene's labels and packs it. Throws lpe::LpeError for a malformed
