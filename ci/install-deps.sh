@@ -10,7 +10,7 @@ if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 export DEBIAN_FRONTEND=noninteractive
 
 PKGS=(
-  build-essential cmake pkg-config git
+  build-essential cmake ninja-build pkg-config git
   libvulkan-dev libvulkan1 vulkan-tools vulkan-validationlayers
   glslang-tools
   libglm-dev
