@@ -4,6 +4,7 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <bit>
 #include <random>
 #include <set>
 #include <sstream>
@@ -279,6 +280,76 @@ TEST_CASE("lpe: the first matching line wins and paths no line matches are other
     Compiled d = compile("through_glass = C .* 'glass' .* L\ncaustic = C D S+ L\n");
     CHECK(d.cls("C RD TS:glass L") == "through_glass");
     CHECK(d.cls("C RD RS L") == "caustic");
+}
+
+TEST_CASE("lpe: queries count every line a path matches: the classes are the combinations that paths make") {
+    CompileOptions queries;
+    queries.all_matches = true;
+    Compiled c = compile(
+        "caustic = C D S+ L\n"
+        "diffuse = C D+ L\n"
+        "through_glass = C .* 'glass' .* L\n",
+        scene_slots(), queries);
+    // Fewest lines first, then by line order: {caustic}, {diffuse}, {through_glass}, then the pairs. No path is
+    // both caustic and diffuse, so no combination has both.
+    CHECK(c.t.class_lines == std::vector<uint32_t>{0b001, 0b010, 0b100, 0b101, 0b110});
+    CHECK(c.t.class_names == std::vector<std::string>{"caustic", "diffuse", "through_glass", "caustic&through_glass",
+                                                      "diffuse&through_glass", "other"});
+    CHECK(c.t.other_class == 5);
+    CHECK(c.cls("C RD RS L") == "caustic");
+    CHECK(c.cls("C RD TS:glass L") == "caustic&through_glass");  // first match would say caustic
+    CHECK(c.cls("C RD RD L") == "diffuse");
+    CHECK(c.cls("C RD:glass L") == "diffuse&through_glass");
+    CHECK(c.cls("C TS:glass L") == "through_glass");
+    CHECK(c.cls("C RS L") == "other");
+    CHECK(c.cls("C L") == "other");
+    CHECK(c.t.warnings.empty());
+
+    // A line inside another is no warning here (first match says it never wins), and every path it matches is
+    // in the pair.
+    Compiled first = compile("any_diffuse = C D+ L\none_diffuse = C <RD> L\n");
+    REQUIRE(first.t.warnings.size() == 1);
+    CHECK(first.t.warnings[0].message.find("never wins") != std::string::npos);
+    Compiled nested = compile("any_diffuse = C D+ L\none_diffuse = C <RD> L\n", scene_slots(), queries);
+    CHECK(nested.t.warnings.empty());
+    CHECK(nested.t.class_names == std::vector<std::string>{"any_diffuse", "any_diffuse&one_diffuse", "other"});
+    CHECK(nested.cls("C RD L") == "any_diffuse&one_diffuse");
+    CHECK(nested.cls("C TD L") == "any_diffuse");
+    CHECK(nested.cls("C RD RD L") == "any_diffuse");
+    // One query: its class and other. A query that can never match is still warned of.
+    Compiled one = compile("glassy = C .* 'glass' .* L\n", scene_slots(), queries);
+    CHECK(one.t.class_lines == std::vector<uint32_t>{1});
+    CHECK(one.cls("C TS:glass L") == "glassy");
+    CHECK(one.cls("C RD L") == "other");
+    Compiled never = compile("a = C D L\nnever = L C\n", scene_slots(), queries);
+    REQUIRE(never.t.warnings.size() == 1);
+    CHECK(never.t.warnings[0].message.find("`never` can never match") == 0);
+    CHECK(never.t.class_names == std::vector<std::string>{"a", "other"});
+}
+
+TEST_CASE("lpe: --lpe queries take no properties and may not be named _rest or _overlap") {
+    auto error_of_lines = [](const std::vector<std::string>& lines) {
+        try {
+            taxonomy_from_lines(lines, "--lpe");
+        } catch (const LpeError& e) {
+            return std::to_string(e.line()) + ":" + std::to_string(e.column()) + ": " + e.reason();
+        }
+        return std::string("no error");
+    };
+    CHECK(error_of_lines({"a = C L", "b [heavy] = C D L"}).find("2:3: a query takes no properties") == 0);
+    CHECK(error_of_lines({" _rest = C L"}).find("1:2: `_rest` is reserved") == 0);
+    CHECK(error_of_lines({"_overlap=C L"}).find("1:1: `_overlap` is reserved") == 0);
+    CHECK(error_of_lines({"a = C L", "a = C D L"}).find("2:1: `a` is already defined") == 0);
+    CHECK(error_of_lines({"rest = C L", "overlap = C D L"}) == "no error");
+    // The file syntax keeps its properties.
+    CHECK(parse_taxonomy("b [heavy] = C D L\n", "t.lpe").lines[0].heavy);
+    // More than kMaxQueryLines queries.
+    std::vector<std::string> many;
+    for (uint32_t i = 0; i <= kMaxQueryLines; ++i) many.push_back("q" + std::to_string(i) + " = C D L");
+    CompileOptions queries;
+    queries.all_matches = true;
+    CHECK_THROWS_WITH(compile_taxonomy(taxonomy_from_lines(many, "--lpe"), scene_slots(), queries),
+                      doctest::Contains("at most 32 queries"));
 }
 
 TEST_CASE("lpe: minimization gives equal languages equal DFAs") {
@@ -700,6 +771,58 @@ std::string random_expression(std::mt19937& rng, int depth) {
 }
 
 }  // namespace
+
+TEST_CASE("lpe: as queries, the DFA gives each random vkmech path the set of lines its syntax trees match") {
+    std::mt19937 rng(3737);
+    const std::vector<LabelSlot> slots = scene_slots();
+    CompileOptions queries{4096};
+    queries.all_matches = true;
+    int compiled = 0, paths = 0, overlapping = 0;
+    for (int round = 0; round < 100; ++round) {
+        std::string text;
+        for (int line = 0; line < 3; ++line) {  // as whole paths, or as something somewhere on the path, or as drawn
+            std::string e = random_expression(rng, 3);
+            const uint32_t form = rng() % 3;
+            if (form == 0) e = "C " + e + " [LB]";
+            if (form == 1) e = "C .* " + e + " .* [LB]";
+            text += "q" + std::to_string(line) + " = " + e + "\n";
+        }
+        CAPTURE(text);
+        CompiledTaxonomy t;
+        try {
+            t = compile_taxonomy(parse_taxonomy(text, "random.lpe"), slots, queries);
+        } catch (const LpeError& e) {
+            CHECK(std::string(e.what()).find("over the limit") != std::string::npos);
+            continue;
+        }
+        ++compiled;
+        TaxonomySource source = parse_taxonomy(text, "random.lpe");
+        std::vector<vkmech::lpe::detail::Node> trees;
+        for (const TaxonomyLine& l : source.lines)
+            trees.push_back(
+                vkmech::lpe::detail::parse_expression(l.expression, "random.lpe", l.line, l.expression_column));
+        for (int k = 0; k < 200; ++k) {  // whole vkmech paths: C, R or T events, then L or B
+            std::vector<PathEvent> path{{kKindCamera, -1}};
+            for (size_t i = 0, n = rng() % 6; i < n; ++i)
+                path.push_back({kKindRD + uint32_t(rng() % 6), int(rng() % (slots.size() + 1)) - 1});
+            path.push_back({rng() % 2 ? kKindLight : kKindBackground, int(rng() % 3) + 2});
+            uint32_t lines = 0;
+            for (uint32_t i = 0; i < trees.size(); ++i)
+                if (advance(trees[i], path, {0}, slots).count(path.size())) lines |= 1u << i;
+            std::vector<uint32_t> symbols;
+            for (const PathEvent& e : path)
+                symbols.push_back(t.symbol(e.kind, e.slot < 0 ? 0 : t.label_class_of_slot[size_t(e.slot)]));
+            const uint32_t cls = t.classify(symbols);
+            ++paths;
+            overlapping += std::popcount(lines) > 1;
+            CHECK(cls <= t.other_class);
+            CHECK((cls == t.other_class ? 0u : t.class_lines[cls]) == lines);
+        }
+    }
+    MESSAGE(compiled << " random query sets, " << paths << " paths, " << overlapping << " matched by several");
+    CHECK(compiled > 60);
+    CHECK(overlapping > paths / 20);
+}
 
 TEST_CASE("lpe: the DFA classifies random paths as the syntax trees matched directly do, first match first") {
     std::mt19937 rng(37);

@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
@@ -455,5 +456,85 @@ TEST_SUITE("gpu") {
             dir.file("r") + paper);
         CHECK(robust.code == 2);
         CHECK(robust.output.find("--taxonomy and --adaptive robust-adaptive") != std::string::npos);
+    }
+}
+TEST_SUITE("gpu") {
+    TEST_CASE("taxonomy: render --lpe adds overlapping query channels over the same samples, _rest and _overlap") {
+        testing::TempDir dir("lpecli");
+        const std::string scene = "render --scene sweep_lights -D lights=2 --res 24 --spp 8 ";
+        const std::string first = "first=C .* <L.'sweep_light_0'>", second = "second=C .* <L.'sweep_light_1'>";
+        // `all` holds every other query; `first` and `second` split it; `bounced` crosses both.
+        auto r = testing::run_cli(scene + "--lpe \"all=C .* [LB]\" --lpe \"" + first + "\" --lpe \"" + second +
+                                  "\" --lpe \"bounced=C . .+ [LB]\" --out " + dir.file("q"));
+        INFO(r.output);
+        REQUIRE(r.code == 0);
+        const ExrImage q = read_exr_channels(dir.file("q/sweep_lights.exr"));
+        // The same lines as a taxonomy (a partition, first match wins), and the plain render.
+        std::ofstream(dir.file("lights.lpe")) << first << "\n" << second << "\n";
+        r = testing::run_cli(scene + "--taxonomy " + dir.file("lights.lpe") + " --out " + dir.file("t"));
+        REQUIRE(r.code == 0);
+        const ExrImage t = read_exr_channels(dir.file("t/sweep_lights.exr"));
+        auto ch = [](const ExrImage& e, const std::string& name) -> const std::vector<float>& {
+            CAPTURE(name);
+            REQUIRE(e.channels.count(name) == 1);
+            return e.channels.at(name);
+        };
+        auto near = [](double a, double b) {
+            return std::abs(a - b) <= 1e-5 * std::max(std::abs(a), std::abs(b)) + 1e-7;
+        };
+        size_t pixels = ch(q, "R").size(), bounced_lit = 0, direct_lit = 0, bad = 0;
+        for (const char* c : {"R", "G", "B"}) {
+            const std::string s = std::string(".") + c;
+            for (size_t i = 0; i < pixels; ++i) {
+                const double img = ch(q, c)[i], all = ch(q, "lpe.all" + s)[i], a = ch(q, "lpe.first" + s)[i],
+                             b = ch(q, "lpe.second" + s)[i], bounced = ch(q, "lpe.bounced" + s)[i],
+                             rest = ch(q, "lpe._rest" + s)[i], overlap = ch(q, "lpe._overlap" + s)[i];
+                bool ok = img == ch(t, c)[i];                                  // the plain image is the taxonomy's
+                ok = ok && near(all, img) && near(a + b, img) && rest == 0.0;  // every path is in all
+                ok = ok && near(a, ch(t, "bucket.first" + s)[i]) && near(b, ch(t, "bucket.second" + s)[i]);
+                ok = ok && near(overlap, a + b + bounced);                     // all + first + second + bounced - all
+                ok = ok && near(all + a + b + bounced + rest - overlap, img);  // the identity of the channels
+                ok = ok && bounced <= all * (1 + 1e-5) + 1e-7;
+                bounced_lit += bounced > 0.0;
+                direct_lit += all > bounced * (1 + 1e-3);
+                if (!ok) {
+                    ++bad;
+                    if (bad <= 3)
+                        MESSAGE(c << " pixel " << i << ": image " << img << " all " << all << " first " << a
+                                  << " second " << b << " bounced " << bounced << " rest " << rest << " overlap "
+                                  << overlap);
+                }
+            }
+        }
+        CHECK(bad == 0);
+        CHECK(bounced_lit > pixels);  // over three channels: some light came after a bounce
+        CHECK(direct_lit > pixels);   // and some directly, or at the first surface
+        std::ifstream json(dir.file("q/sweep_lights.json"));
+        const std::string js((std::istreambuf_iterator<char>(json)), std::istreambuf_iterator<char>());
+        CHECK(js.find("\"lpe\": {\"queries\": [{\"name\": \"all\"") != std::string::npos);
+        CHECK(js.find("\"all&first&bounced\"") != std::string::npos);
+
+        // Refusals, each naming the reason.
+        auto refused = [&](const std::string& args, const std::string& says) {
+            CAPTURE(args);
+            auto x = testing::run_cli("render --scene cubes_dof --res 8 --spp 1 " + args + " --out " + dir.file("no"));
+            CHECK(x.code == 2);
+            CAPTURE(x.output);
+            CHECK(x.output.find(says) != std::string::npos);
+        };
+        std::string seven;  // seven disjoint queries: paths of 0 to 6 bounces
+        for (int k = 0; k < 7; ++k) {
+            seven += " --lpe \"n" + std::to_string(k) + "=C";
+            for (int j = 0; j < k; ++j) seven += " .";
+            seven += " [LB]\"";
+        }
+        refused(seven, "match 7 combinations of the queries (n0, n1, n2, n3, n4, n5, n6); the tally has room for 6");
+        refused("--lpe \"x=C (D L\"", "--lpe:1:");
+        refused("--lpe \"a=C L\" --lpe \"b [heavy] = C D L\"", "--lpe:2:3: a query takes no properties");
+        refused("--lpe \"_rest=C L\"", "`_rest` is reserved");
+        refused("--lpe \"a=C L\" --capture off", "--lpe needs --capture on");
+        refused("--lpe \"a=C L\" --adaptive bucket-floor --pilot 4 --budget 8",
+                "--lpe is for a render of a fixed budget");
+        refused("--lpe \"a=C L\" --pixel-bounds 0,4,0,4", "does not merge query channels");
     }
 }

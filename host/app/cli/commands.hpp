@@ -55,6 +55,7 @@ struct RenderOptions {
     // Optional outputs beyond the descriptor: direct_glossy (docs/descriptor.md §3.4).
     std::vector<std::string> extra_outputs;
     std::string taxonomy;  // --taxonomy FILE (docs/lpe.md): the classes replace the seven buckets (plain render)
+    std::vector<std::string> lpe;  // --lpe name=EXPR (docs/lpe.md): overlapping query channels (plain render)
     // Two-stage adaptive rendering (docs/descriptor.md §6): strategy, pilot N0, extra budget, floor, pilot draw.
     std::string adaptive;
     uint32_t pilot = 16;

@@ -231,25 +231,41 @@ bool wants_direct_glossy(const RenderOptions& o, bool capture) {
     return on;
 }
 
-// `--taxonomy FILE` (docs/lpe.md): read, and the shapes it names given materials of their own
-// (before the scene goes to the device); then compiled against the scene on the device, its
-// warnings printed. Its errors are usage errors (exit 2) naming file, line and column.
-lpe::TaxonomySource read_taxonomy_for_cli(const std::string& file, Scene& scene) {
+// `--taxonomy FILE` and `--lpe name=EXPR` (repeatable; docs/lpe.md): read, and the shapes they name given
+// materials of their own (before the scene goes to the device); then compiled against the scene on the device,
+// the taxonomy as a partition and the queries as overlapping channels, warnings printed. Errors are usage errors
+// (exit 2) naming file (or `--lpe`, the k-th option for line k), line and column.
+lpe::TaxonomySource read_labels_for_cli(const std::function<lpe::TaxonomySource()>& read, Scene& scene) {
     try {
-        lpe::TaxonomySource source = lpe::read_taxonomy(file);
+        lpe::TaxonomySource source = read();
         give_named_shapes_own_materials(scene, source);
         return source;
     } catch (const lpe::LpeError& e) {
-        throw UsageError(std::string("--taxonomy: ") + e.what());
+        throw UsageError(std::string(e.file() == "--lpe" ? "" : "--taxonomy: ") + e.what());
     }
 }
-SceneTaxonomy taxonomy_for_cli(const lpe::TaxonomySource& source, const Scene& scene) {
+SceneTaxonomy compile_labels_for_cli(const lpe::TaxonomySource& source, const Scene& scene, bool queries) {
     try {
-        SceneTaxonomy t = compile_scene_taxonomy(source, scene);
+        SceneTaxonomy t = queries ? compile_scene_queries(source, scene) : compile_scene_taxonomy(source, scene);
         for (const auto& w : t.compiled.warnings) std::fprintf(stderr, "vkmech: %s\n", w.str().c_str());
         return t;
     } catch (const lpe::LpeError& e) {
-        throw UsageError(std::string("--taxonomy: ") + e.what());
+        throw UsageError(std::string(queries ? "" : "--taxonomy: ") + e.what());
+    }
+}
+
+// The query channels' energy (luminance summed over the film) as shares of the image's, in channel order.
+void print_query_shares(const std::vector<ExrChannel>& channels, const Frame& frame, double seconds) {
+    double image = 0.0;
+    for (const auto& p : frame.pixels) image += p.count > 0 ? p.lum_mean : 0.0;
+    std::printf("%-18s %12s   (--lpe: a second pass over the same samples, %.2f s)\n", "query", "energy share",
+                seconds);
+    for (size_t k = 0; k + 2 < channels.size(); k += 3) {
+        double e = 0.0;
+        for (size_t i = 0; i < channels[k].data.size(); ++i)
+            e += luminance(channels[k].data[i], channels[k + 1].data[i], channels[k + 2].data[i]);
+        const std::string name = channels[k].name.substr(0, channels[k].name.size() - 2);  // less ".R"
+        std::printf("%-18s %11.2f%%\n", name.c_str(), image > 0 ? 100.0 * e / image : 0.0);
     }
 }
 
@@ -265,6 +281,9 @@ struct CliRender {
     vk::PipelineStats pipes;  // creating the renderer's pipeline
     double load_seconds = 0.0, build_seconds = 0.0;
     std::optional<SceneTaxonomy> taxonomy;  // --taxonomy
+    // --lpe: the queries, and the renderer of their pass (the render's features, the queries as its taxonomy).
+    std::optional<SceneTaxonomy> queries;
+    std::unique_ptr<Renderer> query_renderer;
     const Scene& scene() const { return session->scene(); }
     // The labels' names: a --taxonomy's classes; empty for the seven buckets.
     std::vector<std::string> class_names() const {
@@ -292,7 +311,9 @@ CliRender open_cli_render(const RenderOptions& o, Estimator estimator, bool capt
     const auto t_load = clock::now();
     Scene loaded = load_for_cli(o.common);
     std::optional<lpe::TaxonomySource> taxonomy;
-    if (!o.taxonomy.empty()) taxonomy = read_taxonomy_for_cli(o.taxonomy, loaded);
+    if (!o.taxonomy.empty()) taxonomy = read_labels_for_cli([&] { return lpe::read_taxonomy(o.taxonomy); }, loaded);
+    std::optional<lpe::TaxonomySource> queries;
+    if (!o.lpe.empty()) queries = read_labels_for_cli([&] { return lpe::taxonomy_from_lines(o.lpe, "--lpe"); }, loaded);
     r.load_seconds = since(t_load);
     r.name = scene_stem(o.common.scene);
     r.set = open_output_set(o.out_dir.empty() ? "out/" + r.name : o.out_dir, r.name);
@@ -312,13 +333,21 @@ CliRender open_cli_render(const RenderOptions& o, Estimator estimator, bool capt
             throw UsageError(
                 "--taxonomy and --extra-output direct_glossy: the direct-glossy split is of the built-in "
                 "direct bucket; choose one");
-        r.taxonomy = taxonomy_for_cli(*taxonomy, r.session->scene());
+        r.taxonomy = compile_labels_for_cli(*taxonomy, r.session->scene(), /*queries=*/false);
         r.features.taxonomy = r.taxonomy->words;
     }
     if (adjust) adjust(r.features, r.session->scene());
     const vk::PipelineStats before = r.ctx->pipeline_cache().stats();
     r.renderer = r.session->make_renderer(r.features);
     r.pipes = r.ctx->pipeline_cache().stats() - before;
+    if (queries) {
+        if (!capture) throw UsageError("--lpe needs --capture on (its channels are tallied as the capture's classes)");
+        r.queries = compile_labels_for_cli(*queries, r.session->scene(), /*queries=*/true);
+        Features qf = r.features;
+        qf.direct_glossy = false;
+        qf.taxonomy = r.queries->words;
+        r.query_renderer = r.session->make_renderer(qf);
+    }
     return r;
 }
 
@@ -332,6 +361,12 @@ int cmd_render_threshold(const RenderOptions& o);
 int cmd_render(const RenderOptions& o) {
     if (!o.adaptive.empty() && o.noise_threshold > 0)
         throw UsageError("--adaptive and --noise-threshold: choose one (a fixed budget, or a noise target)");
+    if (!o.lpe.empty() && (!o.adaptive.empty() || o.noise_threshold > 0))
+        throw UsageError("--lpe is for a render of a fixed budget, not with --adaptive or --noise-threshold");
+    if (!o.lpe.empty() && (!o.sample_range.empty() || !o.pixel_bounds.empty()))
+        throw UsageError(
+            "--lpe with --sample-range or --pixel-bounds: `vkmech merge` does not merge query channels; render the "
+            "queries over the whole film and sample range");
     if (!o.adaptive.empty()) return cmd_render_adaptive(o);
     if (o.noise_threshold > 0) return cmd_render_threshold(o);
     // --sample-range A:B: samples [A, B) of the seed's stream, B - A of them (else [0, --spp)).
@@ -395,6 +430,18 @@ int cmd_render(const RenderOptions& o) {
         spec.on_frame = [&](const Frame& f) { send_live_view(*display, f, capture, /*force=*/false, {}, classes); };
     Frame frame = renderer.render(spec);
     if (display) send_live_view(*display, frame, capture, /*force=*/true, {}, classes);
+    // --lpe: the same samples again (the same seed and sample indices), tallied by the queries' combinations.
+    std::optional<Frame> query_frame;
+    if (cr.query_renderer) {
+        RenderSpec qspec = spec;
+        qspec.on_frame = nullptr;
+        Progress query_progress("queries " + name);
+        qspec.progress = [&](uint32_t d, uint32_t t) {
+            throw_if_interrupted();
+            query_progress(d, t);
+        };
+        query_frame = cr.query_renderer->render(qspec);
+    }
 
     RenderInfo info = render_info(name, o, ctx, trav, estimator, features, scene, spp, o.seed, capture);
     info.kernel = vk::to_string(session.gpu().kernel());
@@ -419,6 +466,10 @@ int cmd_render(const RenderOptions& o) {
         summary = summarize(frame, *desc);
     }
     if (cr.taxonomy) info.taxonomy = taxonomy_json(*cr.taxonomy);
+    if (query_frame) {
+        info.extra_channels = query_channels(*query_frame, *cr.queries);
+        info.extra_json.emplace_back("lpe", queries_json(*cr.queries, query_frame->seconds));
+    }
     WrittenFiles files =
         write_render_outputs(*set, info, frame, desc ? &*desc : nullptr, summary ? &*summary : nullptr);
     set->commit();
@@ -443,6 +494,7 @@ int cmd_render(const RenderOptions& o) {
             std::printf("direct energy ending at a glossy vertex: %.2f%% of direct, %.2f%% of all\n",
                         100.0 * summary->direct_glossy_share_of_direct, 100.0 * summary->direct_glossy_energy_share);
     }
+    if (query_frame) print_query_shares(info.extra_channels, frame, query_frame->seconds);
     double clipped = clipped_share(frame.rgb_mean(), o.exposure);
     std::printf("preview: exposure %+.2f EV, %.2f%% of pixels clip%s\n", o.exposure, 100.0 * clipped,
                 clipped > 0.05 ? " (lower --exposure to see them; the EXR keeps every value)" : "");
@@ -845,6 +897,13 @@ void register_render(CLI::App& app, CliCommands& commands) {
                      "`name [heavy] = ...` are what the floor floors, and `[constant]` ones (an emitter seen "
                      "directly) what the guard trusts at zero variance. taxonomies/paper.lpe is the built-in one")
         ->check(CLI::ExistingFile);
+    render
+        ->add_option("--lpe", o->lpe,
+                     "Add query channels: `name=EXPR`, a light path expression (docs/lpe.md), repeatable. Unlike "
+                     "--taxonomy's classes they may overlap: lpe.NAME.R/G/B is the radiance of every path NAME "
+                     "matches, lpe._rest of the paths no query matches, lpe._overlap the radiance counted more than "
+                     "once. A second pass over the same samples; at most 6 combinations of queries that paths make")
+        ->allow_extra_args(false);
     render->add_option("--display-server", o->display_server,
                        "Show the render in progress in tev (or HDRView) listening at HOST:PORT (tev's default "
                        "127.0.0.1:14158): every channel of the EXR, updated at most every 250 ms; a viewer that is "

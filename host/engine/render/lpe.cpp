@@ -4,6 +4,7 @@
 #include "render/lpe.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <deque>
 #include <map>
 #include <set>
@@ -231,8 +232,10 @@ void close_over_epsilon(const Nfa& nfa, std::vector<uint32_t>& set, std::vector<
     std::sort(set.begin(), set.end());
 }
 
-// The subset construction; false when it passes `cap` states.
-bool determinize(const Nfa& nfa, uint32_t start, uint32_t alphabet, uint32_t other, uint32_t cap, Dfa& out) {
+// The subset construction; false when it passes `cap` states. A subset accepts the first line that one of its
+// NFA states accepts (`other` when none); with `all_matches`, every such line, a bit per line (0 when none).
+bool determinize(const Nfa& nfa, uint32_t start, uint32_t alphabet, uint32_t other, bool all_matches, uint32_t cap,
+                 Dfa& out) {
     out = Dfa{};
     out.alphabet = alphabet;
     out.other = other;
@@ -244,9 +247,11 @@ bool determinize(const Nfa& nfa, uint32_t start, uint32_t alphabet, uint32_t oth
         auto [it, fresh] = ids.emplace(std::move(set), uint32_t(subsets.size()));
         if (fresh) {
             subsets.push_back(it->first);
-            uint32_t acc = other;
-            for (uint32_t s : it->first)
-                if (nfa.states[s].accept >= 0) acc = std::min(acc, uint32_t(nfa.states[s].accept));
+            uint32_t acc = all_matches ? 0u : other;
+            for (uint32_t s : it->first) {
+                const int32_t line = nfa.states[s].accept;
+                if (line >= 0) acc = all_matches ? acc | (1u << line) : std::min(acc, uint32_t(line));
+            }
             out.accept.push_back(acc);
         }
         return it->second;
@@ -374,9 +379,10 @@ bool any_whole_path(const std::vector<const Dfa*>& dfas, uint32_t label_classes,
     return false;
 }
 
-// One line's (or the whole taxonomy's) minimal DFA; false when the subset construction passes `cap`.
+// One line's (or the whole taxonomy's) minimal DFA; false when the subset construction passes `cap`. With
+// `all_matches`, the whole taxonomy's accepting values are sets of lines (determinize).
 bool line_dfa(const std::vector<Node>& asts, const std::vector<uint32_t>& lines, const TaxonomySource& src,
-              const Labels& labels, uint32_t cap, Dfa& out) {
+              const Labels& labels, uint32_t cap, Dfa& out, bool all_matches = false) {
     const uint32_t label_classes = uint32_t(labels.class_answers.size());
     Nfa nfa;
     uint32_t start = nfa.add();
@@ -387,14 +393,64 @@ bool line_dfa(const std::vector<Node>& asts, const std::vector<uint32_t>& lines,
         nfa.states[f.out].accept = int32_t(lines.size() == 1 ? 0 : i);
     }
     Dfa raw;
-    if (!determinize(nfa, start, kKindCount * label_classes, lines.size() == 1 ? 1 : uint32_t(src.lines.size()), cap,
-                     raw))
+    if (!determinize(nfa, start, kKindCount * label_classes, lines.size() == 1 ? 1 : uint32_t(src.lines.size()),
+                     all_matches && lines.size() > 1, cap, raw))
         return false;
     out = minimize(raw);
     return true;
 }
 
 std::string quoted(const std::string& name) { return "`" + name + "`"; }
+
+// CompileOptions::all_matches: the classes are the combinations of lines that whole vkmech paths match (fewest
+// lines first, then in line order), and `other` the empty one. Renames the accepting sets of `d` to those classes
+// (into `out`) and minimizes again.
+Dfa by_combination(Dfa d, uint32_t label_classes, const TaxonomySource& src, CompiledTaxonomy& out) {
+    std::set<uint32_t> seen;
+    any_whole_path({&d}, label_classes, [&](const std::vector<uint32_t>& s) {
+        if (d.accept[s[1]] != 0) seen.insert(d.accept[s[1]]);
+        return false;
+    });
+    std::vector<uint32_t> combos(seen.begin(), seen.end());
+    std::stable_sort(combos.begin(), combos.end(),
+                     [](uint32_t a, uint32_t b) { return std::popcount(a) < std::popcount(b); });
+    if (combos.size() > kMaxLines)
+        throw LpeError(src.file, 0, 0,
+                       "the queries make " + std::to_string(combos.size()) + " combinations, over the limit of " +
+                           std::to_string(kMaxLines));
+    out.class_lines = combos;
+    out.class_names.clear();
+    std::map<uint32_t, uint32_t> class_of;
+    for (uint32_t m : combos) {
+        std::string name;
+        for (uint32_t i = 0; i < src.lines.size(); ++i)
+            if (m >> i & 1u) name += (name.empty() ? "" : "&") + src.lines[i].name;
+        class_of[m] = uint32_t(out.class_names.size());
+        out.class_names.push_back(name);
+    }
+    out.other_class = uint32_t(combos.size());
+    out.class_names.push_back("other");
+    for (uint32_t& a : d.accept) {
+        auto it = class_of.find(a);
+        a = it == class_of.end() ? out.other_class : it->second;
+    }
+    d.other = out.other_class;
+    return minimize(d);
+}
+
+// The tables of the whole taxonomy's minimal DFA, into `out`.
+CompiledTaxonomy finish(const Dfa& whole, CompiledTaxonomy& out) {
+    out.state_count = whole.size();
+    out.start_state = uint16_t(whole.start);
+    out.next_state.assign(whole.next.begin(), whole.next.end());
+    out.accept_class.assign(whole.accept.begin(), whole.accept.end());
+    for (uint32_t s = 0; s < whole.size(); ++s) {
+        bool sink = whole.accept[s] == whole.other;
+        for (uint32_t a = 0; a < whole.alphabet && sink; ++a) sink = whole.step(s, a) == s;
+        if (sink) out.dead_state = uint16_t(s);
+    }
+    return std::move(out);
+}
 
 [[noreturn]] void refuse_size(const TaxonomySource& src, const std::vector<uint32_t>& line_states, uint32_t cap,
                               const std::string& whole, uint32_t max_states) {
@@ -434,6 +490,8 @@ CompiledTaxonomy compile_taxonomy(const TaxonomySource& src, const std::vector<L
         throw LpeError(src.file, 0, 0, "no classes: a taxonomy needs at least one `name = expression` line");
     if (src.lines.size() > kMaxLines)
         throw LpeError(src.file, 0, 0, "a taxonomy has at most " + std::to_string(kMaxLines) + " lines (classes)");
+    if (options.all_matches && src.lines.size() > kMaxQueryLines)
+        throw LpeError(src.file, 0, 0, "at most " + std::to_string(kMaxQueryLines) + " queries");
     if (options.max_states < 1 || options.max_states > 0xFFFF)
         throw std::invalid_argument("compile_taxonomy: max_states must be in [1, 65535]");
     CompiledTaxonomy out;
@@ -484,10 +542,13 @@ CompiledTaxonomy compile_taxonomy(const TaxonomySource& src, const std::vector<L
     std::vector<uint32_t> all(src.lines.size());
     for (uint32_t i = 0; i < all.size(); ++i) all[i] = i;
     Dfa whole;
-    if (!line_dfa(asts, all, src, labels, cap, whole))
+    if (!line_dfa(asts, all, src, labels, cap, whole, options.all_matches))
         refuse_size(src, out.line_state_counts, cap, "over " + std::to_string(cap), options.max_states);
+    if (options.all_matches && src.lines.size() > 1) whole = by_combination(whole, out.label_class_count, src, out);
+    if (options.all_matches && src.lines.size() == 1) out.class_lines = {1u};  // its class, or other
     if (whole.size() > options.max_states)
         refuse_size(src, out.line_state_counts, cap, std::to_string(whole.size()), options.max_states);
+    if (options.all_matches) return finish(whole, out);
 
     // Lines that match some path but win none: every such path goes to an earlier line.
     std::vector<bool> wins(src.lines.size() + 1, false);
@@ -511,16 +572,7 @@ CompiledTaxonomy compile_taxonomy(const TaxonomySource& src, const std::vector<L
                                     " never wins: every path it matches is taken by an earlier line (" + by + ")"});
     }
 
-    out.state_count = whole.size();
-    out.start_state = uint16_t(whole.start);
-    out.next_state.assign(whole.next.begin(), whole.next.end());
-    out.accept_class.assign(whole.accept.begin(), whole.accept.end());
-    for (uint32_t s = 0; s < whole.size(); ++s) {
-        bool sink = whole.accept[s] == whole.other;
-        for (uint32_t a = 0; a < whole.alphabet && sink; ++a) sink = whole.step(s, a) == s;
-        if (sink) out.dead_state = uint16_t(s);
-    }
-    return out;
+    return finish(whole, out);
 }
 
 }  // namespace vkmech::lpe

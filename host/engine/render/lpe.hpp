@@ -86,7 +86,8 @@ struct TaxonomySource {
 // The file syntax (names, '=', comments); expressions are checked by compile_taxonomy.
 TaxonomySource parse_taxonomy(const std::string& text, const std::string& file);
 TaxonomySource read_taxonomy(const std::filesystem::path& path);
-// `--lpe name=EXPR` style: one line, named `file` in messages.
+// `--lpe name=EXPR` style: one query a string, named `file` in messages (line k: the k-th string). Queries take no
+// properties, and `_rest` and `_overlap` are reserved (query channels, docs/lpe.md).
 TaxonomySource taxonomy_from_lines(const std::vector<std::string>& name_equals_expression, const std::string& file);
 
 constexpr uint32_t kDefaultMaxStates = 256;
@@ -95,7 +96,13 @@ constexpr uint16_t kNoState = 0xFFFF;
 
 struct CompileOptions {
     uint32_t max_states = kDefaultMaxStates;  // refused above it (at most 65535)
+    // Queries (`render --lpe`, docs/lpe.md): the lines may overlap, and a path's class is the
+    // combination of every line it matches, not the first. The classes are the combinations that
+    // whole vkmech paths can make (fewest lines first, then by line order; CompiledTaxonomy::
+    // class_lines), and `other` is a path no line matches. At most kMaxQueryLines lines.
+    bool all_matches = false;
 };
+constexpr uint32_t kMaxQueryLines = 32;  // a bit per line
 
 // The compiled taxonomy: everything the shader needs, in dense arrays.
 //   symbol = kind * label_class_count + label_class          (kind: kKind*, label_class: per slot)
@@ -117,6 +124,9 @@ struct CompiledTaxonomy {
     std::vector<uint16_t> next_state;         // state_count * alphabet_size
     std::vector<uint8_t> accept_class;        // state_count
     std::vector<uint32_t> line_state_counts;  // each line's own minimal DFA size (diagnostics)
+    // CompileOptions::all_matches: each class's lines, a bit per line (class_names joins their
+    // names with '&'); empty otherwise.
+    std::vector<uint32_t> class_lines;
     std::vector<Diagnostic> warnings;
 
     uint32_t symbol(uint32_t kind, uint32_t label_class) const { return kind * label_class_count + label_class; }

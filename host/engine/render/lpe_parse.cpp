@@ -568,6 +568,15 @@ TaxonomySource taxonomy_from_lines(const std::vector<std::string>& name_equals_e
         size_t before = out.lines.size();
         parse_line(l, ++lineno, out, seen);
         if (out.lines.size() == before) throw LpeError(file, lineno, 0, "expected `name = expression`");
+        const TaxonomyLine& q = out.lines.back();
+        const int name_column = int(first_non_space(l, 0)) + 1;
+        if (q.heavy || q.constant)
+            throw LpeError(file, lineno, int(l.find('[')) + 1,
+                           "a query takes no properties: [heavy] and [constant] are for a taxonomy's classes");
+        if (q.name == "_rest" || q.name == "_overlap")
+            throw LpeError(file, lineno, name_column,
+                           "`" + q.name + "` is reserved: lpe." + q.name + " is the channel of the paths " +
+                               (q.name == "_rest" ? "no query matches" : "that more than one query matches"));
     }
     require_lines(out);
     return out;

@@ -1,9 +1,11 @@
 #include "render/taxonomy.hpp"
 
+#include "io/invariant.hpp"
 #include "io/json.hpp"
 #include "shared/types.h"
 
 #include <algorithm>
+#include <bit>
 #include <sstream>
 
 namespace vkmech {
@@ -66,16 +68,10 @@ int give_named_shapes_own_materials(Scene& scene, const lpe::TaxonomySource& sou
     return copies;
 }
 
-SceneTaxonomy compile_scene_taxonomy(const lpe::TaxonomySource& source, const Scene& scene) {
-    const uint32_t classes = static_cast<uint32_t>(source.lines.size()) + 1;
-    if (classes > gpu::BUCKET_COUNT)
-        throw lpe::LpeError(source.file, source.lines.size() > 6 ? source.lines[6].line : 0, 0,
-                            "a taxonomy has at most " + std::to_string(gpu::BUCKET_COUNT - 1) +
-                                " lines (with the implicit `other`, one tally slot per class); this one has " +
-                                std::to_string(source.lines.size()));
-    SceneTaxonomy t;
-    t.source = source;
-    t.compiled = lpe::compile_taxonomy(source, taxonomy_label_slots(scene));
+namespace {
+
+// BINDING_TAXONOMY's words of a compiled taxonomy (shaders/shared/types.h TAX_*).
+void pack_words(SceneTaxonomy& t, const Scene& scene) {
     const lpe::CompiledTaxonomy& c = t.compiled;
     const uint32_t materials = static_cast<uint32_t>(std::max<size_t>(scene.materials.size(), 1));
     std::vector<uint32_t>& w = t.words;
@@ -91,7 +87,78 @@ SceneTaxonomy compile_scene_taxonomy(const lpe::TaxonomySource& source, const Sc
     w[5] = static_cast<uint32_t>(w.size());
     for (size_t e = 0; e < scene.emitters.size(); ++e) w.push_back(c.label_class_of_slot.at(materials + e));
     if (scene.emitters.empty()) w.push_back(0u);  // never read; keeps the buffer non-empty past the offsets
+}
+
+}  // namespace
+
+SceneTaxonomy compile_scene_taxonomy(const lpe::TaxonomySource& source, const Scene& scene) {
+    const uint32_t classes = static_cast<uint32_t>(source.lines.size()) + 1;
+    if (classes > gpu::BUCKET_COUNT)
+        throw lpe::LpeError(source.file, source.lines.size() > 6 ? source.lines[6].line : 0, 0,
+                            "a taxonomy has at most " + std::to_string(gpu::BUCKET_COUNT - 1) +
+                                " lines (with the implicit `other`, one tally slot per class); this one has " +
+                                std::to_string(source.lines.size()));
+    SceneTaxonomy t;
+    t.source = source;
+    t.compiled = lpe::compile_taxonomy(source, taxonomy_label_slots(scene));
+    pack_words(t, scene);
     return t;
+}
+
+SceneTaxonomy compile_scene_queries(const lpe::TaxonomySource& queries, const Scene& scene) {
+    SceneTaxonomy t;
+    t.source = queries;
+    lpe::CompileOptions options;
+    options.all_matches = true;
+    t.compiled = lpe::compile_taxonomy(queries, taxonomy_label_slots(scene), options);
+    const std::vector<std::string>& names = t.compiled.class_names;
+    if (names.size() > gpu::BUCKET_COUNT) {
+        std::string combos;
+        for (size_t k = 0; k + 1 < names.size(); ++k) combos += (k ? ", " : "") + names[k];
+        throw lpe::LpeError(queries.file, 0, 0,
+                            "the paths of this scene match " + std::to_string(names.size() - 1) +
+                                " combinations of the queries (" + combos + "); the tally has room for " +
+                                std::to_string(gpu::BUCKET_COUNT - 1) +
+                                ": use fewer queries, or queries that overlap less");
+    }
+    pack_words(t, scene);
+    return t;
+}
+
+std::vector<ExrChannel> query_channels(const Frame& frame, const SceneTaxonomy& queries) {
+    const std::vector<uint32_t>& combos = queries.compiled.class_lines;
+    const uint32_t other = queries.compiled.other_class;
+    const size_t pixels = frame.pixels.size();
+    VKM_ASSERT(frame.bucket_rgb_sum.size() == pixels * Frame::kBucketRgb,
+               "query channels need the classes' RGB sums (a render with the capture on)");
+    const size_t queries_n = queries.source.lines.size();
+    // Channel groups: each query, then _rest and _overlap; each R, G, B.
+    std::vector<ExrChannel> out;
+    auto add_group = [&](const std::string& name) {
+        for (const char* c : {".R", ".G", ".B"}) out.push_back({"lpe." + name + c, std::vector<float>(pixels), false});
+    };
+    for (const lpe::TaxonomyLine& l : queries.source.lines) add_group(l.name);
+    add_group("_rest");
+    add_group("_overlap");
+    for (size_t i = 0; i < pixels; ++i) {
+        const double n = frame.pixels[i].count;
+        if (n <= 0.0) continue;
+        const double* sums = &frame.bucket_rgb_sum[i * Frame::kBucketRgb];
+        for (int c = 0; c < 3; ++c) {
+            std::vector<double> per_query(queries_n, 0.0);
+            double overlap = 0.0;
+            for (size_t k = 0; k < combos.size(); ++k) {
+                const double e = sums[3 * k + static_cast<size_t>(c)];
+                for (size_t q = 0; q < queries_n; ++q)
+                    if (combos[k] >> q & 1u) per_query[q] += e;
+                overlap += (std::popcount(combos[k]) - 1) * e;
+            }
+            for (size_t q = 0; q < queries_n; ++q) out[3 * q + c].data[i] = static_cast<float>(per_query[q] / n);
+            out[3 * queries_n + c].data[i] = static_cast<float>(sums[3 * other + static_cast<size_t>(c)] / n);
+            out[3 * queries_n + 3 + c].data[i] = static_cast<float>(overlap / n);
+        }
+    }
+    return out;
 }
 
 uint32_t SceneTaxonomy::classes_with(bool lpe::TaxonomyLine::*property) const {
@@ -117,6 +184,21 @@ std::string taxonomy_json(const SceneTaxonomy& t) {
     for (size_t i = 0; i < t.compiled.class_names.size(); ++i)
         o << (i ? ", " : "") << "\"" << json_escape(t.compiled.class_names[i]) << "\"";
     o << "], \"states\": " << t.compiled.state_count << "}";
+    return o.str();
+}
+
+std::string queries_json(const SceneTaxonomy& queries, double seconds) {
+    std::ostringstream o;
+    o << "{\"queries\": [";
+    for (size_t i = 0; i < queries.source.lines.size(); ++i) {
+        const lpe::TaxonomyLine& l = queries.source.lines[i];
+        o << (i ? ", " : "") << "{\"name\": \"" << json_escape(l.name) << "\", \"expression\": \""
+          << json_escape(l.expression) << "\"}";
+    }
+    o << "], \"combinations\": [";
+    for (size_t k = 0; k + 1 < queries.compiled.class_names.size(); ++k)
+        o << (k ? ", " : "") << "\"" << json_escape(queries.compiled.class_names[k]) << "\"";
+    o << "], \"states\": " << queries.compiled.state_count << ", \"seconds\": " << seconds << "}";
     return o.str();
 }
 

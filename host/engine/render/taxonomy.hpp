@@ -6,6 +6,8 @@
 // gpu::BUCKET_COUNT classes: six lines and the implicit `other`.
 #pragma once
 
+#include "io/exr.hpp"
+#include "render/frame.hpp"
 #include "render/lpe.hpp"
 #include "scene/scene.hpp"
 
@@ -43,8 +45,23 @@ private:
 // expression, a DFA over the state limit, or more classes than the tally has slots.
 SceneTaxonomy compile_scene_taxonomy(const lpe::TaxonomySource& source, const Scene& scene);
 
+// `render --lpe name=EXPR` (docs/lpe.md, "Query channels"): the queries compiled against the scene's labels
+// with every matching line counted (lpe::CompileOptions::all_matches) and packed as a taxonomy whose classes are
+// the combinations of queries that paths match. Throws lpe::LpeError for a malformed query, a DFA over the state
+// limit, or more combinations than the tally has slots (naming them).
+SceneTaxonomy compile_scene_queries(const lpe::TaxonomySource& queries, const Scene& scene);
+
+// The query channels of a render whose classes are `queries`' combinations: per query `lpe.<name>.R/.G/.B`, the
+// mean radiance of the paths it matches; `lpe._rest.*`, of the paths no query matches; `lpe._overlap.*`, the
+// radiance counted more than once (each combination's times its number of queries less one), so that the
+// queries plus `_rest` less `_overlap` make the image. A pixel without samples is 0.
+std::vector<ExrChannel> query_channels(const Frame& frame, const SceneTaxonomy& queries);
+
 // The outputs' record of it (the JSON's "taxonomy"): {"file", "lines": [{"name", "expression"[, "heavy":
 // true][, "constant": true]}], "classes", "states"}.
 std::string taxonomy_json(const SceneTaxonomy& t);
+// The JSON's record of `render --lpe` queries: {"queries": [{"name", "expression"}], "combinations": [the
+// classes but other], "states", "seconds"} (`seconds`: the query pass's render time).
+std::string queries_json(const SceneTaxonomy& queries, double seconds);
 
 }  // namespace vkmech
