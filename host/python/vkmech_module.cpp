@@ -148,13 +148,28 @@ struct PyRender {
     std::vector<std::string> class_names;  // a user taxonomy's (docs/lpe.md); empty: the buckets
     std::string taxonomy_json;
     alloc::ClassTraits traits;  // the labels' heavy and constant classes (a taxonomy's declared ones)
+    // lpe= (docs/lpe.md, "Query channels"): the queries, and the renderer of their pass over the same samples.
+    std::optional<SceneTaxonomy> queries;
+    std::optional<Renderer> query_renderer;
 };
 
 PyRender prepare(const PyScene& s, std::optional<uint32_t> res, const std::string& estimator,
                  const std::string& light_selection, const std::string& end_vertex, bool capture,
-                 std::optional<uint32_t> device, const std::string& kernel, const std::string& taxonomy = "") {
+                 std::optional<uint32_t> device, const std::string& kernel, const std::string& taxonomy = "",
+                 const std::vector<std::string>& lpe_queries = {}) {
     PyRender r;
     r.scene = s.scene;
+    std::optional<lpe::TaxonomySource> queries;
+    if (!lpe_queries.empty()) {
+        if (!capture)
+            throw py::value_error("lpe needs capture=True (its channels are tallied as the capture's classes)");
+        try {
+            queries = lpe::taxonomy_from_lines(lpe_queries, "lpe");
+            give_named_shapes_own_materials(r.scene, *queries);
+        } catch (const lpe::LpeError& e) {
+            throw py::value_error(e.what());
+        }
+    }
     std::optional<lpe::TaxonomySource> source;
     if (!taxonomy.empty()) {
         if (!capture) throw py::value_error("taxonomy needs capture=True (its classes are what the capture records)");
@@ -190,6 +205,17 @@ PyRender prepare(const PyScene& s, std::optional<uint32_t> res, const std::strin
         }
     }
     r.renderer.emplace(r.session->renderer(r.features));
+    if (queries) {
+        try {
+            r.queries = compile_scene_queries(*queries, r.session->scene());
+        } catch (const lpe::LpeError& e) {
+            throw py::value_error(e.what());
+        }
+        for (const auto& w : r.queries->compiled.warnings) PyErr_WarnEx(PyExc_UserWarning, w.str().c_str(), 1);
+        Features qf = r.features;
+        qf.taxonomy = r.queries->words;
+        r.query_renderer.emplace(r.session->renderer(qf));
+    }
     r.light_selection = light_selection;
     r.end_vertex = end_vertex;
     return r;
@@ -215,8 +241,9 @@ Frame render_spec(Renderer& renderer, RenderSpec spec, const ProgressFn& progres
 
 // The frame of a render: its channels, header and what writing it needs. `spp`: the samples
 // per pixel recorded (the mean under an adaptive plan), `sample_range` the provenance's.
+// `queries`: a frame of the same samples tallied by r.queries' combinations (lpe=), or null.
 PyFrame make_frame(const PyScene& s, const PyRender& r, Frame frame, uint32_t spp, uint32_t seed,
-                   const std::string& sample_range, const std::string& features_note) {
+                   const std::string& sample_range, const std::string& features_note, const Frame* queries = nullptr) {
     const bool capture = r.features.capture;
     PyFrame out;
     out.width = frame.width;
@@ -245,7 +272,13 @@ PyFrame make_frame(const PyScene& s, const PyRender& r, Frame frame, uint32_t sp
         out.summary = summarize(frame, *out.descriptor);
     }
     info.taxonomy = r.taxonomy_json;
-    out.set_channels(render_channels(frame, out.descriptor ? &*out.descriptor : nullptr));
+    std::vector<ExrChannel> channels = render_channels(frame, out.descriptor ? &*out.descriptor : nullptr);
+    if (queries) {
+        info.extra_channels = query_channels(*queries, *r.queries);
+        info.extra_json.emplace_back("lpe", queries_json(*r.queries, queries->seconds));
+        channels.insert(channels.end(), info.extra_channels.begin(), info.extra_channels.end());
+    }
+    out.set_channels(std::move(channels));
     out.header = render_attributes(info, info.warnings, "", out.descriptor ? &*out.descriptor : nullptr);
     out.info = std::move(info);
     out.frame = std::move(frame);
@@ -287,10 +320,13 @@ std::vector<uint32_t> sample_counts_of(const py::array& a, int width, int height
 PyFrame render(const PyScene& s, uint32_t spp, uint32_t seed, std::optional<uint32_t> res, const std::string& estimator,
                const std::string& light_selection, const std::string& end_vertex, bool capture,
                std::optional<uint32_t> device, const std::string& kernel, uint32_t batch,
-               const std::optional<py::array>& sample_counts, const ProgressFn& progress, const std::string& taxonomy) {
+               const std::optional<py::array>& sample_counts, const ProgressFn& progress, const std::string& taxonomy,
+               const std::vector<std::string>& lpe_queries) {
     if (spp == 0 || spp > kMaxSpp) throw py::value_error("spp must be 1.." + std::to_string(kMaxSpp));
     if (batch == 0 || batch > 4096) throw py::value_error("batch must be 1..4096");
     if (res && (*res < 4 || *res > 16384)) throw py::value_error("res must be 4..16384");
+    if (!lpe_queries.empty() && sample_counts)
+        throw py::value_error("lpe is for a render of a fixed budget, not with sample_counts");
     RenderSpec spec;
     spec.spp = spp;
     spec.seed = seed;
@@ -305,9 +341,13 @@ PyFrame render(const PyScene& s, uint32_t spp, uint32_t seed, std::optional<uint
         range = adaptive_sample_range(spec.sample_counts);
         spp = mean_spp(spec.sample_counts);
     }
-    PyRender r = prepare(s, res, estimator, light_selection, end_vertex, capture, device, kernel, taxonomy);
-    Frame frame = render_spec(*r.renderer, std::move(spec), progress);
-    return make_frame(s, r, std::move(frame), spp, seed, range, sample_counts ? " adaptive=sample_counts" : "");
+    PyRender r =
+        prepare(s, res, estimator, light_selection, end_vertex, capture, device, kernel, taxonomy, lpe_queries);
+    Frame frame = render_spec(*r.renderer, spec, progress);
+    std::optional<Frame> queries;  // the same samples again, by the queries' combinations
+    if (r.query_renderer) queries = render_spec(*r.query_renderer, spec, progress);
+    return make_frame(s, r, std::move(frame), spp, seed, range, sample_counts ? " adaptive=sample_counts" : "",
+                      queries ? &*queries : nullptr);
 }
 
 // `vkmech render --adaptive`: a pilot of `pilot` samples, strategy's allocation of 1 + budget
@@ -435,11 +475,13 @@ PYBIND11_MODULE(vkmech, m) {
           py::arg("res") = py::none(), py::arg("estimator") = "mis", py::arg("light_selection") = "uniform",
           py::arg("end_vertex") = "last-nondelta", py::arg("capture") = true, py::arg("device") = py::none(),
           py::arg("kernel") = "auto", py::arg("batch") = 8, py::arg("sample_counts") = py::none(),
-          py::arg("progress") = py::none(), py::arg("taxonomy") = "",
+          py::arg("progress") = py::none(), py::arg("taxonomy") = "", py::arg("lpe") = std::vector<std::string>{},
           "Renders the scene; releases the GIL, calls progress(done, total) between batches, and raises "
           "KeyboardInterrupt at the next batch on Ctrl-C. sample_counts: an (H, W) array n(p); pixel p then "
           "takes exactly samples [0, n(p)) of the seed and spp is ignored. taxonomy: a file of `name = "
-          "light path expression` lines (docs/lpe.md); the channels are then by its classes");
+          "light path expression` lines (docs/lpe.md); the channels are then by its classes. lpe: a list of "
+          "'name=EXPR' queries, as `vkmech render --lpe`: channels lpe.NAME.R/G/B, lpe._rest and lpe._overlap "
+          "from a second pass over the same samples (progress is called for each pass)");
     m.def("adaptive", &adaptive, py::arg("scene"), py::arg("strategy") = "bucket-floor", py::kw_only(),
           py::arg("pilot") = 16, py::arg("budget") = 32, py::arg("floor") = 1, py::arg("pilot_draw") = 0,
           py::arg("res") = py::none(), py::arg("estimator") = "nee", py::arg("light_selection") = "uniform",

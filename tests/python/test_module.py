@@ -157,6 +157,38 @@ def test_a_taxonomy_names_the_channels_and_matches_the_cli(tmp_path):
         vkmech.render(scene, spp=1, res=8, taxonomy=str(tax))
 
 
+def test_lpe_queries_add_overlapping_channels_as_the_cli_does(tmp_path):
+    # docs/lpe.md "Query channels": `all` is the image, `first` and `bounced` overlap inside it.
+    scene = vkmech.load("sweep_lights", defines={"lights": "2"})
+    queries = ["all=C .* [LB]", "first=C .* <L.'sweep_light_0'>", "bounced=C . .+ [LB]"]
+    f = vkmech.render(scene, spp=4, res=16, seed=2, lpe=queries)
+
+    def rgb(prefix):
+        return np.stack([f[prefix + c] for c in "RGB"]).astype(np.float64)
+
+    image = np.stack([f[c] for c in "RGB"]).astype(np.float64)
+    assert np.allclose(rgb("lpe.all."), image, rtol=1e-5, atol=1e-7)
+    assert np.all(rgb("lpe._rest.") == 0)
+    assert np.allclose(rgb("lpe._overlap."), rgb("lpe.first.") + rgb("lpe.bounced."), rtol=1e-5, atol=1e-7)
+    assert rgb("lpe.first.").sum() > 0 and rgb("lpe.bounced.").sum() > 0
+    assert rgb("lpe.first.").sum() < 0.9 * image.sum()
+    args = [CLI, "render", "--scene", "sweep_lights", "-D", "lights=2", "--spp", "4", "--res", "16", "--seed", "2",
+            "--out", str(tmp_path / "cli")]
+    for q in queries:
+        args += ["--lpe", q]
+    subprocess.run(args, check=True, capture_output=True)
+    cli = vkmech.read(str(tmp_path / "cli" / "sweep_lights.exr"))
+    assert cli.channels == f.channels
+    for name in f.channels:
+        assert np.array_equal(cli[name], f[name]), name
+    with pytest.raises(ValueError, match="lpe:1:"):
+        vkmech.render(scene, spp=1, res=8, lpe=["x=C (D L"])
+    with pytest.raises(ValueError, match="capture=True"):
+        vkmech.render(scene, spp=1, res=8, capture=False, lpe=["x=C L"])
+    with pytest.raises(ValueError, match="fixed budget"):
+        vkmech.render(scene, res=8, lpe=["x=C L"], sample_counts=np.ones((8, 8)))
+
+
 def test_progress_is_called_between_batches():
     calls = []
     vkmech.render(vkmech.load("cubes_dof"), spp=6, res=16, batch=2, progress=lambda d, t: calls.append((d, t)))
