@@ -304,6 +304,11 @@ TEST_CASE("lpe: queries count every line a path matches: the classes are the com
     CHECK(c.cls("C RS L") == "other");
     CHECK(c.cls("C L") == "other");
     CHECK(c.t.warnings.empty());
+    // Combinations of as many lines are in the order of their lines: a&d before b&c (as bit masks, 0b0110
+    // would come before 0b1001).
+    Compiled pairs = compile("a = C <RD> L\nb = C <RG> L\nc = C <RG> L\nd = C <RD> L\n", scene_slots(), queries);
+    CHECK(pairs.t.class_names == std::vector<std::string>{"a&d", "b&c", "other"});
+    CHECK(pairs.cls("C RG L") == "b&c");
 
     // A line inside another is no warning here (first match says it never wins), and every path it matches is
     // in the pair.

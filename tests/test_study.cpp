@@ -196,7 +196,8 @@ TEST_SUITE("gpu") {
         fs::remove_all(out);
         std::string cmd = std::string(VKMECH_CLI) + " study all --preset quick --equal-time --out " + out.string();
         int rc = run_shell(cmd + " > " + (out.string() + ".log") + " 2>&1");
-        INFO(slurp(out.string() + ".log"));
+        const std::string first_log = slurp(out.string() + ".log");
+        INFO(first_log);
         REQUIRE(rc == 0);
         for (const char* t : {"cross_spp",
                               "kappa",

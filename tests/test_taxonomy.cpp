@@ -528,7 +528,8 @@ TEST_SUITE("gpu") {
             for (int j = 0; j < k; ++j) seven += " .";
             seven += " [LB]\"";
         }
-        refused(seven, "match 7 combinations of the queries (n0, n1, n2, n3, n4, n5, n6); the tally has room for 6");
+        refused(seven,
+                "can match 7 combinations of the queries (n0, n1, n2, n3, n4, n5, n6); the tally has room for 6");
         refused("--lpe \"x=C (D L\"", "--lpe:1:");
         refused("--lpe \"a=C L\" --lpe \"b [heavy] = C D L\"", "--lpe:2:3: a query takes no properties");
         refused("--lpe \"_rest=C L\"", "`_rest` is reserved");
@@ -536,5 +537,8 @@ TEST_SUITE("gpu") {
         refused("--lpe \"a=C L\" --adaptive bucket-floor --pilot 4 --budget 8",
                 "--lpe is for a render of a fixed budget");
         refused("--lpe \"a=C L\" --pixel-bounds 0,4,0,4", "does not merge query channels");
+        refused("--lpe \"a=C L\" --noise-threshold 0.1", "--lpe is for a render of a fixed budget");
+        refused("--lpe \"a=C L\" --preview", "--lpe and --preview: the direct-light preview tallies no paths");
+        refused("--taxonomy " + dir.file("lights.lpe") + " --preview", "--taxonomy and --preview");
     }
 }

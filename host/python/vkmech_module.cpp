@@ -159,6 +159,17 @@ PyRender prepare(const PyScene& s, std::optional<uint32_t> res, const std::strin
                  const std::vector<std::string>& lpe_queries = {}) {
     PyRender r;
     r.scene = s.scene;
+    std::optional<lpe::TaxonomySource> source;
+    if (!taxonomy.empty()) {
+        if (!capture) throw py::value_error("taxonomy needs capture=True (its classes are what the capture records)");
+        try {
+            source = lpe::read_taxonomy(taxonomy);
+            give_named_shapes_own_materials(r.scene, *source);
+        } catch (const lpe::LpeError& e) {
+            throw py::value_error(std::string("taxonomy: ") + e.what());
+        }
+    }
+    // After the taxonomy's, as the CLI does, so that the materials are numbered the same.
     std::optional<lpe::TaxonomySource> queries;
     if (!lpe_queries.empty()) {
         if (!capture)
@@ -168,16 +179,6 @@ PyRender prepare(const PyScene& s, std::optional<uint32_t> res, const std::strin
             give_named_shapes_own_materials(r.scene, *queries);
         } catch (const lpe::LpeError& e) {
             throw py::value_error(e.what());
-        }
-    }
-    std::optional<lpe::TaxonomySource> source;
-    if (!taxonomy.empty()) {
-        if (!capture) throw py::value_error("taxonomy needs capture=True (its classes are what the capture records)");
-        try {
-            source = lpe::read_taxonomy(taxonomy);
-            give_named_shapes_own_materials(r.scene, *source);
-        } catch (const lpe::LpeError& e) {
-            throw py::value_error(std::string("taxonomy: ") + e.what());
         }
     }
     if (res) {
@@ -195,7 +196,8 @@ PyRender prepare(const PyScene& s, std::optional<uint32_t> res, const std::strin
     if (source) {
         try {
             const SceneTaxonomy t = compile_scene_taxonomy(*source, r.session->scene());
-            for (const auto& w : t.compiled.warnings) PyErr_WarnEx(PyExc_UserWarning, w.str().c_str(), 1);
+            for (const auto& w : t.compiled.warnings)
+                if (PyErr_WarnEx(PyExc_UserWarning, w.str().c_str(), 1) != 0) throw py::error_already_set();
             r.features.taxonomy = t.words;
             r.class_names = t.class_names();
             r.taxonomy_json = taxonomy_json(t);
@@ -211,7 +213,8 @@ PyRender prepare(const PyScene& s, std::optional<uint32_t> res, const std::strin
         } catch (const lpe::LpeError& e) {
             throw py::value_error(e.what());
         }
-        for (const auto& w : r.queries->compiled.warnings) PyErr_WarnEx(PyExc_UserWarning, w.str().c_str(), 1);
+        for (const auto& w : r.queries->compiled.warnings)
+            if (PyErr_WarnEx(PyExc_UserWarning, w.str().c_str(), 1) != 0) throw py::error_already_set();
         Features qf = r.features;
         qf.taxonomy = r.queries->words;
         r.query_renderer.emplace(r.session->renderer(qf));

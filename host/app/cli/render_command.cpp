@@ -341,7 +341,6 @@ CliRender open_cli_render(const RenderOptions& o, Estimator estimator, bool capt
     r.renderer = r.session->make_renderer(r.features);
     r.pipes = r.ctx->pipeline_cache().stats() - before;
     if (queries) {
-        if (!capture) throw UsageError("--lpe needs --capture on (its channels are tallied as the capture's classes)");
         r.queries = compile_labels_for_cli(*queries, r.session->scene(), /*queries=*/true);
         Features qf = r.features;
         qf.direct_glossy = false;
@@ -363,6 +362,12 @@ int cmd_render(const RenderOptions& o) {
         throw UsageError("--adaptive and --noise-threshold: choose one (a fixed budget, or a noise target)");
     if (!o.lpe.empty() && (!o.adaptive.empty() || o.noise_threshold > 0))
         throw UsageError("--lpe is for a render of a fixed budget, not with --adaptive or --noise-threshold");
+    if (!o.lpe.empty() && o.capture != "on")
+        throw UsageError("--lpe needs --capture on (its channels are tallied as the capture's classes)");
+    if ((!o.lpe.empty() || !o.taxonomy.empty()) && o.preview)
+        throw UsageError(std::string(o.lpe.empty() ? "--taxonomy" : "--lpe") +
+                         " and --preview: the direct-light preview tallies no paths by class; render without "
+                         "--preview");
     if (!o.lpe.empty() && (!o.sample_range.empty() || !o.pixel_bounds.empty()))
         throw UsageError(
             "--lpe with --sample-range or --pixel-bounds: `vkmech merge` does not merge query channels; render the "

@@ -411,9 +411,18 @@ Dfa by_combination(Dfa d, uint32_t label_classes, const TaxonomySource& src, Com
         if (d.accept[s[1]] != 0) seen.insert(d.accept[s[1]]);
         return false;
     });
+    // Fewest lines first; among equally many, by their lines in order (a&d before b&c).
+    auto lines_of = [](uint32_t m) {
+        std::vector<uint32_t> l;
+        for (uint32_t i = 0; i < 32; ++i)
+            if (m >> i & 1u) l.push_back(i);
+        return l;
+    };
     std::vector<uint32_t> combos(seen.begin(), seen.end());
-    std::stable_sort(combos.begin(), combos.end(),
-                     [](uint32_t a, uint32_t b) { return std::popcount(a) < std::popcount(b); });
+    std::sort(combos.begin(), combos.end(), [&](uint32_t a, uint32_t b) {
+        const int pa = std::popcount(a), pb = std::popcount(b);
+        return pa != pb ? pa < pb : lines_of(a) < lines_of(b);
+    });
     if (combos.size() > kMaxLines)
         throw LpeError(src.file, 0, 0,
                        "the queries make " + std::to_string(combos.size()) + " combinations, over the limit of " +
@@ -453,7 +462,7 @@ CompiledTaxonomy finish(const Dfa& whole, CompiledTaxonomy& out) {
 }
 
 [[noreturn]] void refuse_size(const TaxonomySource& src, const std::vector<uint32_t>& line_states, uint32_t cap,
-                              const std::string& whole, uint32_t max_states) {
+                              const std::string& whole, uint32_t max_states, bool queries) {
     std::vector<uint32_t> order(src.lines.size());
     for (uint32_t i = 0; i < order.size(); ++i) order[i] = i;
     std::stable_sort(order.begin(), order.end(),
@@ -465,8 +474,8 @@ CompiledTaxonomy finish(const Dfa& whole, CompiledTaxonomy& out) {
                 (line_states[i] > cap ? "over " + std::to_string(cap) : std::to_string(line_states[i]));
     }
     throw LpeError(src.file, 0, 0,
-                   "the taxonomy's DFA has " + whole + " states, over the limit of " + std::to_string(max_states) +
-                       ". Each line alone needs: " + each +
+                   std::string(queries ? "the queries' DFA has " : "the taxonomy's DFA has ") + whole +
+                       " states, over the limit of " + std::to_string(max_states) + ". Each line alone needs: " + each +
                        ". Simplify the largest lines; lines that are small alone grow together when each tells "
                        "paths apart in its own way");
 }
@@ -543,11 +552,13 @@ CompiledTaxonomy compile_taxonomy(const TaxonomySource& src, const std::vector<L
     for (uint32_t i = 0; i < all.size(); ++i) all[i] = i;
     Dfa whole;
     if (!line_dfa(asts, all, src, labels, cap, whole, options.all_matches))
-        refuse_size(src, out.line_state_counts, cap, "over " + std::to_string(cap), options.max_states);
+        refuse_size(src, out.line_state_counts, cap, "over " + std::to_string(cap), options.max_states,
+                    options.all_matches);
     if (options.all_matches && src.lines.size() > 1) whole = by_combination(whole, out.label_class_count, src, out);
     if (options.all_matches && src.lines.size() == 1) out.class_lines = {1u};  // its class, or other
     if (whole.size() > options.max_states)
-        refuse_size(src, out.line_state_counts, cap, std::to_string(whole.size()), options.max_states);
+        refuse_size(src, out.line_state_counts, cap, std::to_string(whole.size()), options.max_states,
+                    options.all_matches);
     if (options.all_matches) return finish(whole, out);
 
     // Lines that match some path but win none: every such path goes to an earlier line.

@@ -116,7 +116,7 @@ SceneTaxonomy compile_scene_queries(const lpe::TaxonomySource& queries, const Sc
         std::string combos;
         for (size_t k = 0; k + 1 < names.size(); ++k) combos += (k ? ", " : "") + names[k];
         throw lpe::LpeError(queries.file, 0, 0,
-                            "the paths of this scene match " + std::to_string(names.size() - 1) +
+                            "paths over this scene's labels can match " + std::to_string(names.size() - 1) +
                                 " combinations of the queries (" + combos + "); the tally has room for " +
                                 std::to_string(gpu::BUCKET_COUNT - 1) +
                                 ": use fewer queries, or queries that overlap less");
@@ -140,12 +140,13 @@ std::vector<ExrChannel> query_channels(const Frame& frame, const SceneTaxonomy& 
     for (const lpe::TaxonomyLine& l : queries.source.lines) add_group(l.name);
     add_group("_rest");
     add_group("_overlap");
+    std::vector<double> per_query(queries_n);
     for (size_t i = 0; i < pixels; ++i) {
         const double n = frame.pixels[i].count;
         if (n <= 0.0) continue;
         const double* sums = &frame.bucket_rgb_sum[i * Frame::kBucketRgb];
         for (int c = 0; c < 3; ++c) {
-            std::vector<double> per_query(queries_n, 0.0);
+            std::fill(per_query.begin(), per_query.end(), 0.0);
             double overlap = 0.0;
             for (size_t k = 0; k < combos.size(); ++k) {
                 const double e = sums[3 * k + static_cast<size_t>(c)];
