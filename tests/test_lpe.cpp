@@ -777,6 +777,18 @@ std::string random_expression(std::mt19937& rng, int depth) {
 
 }  // namespace
 
+namespace {
+
+// Each line's syntax tree, for matching paths without an automaton.
+std::vector<vkmech::lpe::detail::Node> syntax_trees(const std::string& text) {
+    std::vector<vkmech::lpe::detail::Node> trees;
+    for (const TaxonomyLine& l : parse_taxonomy(text, "random.lpe").lines)
+        trees.push_back(vkmech::lpe::detail::parse_expression(l.expression, "random.lpe", l.line, l.expression_column));
+    return trees;
+}
+
+}  // namespace
+
 TEST_CASE("lpe: as queries, the DFA gives each random vkmech path the set of lines its syntax trees match") {
     std::mt19937 rng(3737);
     const std::vector<LabelSlot> slots = scene_slots();
@@ -801,11 +813,7 @@ TEST_CASE("lpe: as queries, the DFA gives each random vkmech path the set of lin
             continue;
         }
         ++compiled;
-        TaxonomySource source = parse_taxonomy(text, "random.lpe");
-        std::vector<vkmech::lpe::detail::Node> trees;
-        for (const TaxonomyLine& l : source.lines)
-            trees.push_back(
-                vkmech::lpe::detail::parse_expression(l.expression, "random.lpe", l.line, l.expression_column));
+        const std::vector<vkmech::lpe::detail::Node> trees = syntax_trees(text);
         for (int k = 0; k < 200; ++k) {  // whole vkmech paths: C, R or T events, then L or B
             std::vector<PathEvent> path{{kKindCamera, -1}};
             for (size_t i = 0, n = rng() % 6; i < n; ++i)
@@ -850,11 +858,7 @@ TEST_CASE("lpe: the DFA classifies random paths as the syntax trees matched dire
             continue;
         }
         ++taxonomies;
-        TaxonomySource source = parse_taxonomy(text, "random.lpe");
-        std::vector<vkmech::lpe::detail::Node> trees;
-        for (const TaxonomyLine& l : source.lines)
-            trees.push_back(
-                vkmech::lpe::detail::parse_expression(l.expression, "random.lpe", l.line, l.expression_column));
+        const std::vector<vkmech::lpe::detail::Node> trees = syntax_trees(text);
         for (int k = 0; k < 200; ++k) {
             // Half the paths have vkmech's shape, half are any events at all.
             std::vector<PathEvent> path;

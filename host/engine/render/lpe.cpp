@@ -394,7 +394,7 @@ bool line_dfa(const std::vector<Node>& asts, const std::vector<uint32_t>& lines,
     }
     Dfa raw;
     if (!determinize(nfa, start, kKindCount * label_classes, lines.size() == 1 ? 1 : uint32_t(src.lines.size()),
-                     all_matches && lines.size() > 1, cap, raw))
+                     all_matches, cap, raw))
         return false;
     out = minimize(raw);
     return true;
@@ -448,7 +448,7 @@ Dfa by_combination(Dfa d, uint32_t label_classes, const TaxonomySource& src, Com
 }
 
 // The tables of the whole taxonomy's minimal DFA, into `out`.
-CompiledTaxonomy finish(const Dfa& whole, CompiledTaxonomy& out) {
+void finish(const Dfa& whole, CompiledTaxonomy& out) {
     out.state_count = whole.size();
     out.start_state = uint16_t(whole.start);
     out.next_state.assign(whole.next.begin(), whole.next.end());
@@ -458,7 +458,6 @@ CompiledTaxonomy finish(const Dfa& whole, CompiledTaxonomy& out) {
         for (uint32_t a = 0; a < whole.alphabet && sink; ++a) sink = whole.step(s, a) == s;
         if (sink) out.dead_state = uint16_t(s);
     }
-    return std::move(out);
 }
 
 [[noreturn]] void refuse_size(const TaxonomySource& src, const std::vector<uint32_t>& line_states, uint32_t cap,
@@ -554,12 +553,14 @@ CompiledTaxonomy compile_taxonomy(const TaxonomySource& src, const std::vector<L
     if (!line_dfa(asts, all, src, labels, cap, whole, options.all_matches))
         refuse_size(src, out.line_state_counts, cap, "over " + std::to_string(cap), options.max_states,
                     options.all_matches);
-    if (options.all_matches && src.lines.size() > 1) whole = by_combination(whole, out.label_class_count, src, out);
-    if (options.all_matches && src.lines.size() == 1) out.class_lines = {1u};  // its class, or other
+    if (options.all_matches) whole = by_combination(whole, out.label_class_count, src, out);
     if (whole.size() > options.max_states)
         refuse_size(src, out.line_state_counts, cap, std::to_string(whole.size()), options.max_states,
                     options.all_matches);
-    if (options.all_matches) return finish(whole, out);
+    if (options.all_matches) {
+        finish(whole, out);
+        return out;
+    }
 
     // Lines that match some path but win none: every such path goes to an earlier line.
     std::vector<bool> wins(src.lines.size() + 1, false);
@@ -583,7 +584,8 @@ CompiledTaxonomy compile_taxonomy(const TaxonomySource& src, const std::vector<L
                                     " never wins: every path it matches is taken by an earlier line (" + by + ")"});
     }
 
-    return finish(whole, out);
+    finish(whole, out);
+    return out;
 }
 
 }  // namespace vkmech::lpe
