@@ -344,6 +344,12 @@ TEST_CASE("lpe: --lpe queries take no properties and may not be named _rest or _
     CHECK(error_of_lines({"a = C L", "b [heavy] = C D L"}).find("2:3: a query takes no properties") == 0);
     CHECK(error_of_lines({" _rest = C L"}).find("1:2: `_rest` is reserved") == 0);
     CHECK(error_of_lines({"_overlap=C L"}).find("1:1: `_overlap` is reserved") == 0);
+    // A query's name becomes lpe.NAME.*, and `other`, a taxonomy's implicit class, is a query name like any.
+    CHECK(error_of_lines({"a.b = C L"}) ==
+          "1:1: `a.b` is not a query name: use letters, digits and '_', not starting with a digit (it becomes the "
+          "EXR channel lpe.a.b.R)");
+    CHECK(error_of_lines({"other = C L"}) == "no error");
+    CHECK(error_of_lines({"other = C L", "other = C D L"}).find("2:1: `other` is already defined on line 1") == 0);
     CHECK(error_of_lines({"a = C L", "a = C D L"}).find("2:1: `a` is already defined") == 0);
     CHECK(error_of_lines({"rest = C L", "overlap = C D L"}) == "no error");
     // The file syntax keeps its properties.
@@ -474,7 +480,9 @@ TEST_CASE("lpe: the taxonomy file: comments, blank lines, unique identifier name
     CHECK(s.lines[0].expression_column == 15);
     CHECK(c.t.labels == std::vector<std::string>{"#1"});  // '#' inside quotes is no comment
 
-    CHECK(error_of("3d = C L").find("1:1: `3d` is not a class name") == 0);
+    CHECK(error_of("3d = C L") ==
+          "1:1: `3d` is not a class name: use letters, digits and '_', not starting with a digit (it becomes the EXR "
+          "channel bucket.3d.R)");
     CHECK(error_of("a.b = C L").find("1:1: `a.b` is not a class name") == 0);
     CHECK(error_of("  other = C L").find("1:3: `other` is reserved") == 0);
     CHECK(error_of("a = C L\n\nb = C D L\na = C G L") == "4:1: `a` is already defined on line 1");

@@ -50,6 +50,34 @@ void check_equal_to_single_render(const ExrImage& full, const ExrImage& merged) 
     }
 }
 
+// The --spp 16 render of ring_caustic with `options`, and the merge of its parts: samples 0:6 of the whole film,
+// then 6:16 in two windows (top and bottom), merged in another order.
+std::pair<ExrImage, ExrImage> full_and_merged_parts(const testing::TempDir& dir, const std::string& options) {
+    REQUIRE(render(dir.file("full"), "--spp 16", options).code == 0);
+    REQUIRE(render(dir.file("a"), "--sample-range 0:6", options).code == 0);
+    REQUIRE(render(dir.file("top"), "--sample-range 6:16", options + " --pixel-bounds 0,24,0,10").code == 0);
+    REQUIRE(render(dir.file("bottom"), "--sample-range 6:16", options + " --pixel-bounds 0,24,10,24").code == 0);
+    const testing::CliRun m = testing::run_cli("merge " + dir.file("m") + " " + dir.file("bottom") + " " +
+                                               dir.file("a") + " " + dir.file("top"));
+    CAPTURE(m.output);
+    REQUIRE(m.code == 0);
+    return {read_exr_channels(dir.file("full/ring_caustic.exr")), read_exr_channels(dir.file("m/ring_caustic.exr"))};
+}
+
+// The part `a` of full_and_merged_parts merged with samples 6:16 rendered with `other` options, then with samples
+// 6:16 rendered plainly: both refused (exit 2), with messages that hold `says_other` and `says_plain`.
+void check_other_parts_refused(const testing::TempDir& dir, const std::string& other, const std::string& says_other,
+                               const std::string& says_plain) {
+    REQUIRE(render(dir.file("other"), "--sample-range 6:16", other).code == 0);
+    REQUIRE(render(dir.file("plain"), "--sample-range 6:16").code == 0);
+    testing::CliRun r = testing::run_cli("merge " + dir.file("m2") + " " + dir.file("a") + " " + dir.file("other"));
+    CHECK(r.code == 2);
+    CHECK(r.output.find(says_other) != std::string::npos);
+    r = testing::run_cli("merge " + dir.file("m3") + " " + dir.file("a") + " " + dir.file("plain"));
+    CHECK(r.code == 2);
+    CHECK(r.output.find(says_plain) != std::string::npos);
+}
+
 }  // namespace
 
 TEST_CASE(
@@ -150,18 +178,7 @@ TEST_SUITE("gpu") {
         // Paths seen in the gold ring (the dominant class of about 10 % of the pixels), one-bounce paths, other.
         std::ofstream(dir.file("t.lpe")) << "mirrored = C S+ [DG] .* [LB]\none_bounce = C [DGS] [LB]\n";
         std::ofstream(dir.file("reversed.lpe")) << "one_bounce = C [DGS] [LB]\nmirrored = C S+ [DG] .* [LB]\n";
-        const std::string tax = "--taxonomy " + dir.file("t.lpe");
-        REQUIRE(render(dir.file("full"), "--spp 16", tax).code == 0);
-        // Samples 0:6 of the whole film, then 6:16 in two windows.
-        REQUIRE(render(dir.file("a"), "--sample-range 0:6", tax).code == 0);
-        REQUIRE(render(dir.file("top"), "--sample-range 6:16", tax + " --pixel-bounds 0,24,0,10").code == 0);
-        REQUIRE(render(dir.file("bottom"), "--sample-range 6:16", tax + " --pixel-bounds 0,24,10,24").code == 0);
-        const testing::CliRun m = testing::run_cli("merge " + dir.file("m") + " " + dir.file("bottom") + " " +
-                                                   dir.file("a") + " " + dir.file("top"));
-        CAPTURE(m.output);
-        REQUIRE(m.code == 0);
-        const ExrImage full = read_exr_channels(dir.file("full/ring_caustic.exr"));
-        const ExrImage merged = read_exr_channels(dir.file("m/ring_caustic.exr"));
+        const auto [full, merged] = full_and_merged_parts(dir, "--taxonomy " + dir.file("t.lpe"));
         REQUIRE(full.attributes.count("vkmech.taxonomy") == 1);
         CHECK(merged.attributes.at("vkmech.taxonomy") == full.attributes.at("vkmech.taxonomy"));
         CHECK(merged.attributes.at("vkmech.dominantLegend") == full.attributes.at("vkmech.dominantLegend"));
@@ -185,14 +202,36 @@ TEST_SUITE("gpu") {
         CHECK(js.find("\"taxonomy\": {\"file\": ") != std::string::npos);
         CHECK(js.find("\"mirrored\": {\"pixel_share\"") != std::string::npos);
         // The same classes in another order are another taxonomy; and a taxonomy is not the buckets.
-        REQUIRE(render(dir.file("rev"), "--sample-range 6:16", "--taxonomy " + dir.file("reversed.lpe")).code == 0);
-        REQUIRE(render(dir.file("plain"), "--sample-range 6:16").code == 0);
-        testing::CliRun r = testing::run_cli("merge " + dir.file("m2") + " " + dir.file("a") + " " + dir.file("rev"));
-        CHECK(r.code == 2);
-        CHECK(r.output.find("different taxonomies") != std::string::npos);
-        r = testing::run_cli("merge " + dir.file("m3") + " " + dir.file("a") + " " + dir.file("plain"));
-        CHECK(r.code == 2);
-        CHECK(r.output.find("has no channel") != std::string::npos);
+        check_other_parts_refused(dir, "--taxonomy " + dir.file("reversed.lpe"), "different taxonomies",
+                                  "has no channel");
+    }
+
+    TEST_CASE("merge: a render --lpe's query channels merge from sample ranges and windows into its single render's") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("merge_lpe");
+        // Two overlapping queries (every path; paths through the mirror-like ring) and one disjoint from
+        // the second: _rest and _overlap are both non-zero somewhere.
+        const std::string queries =
+            "--lpe \"all=C .* [LB]\" --lpe \"mirrored=C S+ [DG] .* [LB]\" --lpe \"one_bounce=C [DGS] [LB]\"";
+        const auto [full, merged] = full_and_merged_parts(dir, queries);
+        REQUIRE(full.attributes.count("vkmech.lpe") == 1);
+        CHECK(merged.attributes.at("vkmech.lpe") == full.attributes.at("vkmech.lpe"));
+        // The queries' channels are there and not all zero (so their equality below says something).
+        for (const char* c : {"lpe.all.G", "lpe.mirrored.R", "lpe.one_bounce.B", "lpe._overlap.G"}) {
+            CAPTURE(std::string(c));
+            REQUIRE(full.channels.count(c) == 1);
+            double sum = 0.0;
+            for (float v : full.channels.at(c)) sum += v;
+            CHECK(sum > 0.0);
+        }
+        check_equal_to_single_render(full, merged);
+        std::ifstream json(dir.file("m/ring_caustic.json"));
+        const std::string js((std::istreambuf_iterator<char>(json)), std::istreambuf_iterator<char>());
+        CHECK(js.find("\"lpe\": {\"queries\": [{\"name\": \"all\"") != std::string::npos);
+        // Other queries, or none, are other outputs of other paths.
+        check_other_parts_refused(
+            dir, "--lpe \"all=C .* [LB]\" --lpe \"mirrored=C S .* [LB]\" --lpe \"one_bounce=C [DGS] [LB]\"",
+            "different --lpe queries", "a/ring_caustic.exr was rendered with --lpe queries and");
     }
 
     TEST_CASE("merge: overlapping ranges, another seed, scene, film or output, and adaptive renders are refused") {

@@ -536,7 +536,6 @@ TEST_SUITE("gpu") {
         refused("--lpe \"a=C L\" --capture off", "--lpe needs --capture on");
         refused("--lpe \"a=C L\" --adaptive bucket-floor --pilot 4 --budget 8",
                 "--lpe is for a render of a fixed budget");
-        refused("--lpe \"a=C L\" --pixel-bounds 0,4,0,4", "does not merge query channels");
         refused("--lpe \"a=C L\" --noise-threshold 0.1", "--lpe is for a render of a fixed budget");
         refused("--lpe \"a=C L\" --preview", "--lpe and --preview: the direct-light preview tallies no paths");
         refused("--taxonomy " + dir.file("lights.lpe") + " --preview", "--taxonomy and --preview");

@@ -279,6 +279,7 @@ PyFrame make_frame(const PyScene& s, const PyRender& r, Frame frame, uint32_t sp
     if (queries) {
         info.extra_channels = query_channels(*queries, *r.queries);
         info.extra_json.emplace_back("lpe", queries_json(*r.queries, queries->seconds));
+        info.queries = queries_json(*r.queries);
         channels.insert(channels.end(), info.extra_channels.begin(), info.extra_channels.end());
     }
     out.set_channels(std::move(channels));

@@ -7,7 +7,8 @@
 // input is turned back into the sums it came from; float storage makes the
 // result equal the single render to about 1e-7 relative, not bit for bit.
 // Renders with a user taxonomy (render --taxonomy) merge by its classes, named
-// by the header's vkmech.taxonomy record.
+// by the header's vkmech.taxonomy record; the query channels of render --lpe
+// (named by vkmech.lpe) by each pixel's finite samples, as the image.
 #include "cli/commands.hpp"
 
 #include "io/exr.hpp"
@@ -50,6 +51,10 @@ struct MergeInput {
     std::string taxonomy;
     std::vector<std::string> classes;
     std::string taxonomy_lines;
+    // render --lpe: the queries' record (vkmech.lpe) and the query channels it names, in the render's order;
+    // empty for a render without queries.
+    std::string queries;
+    std::vector<std::string> query_channels;
 };
 
 // An EXR, or an output directory holding exactly one.
@@ -106,12 +111,49 @@ void read_taxonomy(MergeInput& m) {
     }
 }
 
+// A render --lpe's record from its header: its queries name the lpe.* channels (each query's, then _rest's and
+// _overlap's, R, G, B).
+void read_queries(MergeInput& m) {
+    m.queries = attribute(m, "vkmech.lpe");
+    const bool has_channels = std::any_of(m.exr.channels.begin(), m.exr.channels.end(),
+                                          [](const auto& c) { return c.first.rfind("lpe.", 0) == 0; });
+    if (m.queries.empty()) {
+        if (has_channels)
+            throw UsageError("merge: " + m.path +
+                             " has query channels (lpe.*) but no record of its queries in the EXR header (vkmech.lpe): "
+                             "render it again with this vkmech to merge it");
+        return;
+    }
+    std::string why;
+    const std::optional<JsonValue> j = parse_json(m.queries, &why);
+    const JsonValue* queries = j ? j->find("queries") : nullptr;
+    if (!queries || queries->kind != JsonValue::Array || queries->array.empty())
+        throw UsageError("merge: " + m.path + ": its vkmech.lpe is not a record of --lpe queries (" +
+                         (j ? std::string("no queries") : why) + ")");
+    std::vector<std::string> groups;
+    for (const JsonValue& q : queries->array) {
+        const JsonValue* name = q.find("name");
+        if (!name || name->kind != JsonValue::String || name->string.empty())
+            throw UsageError("merge: " + m.path + ": its vkmech.lpe names a query that is not a name");
+        groups.push_back(name->string);
+    }
+    groups.insert(groups.end(), {"_rest", "_overlap"});
+    for (const std::string& g : groups)
+        for (const char* c : {".R", ".G", ".B"}) m.query_channels.push_back("lpe." + g + c);
+}
+
 // Refuses inputs that are not parts of one render: a different film, channels,
 // scene, seed, estimator or code, each said with both values.
 void check_same_render(const MergeInput& a, const MergeInput& b) {
     if (a.film_w != b.film_w || a.film_h != b.film_h)
         throw UsageError("merge: " + b.path + " is " + std::to_string(b.film_w) + "x" + std::to_string(b.film_h) +
                          ", " + a.path + " " + std::to_string(a.film_w) + "x" + std::to_string(a.film_h));
+    if (a.queries.empty() != b.queries.empty())
+        throw UsageError("merge: " + (a.queries.empty() ? b : a).path + " was rendered with --lpe queries and " +
+                         (a.queries.empty() ? a : b).path + " without: different outputs");
+    if (a.queries != b.queries)
+        throw UsageError("merge: " + b.path + " and " + a.path +
+                         " were rendered with different --lpe queries: their query channels are not the same paths");
     for (const auto* pair : {&a, &b}) {
         const MergeInput& x = *pair;
         const MergeInput& y = pair == &a ? b : a;
@@ -266,6 +308,34 @@ Frame in_film(const Frame& part, const MergeInput& in) {
     return f;
 }
 
+// render --lpe's query channels in the merged film: each part's means weighted back by its pixels' finite samples
+// (the query pass renders the image's samples again), summed, and divided by the film's.
+std::vector<ExrChannel> merged_query_channels(const std::vector<MergeInput>& in, const std::vector<Frame>& parts,
+                                              const Frame& film) {
+    std::vector<ExrChannel> out;
+    const size_t n = film.pixels.size();
+    std::vector<double> sum(n);
+    for (const std::string& name : in[0].query_channels) {
+        std::fill(sum.begin(), sum.end(), 0.0);
+        for (size_t k = 0; k < in.size(); ++k) {
+            const MergeInput& m = in[k];
+            auto it = m.exr.channels.find(name);
+            if (it == m.exr.channels.end() || it->second.size() != parts[k].pixels.size())
+                throw UsageError("merge: " + m.path + " has no channel '" + name + "' that its vkmech.lpe names");
+            const uint32_t w = m.window.x1 - m.window.x0;
+            for (size_t from = 0; from < it->second.size(); ++from) {
+                const size_t to = (m.window.y0 + from / w) * m.film_w + m.window.x0 + from % w;
+                sum[to] += static_cast<double>(it->second[from]) * parts[k].pixels[from].count;
+            }
+        }
+        ExrChannel c{name, std::vector<float>(n), false};
+        for (size_t i = 0; i < n; ++i)
+            c.data[i] = film.pixels[i].count > 0.0 ? static_cast<float>(sum[i] / film.pixels[i].count) : 0.0f;
+        out.push_back(std::move(c));
+    }
+    return out;
+}
+
 // Every pixel of the merged film must have the same samples: the parts cover it evenly.
 uint32_t even_spp(const Frame& f) {
     const PixelStats& p0 = f.pixels[0];
@@ -348,17 +418,25 @@ int cmd_merge(const MergeOptions& o) {
                 throw UsageError("merge: " + m.path + " is not the size of its pixel bounds " + bounds);
         }
         read_taxonomy(m);
+        read_queries(m);
         in.push_back(std::move(m));
     }
     for (size_t k = 1; k < in.size(); ++k) check_same_render(in[0], in[k]);
     check_disjoint(in);
     const std::string range = merged_range(in);
-    Frame frame = in_film(frame_from_exr(in[0]), in[0]);
-    for (size_t k = 1; k < in.size(); ++k) frame.merge(in_film(frame_from_exr(in[k]), in[k]));
+    std::vector<Frame> parts;
+    for (const MergeInput& m : in) parts.push_back(frame_from_exr(m));
+    Frame frame = in_film(parts[0], in[0]);
+    for (size_t k = 1; k < in.size(); ++k) frame.merge(in_film(parts[k], in[k]));
     const uint32_t spp = even_spp(frame);
     const std::string name = fs::path(in[0].path).stem().string();
     // The merged film is whole: no window of its own.
-    const RenderInfo info = merged_info(in[0], name, range, spp);
+    RenderInfo info = merged_info(in[0], name, range, spp);
+    if (!in[0].queries.empty()) {
+        info.extra_channels = merged_query_channels(in, parts, frame);
+        info.extra_json.emplace_back("lpe", in[0].queries);
+        info.queries = in[0].queries;
+    }
     std::optional<Descriptor> desc;
     std::optional<DescriptorSummary> summary;
     if (info.capture) {

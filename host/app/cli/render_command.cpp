@@ -368,10 +368,6 @@ int cmd_render(const RenderOptions& o) {
         throw UsageError(std::string(o.lpe.empty() ? "--taxonomy" : "--lpe") +
                          " and --preview: the direct-light preview tallies no paths by class; render without "
                          "--preview");
-    if (!o.lpe.empty() && (!o.sample_range.empty() || !o.pixel_bounds.empty()))
-        throw UsageError(
-            "--lpe with --sample-range or --pixel-bounds: `vkmech merge` does not merge query channels; render the "
-            "queries over the whole film and sample range");
     if (!o.adaptive.empty()) return cmd_render_adaptive(o);
     if (o.noise_threshold > 0) return cmd_render_threshold(o);
     // --sample-range A:B: samples [A, B) of the seed's stream, B - A of them (else [0, --spp)).
@@ -474,6 +470,7 @@ int cmd_render(const RenderOptions& o) {
     if (query_frame) {
         info.extra_channels = query_channels(*query_frame, *cr.queries);
         info.extra_json.emplace_back("lpe", queries_json(*cr.queries, query_frame->seconds));
+        info.queries = queries_json(*cr.queries);
     }
     WrittenFiles files =
         write_render_outputs(*set, info, frame, desc ? &*desc : nullptr, summary ? &*summary : nullptr);

@@ -87,7 +87,7 @@ struct TaxonomySource {
 TaxonomySource parse_taxonomy(const std::string& text, const std::string& file);
 TaxonomySource read_taxonomy(const std::filesystem::path& path);
 // `--lpe name=EXPR` style: one query a string, named `file` in messages (line k: the k-th string). Queries take no
-// properties, and `_rest` and `_overlap` are reserved (query channels, docs/lpe.md).
+// properties, `_rest` and `_overlap` are reserved (query channels, docs/lpe.md), and `other` is a name like any.
 TaxonomySource taxonomy_from_lines(const std::vector<std::string>& name_equals_expression, const std::string& file);
 
 constexpr uint32_t kDefaultMaxStates = 256;

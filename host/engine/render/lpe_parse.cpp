@@ -497,8 +497,9 @@ ClassProperties class_properties(std::string& name, const std::string& file, int
     return p;
 }
 
-// One `name = expression` line into `out`; blank and comment lines add nothing.
-void parse_line(const std::string& raw, int lineno, TaxonomySource& out, std::map<std::string, int>& seen) {
+// One `name = expression` line into `out`; blank and comment lines add nothing. `query`: an --lpe query, whose
+// channels are lpe.NAME.* (and which has no `other` class to collide with), not a taxonomy's class.
+void parse_line(const std::string& raw, int lineno, TaxonomySource& out, std::map<std::string, int>& seen, bool query) {
     std::string content = strip_comment(raw);
     while (!content.empty() && (content.back() == ' ' || content.back() == '\t' || content.back() == '\r'))
         content.pop_back();
@@ -513,11 +514,11 @@ void parse_line(const std::string& raw, int lineno, TaxonomySource& out, std::ma
     if (name.empty()) throw LpeError(out.file, lineno, int(start) + 1, "expected a class name before '='");
     if (!is_identifier(name))
         throw LpeError(out.file, lineno, int(start) + 1,
-                       "`" + name +
-                           "` is not a class name: use letters, digits and '_', not starting with a digit (it "
-                           "becomes the EXR channel bucket." +
-                           name + ")");
-    if (name == "other")
+                       "`" + name + "` is not a " + (query ? "query" : "class") +
+                           " name: use letters, digits and '_', not starting with a digit (it becomes the EXR "
+                           "channel " +
+                           (query ? "lpe." : "bucket.") + name + ".R)");
+    if (name == "other" && !query)
         throw LpeError(out.file, lineno, int(start) + 1,
                        "`other` is reserved: it is the class of the paths that no line matches");
     if (auto it = seen.find(name); it != seen.end())
@@ -546,7 +547,7 @@ TaxonomySource parse_taxonomy(const std::string& text, const std::string& file) 
     std::istringstream in(text);
     std::string line;
     int lineno = 0;
-    while (std::getline(in, line)) parse_line(line, ++lineno, out, seen);
+    while (std::getline(in, line)) parse_line(line, ++lineno, out, seen, /*query=*/false);
     require_lines(out);
     return out;
 }
@@ -566,7 +567,7 @@ TaxonomySource taxonomy_from_lines(const std::vector<std::string>& name_equals_e
     int lineno = 0;
     for (const std::string& l : name_equals_expression) {
         size_t before = out.lines.size();
-        parse_line(l, ++lineno, out, seen);
+        parse_line(l, ++lineno, out, seen, /*query=*/true);
         if (out.lines.size() == before) throw LpeError(file, lineno, 0, "expected `name = expression`");
         const TaxonomyLine& q = out.lines.back();
         const int name_column = int(first_non_space(l, 0)) + 1;

@@ -320,6 +320,7 @@ std::map<std::string, std::vector<std::string>> render_attributes(const RenderIn
     if (!info.lights_at_infinity.empty()) attrs["vkmech.lightsAtInfinity"] = {info.lights_at_infinity};
     if (d) attrs["vkmech.dominantLegend"] = {dominant_legend_json(d->class_names)};
     if (!info.taxonomy.empty()) attrs["vkmech.taxonomy"] = {info.taxonomy};
+    if (!info.queries.empty()) attrs["vkmech.lpe"] = {info.queries};
     if (const Provenance& p = info.provenance; !p.version.empty()) {
         attrs["vkmech.version"] = {p.version};
         attrs["vkmech.codeDigest"] = {p.code_digest};

@@ -72,6 +72,9 @@ struct RenderInfo {
     // render --taxonomy: the taxonomy's record (taxonomy_json: file, lines, classes, states), in the JSON
     // ("taxonomy") and the EXR header (vkmech.taxonomy), so that `vkmech merge` knows the classes.
     std::string taxonomy;
+    // render --lpe: the queries' record (queries_json without the pass's seconds) for the EXR header
+    // (vkmech.lpe), so that `vkmech merge` knows the query channels and refuses parts of other queries.
+    std::string queries;
     Provenance provenance;  // empty version: not recorded
 };
 

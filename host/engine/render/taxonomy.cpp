@@ -199,7 +199,9 @@ std::string queries_json(const SceneTaxonomy& queries, double seconds) {
     o << "], \"combinations\": [";
     for (size_t k = 0; k + 1 < queries.compiled.class_names.size(); ++k)
         o << (k ? ", " : "") << "\"" << json_escape(queries.compiled.class_names[k]) << "\"";
-    o << "], \"states\": " << queries.compiled.state_count << ", \"seconds\": " << seconds << "}";
+    o << "], \"states\": " << queries.compiled.state_count;
+    if (seconds >= 0.0) o << ", \"seconds\": " << seconds;
+    o << "}";
     return o.str();
 }
 

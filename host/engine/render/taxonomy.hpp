@@ -60,8 +60,9 @@ std::vector<ExrChannel> query_channels(const Frame& frame, const SceneTaxonomy& 
 // The outputs' record of it (the JSON's "taxonomy"): {"file", "lines": [{"name", "expression"[, "heavy":
 // true][, "constant": true]}], "classes", "states"}.
 std::string taxonomy_json(const SceneTaxonomy& t);
-// The JSON's record of `render --lpe` queries: {"queries": [{"name", "expression"}], "combinations": [the
-// classes but other], "states", "seconds"} (`seconds`: the query pass's render time).
-std::string queries_json(const SceneTaxonomy& queries, double seconds);
+// The record of `render --lpe` queries: {"queries": [{"name", "expression"}], "combinations": [the classes but
+// other], "states"[, "seconds"]}. `seconds`, the query pass's render time, is in the JSON summary's record and
+// left out (< 0) of the EXR header's (vkmech.lpe), which `vkmech merge` compares between parts of one render.
+std::string queries_json(const SceneTaxonomy& queries, double seconds = -1.0);
 
 }  // namespace vkmech
