@@ -55,6 +55,17 @@ TEST_CASE("robust-adaptive: the rule picks k = 1 on delta_mediated and specular_
     CHECK_FALSE(is_rare_tail(gpu::NO_LABEL));
     CHECK_THROWS_AS(adaptive_mom_k(gpu::BUCKET_DIRECT, 4), std::invalid_argument);  // MoM not defined at N0 = 4
     CHECK(rare_tail_pixels({4, 5, 3, 255, 4, 1}) == 3);
+    // A taxonomy's own rare-tail classes (its `[rare]` lines; ClassTraits::rare): here class 3 alone.
+    const uint32_t three = 1u << 3;
+    CHECK(is_rare_tail(3, three));
+    CHECK_FALSE(is_rare_tail(gpu::BUCKET_DELTA_MEDIATED, three));
+    CHECK_FALSE(is_rare_tail(gpu::NO_LABEL, 0xFFu));
+    CHECK(adaptive_mom_k(3, 16, three) == 1);
+    CHECK(adaptive_mom_k(gpu::BUCKET_DELTA_MEDIATED, 16, three) == 4);
+    CHECK(rare_tail_pixels({4, 5, 3, 255, 4, 1}, three) == 1);
+    CHECK(rare_tail_pixels({4, 5, 3, 255, 4, 1}, 0u) == 0);
+    CHECK(adaptive_mom_score({1.0, 2.0, 3.0}, {10.0, 20.0, 30.0}, {3, 4, 255}, three) ==
+          std::vector<double>{1.0, 20.0, 30.0});
     CHECK(std::string(to_string(Strategy::RobustAdaptive)) == "robust-adaptive");
     CHECK(parse_strategy("robust-adaptive") == Strategy::RobustAdaptive);
     CHECK(needs_mom(Strategy::RobustAdaptive));

@@ -342,6 +342,7 @@ TEST_CASE("lpe: --lpe queries take no properties and may not be named _rest or _
         return std::string("no error");
     };
     CHECK(error_of_lines({"a = C L", "b [heavy] = C D L"}).find("2:3: a query takes no properties") == 0);
+    CHECK(error_of_lines({"b [rare] = C D L"}).find("1:3: a query takes no properties") == 0);
     CHECK(error_of_lines({" _rest = C L"}).find("1:2: `_rest` is reserved") == 0);
     CHECK(error_of_lines({"_overlap=C L"}).find("1:1: `_overlap` is reserved") == 0);
     // A query's name becomes lpe.NAME.*, and `other`, a taxonomy's implicit class, is a query name like any.
@@ -494,10 +495,15 @@ TEST_CASE("lpe: the taxonomy file: comments, blank lines, unique identifier name
     for (int i = 0; i < 256; ++i) many += "c" + std::to_string(i) + " = C L\n";
     CHECK(error_of(many).find("256:1: a taxonomy has at most 255 lines") == 0);
 
-    // Class properties: `name [heavy constant] = ...`, in any order, for the allocation strategies.
-    TaxonomySource props =
-        parse_taxonomy("a [heavy] = C D L\nb [constant heavy]= C L\nc = C S L\nd[ constant ] = C G L\n", "p.lpe");
-    REQUIRE(props.lines.size() == 4);
+    // Class properties: `name [heavy constant rare] = ...`, in any order, for the allocation strategies.
+    TaxonomySource props = parse_taxonomy(
+        "a [heavy] = C D L\nb [constant heavy]= C L\nc = C S L\nd[ constant ] = C G L\ne [rare heavy] = C S D L\n",
+        "p.lpe");
+    REQUIRE(props.lines.size() == 5);
+    for (size_t i = 0; i < 4; ++i) CHECK_FALSE(props.lines[i].rare);
+    CHECK(props.lines[4].rare);
+    CHECK(props.lines[4].heavy);
+    CHECK_FALSE(props.lines[4].constant);
     CHECK(props.lines[0].name == "a");
     CHECK(props.lines[0].heavy);
     CHECK_FALSE(props.lines[0].constant);
@@ -510,9 +516,9 @@ TEST_CASE("lpe: the taxonomy file: comments, blank lines, unique identifier name
     CHECK_FALSE(props.lines[3].heavy);
     CHECK(props.lines[3].constant);
     CHECK(error_of("a [fast] = C L") ==
-          "1:4: unknown class property `fast`: the properties are `heavy` and `constant`");
+          "1:4: unknown class property `fast`: the properties are `heavy`, `constant` and `rare`");
     CHECK(error_of("  a [heavy  fast] = C L") ==
-          "1:13: unknown class property `fast`: the properties are `heavy` and `constant`");
+          "1:13: unknown class property `fast`: the properties are `heavy`, `constant` and `rare`");
     CHECK(error_of("a] = C L") == "1:2: a ']' without '[' before '='");
     CHECK(error_of(" [heavy] = C L") == "1:2: expected a class name before '='");
     CHECK(error_of("a [heavy] b = C L").find("1:1: `a [heavy] b` is not a class name") == 0);

@@ -117,18 +117,22 @@ TEST_CASE("taxonomy: the GPU words hold the DFA, the classes and the labels of t
                          lpe::LpeError);
 }
 
-TEST_CASE("taxonomy: paper.lpe and paper-literal.lpe declare the paper's heavy family and emitter_direct constant") {
+TEST_CASE(
+    "taxonomy: paper.lpe and paper-literal.lpe declare the paper's heavy family, emitter_direct constant and the "
+    "rare tail") {
     for (const char* file : {"taxonomies/paper.lpe", "taxonomies/paper-literal.lpe"}) {
         CAPTURE(std::string(file));
         const SceneTaxonomy t = compile_scene_taxonomy(lpe::read_taxonomy(source_path(file)), testing::quad_scene());
         CHECK(t.heavy_classes() == gpu::HEAVY_BUCKETS);
         CHECK(t.constant_classes() == (1u << gpu::BUCKET_EMITTER_DIRECT));
+        CHECK(t.rare_classes() == ((1u << gpu::BUCKET_DELTA_MEDIATED) | (1u << gpu::BUCKET_SPECULAR_DIRECT)));
     }
-    // A line declares both, or neither.
-    const SceneTaxonomy u =
-        compile_scene_taxonomy(taxonomy_text("a = C D L\nb [heavy constant] = C L\n"), testing::quad_scene());
+    // A line declares any of them, or none.
+    const SceneTaxonomy u = compile_scene_taxonomy(
+        taxonomy_text("a = C D L\nb [heavy constant] = C L\nc [rare] = C S L\n"), testing::quad_scene());
     CHECK(u.heavy_classes() == 2u);
     CHECK(u.constant_classes() == 2u);
+    CHECK(u.rare_classes() == 4u);
 }
 
 TEST_CASE("taxonomy: a shape the taxonomy names gets its own material, so its events answer to its id") {
@@ -398,12 +402,12 @@ TEST_SUITE("gpu") {
         // declared properties, not the slots, can make the floor and the guard act as the built-in ones:
         // the same allocation (spp) and image. Without the properties the allocation differs.
         const std::string reversed =
-            "specular_direct [heavy] = C S+ [LB]\ndelta_mediated [heavy] = C (S+ [DG] | [DG]+ S) .* [LB]\n"
+            "specular_direct [heavy rare] = C S+ [LB]\ndelta_mediated [heavy rare] = C (S+ [DG] | [DG]+ S) .* [LB]\n"
             "glossy [heavy] = C [DG]+ G [LB]\ndiffuse_indirect = C [DG]+ D [LB]\ndirect = C [DG] [LB]\n"
             "emitter_direct [constant] = C [LB]\n";
         std::ofstream(dir.file("reversed.lpe")) << reversed;
         std::string bare = reversed;
-        for (const std::string p : {" [heavy]", " [constant]"})
+        for (const std::string p : {" [heavy rare]", " [heavy]", " [constant]"})
             for (size_t at = bare.find(p); at != std::string::npos; at = bare.find(p)) bare.erase(at, p.size());
         std::ofstream(dir.file("bare.lpe")) << bare;
         auto planes = [&](const std::string& out) {
@@ -450,12 +454,24 @@ TEST_SUITE("gpu") {
         const std::string js((std::istreambuf_iterator<char>(json)), std::istreambuf_iterator<char>());
         CHECK(js.find("\"name\": \"glossy\", \"expression\": \"C [DG]+ G [LB]\", \"heavy\": true") !=
               std::string::npos);
-        // robust-adaptive's rule names two buckets; a taxonomy's classes are not those.
-        const auto robust = testing::run_cli(
-            "render --scene glass_caustic --res 24 --adaptive robust-adaptive --pilot 16 --budget 8 --out " +
-            dir.file("r") + paper);
-        CHECK(robust.code == 2);
-        CHECK(robust.output.find("--taxonomy and --adaptive robust-adaptive") != std::string::npos);
+        // robust-adaptive keeps the plain variance on the [rare] classes: the reversed lines declare the
+        // paper's two (delta_mediated, specular_direct) in other slots and allocate as the buckets do;
+        // without the property robust-adaptive is robust-var, and allocates otherwise here.
+        const std::string robust =
+            "render --scene glass_caustic --res 24 --adaptive robust-adaptive --pilot 16 --budget 8 --out ";
+        const auto rb = testing::run_cli(robust + dir.file("r_b"));
+        REQUIRE(rb.code == 0);
+        CHECK(rb.output.find("k = 1 (the plain pilot variance) on ") != std::string::npos);
+        const auto rt = testing::run_cli(robust + dir.file("r_rev") + " --taxonomy " + dir.file("reversed.lpe"));
+        CAPTURE(rt.output);
+        REQUIRE(rt.code == 0);
+        CHECK(rt.output.find("pilot pixels of the taxonomy's [rare] classes, k = ") != std::string::npos);
+        CHECK(planes("r_rev") == planes("r_b"));
+        const auto rn = testing::run_cli(robust + dir.file("r_bare") + " --taxonomy " + dir.file("bare.lpe"));
+        REQUIRE(rn.code == 0);
+        CHECK(rn.output.find("robust-adaptive: no pilot pixels of the taxonomy's [rare] classes, identical to "
+                             "robust-var") != std::string::npos);
+        CHECK(planes("r_bare")[0] != planes("r_b")[0]);
     }
 }
 TEST_SUITE("gpu") {

@@ -36,18 +36,23 @@
 
 namespace vkmech::alloc {
 
-// True for the rare-tail buckets delta_mediated and specular_direct, where
-// robust-adaptive keeps the plain variance (k = 1); false for every other
-// bucket and for gpu::NO_LABEL.
-constexpr bool is_rare_tail(uint8_t label) {
-    return label == gpu::BUCKET_DELTA_MEDIATED || label == gpu::BUCKET_SPECULAR_DIRECT;
+// The rare-tail buckets, a bit per class: delta_mediated and specular_direct. A user taxonomy
+// declares its own with `[rare]` (docs/lpe.md; ClassTraits::rare, floor.hpp); every function
+// below takes that set, the paper's by default.
+constexpr uint32_t kRareTailBuckets = (1u << gpu::BUCKET_DELTA_MEDIATED) | (1u << gpu::BUCKET_SPECULAR_DIRECT);
+
+// True for a label in the rare-tail set `rare` (the paper's: delta_mediated and specular_direct),
+// where robust-adaptive keeps the plain variance (k = 1); false for every other class and for
+// gpu::NO_LABEL.
+constexpr bool is_rare_tail(uint8_t label, uint32_t rare = kRareTailBuckets) {
+    return label < gpu::BUCKET_COUNT && ((rare >> label) & 1u) != 0;
 }
 
 // The block count robust-adaptive uses for a pixel with pilot label `label`
 // at pilot N0 = n0: 1 for a rare-tail label, mom_block_count(n0) otherwise
 // (unlabelled included). Throws std::invalid_argument where median-of-means is
 // not defined for n0 (mom_defined, e.g. N0 = 4).
-int adaptive_mom_k(uint8_t label, int n0);
+int adaptive_mom_k(uint8_t label, int n0, uint32_t rare = kRareTailBuckets);
 
 // D(p) = plain_var(p) (k = 1) where labels[p] is rare-tail, mom_var(p)
 // (k = ceil(sqrt(N0))) everywhere else; each value copied bit for bit. With no
@@ -55,10 +60,10 @@ int adaptive_mom_k(uint8_t label, int n0);
 // rare-tail pixels plain_var exactly. Throws std::invalid_argument if the
 // sizes differ.
 std::vector<double> adaptive_mom_score(const std::vector<double>& plain_var, const std::vector<double>& mom_var,
-                                       const std::vector<uint8_t>& labels);
+                                       const std::vector<uint8_t>& labels, uint32_t rare = kRareTailBuckets);
 
 // The number of pixels with a rare-tail label (where robust-adaptive differs
 // from robust-var; 0: identical to robust-var bit for bit).
-size_t rare_tail_pixels(const std::vector<uint8_t>& labels);
+size_t rare_tail_pixels(const std::vector<uint8_t>& labels, uint32_t rare = kRareTailBuckets);
 
 }  // namespace vkmech::alloc

@@ -12,6 +12,7 @@
 // explains any gain.
 #pragma once
 
+#include "allocation/adaptive_mom.hpp"
 #include "shared/types.h"
 
 #include <cstdint>
@@ -21,7 +22,7 @@ namespace vkmech::alloc {
 
 // The label classes the floor and the guard treat apart, a bit per class: the paper's buckets by
 // default; a user taxonomy's classes as its lines declare them (docs/lpe.md, `[heavy]` and
-// `[constant]`).
+// `[constant]`, `[rare]`).
 struct ClassTraits {
     // The heavy-tailed family, which the floor floors (gpu::HEAVY_BUCKETS: glossy, delta_mediated,
     // specular_direct).
@@ -29,6 +30,9 @@ struct ClassTraits {
     // Classes whose energy is constant per pixel (an emitter seen directly): a pixel whose pilot energy
     // lies in them alone may truly have zero variance, and the guard trusts it (guard.hpp).
     uint32_t constant = 1u << gpu::BUCKET_EMITTER_DIRECT;
+    // The rare-tail classes, where robust-adaptive keeps the plain pilot variance (adaptive_mom.hpp:
+    // delta_mediated, specular_direct).
+    uint32_t rare = kRareTailBuckets;
 };
 
 // True for a label in the heavy-tailed family `heavy` (a bit per class; the paper's by default);

@@ -60,8 +60,6 @@ bool needs_mom(Strategy s) {
            s == Strategy::RobustAdaptive;
 }
 
-bool names_paper_buckets(Strategy s) { return s == Strategy::RobustAdaptive; }
-
 namespace {
 
 template <class T>
@@ -132,7 +130,7 @@ std::vector<double> strategy_score(Strategy s, const ScoreInputs& in, uint64_t p
         }
         case Strategy::RobustAdaptive:
             return adaptive_mom_score(need(in.pilot_var, s, "pilot_var"), need(in.mom_var, s, "mom_var"),
-                                      need(in.pilot_labels, s, "pilot_labels"));
+                                      need(in.pilot_labels, s, "pilot_labels"), in.rare);
     }
     VKM_ASSERT(false, "alloc::strategy_score: unknown strategy " + std::to_string(static_cast<int>(s)));
 }

@@ -2,6 +2,7 @@
 // and the score D(p) each one hands to the Neyman allocator (neyman.hpp).
 #pragma once
 
+#include "allocation/adaptive_mom.hpp"
 #include "shared/types.h"
 
 #include <cstdint>
@@ -43,11 +44,6 @@ Strategy parse_strategy(const std::string& name);
 // N0 = 4, see mom.hpp).
 bool needs_mom(Strategy s);
 
-// True for the strategies whose rule names the paper's buckets themselves (robust-adaptive's
-// delta_mediated and specular_direct), so that they cannot run on a taxonomy's classes; the others
-// read a taxonomy's classes through ClassTraits (floor.hpp).
-bool names_paper_buckets(Strategy s);
-
 // Inputs of strategy_score, all per pixel and of one size; a strategy reads
 // only the ones it needs, the others may be null.
 struct ScoreInputs {
@@ -59,6 +55,7 @@ struct ScoreInputs {
     const std::vector<uint8_t>* untrusted = nullptr;         // PilotDiagnosis::untrusted_map (guard.hpp)
     uint32_t pilot_spp = 0;                                  // N0, for shrink's noise model (0: not given)
     uint32_t heavy = gpu::HEAVY_BUCKETS;  // the floor's heavy-tailed classes (ClassTraits::heavy, floor.hpp)
+    uint32_t rare = kRareTailBuckets;     // robust-adaptive's rare-tail classes (ClassTraits::rare)
 };
 
 // The score D(p) of strategy s:
@@ -73,7 +70,7 @@ struct ScoreInputs {
 //   RobustPlacebo -> bucket_floor(*mom_var, placebo_labels(*pilot_labels, placebo_seed))
 //   Guarded       -> guard_score(bucket_floor(*pilot_var, *pilot_labels), *untrusted)
 //   Shrink        -> shrink_score(*pilot_var, *pilot_labels, pilot_spp)
-//   RobustAdaptive -> adaptive_mom_score(*pilot_var, *mom_var, *pilot_labels)
+//   RobustAdaptive -> adaptive_mom_score(*pilot_var, *mom_var, *pilot_labels, rare)
 //   ShrinkGlobal  -> shrink_score(*pilot_var, one_population(*pilot_labels), pilot_spp): the same
 //                    shrinkage towards one prior fitted over every labelled pixel, so what shrink
 //                    gains beyond it is the label's (the paper's bucket-free global-shrinkage placebo)

@@ -361,7 +361,6 @@ PyFrame adaptive(const PyScene& s, const std::string& strategy_name, uint32_t pi
                  const std::string& light_selection, const std::string& end_vertex, std::optional<uint32_t> device,
                  const std::string& kernel, uint32_t batch, const ProgressFn& progress, const std::string& taxonomy) {
     const alloc::Strategy strategy = alloc::parse_strategy(strategy_name);  // ValueError on an unknown name
-    if (!taxonomy.empty()) check_strategy_for_taxonomy(strategy);           // std::invalid_argument: ValueError
     if (strategy == alloc::Strategy::Oracle || strategy == alloc::Strategy::LabelOracle)
         throw py::value_error(strategy_name + " needs a converged reference: a control of the allocation study");
     // The CLI's ranges (render --pilot, --budget, --floor, --pilot-draw, --batch).

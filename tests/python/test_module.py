@@ -270,7 +270,7 @@ def test_adaptive_allocates_the_budget_and_matches_the_cli(tmp_path):
     with pytest.raises(ValueError):
         vkmech.adaptive(scene, "oracle", res=24)
     # Under the paper's buckets written as a taxonomy ([heavy] and [constant] declared), the same
-    # allocation and image, bit for bit; robust-adaptive names buckets and refuses a taxonomy.
+    # allocation and image, bit for bit, robust-adaptive's ([rare] declared) too.
     paper = os.path.join(ROOT, "taxonomies", "paper.lpe")
     t = vkmech.adaptive(scene, "guarded", pilot=4, budget=4, res=24, taxonomy=paper)
     g = vkmech.adaptive(scene, "guarded", pilot=4, budget=4, res=24)
@@ -284,8 +284,9 @@ def test_adaptive_allocates_the_budget_and_matches_the_cli(tmp_path):
                    "emitter_direct [constant] = C [LB]\n")
     r = vkmech.adaptive(scene, "guarded", pilot=4, budget=4, res=24, taxonomy=str(rev))
     assert np.array_equal(r["spp"], g["spp"]) and np.array_equal(r["R"], g["R"])
-    with pytest.raises(ValueError, match="names two of the paper's buckets"):
-        vkmech.adaptive(scene, "robust-adaptive", pilot=16, res=24, taxonomy=paper)
+    t = vkmech.adaptive(scene, "robust-adaptive", pilot=16, budget=4, res=24, taxonomy=paper)
+    g = vkmech.adaptive(scene, "robust-adaptive", pilot=16, budget=4, res=24)
+    assert np.array_equal(t["spp"], g["spp"]) and np.array_equal(t["R"], g["R"])
 
 
 def test_label_agreement_on_hand_made_maps():

@@ -35,6 +35,7 @@ AdaptivePlan plan_from_pilot(alloc::Strategy s, const Pilot& pilot, const alloc:
                              const alloc::ClassTraits& traits) {
     alloc::ScoreInputs in;
     in.heavy = traits.heavy;
+    in.rare = traits.rare;
     in.pilot_var = &pilot.var;
     in.pilot_labels = &pilot.labels;
     if (alloc::needs_mom(s)) in.mom_var = &pilot.mom_var;
@@ -48,16 +49,9 @@ alloc::ClassTraits class_traits(const SceneTaxonomy* taxonomy) {
     if (taxonomy) {
         t.heavy = taxonomy->heavy_classes();
         t.constant = taxonomy->constant_classes();
+        t.rare = taxonomy->rare_classes();
     }
     return t;
-}
-
-void check_strategy_for_taxonomy(alloc::Strategy s) {
-    if (alloc::names_paper_buckets(s))
-        throw std::invalid_argument(
-            std::string(alloc::to_string(s)) +
-            "'s rule names two of the paper's buckets (delta_mediated, specular_direct), which a taxonomy's classes "
-            "are not; the other strategies read a taxonomy's [heavy] and [constant] classes (docs/lpe.md)");
 }
 
 std::string adaptive_sample_range(const std::vector<uint32_t>& n) {

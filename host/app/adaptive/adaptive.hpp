@@ -36,13 +36,9 @@ AdaptivePlan plan_from_pilot(alloc::Strategy s, const Pilot& pilot, const alloc:
                              uint32_t extra_spp, uint32_t floor, uint32_t pilot_draw,
                              const alloc::ClassTraits& traits = {});
 
-// The heavy and constant classes of a render's labels: a taxonomy's declared ones, or, with none, the
-// paper's buckets' (the ClassTraits defaults).
+// The heavy, constant and rare-tail classes of a render's labels: a taxonomy's declared ones, or, with
+// none, the paper's buckets' (the ClassTraits defaults).
 alloc::ClassTraits class_traits(const SceneTaxonomy* taxonomy);
-
-// Throws std::invalid_argument, saying why, when strategy `s` cannot allocate by a taxonomy's classes
-// (alloc::names_paper_buckets).
-void check_strategy_for_taxonomy(alloc::Strategy s);
 
 // The provenance's sample range of a render with per-pixel counts n(p): "0:max n (adaptive: ...)".
 std::string adaptive_sample_range(const std::vector<uint32_t>& n);

@@ -157,19 +157,19 @@ void print_diagnosis(alloc::Strategy s, const alloc::PilotDiagnosis& d) {
 }
 
 // docs/descriptor.md §6.7: which block count robust-adaptive uses where, from the pilot labels alone.
-void print_adaptive_k(const std::vector<uint8_t>& labels, uint32_t n0) {
-    const size_t rare = alloc::rare_tail_pixels(labels);
+// `rare`: the rare-tail classes (ClassTraits::rare); `taxonomy`: whether they are a taxonomy's `[rare]` classes
+// rather than the paper's delta_mediated and specular_direct.
+void print_adaptive_k(const std::vector<uint8_t>& labels, uint32_t n0, uint32_t rare_classes, bool taxonomy) {
+    const size_t rare = alloc::rare_tail_pixels(labels, rare_classes);
     const int k = alloc::mom_block_count(static_cast<int>(n0));
+    const char* which = taxonomy ? "of the taxonomy's [rare] classes" : "labelled delta_mediated or specular_direct";
     if (rare == 0)
-        std::printf(
-            "robust-adaptive: no delta_mediated or specular_direct pilot pixels, identical to robust-var "
-            "(k = %d everywhere)\n",
-            k);
+        std::printf("robust-adaptive: no pilot pixels %s, identical to robust-var (k = %d everywhere)\n", which, k);
     else
         std::printf(
-            "robust-adaptive: k = 1 (the plain pilot variance) on %zu pilot pixels labelled delta_mediated or "
-            "specular_direct, k = %d (median-of-means, as robust-var) on the other %zu\n",
-            rare, k, labels.size() - rare);
+            "robust-adaptive: k = 1 (the plain pilot variance) on %zu pilot pixels %s, k = %d (median-of-means, as "
+            "robust-var) on the other %zu\n",
+            rare, which, k, labels.size() - rare);
 }
 
 struct UntrustedAllocation {
@@ -521,13 +521,6 @@ int cmd_render_adaptive(const RenderOptions& o) {
     if (strategy == alloc::Strategy::Oracle || strategy == alloc::Strategy::LabelOracle)
         throw UsageError(std::string("--adaptive ") + alloc::to_string(strategy) +
                          " needs a converged reference; it is a control of `vkmech study allocation`, not a renderer");
-    if (!o.taxonomy.empty()) {
-        try {
-            check_strategy_for_taxonomy(strategy);
-        } catch (const std::invalid_argument& e) {
-            throw UsageError(std::string("--taxonomy and --adaptive ") + alloc::to_string(strategy) + ": " + e.what());
-        }
-    }
     const bool robust = alloc::needs_mom(strategy);
     if (robust) {
         try {
@@ -618,7 +611,8 @@ int cmd_render_adaptive(const RenderOptions& o) {
     }
 
     print_diagnosis(strategy, diag);
-    if (strategy == alloc::Strategy::RobustAdaptive) print_adaptive_k(pilot.labels, o.pilot);
+    if (strategy == alloc::Strategy::RobustAdaptive)
+        print_adaptive_k(pilot.labels, o.pilot, traits.rare, cr.taxonomy.has_value());
 
     AdaptivePlan plan = plan_from_pilot(strategy, pilot, diag, o.pilot, o.budget, o.floor, o.pilot_draw, traits);
     const double uniform_share = static_cast<double>(plan.total) / static_cast<double>(pixels);

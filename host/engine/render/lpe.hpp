@@ -72,11 +72,14 @@ struct TaxonomyLine {
     std::string expression;
     int line = 0;               // 1-based line in the file
     int expression_column = 0;  // 1-based column of the expression's first character
-    // `name [heavy constant] = ...`: properties the allocation strategies read (docs/lpe.md). heavy: the
-    // class is heavy-tailed (the bucket floor floors it); constant: its energy is constant per pixel
-    // (an emitter seen directly), so the guard trusts a zero variance of a pixel lit by it alone.
+    // `name [heavy constant rare] = ...`: properties the allocation strategies read (docs/lpe.md). heavy:
+    // the class is heavy-tailed (the bucket floor floors it); constant: its energy is constant per pixel
+    // (an emitter seen directly), so the guard trusts a zero variance of a pixel lit by it alone; rare:
+    // its variance is a rare large sample's, which robust-adaptive keeps (the plain pilot variance, not
+    // median-of-means).
     bool heavy = false;
     bool constant = false;
+    bool rare = false;
 };
 struct TaxonomySource {
     std::string file;  // for messages

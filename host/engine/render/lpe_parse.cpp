@@ -463,10 +463,10 @@ std::string strip_comment(const std::string& line) {
 }
 
 struct ClassProperties {
-    bool heavy = false, constant = false;
+    bool heavy = false, constant = false, rare = false;
 };
 
-// `name [heavy constant]`: strips the bracketed properties off `name` (trimmed) and reads them.
+// `name [heavy constant rare]`: strips the bracketed properties off `name` (trimmed) and reads them.
 ClassProperties class_properties(std::string& name, const std::string& file, int lineno, int start) {
     ClassProperties p;
     if (name.empty() || name.back() != ']') return p;
@@ -487,9 +487,11 @@ ClassProperties class_properties(std::string& name, const std::string& file, int
             p.heavy = true;
         else if (w == "constant")
             p.constant = true;
+        else if (w == "rare")
+            p.rare = true;
         else
             throw LpeError(file, lineno, start + int(at) + 1,
-                           "unknown class property `" + w + "`: the properties are `heavy` and `constant`");
+                           "unknown class property `" + w + "`: the properties are `heavy`, `constant` and `rare`");
         at = end;
     }
     name.resize(open);
@@ -530,7 +532,8 @@ void parse_line(const std::string& raw, int lineno, TaxonomySource& out, std::ma
         throw LpeError(out.file, lineno, int(start) + 1,
                        "a taxonomy has at most " + std::to_string(kMaxLines) + " lines (classes)");
     seen.emplace(name, lineno);
-    out.lines.push_back(TaxonomyLine{name, content.substr(expr), lineno, int(expr) + 1, props.heavy, props.constant});
+    out.lines.push_back(
+        TaxonomyLine{name, content.substr(expr), lineno, int(expr) + 1, props.heavy, props.constant, props.rare});
 }
 
 void require_lines(const TaxonomySource& s) {
@@ -571,9 +574,9 @@ TaxonomySource taxonomy_from_lines(const std::vector<std::string>& name_equals_e
         if (out.lines.size() == before) throw LpeError(file, lineno, 0, "expected `name = expression`");
         const TaxonomyLine& q = out.lines.back();
         const int name_column = int(first_non_space(l, 0)) + 1;
-        if (q.heavy || q.constant)
+        if (q.heavy || q.constant || q.rare)
             throw LpeError(file, lineno, int(l.find('[')) + 1,
-                           "a query takes no properties: [heavy] and [constant] are for a taxonomy's classes");
+                           "a query takes no properties: [heavy], [constant] and [rare] are for a taxonomy's classes");
         if (q.name == "_rest" || q.name == "_overlap")
             throw LpeError(file, lineno, name_column,
                            "`" + q.name + "` is reserved: lpe." + q.name + " is the channel of the paths " +

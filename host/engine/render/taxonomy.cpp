@@ -172,6 +172,8 @@ uint32_t SceneTaxonomy::heavy_classes() const { return classes_with(&lpe::Taxono
 
 uint32_t SceneTaxonomy::constant_classes() const { return classes_with(&lpe::TaxonomyLine::constant); }
 
+uint32_t SceneTaxonomy::rare_classes() const { return classes_with(&lpe::TaxonomyLine::rare); }
+
 std::string taxonomy_json(const SceneTaxonomy& t) {
     std::ostringstream o;
     o << "{\"file\": \"" << json_escape(t.source.file) << "\", \"lines\": [";
@@ -179,7 +181,7 @@ std::string taxonomy_json(const SceneTaxonomy& t) {
         const lpe::TaxonomyLine& l = t.source.lines[i];
         o << (i ? ", " : "") << "{\"name\": \"" << json_escape(l.name) << "\", \"expression\": \""
           << json_escape(l.expression) << "\"" << (l.heavy ? ", \"heavy\": true" : "")
-          << (l.constant ? ", \"constant\": true" : "") << "}";
+          << (l.constant ? ", \"constant\": true" : "") << (l.rare ? ", \"rare\": true" : "") << "}";
     }
     o << "], \"classes\": [";
     for (size_t i = 0; i < t.compiled.class_names.size(); ++i)

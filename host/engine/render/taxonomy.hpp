@@ -32,10 +32,11 @@ struct SceneTaxonomy {
     lpe::CompiledTaxonomy compiled;
     std::vector<uint32_t> words;  // BINDING_TAXONOMY's contents
     const std::vector<std::string>& class_names() const { return compiled.class_names; }
-    // The classes its lines declare `[heavy]` and `[constant]`, a bit per class (class k is line k;
-    // `other` is neither): the allocation strategies' alloc::ClassTraits.
+    // The classes its lines declare `[heavy]`, `[constant]` and `[rare]`, a bit per class (class k is
+    // line k; `other` is none of them): the allocation strategies' alloc::ClassTraits.
     uint32_t heavy_classes() const;
     uint32_t constant_classes() const;
+    uint32_t rare_classes() const;
 
 private:
     uint32_t classes_with(bool lpe::TaxonomyLine::*property) const;
