@@ -21,6 +21,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -303,7 +304,9 @@ TEST_SUITE("gpu") {
         CHECK(r.output.find("--curve and --taxonomy") != std::string::npos);
     }
 
-    TEST_CASE("taxonomy: vkmech study stability --taxonomy measures the classes, and only stability takes one") {
+    TEST_CASE(
+        "taxonomy: vkmech study stability --taxonomy measures the classes, and only stability and allocation take "
+        "one") {
         testing::TempDir dir("taxstudy");
         std::ofstream(dir.file("lights.lpe"))
             << "first = C .* <L.'sweep_light_0'>\nsecond = C .* <L.'sweep_light_1'>\n";
@@ -323,7 +326,63 @@ TEST_SUITE("gpu") {
         r = testing::run_cli("study variance --preset quick --scenes cubes_dof --no-plots --taxonomy " +
                              dir.file("lights.lpe") + " --out " + dir.file("sv"));
         CHECK(r.code == 2);
-        CHECK(r.output.find("`vkmech study stability` only") != std::string::npos);
+        CHECK(r.output.find("--taxonomy applies to `vkmech study stability` and `vkmech study allocation`") !=
+              std::string::npos);
+    }
+
+    TEST_CASE("taxonomy: vkmech study allocation --taxonomy allocates by the classes and the properties they declare") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("taxalloc");
+        // Every table of `study allocation --preset quick` on glass_caustic (where the floor acts), each as its
+        // sorted lines, but the timing tables (measurements).
+        auto tables = [&](const std::string& name, const std::string& taxonomy) {
+            const std::string out = dir.file(name);
+            const auto r = testing::run_cli("study allocation --preset quick --scenes glass_caustic --no-plots --out " +
+                                            out + (taxonomy.empty() ? "" : " --taxonomy " + taxonomy));
+            CAPTURE(r.output);
+            REQUIRE(r.code == 0);
+            std::map<std::string, std::vector<std::string>> t;
+            for (const auto& e : std::filesystem::directory_iterator(out + "/tables")) {
+                const std::string file = e.path().filename().string();
+                if (file.rfind("alloc_time", 0) == 0 || file.rfind("equal_time", 0) == 0) continue;
+                std::ifstream in(e.path());
+                for (std::string line; std::getline(in, line);) t[file].push_back(line);
+            }
+            return t;
+        };
+        const auto sorted = [](std::vector<std::string> v) {
+            std::sort(v.begin(), v.end());
+            return v;
+        };
+        const auto buckets = tables("b", "");
+        REQUIRE(buckets.size() > 10);
+        // paper.lpe: the buckets' tables, line for line.
+        CHECK(tables("paper", source_path("taxonomies/paper.lpe")) == buckets);
+        // The same lines and properties in reverse order: every class in another slot, the same partition and
+        // properties, so the same tables; the per-class rows come in the classes' (reversed) order.
+        const std::string reversed =
+            "specular_direct [heavy rare] = C S+ [LB]\ndelta_mediated [heavy rare] = C (S+ [DG] | [DG]+ S) .* [LB]\n"
+            "glossy [heavy] = C [DG]+ G [LB]\ndiffuse_indirect = C [DG]+ D [LB]\ndirect = C [DG] [LB]\n"
+            "emitter_direct [constant] = C [LB]\n";
+        std::ofstream(dir.file("reversed.lpe")) << reversed;
+        const auto rev = tables("rev", dir.file("reversed.lpe"));
+        REQUIRE(rev.size() == buckets.size());
+        for (const auto& entry : buckets) {
+            const std::string& file = entry.first;  // not a structured binding: clang 14 cannot capture one
+            CAPTURE(file);
+            REQUIRE(rev.count(file) == 1);
+            CHECK(sorted(rev.at(file)) == sorted(entry.second));
+        }
+        CHECK(rev.at("perbucket_mse.csv") != buckets.at("perbucket_mse.csv"));  // the rows' order: the slots
+        // Without the properties nothing is heavy: bucket-floor floors nothing and ties observed-var.
+        std::string bare = reversed;
+        for (const std::string p : {" [heavy rare]", " [heavy]", " [constant]"})
+            for (size_t at = bare.find(p); at != std::string::npos; at = bare.find(p)) bare.erase(at, p.size());
+        std::ofstream(dir.file("bare.lpe")) << bare;
+        const auto plain = tables("bare", dir.file("bare.lpe"));
+        REQUIRE(plain.at("downstream.csv").size() == 2);
+        CHECK(plain.at("downstream.csv")[1].find(",tie,tie,") != std::string::npos);
+        CHECK(buckets.at("downstream.csv")[1].find(",tie,tie,") == std::string::npos);
     }
 }
 

@@ -237,7 +237,8 @@ struct AllocationScene {
     std::string name;
     double peak = 1.0;
     std::vector<uint8_t> ref_labels;
-    bool heavy = false;  // the reference has heavy-tailed pixels
+    std::vector<std::string> class_names;  // the labels' classes, `other` last
+    bool heavy = false;                    // the reference has heavy-tailed pixels
     ErrorsByKey res;
     std::map<uint32_t, double> untrusted, rare;  // N0 -> the pilot's untrusted / rare-tail pixels, mean over draws
     std::vector<MomSweep> mom;
@@ -251,13 +252,15 @@ AllocationScene compute_scene(AllocationSource& source, const StudyConfig& cfg, 
     r.name = scene.name;
     r.peak = d.peak;
     r.ref_labels = d.ref_labels;
-    for (uint8_t l : d.ref_labels) r.heavy |= alloc::is_heavy_tailed(l);
+    r.class_names = d.class_names;
+    for (uint8_t l : d.ref_labels) r.heavy |= alloc::is_heavy_tailed(l, d.traits.heavy);
     r.res = run_configs(d, cfg);
     for (uint32_t n0 : cfg.alloc_pilots) {
         double untrusted = 0.0, rare = 0.0;
         for (const alloc::PilotDiagnosis& dg : d.diagnoses.at(n0)) untrusted += static_cast<double>(dg.untrusted);
         r.untrusted[n0] = untrusted / static_cast<double>(d.diagnoses.at(n0).size());
-        for (const Pilot& pl : d.pilots.at(n0)) rare += static_cast<double>(alloc::rare_tail_pixels(pl.labels));
+        for (const Pilot& pl : d.pilots.at(n0))
+            rare += static_cast<double>(alloc::rare_tail_pixels(pl.labels, d.traits.rare));
         r.rare[n0] = rare / static_cast<double>(d.pilots.at(n0).size());
     }
     for (uint32_t n0 : cfg.alloc_pilots)
@@ -447,7 +450,7 @@ void add_all_rows(const AllocationScene& sc, Table& all_t) {
 }
 
 void add_bucket_rows(const AllocationResult& r, const StudyConfig& cfg, const AllocationScene& sc, Table& bucket_t) {
-    for (uint32_t b = 0; b < kBucketCount - 1; ++b) {
+    for (uint32_t b = 0; b + 1 < sc.class_names.size(); ++b) {  // every class but `other`
         size_t n = 0;
         for (uint8_t l : sc.ref_labels) n += l == b;
         if (n == 0) continue;
@@ -457,7 +460,7 @@ void add_bucket_rows(const AllocationResult& r, const StudyConfig& cfg, const Al
             return stats::mean(v);
         };
         double o = bm(Strategy::ObservedVar), f = bm(Strategy::BucketFloor);
-        bucket_t.add({Cell::str(sc.name), Cell::str(kBucketNames[b]), Cell::integer(static_cast<long long>(n)),
+        bucket_t.add({Cell::str(sc.name), Cell::str(sc.class_names[b]), Cell::integer(static_cast<long long>(n)),
                       Cell::num(o, "%.4g"), Cell::num(f, "%.4g"), Cell::num(f / o, "%.3f")});
     }
 }
@@ -526,9 +529,9 @@ void add_mom_rows(const StudyConfig& cfg, const AllocationScene& sc, Table& mom_
         }
         pm.series.push_back(sv);
         pm.series.push_back(sf);
-        for (uint32_t b = 0; b < kBucketCount; ++b) {
+        for (uint32_t b = 0; b < sc.class_names.size(); ++b) {
             if (m.rho.at(0)[b].empty()) continue;
-            std::vector<Cell> row{Cell::str(sc.name), Cell::integer(n0), Cell::str(kBucketNames[b]),
+            std::vector<Cell> row{Cell::str(sc.name), Cell::integer(n0), Cell::str(sc.class_names[b]),
                                   Cell::integer(static_cast<long long>(m.members[b])),
                                   Cell::num(stats::mean(m.rho.at(0)[b]), "%.3f")};
             for (int kk : cfg.alloc_mom_k)

@@ -9,6 +9,7 @@
 // (host/app/study/allocation_source.hpp); a test can hand in synthetic data.
 #pragma once
 
+#include "allocation/floor.hpp"
 #include "allocation/plan.hpp"
 #include "experiments/study_context.hpp"
 
@@ -35,6 +36,12 @@ public:
     virtual PilotSamples pilot_samples(const SceneVariant& v, uint32_t n0, uint32_t draw) = 0;
     // Seconds of a real render of n(p) samples per pixel of the pool seed.
     virtual double final_render_seconds(const SceneVariant& v, const std::vector<uint32_t>& n) = 0;
+    // The label classes of the frames and pilots: their names (`other` last) and what the strategies
+    // read of them. The paper's buckets unless a study --taxonomy classifies the renders.
+    virtual std::vector<std::string> class_names(const SceneVariant&) {
+        return {kBucketNames.begin(), kBucketNames.end()};
+    }
+    virtual alloc::ClassTraits class_traits(const SceneVariant&) { return {}; }
 };
 
 // The strategies whose wall time run_allocation (study_context.hpp) measures at pilot n0 (one

@@ -23,6 +23,8 @@ alloc::ScoreInputs pilot_inputs(const SceneData& d, const SamplePool& pool, uint
     if (!pl.mom_var.empty()) in.mom_var = &pl.mom_var;
     in.untrusted = &d.diagnoses.at(n0)[k].untrusted_map;
     in.pilot_spp = n0;
+    in.heavy = d.traits.heavy;
+    in.rare = d.traits.rare;
     return in;
 }
 
@@ -91,6 +93,8 @@ SceneData load_scene_data(AllocationSource& source, const StudyConfig& cfg, cons
     d.ref_rgb_p999.resize(3 * d.P);
     for (size_t i = 0; i < 3 * d.P; ++i) d.ref_rgb_p999[i] = std::min(d.ref_rgb[i], d.p999);
     d.ref_labels = derive_descriptor(ref).dominant;
+    d.class_names = source.class_names(scene);
+    d.traits = source.class_traits(scene);
 
     d.pool = source.pool(scene, 0);
     check_pool(d.pool, d, scene, 0);
@@ -102,7 +106,7 @@ SceneData load_scene_data(AllocationSource& source, const StudyConfig& cfg, cons
                 throw std::runtime_error("allocation study: pilot " + std::to_string(k) + " of " + scene.name +
                                          " has " + std::to_string(p.var.size()) + " pixels, not " +
                                          std::to_string(d.P));
-            d.diagnoses[n0].push_back(alloc::diagnose_pilot(p));
+            d.diagnoses[n0].push_back(alloc::diagnose_pilot(p, d.traits));
             d.pilots[n0].push_back(std::move(p));
         }
     return d;

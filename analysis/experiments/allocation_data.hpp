@@ -27,8 +27,10 @@ struct SceneData {
     double p999 = 1.0;
     std::vector<double> ref_rgb_p999;
     std::vector<uint8_t> ref_labels;
-    SamplePool pool;                                                   // pool 0 (seed downstream_seeds::kPool)
-    std::map<uint32_t, std::vector<Pilot>> pilots;                     // N0 -> draws
+    std::vector<std::string> class_names;           // the labels' classes (AllocationSource::class_names), `other` last
+    alloc::ClassTraits traits;                      // their heavy, constant and rare-tail classes
+    SamplePool pool;                                // pool 0 (seed downstream_seeds::kPool)
+    std::map<uint32_t, std::vector<Pilot>> pilots;  // N0 -> draws
     std::map<uint32_t, std::vector<alloc::PilotDiagnosis>> diagnoses;  // N0 -> the draws' diagnoses (§6.5)
 };
 

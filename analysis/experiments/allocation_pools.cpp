@@ -48,7 +48,7 @@ PoolScene compute_pool_scene(AllocationSource& source, const StudyConfig& cfg, c
     r.name = scene.name;
     r.peak = d.peak;
     r.p999 = d.p999;
-    for (uint8_t l : d.ref_labels) r.heavy |= alloc::is_heavy_tailed(l);
+    for (uint8_t l : d.ref_labels) r.heavy |= alloc::is_heavy_tailed(l, d.traits.heavy);
     const uint32_t K = static_cast<uint32_t>(cfg.alloc_draws);
     for (uint32_t j = 0; j < static_cast<uint32_t>(cfg.alloc_pools); ++j) {
         SamplePool other;

@@ -27,12 +27,18 @@ RenderedAllocationSource::RenderedAllocationSource(const StudyConfig& cfg, const
 RenderedAllocationSource::Loaded& RenderedAllocationSource::load(const SceneVariant& v) {
     if (loaded_ && loaded_->variant == v) return *loaded_;
     loaded_.reset();  // one scene on the device at a time
-    LoadedScene ls = load_variant(v, cfg_.alloc_res, traversal_);
+    LoadedScene ls = load_variant(v, cfg_.alloc_res, traversal_, cfg_.taxonomy ? &*cfg_.taxonomy : nullptr);
     Loaded l;
     l.variant = v;
     l.digest = ls.digest;
+    if (cfg_.taxonomy) {
+        l.taxonomy = compile_variant_taxonomy(*cfg_.taxonomy, v, ls.scene, /*print_warnings=*/false);
+        l.taxonomy_key = taxonomy_key(*l.taxonomy);
+    }
     l.session = std::make_unique<RenderSession>(ctx_, std::move(ls.scene), std::move(ls.arrays), traversal_);
-    l.renderer = l.session->make_renderer(l.session->features());
+    Features f = l.session->features();
+    if (l.taxonomy) f.taxonomy = l.taxonomy->words;
+    l.renderer = l.session->make_renderer(f);
     std::fprintf(stderr, "allocation: %s (%dx%d)\n", v.name.c_str(), l.session->scene().camera.width,
                  l.session->scene().camera.height);
     loaded_ = std::move(l);
@@ -49,14 +55,24 @@ uint32_t pilot_batch(uint32_t n0) {
 }
 }  // namespace
 
-std::string RenderedAllocationSource::key(const std::string& digest, const Camera& c, uint32_t spp, uint32_t seed,
-                                          uint32_t batch) const {
-    return cache_key(
-        {digest, c.width, c.height, spp, seed, 0, batch, to_string(traversal_), ctx_.info().name, code_digest_});
+std::string RenderedAllocationSource::key(const std::string& digest, const std::string& taxonomy_key, const Camera& c,
+                                          uint32_t spp, uint32_t seed, uint32_t batch) const {
+    return cache_key({digest, c.width, c.height, spp, seed, 0, batch, to_string(traversal_), ctx_.info().name,
+                      code_digest_, 0, taxonomy_key});
 }
 
 std::string RenderedAllocationSource::key(const Loaded& l, uint32_t spp, uint32_t seed, uint32_t batch) const {
-    return key(l.digest, l.session->scene().camera, spp, seed, batch);
+    return key(l.digest, l.taxonomy_key, l.session->scene().camera, spp, seed, batch);
+}
+
+std::vector<std::string> RenderedAllocationSource::class_names(const SceneVariant& v) {
+    const Loaded& l = load(v);
+    return l.taxonomy ? l.taxonomy->class_names() : AllocationSource::class_names(v);
+}
+
+alloc::ClassTraits RenderedAllocationSource::class_traits(const SceneVariant& v) {
+    const Loaded& l = load(v);
+    return vkmech::class_traits(l.taxonomy ? &*l.taxonomy : nullptr);
 }
 
 void RenderedAllocationSource::check_interrupt() const {
@@ -194,9 +210,11 @@ bool reads_pilot_samples(const StudyConfig& cfg, uint32_t n0) {
 
 std::vector<std::string> RenderedAllocationSource::missing(const SceneVariant& v) {
     // Keys from the scene's content at the allocation film, without the device.
-    const LoadedScene ls = load_variant(v, cfg_.alloc_res, traversal_);
+    const LoadedScene ls = load_variant(v, cfg_.alloc_res, traversal_, cfg_.taxonomy ? &*cfg_.taxonomy : nullptr);
+    const std::string tk =
+        cfg_.taxonomy ? taxonomy_key(compile_variant_taxonomy(*cfg_.taxonomy, v, ls.scene, false)) : std::string();
     auto key = [&](uint32_t spp, uint32_t seed, uint32_t batch) {
-        return this->key(ls.digest, ls.scene.camera, spp, seed, batch);
+        return this->key(ls.digest, tk, ls.scene.camera, spp, seed, batch);
     };
     auto absent = [&](const std::string& k, const std::string& kind) { return !fs::exists(cache_.path(k, kind)); };
     std::vector<std::string> out;

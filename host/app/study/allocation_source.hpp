@@ -7,6 +7,7 @@
 
 #include "experiments/allocation.hpp"
 #include "render/session.hpp"
+#include "render/taxonomy.hpp"
 #include "study/render_cache.hpp"
 #include "vk/context.hpp"
 
@@ -28,6 +29,9 @@ public:
     Pilot pilot(const SceneVariant& v, uint32_t n0, uint32_t draw) override;
     PilotSamples pilot_samples(const SceneVariant& v, uint32_t n0, uint32_t draw) override;
     double final_render_seconds(const SceneVariant& v, const std::vector<uint32_t>& n) override;
+    // A study --taxonomy's classes and declared properties (compiled against v's labels), else the buckets'.
+    std::vector<std::string> class_names(const SceneVariant& v) override;
+    alloc::ClassTraits class_traits(const SceneVariant& v) override;
 
     // Scale-out (study --shard / --jobs / --analyse-only): the cache entries
     // v's allocation study reads (reference chunks, pool, pilots, per-sample
@@ -43,12 +47,15 @@ private:
     struct Loaded {
         SceneVariant variant;
         std::string digest;
+        std::optional<SceneTaxonomy> taxonomy;  // study --taxonomy against this variant's labels
+        std::string taxonomy_key;               // its key part ("" for the buckets)
         std::unique_ptr<RenderSession> session;
         std::unique_ptr<Renderer> renderer;
     };
     // The variant on the device at the allocation resolution; one is kept at a time.
     Loaded& load(const SceneVariant& v);
-    std::string key(const std::string& digest, const Camera& c, uint32_t spp, uint32_t seed, uint32_t batch) const;
+    std::string key(const std::string& digest, const std::string& taxonomy_key, const Camera& c, uint32_t spp,
+                    uint32_t seed, uint32_t batch) const;
     std::string key(const Loaded& l, uint32_t spp, uint32_t seed, uint32_t batch) const;
     void check_interrupt() const;
 

@@ -111,6 +111,21 @@ const std::vector<std::string>& first_party_scenes() {
     return s;
 }
 
+SceneTaxonomy compile_variant_taxonomy(const lpe::TaxonomySource& source, const SceneVariant& v, const Scene& scene,
+                                       bool print_warnings) {
+    try {
+        SceneTaxonomy t = compile_scene_taxonomy(source, scene);
+        if (print_warnings)
+            for (const auto& w : t.compiled.warnings)
+                std::fprintf(stderr, "vkmech: %s: %s\n", v.name.c_str(), w.str().c_str());
+        return t;
+    } catch (const lpe::LpeError& e) {
+        throw std::invalid_argument("--taxonomy on " + v.name + ": " + e.what());
+    }
+}
+
+std::string taxonomy_key(const SceneTaxonomy& t) { return Digest().vec(t.words).hex(); }
+
 namespace {
 
 // The stages of a study: plan -> keys -> estimate -> render missing -> analyse -> plot -> report.
@@ -180,10 +195,11 @@ StudyPlan make_plan(const StudyOptions& o) {
     }
     const std::vector<StudyKind> kinds = parse_study(o.study);
     if (!o.taxonomy.empty()) {
-        if (kinds != std::vector<StudyKind>{StudyKind::Stability})
-            throw std::invalid_argument(
-                "--taxonomy applies to `vkmech study stability` only: the other studies' "
-                "analyses name the paper's buckets (docs/lpe.md)");
+        for (StudyKind k : kinds)
+            if (k != StudyKind::Stability && k != StudyKind::Allocation)
+                throw std::invalid_argument(
+                    "--taxonomy applies to `vkmech study stability` and `vkmech study allocation`: the other "
+                    "studies' analyses name the paper's buckets (docs/lpe.md)");
         if (!o.jobs_file.empty())
             throw std::invalid_argument("--taxonomy and --jobs: the job commands do not carry the taxonomy yet");
         try {
@@ -218,17 +234,9 @@ StudyPlan make_plan(const StudyOptions& o) {
     return StudyPlan{std::move(cfg), kinds, out_dir, cache_dir, std::move(plan)};
 }
 
-// A user taxonomy compiled against a variant's labels (its errors and warnings said before anything
-// renders; an error is bad input, exit 2): the digest of the words the renders use keys them.
+// The taxonomy's key for a variant's renders, its errors and warnings said before anything renders.
 std::string taxonomy_key(const lpe::TaxonomySource& source, const SceneVariant& v, const Scene& scene) {
-    try {
-        const SceneTaxonomy t = compile_scene_taxonomy(source, scene);
-        for (const auto& w : t.compiled.warnings)
-            std::fprintf(stderr, "vkmech: %s: %s\n", v.name.c_str(), w.str().c_str());
-        return Digest().vec(t.words).hex();
-    } catch (const lpe::LpeError& e) {
-        throw std::invalid_argument("--taxonomy on " + v.name + ": " + e.what());
-    }
+    return taxonomy_key(compile_variant_taxonomy(source, v, scene, /*print_warnings=*/true));
 }
 
 CacheState key_renders(const StudyPlan& p, const StudyDevice& dev, const RenderCache& cache) {

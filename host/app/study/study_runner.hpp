@@ -8,6 +8,7 @@
 
 #include "experiments/study_config.hpp"
 #include "render/gpu_scene.hpp"
+#include "render/taxonomy.hpp"
 #include "scene/scene.hpp"
 
 #include <cstdint>
@@ -76,6 +77,12 @@ struct LoadedScene {
 // `taxonomy`: a user taxonomy's named shapes get materials of their own (render/taxonomy.hpp).
 LoadedScene load_variant(const SceneVariant& v, int res, Traversal traversal,
                          const lpe::TaxonomySource* taxonomy = nullptr);
+// A study --taxonomy compiled against a variant's labels (its warnings printed when asked); an error
+// is bad input: std::invalid_argument naming the variant. taxonomy_key: what keys the renders that
+// classify by it in the render cache (the digest of its words).
+SceneTaxonomy compile_variant_taxonomy(const lpe::TaxonomySource& source, const SceneVariant& v, const Scene& scene,
+                                       bool print_warnings);
+std::string taxonomy_key(const SceneTaxonomy& t);
 
 // The digest of the code that renders with traversal t (version and
 // path-tracing SPIR-V): part of every render-cache key and of a sentinel record.
