@@ -51,14 +51,15 @@ void check_equal_to_single_render(const ExrImage& full, const ExrImage& merged) 
 }
 
 // The --spp 16 render of ring_caustic with `options`, and the merge of its parts: samples 0:6 of the whole film,
-// then 6:16 in two windows (top and bottom), merged in another order.
+// then 6:16 in two windows (left and right, each narrower than the film and the right one offset), merged in
+// another order.
 std::pair<ExrImage, ExrImage> full_and_merged_parts(const testing::TempDir& dir, const std::string& options) {
     REQUIRE(render(dir.file("full"), "--spp 16", options).code == 0);
     REQUIRE(render(dir.file("a"), "--sample-range 0:6", options).code == 0);
-    REQUIRE(render(dir.file("top"), "--sample-range 6:16", options + " --pixel-bounds 0,24,0,10").code == 0);
-    REQUIRE(render(dir.file("bottom"), "--sample-range 6:16", options + " --pixel-bounds 0,24,10,24").code == 0);
-    const testing::CliRun m = testing::run_cli("merge " + dir.file("m") + " " + dir.file("bottom") + " " +
-                                               dir.file("a") + " " + dir.file("top"));
+    REQUIRE(render(dir.file("left"), "--sample-range 6:16", options + " --pixel-bounds 0,10,0,24").code == 0);
+    REQUIRE(render(dir.file("right"), "--sample-range 6:16", options + " --pixel-bounds 10,24,0,24").code == 0);
+    const testing::CliRun m = testing::run_cli("merge " + dir.file("m") + " " + dir.file("right") + " " +
+                                               dir.file("a") + " " + dir.file("left"));
     CAPTURE(m.output);
     REQUIRE(m.code == 0);
     return {read_exr_channels(dir.file("full/ring_caustic.exr")), read_exr_channels(dir.file("m/ring_caustic.exr"))};

@@ -799,8 +799,10 @@ void write_beyond_tables(StudyOutput& out, const std::string& sec, const StudyCo
     if (!t.adaptive_t.rows.empty()) {
         t.adaptive_t.note = "PSNR (dB, unclamped, reference peak), mean over the draws, extra budget " + ex +
                             ", at every pilot where median-of-means is defined and every floor. robust-adaptive: the "
-                            "plain pilot variance (k = 1) on pixels whose pilot label is delta_mediated or "
-                            "specular_direct, robust-var's median-of-means (k = ceil(sqrt(N0))) everywhere else, "
+                            "plain pilot variance (k = 1) on pixels whose pilot label is " +
+                            (cfg.taxonomy ? std::string("a class the taxonomy declares [rare]")
+                                          : std::string("delta_mediated or specular_direct")) +
+                            ", robust-var's median-of-means (k = ceil(sqrt(N0))) everywhere else, "
                             "unlabelled pixels included (§6.7); the rule was fixed a priori, not fitted to these "
                             "scenes. rare-tail px: the pilot's pixels where k = 1, mean over the draws (0: "
                             "robust-adaptive is robust-var bit for bit). Wins: draws with the lower MSE; \"tie\": "
@@ -890,6 +892,11 @@ void write_allocation(StudyOutput& out, const StudyConfig& cfg, const std::strin
     make_other_tables(cfg, device, r, t);
     const MainChecks checks = fill_tables(cfg, r, t);
     note_equal_sample_tables(cfg, r, t);
+    if (cfg.taxonomy)
+        out.text(sec, "Labels: the classes of the taxonomy `" + cfg.taxonomy->file +
+                          "` (docs/lpe.md), not the paper's buckets. Wherever a table or a note below says bucket, "
+                          "read class; the heavy-tailed classes are the lines declared `[heavy]`, the rare-tail "
+                          "ones `[rare]`, and those whose zero pilot variance the guard trusts `[constant]`.");
     write_equal_sample_tables(out, sec, t);
     write_beyond_tables(out, sec, cfg, t);
     write_mom_tables(out, sec, cfg, r, t);

@@ -492,8 +492,8 @@ PYBIND11_MODULE(vkmech, m) {
           py::arg("batch") = 8, py::arg("progress") = py::none(), py::arg("taxonomy") = "",
           "`vkmech render --adaptive`: a pilot, the strategy's Neyman allocation of 1 + budget samples per pixel "
           "on average, and the final render; n(p) is the frame's 'spp' channel. taxonomy: a file of `name = "
-          "expression` lines (docs/lpe.md); its classes label the pilot, and its `[heavy]` and `[constant]` "
-          "classes are what the floor and the guard read");
+          "expression` lines (docs/lpe.md); its classes label the pilot, and its `[heavy]`, `[constant]` and "
+          "`[rare]` classes are what the floor, the guard and robust-adaptive read");
     m.def("read", &frame_read, py::arg("path"), "Reads a vkmech EXR back as a Frame");
     bind_stats(m);
 }

@@ -270,7 +270,7 @@ def test_adaptive_allocates_the_budget_and_matches_the_cli(tmp_path):
     with pytest.raises(ValueError):
         vkmech.adaptive(scene, "oracle", res=24)
     # Under the paper's buckets written as a taxonomy ([heavy] and [constant] declared), the same
-    # allocation and image, bit for bit, robust-adaptive's ([rare] declared) too.
+    # allocation and image, bit for bit.
     paper = os.path.join(ROOT, "taxonomies", "paper.lpe")
     t = vkmech.adaptive(scene, "guarded", pilot=4, budget=4, res=24, taxonomy=paper)
     g = vkmech.adaptive(scene, "guarded", pilot=4, budget=4, res=24)
@@ -279,12 +279,14 @@ def test_adaptive_allocates_the_budget_and_matches_the_cli(tmp_path):
     assert "vkmech.taxonomy" in t.header
     # The lines reversed: other slots, the same declared properties, the same allocation.
     rev = tmp_path / "reversed.lpe"
-    rev.write_text("specular_direct [heavy] = C S+ [LB]\ndelta_mediated [heavy] = C (S+ [DG] | [DG]+ S) .* [LB]\n"
+    rev.write_text("specular_direct [heavy rare] = C S+ [LB]\n"
+                   "delta_mediated [heavy rare] = C (S+ [DG] | [DG]+ S) .* [LB]\n"
                    "glossy [heavy] = C [DG]+ G [LB]\ndiffuse_indirect = C [DG]+ D [LB]\ndirect = C [DG] [LB]\n"
                    "emitter_direct [constant] = C [LB]\n")
     r = vkmech.adaptive(scene, "guarded", pilot=4, budget=4, res=24, taxonomy=str(rev))
     assert np.array_equal(r["spp"], g["spp"]) and np.array_equal(r["R"], g["R"])
-    t = vkmech.adaptive(scene, "robust-adaptive", pilot=16, budget=4, res=24, taxonomy=paper)
+    # robust-adaptive reads the [rare] classes wherever they stand (reversed: other slots than the buckets').
+    t = vkmech.adaptive(scene, "robust-adaptive", pilot=16, budget=4, res=24, taxonomy=str(rev))
     g = vkmech.adaptive(scene, "robust-adaptive", pilot=16, budget=4, res=24)
     assert np.array_equal(t["spp"], g["spp"]) and np.array_equal(t["R"], g["R"])
 

@@ -890,8 +890,9 @@ void register_render(CLI::App& app, CliCommands& commands) {
                      "grammar, first match wins, an implicit `other`; docs/lpe.md), compiled to a DFA the path "
                      "tracer steps at each vertex; its classes replace the seven buckets in every output. At most "
                      "6 lines. With --adaptive or --noise-threshold the classes are the labels: lines declared "
-                     "`name [heavy] = ...` are what the floor floors, and `[constant]` ones (an emitter seen "
-                     "directly) what the guard trusts at zero variance. taxonomies/paper.lpe is the built-in one")
+                     "`name [heavy] = ...` are what the floor floors, `[constant]` ones (an emitter seen directly) "
+                     "what the guard trusts at zero variance, and `[rare]` ones where robust-adaptive keeps the "
+                     "plain variance. taxonomies/paper.lpe is the built-in one")
         ->check(CLI::ExistingFile);
     render
         ->add_option("--lpe", o->lpe,

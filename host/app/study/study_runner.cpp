@@ -264,6 +264,12 @@ CacheState key_renders(const StudyPlan& p, const StudyDevice& dev, const RenderC
                            to_string(trav), ctx.info().name, code_digest, static_cast<uint32_t>(r.end_vertex),
                            cfg.taxonomy ? taxonomy_keys[r.scene] : std::string()});
         }
+        // The allocation study renders through its own source, not the plan: its variants' taxonomy errors and
+        // warnings are said here too, before anything renders.
+        if (cfg.taxonomy && p.has(StudyKind::Allocation))
+            for (const auto& v : cfg.scenes)
+                if (!taxonomy_keys.count(v))
+                    taxonomy_key(*cfg.taxonomy, v, load_variant(v, cfg.alloc_res, trav, &*cfg.taxonomy).scene);
     }
 
     for (const auto& r : plan) {

@@ -59,7 +59,7 @@ SceneTaxonomy compile_scene_queries(const lpe::TaxonomySource& queries, const Sc
 std::vector<ExrChannel> query_channels(const Frame& frame, const SceneTaxonomy& queries);
 
 // The outputs' record of it (the JSON's "taxonomy"): {"file", "lines": [{"name", "expression"[, "heavy":
-// true][, "constant": true]}], "classes", "states"}.
+// true][, "constant": true][, "rare": true]}], "classes", "states"}.
 std::string taxonomy_json(const SceneTaxonomy& t);
 // The record of `render --lpe` queries: {"queries": [{"name", "expression"}], "combinations": [the classes but
 // other], "states"[, "seconds"]}. `seconds`, the query pass's render time, is in the JSON summary's record and
