@@ -17,6 +17,7 @@
 #include "render/descriptor.hpp"
 #include "render/frame.hpp"
 #include "render/render_outputs.hpp"
+#include "render/taxonomy.hpp"
 
 #include <algorithm>
 #include <cstdio>
@@ -130,16 +131,14 @@ void read_queries(MergeInput& m) {
     if (!queries || queries->kind != JsonValue::Array || queries->array.empty())
         throw UsageError("merge: " + m.path + ": its vkmech.lpe is not a record of --lpe queries (" +
                          (j ? std::string("no queries") : why) + ")");
-    std::vector<std::string> groups;
+    std::vector<std::string> names;
     for (const JsonValue& q : queries->array) {
         const JsonValue* name = q.find("name");
         if (!name || name->kind != JsonValue::String || name->string.empty())
             throw UsageError("merge: " + m.path + ": its vkmech.lpe names a query that is not a name");
-        groups.push_back(name->string);
+        names.push_back(name->string);
     }
-    groups.insert(groups.end(), {"_rest", "_overlap"});
-    for (const std::string& g : groups)
-        for (const char* c : {".R", ".G", ".B"}) m.query_channels.push_back("lpe." + g + c);
+    m.query_channels = query_channel_names(names);
 }
 
 // Refuses inputs that are not parts of one render: a different film, channels,

@@ -132,14 +132,11 @@ std::vector<ExrChannel> query_channels(const Frame& frame, const SceneTaxonomy& 
     VKM_ASSERT(frame.bucket_rgb_sum.size() == pixels * Frame::kBucketRgb,
                "query channels need the classes' RGB sums (a render with the capture on)");
     const size_t queries_n = queries.source.lines.size();
-    // Channel groups: each query, then _rest and _overlap; each R, G, B.
+    std::vector<std::string> names;
+    for (const lpe::TaxonomyLine& l : queries.source.lines) names.push_back(l.name);
     std::vector<ExrChannel> out;
-    auto add_group = [&](const std::string& name) {
-        for (const char* c : {".R", ".G", ".B"}) out.push_back({"lpe." + name + c, std::vector<float>(pixels), false});
-    };
-    for (const lpe::TaxonomyLine& l : queries.source.lines) add_group(l.name);
-    add_group("_rest");
-    add_group("_overlap");
+    for (std::string& name : query_channel_names(names))
+        out.push_back({std::move(name), std::vector<float>(pixels), false});
     std::vector<double> per_query(queries_n);
     for (size_t i = 0; i < pixels; ++i) {
         const double n = frame.pixels[i].count;
@@ -159,6 +156,16 @@ std::vector<ExrChannel> query_channels(const Frame& frame, const SceneTaxonomy& 
             out[3 * queries_n + 3 + c].data[i] = static_cast<float>(overlap / n);
         }
     }
+    return out;
+}
+
+std::vector<std::string> query_channel_names(const std::vector<std::string>& query_names) {
+    // Channel groups: each query, then _rest and _overlap; each R, G, B.
+    std::vector<std::string> groups = query_names;
+    groups.insert(groups.end(), {"_rest", "_overlap"});
+    std::vector<std::string> out;
+    for (const std::string& g : groups)
+        for (const char* c : {".R", ".G", ".B"}) out.push_back("lpe." + g + c);
     return out;
 }
 

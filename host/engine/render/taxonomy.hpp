@@ -57,6 +57,8 @@ SceneTaxonomy compile_scene_queries(const lpe::TaxonomySource& queries, const Sc
 // radiance counted more than once (each combination's times its number of queries less one), so that the
 // queries plus `_rest` less `_overlap` make the image. A pixel without samples is 0.
 std::vector<ExrChannel> query_channels(const Frame& frame, const SceneTaxonomy& queries);
+// Their names, in that order, for queries named `query_names`.
+std::vector<std::string> query_channel_names(const std::vector<std::string>& query_names);
 
 // The outputs' record of it (the JSON's "taxonomy"): {"file", "lines": [{"name", "expression"[, "heavy":
 // true][, "constant": true][, "rare": true]}], "classes", "states"}.
