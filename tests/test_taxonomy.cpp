@@ -305,8 +305,8 @@ TEST_SUITE("gpu") {
     }
 
     TEST_CASE(
-        "taxonomy: vkmech study stability --taxonomy measures the classes, and only stability and allocation take "
-        "one") {
+        "taxonomy: vkmech study stability --taxonomy measures the classes, and only stability, variance, cost and "
+        "allocation take one") {
         testing::TempDir dir("taxstudy");
         std::ofstream(dir.file("lights.lpe"))
             << "first = C .* <L.'sweep_light_0'>\nsecond = C .* <L.'sweep_light_1'>\n";
@@ -323,10 +323,10 @@ TEST_SUITE("gpu") {
         std::ifstream stab(dir.file("st/tables/taxonomy_stability.csv"));
         std::getline(stab, header);
         CHECK(header.find("var3") != std::string::npos);
-        r = testing::run_cli("study variance --preset quick --scenes cubes_dof --no-plots --taxonomy " +
+        r = testing::run_cli("study structure --preset quick --scenes cubes_dof --no-plots --taxonomy " +
                              dir.file("lights.lpe") + " --out " + dir.file("sv"));
         CHECK(r.code == 2);
-        CHECK(r.output.find("--taxonomy applies to `vkmech study stability` and `vkmech study allocation`") !=
+        CHECK(r.output.find("--taxonomy applies to `vkmech study` stability, variance, cost and allocation") !=
               std::string::npos);
     }
 
@@ -384,6 +384,128 @@ TEST_SUITE("gpu") {
         REQUIRE(plain.at("downstream.csv").size() == 2);
         CHECK(plain.at("downstream.csv")[1].find(",tie,tie,") != std::string::npos);
         CHECK(buckets.at("downstream.csv")[1].find(",tie,tie,") == std::string::npos);
+    }
+}
+
+namespace {
+
+// A study's CSV tables (the file's name -> rows of cells), but those that hold measured times.
+using CsvTables = std::map<std::string, std::vector<std::vector<std::string>>>;
+CsvTables study_tables(const std::string& study, const std::string& out, const std::string& taxonomy) {
+    const auto r = testing::run_cli("study " + study + " --preset quick --scenes glass_caustic --no-plots --out " +
+                                    out + (taxonomy.empty() ? "" : " --taxonomy " + taxonomy));
+    CAPTURE(r.output);
+    REQUIRE(r.code == 0);
+    CsvTables t;
+    for (const auto& e : std::filesystem::directory_iterator(out + "/tables")) {
+        const std::string file = e.path().filename().string();
+        if (e.path().extension() != ".csv" || file == "cost_by_bucket_ms.csv") continue;
+        std::ifstream in(e.path());
+        for (std::string line; std::getline(in, line);) {
+            std::vector<std::string> cells(1);
+            for (char c : line)
+                if (c == ',')
+                    cells.emplace_back();
+                else
+                    cells.back().push_back(c);
+            if (file == "cost_by_bucket_detail.csv") cells.resize(6);  // less the two columns of milliseconds
+            t[file].push_back(cells);
+        }
+    }
+    return t;
+}
+
+// The rows of a table keyed by their first cell.
+std::map<std::string, std::vector<std::string>> rows_by_name(const std::vector<std::vector<std::string>>& rows) {
+    std::map<std::string, std::vector<std::string>> m;
+    for (size_t i = 1; i < rows.size(); ++i) m[rows[i][0]] = {rows[i].begin() + 1, rows[i].end()};
+    return m;
+}
+
+// A one-row table's cells keyed by their column headers.
+std::map<std::string, std::string> cells_by_header(const std::vector<std::vector<std::string>>& rows) {
+    REQUIRE(rows.size() == 2);
+    std::map<std::string, std::string> m;
+    for (size_t i = 0; i < rows[0].size(); ++i) m[rows[0][i]] = rows[1].at(i);
+    return m;
+}
+
+const std::string kReversedPaper =
+    "specular_direct [heavy rare] = C S+ [LB]\ndelta_mediated [heavy rare] = C (S+ [DG] | [DG]+ S) .* [LB]\n"
+    "glossy [heavy] = C [DG]+ G [LB]\ndiffuse_indirect = C [DG]+ D [LB]\ndirect = C [DG] [LB]\n"
+    "emitter_direct [constant] = C [LB]\n";
+
+// One study's tables with the built-in buckets, with paper.lpe and with paper.lpe's lines reversed.
+struct ThreeLabellings {
+    CsvTables b, paper, rev;
+};
+ThreeLabellings three_labellings(const std::string& study, testing::TempDir& dir) {
+    std::ofstream(dir.file("reversed.lpe")) << kReversedPaper;
+    return {study_tables(study, dir.file("b"), ""),
+            study_tables(study, dir.file("p"), source_path("taxonomies/paper.lpe")),
+            study_tables(study, dir.file("r"), dir.file("reversed.lpe"))};
+}
+
+}  // namespace
+
+TEST_SUITE("gpu") {
+    TEST_CASE("taxonomy: vkmech study variance --taxonomy splits its per-bucket tables by the classes") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("taxvariance");
+        const ThreeLabellings runs = three_labellings("variance", dir);
+        const CsvTables &b = runs.b, &paper = runs.paper, &rev = runs.rev;
+        for (const std::string file : {"sigma_splithalf.csv", "alpha_reliability.csv"}) {  // class-free: unchanged
+            CAPTURE(file);
+            CHECK(paper.at(file) == b.at(file));
+            CHECK(rev.at(file) == b.at(file));
+        }
+        const std::map<std::string, std::string> header = {{"dir.", "direct"},
+                                                           {"diff.", "diffuse_indirect"},
+                                                           {"d-m", "delta_mediated"},
+                                                           {"spec.", "specular_direct"},
+                                                           {"gloss.", "glossy"}};
+        for (const std::string file : {"sigma_perbucket.csv", "sigma_perbucket_4.csv"}) {
+            CAPTURE(file);
+            const auto buckets = cells_by_header(b.at(file)), p = cells_by_header(paper.at(file)),
+                       r = cells_by_header(rev.at(file));
+            CHECK(buckets.size() == 1 + header.size());
+            CHECK(p.size() == 1 + 7);  // the scene, six lines and `other`
+            size_t measured = 0;
+            for (const auto& h : header) {
+                CAPTURE(h.first);
+                CHECK(p.at(h.second) == buckets.at(h.first));
+                CHECK(r.at(h.second) == buckets.at(h.first));
+                measured += buckets.at(h.first) != "---";
+            }
+            CHECK(measured >= 3);  // direct, diffuse_indirect and delta_mediated have 50 pixels or more
+            CHECK(p.at("other") == "---");
+            CHECK(rev.at(file)[0][1] == "specular_direct");  // the columns in the slots' order
+        }
+    }
+
+    TEST_CASE("taxonomy: vkmech study cost --taxonomy gives each class a row and each class's share a component") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("taxcost");
+        const ThreeLabellings runs = three_labellings("cost", dir);
+        const CsvTables &b = runs.b, &paper = runs.paper, &rev = runs.rev;
+        for (const CsvTables* t : {&paper, &rev}) {
+            const auto rows = rows_by_name(t->at("cost_by_bucket.csv"));
+            for (const auto& row : rows_by_name(b.at("cost_by_bucket.csv"))) CHECK(rows.at(row.first) == row.second);
+            CHECK(rows.at("other") == std::vector<std::string>{"---"});
+            auto detail = t->at("cost_by_bucket_detail.csv"), bdetail = b.at("cost_by_bucket_detail.csv");
+            detail[0][1] = "bucket";  // the header says class
+            std::sort(detail.begin(), detail.end());
+            std::sort(bdetail.begin(), bdetail.end());
+            CHECK(detail == bdetail);
+            const auto dims = rows_by_name(t->at("cost_perdim.csv")), bdims = rows_by_name(b.at("cost_perdim.csv"));
+            for (const std::string d : {"depth", "inv_purity", "glossy_frac"}) CHECK(dims.at(d) == bdims.at(d));
+            CHECK(dims.at("delta_mediated share") == bdims.at("caustic_frac"));
+            CHECK(dims.count("other share") == 0);
+            CHECK(dims.size() == 3 + 6);
+        }
+        CHECK(b.at("cost_by_bucket_detail.csv").size() >= 4);             // three buckets or more have pixels
+        CHECK(paper.at("cost_by_bucket.csv")[1][0] == "emitter_direct");  // the rows in the slots' order
+        CHECK(rev.at("cost_by_bucket.csv")[1][0] == "specular_direct");
     }
 }
 

@@ -27,13 +27,6 @@ struct TaxonomyScene {
     stats::Interval agree_ci;
 };
 
-std::vector<std::string> class_names(const lpe::TaxonomySource& t) {
-    std::vector<std::string> names;
-    for (const auto& line : t.lines) names.push_back(line.name);
-    names.push_back("other");
-    return names;
-}
-
 TaxonomyScene taxonomy_scene(StudyContext& ctx, const SceneVariant& scene, int k) {
     const StudyConfig& cfg = ctx.cfg;
     const size_t nl = cfg.stability_spp.size();
@@ -69,7 +62,8 @@ TaxonomyScene taxonomy_scene(StudyContext& ctx, const SceneVariant& scene, int k
 void run_stability_taxonomy(StudyContext& ctx) {
     const StudyConfig& cfg = ctx.cfg;
     const lpe::TaxonomySource& tax = *cfg.taxonomy;
-    const std::vector<std::string> names = class_names(tax);
+    std::vector<std::string> names;
+    for (const StudyClass& c : study_classes(cfg, {})) names.push_back(c.name);
     const int k = static_cast<int>(names.size());
     std::vector<TaxonomyScene> scenes;
     for (const auto& scene : cfg.scenes) scenes.push_back(taxonomy_scene(ctx, scene, k));

@@ -1,4 +1,5 @@
 #include "experiments/study_context.hpp"
+#include "allocation/adaptive_mom.hpp"
 
 #include "io/png.hpp"
 #include "stats/agreement.hpp"
@@ -63,6 +64,18 @@ std::vector<double> margin_field(const Frame& f) {
         v[i] = (e[0] - e[1]) / sum;
     }
     return v;
+}
+
+std::vector<StudyClass> study_classes(const StudyConfig& cfg, const std::vector<uint32_t>& buckets) {
+    std::vector<StudyClass> out;
+    if (!cfg.taxonomy) {
+        for (uint32_t b : buckets) out.push_back({b, kBucketNames[b], ((alloc::kRareTailBuckets >> b) & 1u) != 0});
+        return out;
+    }
+    for (const lpe::TaxonomyLine& line : cfg.taxonomy->lines)
+        out.push_back({static_cast<uint32_t>(out.size()), line.name, line.rare});
+    out.push_back({static_cast<uint32_t>(out.size()), "other", false});
+    return out;
 }
 
 std::vector<double> bucket_field(const Frame& f, uint32_t b) {

@@ -58,6 +58,17 @@ struct StudyContext {
     AllocationSource* allocation = nullptr;
 };
 
+// ---- the classes of a study's per-class tables ----
+// A tally slot and its name: a bucket (docs/descriptor.md §2), or a class of --taxonomy's (docs/lpe.md).
+struct StudyClass {
+    uint32_t slot = 0;
+    std::string name;
+    bool rare = false;  // declared [rare] (a taxonomy's); the buckets': delta_mediated and specular_direct
+};
+// Without --taxonomy, the listed buckets, in the list's order; with it, every class of the taxonomy,
+// its lines' then `other`, in slot order (the study then reads each class as it reads a bucket).
+std::vector<StudyClass> study_classes(const StudyConfig& cfg, const std::vector<uint32_t>& buckets);
+
 // ---- per-pixel fields shared by the experiments ----
 std::vector<double> lum_mean_field(const Frame& f);
 std::vector<double> lum_var_field(const Frame& f);  // ddof 1

@@ -1,6 +1,8 @@
 // The variance baseline (paper §4.5, docs/descriptor.md §5): split-half reliability of the
 // intrinsic variance field per SPP level and per bucket, the convergence
 // exponent alpha_hat and its reliability, and the low-vs-high budget Spearman.
+// With --taxonomy (docs/lpe.md) the per-bucket columns are the taxonomy's classes, and the
+// caustic-dominated scene is the one whose [rare] classes carry the most energy.
 #include "experiments/study_context.hpp"
 #include "stats/rank.hpp"
 #include "stats/regression.hpp"
@@ -54,22 +56,25 @@ void fit_alpha(const std::vector<std::vector<double>>& var_by_level, const std::
 
 // ---- compute: per scene the split-half rhos, the per-bucket rhos and alpha_hat ----
 
+// The per-bucket tables' buckets (a taxonomy's tables show every class instead) and their short headers.
 const std::vector<uint32_t> kBucketColumns = {gpu::BUCKET_DIRECT, gpu::BUCKET_DIFFUSE_INDIRECT,
                                               gpu::BUCKET_DELTA_MEDIATED, gpu::BUCKET_SPECULAR_DIRECT,
                                               gpu::BUCKET_GLOSSY};
+const char* const kBucketHeaders[] = {"dir.", "diff.", "d-m", "spec.", "gloss."};
 
 struct VarianceScene {
     std::string name;
-    double dm_share = 0.0;                                    // delta-mediated energy share of the reference
+    double rare_share = 0.0;  // the reference's energy share of delta_mediated (or of a taxonomy's [rare] classes)
     std::vector<double> level_rho;                            // per level: split-half rho, mean over partitions
     double max_std = 0.0;                                     // the largest partition std over the levels
-    std::vector<std::optional<double>> bucket_hi, bucket_lo;  // per bucket column; none: too few pixels
+    std::vector<std::optional<double>> bucket_hi, bucket_lo;  // per class column; none: too few pixels
     size_t alpha_pixels = 0;
     double median_alpha = 0, median_r2 = 0, alpha_rho = 0, cross_rho = 0;
 };
 
 struct VarianceResult {
     size_t partitions = 0;
+    std::vector<StudyClass> classes;  // the per-class tables' columns
     std::vector<VarianceScene> scenes;
 };
 
@@ -114,16 +119,17 @@ std::vector<double> split_half_rhos(const SceneSeeds& sd, size_t l, uint32_t spp
     return rhos;
 }
 
-// Per bucket column at level l: the split-half rho over the foreground pixels of the reference's bucket.
+// Per class column at level l: the split-half rho over the foreground pixels of the reference's class.
 std::vector<std::optional<double>> bucket_rhos(const SceneSeeds& sd, size_t l, uint32_t spp,
                                                const std::vector<stats::Partition>& partitions,
-                                               const std::vector<uint8_t>& dominant) {
+                                               const std::vector<uint8_t>& dominant,
+                                               const std::vector<StudyClass>& classes) {
     std::vector<std::optional<double>> out;
-    for (uint32_t b : kBucketColumns) {
+    for (const StudyClass& c : classes) {
         std::vector<uint8_t> mask(sd.P, 0);
         size_t n = 0;
         for (size_t p = 0; p < sd.P; ++p) {
-            mask[p] = sd.fg[l][p] && dominant[p] == b;
+            mask[p] = sd.fg[l][p] && dominant[p] == c.slot;
             n += mask[p];
         }
         if (n < kMinBucketPixels)
@@ -172,7 +178,7 @@ void alpha_reliability(const SceneSeeds& sd, const StudyConfig& cfg, const std::
 }
 
 VarianceScene variance_scene(StudyContext& ctx, const SceneVariant& scene,
-                             const std::vector<stats::Partition>& partitions) {
+                             const std::vector<stats::Partition>& partitions, const std::vector<StudyClass>& classes) {
     const StudyConfig& cfg = ctx.cfg;
     const size_t L = cfg.variance_spp.size();
     VarianceScene r;
@@ -180,7 +186,11 @@ VarianceScene variance_scene(StudyContext& ctx, const SceneVariant& scene,
     Frame ref = ctx.frames.get(
         {scene, cfg.stability_reference_spp(), seeds::stability(cfg.stability_spp.size() - 1), Estimator::Nee});
     Descriptor dref = derive_descriptor(ref);
-    r.dm_share = summarize(ref, dref).energy_share[gpu::BUCKET_DELTA_MEDIATED];
+    const DescriptorSummary sm = summarize(ref, dref);
+    if (!ctx.cfg.taxonomy)
+        r.rare_share = sm.energy_share[gpu::BUCKET_DELTA_MEDIATED];
+    else
+        for (const StudyClass& c : classes) r.rare_share += c.rare ? sm.energy_share[c.slot] : 0.0;
     const SceneSeeds sd = load_seeds(ctx, scene);
     for (size_t l = 0; l < L; ++l) {
         const std::vector<double> rhos = split_half_rhos(sd, l, cfg.variance_spp[l], partitions, sd.fg[l]);
@@ -188,8 +198,8 @@ VarianceScene variance_scene(StudyContext& ctx, const SceneVariant& scene,
         if (std::isfinite(sdev)) r.max_std = std::max(r.max_std, sdev);
         r.level_rho.push_back(stats::mean(rhos));
     }
-    r.bucket_hi = bucket_rhos(sd, L - 1, cfg.variance_spp[L - 1], partitions, dref.dominant);
-    r.bucket_lo = bucket_rhos(sd, 0, cfg.variance_spp[0], partitions, dref.dominant);
+    r.bucket_hi = bucket_rhos(sd, L - 1, cfg.variance_spp[L - 1], partitions, dref.dominant, classes);
+    r.bucket_lo = bucket_rhos(sd, 0, cfg.variance_spp[0], partitions, dref.dominant, classes);
     alpha_reliability(sd, cfg, partitions, r);
     return r;
 }
@@ -199,19 +209,26 @@ VarianceResult compute_variance(StudyContext& ctx) {
                                                  0);  // docs/descriptor.md §5: base seed 0
     VarianceResult r;
     r.partitions = partitions.size();
-    for (const auto& scene : ctx.cfg.scenes) r.scenes.push_back(variance_scene(ctx, scene, partitions));
+    r.classes = study_classes(ctx.cfg, kBucketColumns);
+    for (const auto& scene : ctx.cfg.scenes) r.scenes.push_back(variance_scene(ctx, scene, partitions, r.classes));
     return r;
 }
 
 // ---- writers ----
 
-Table bucket_table(const std::string& name, const std::string& spp, const VarianceResult& r, bool hi) {
+Table bucket_table(const StudyConfig& cfg, const std::string& name, const std::string& spp, const VarianceResult& r,
+                   bool hi) {
     Table t{name,
-            "Split-half sigma^2 self-consistency per bucket at SPP=" + spp + " (tab:sigma-perbucket)",
-            {"scene", "dir.", "diff.", "d-m", "spec.", "gloss."},
+            "Split-half sigma^2 self-consistency per " + std::string(cfg.taxonomy ? "class" : "bucket") +
+                " at SPP=" + spp + " (tab:sigma-perbucket)",
+            {"scene"},
             {},
             ""};
-    t.note = "Buckets from the reference render's dominant label; \"---\": fewer than 50 pixels.";
+    for (size_t i = 0; i < r.classes.size(); ++i)
+        t.columns.push_back(cfg.taxonomy ? r.classes[i].name : kBucketHeaders[i]);
+    t.note = cfg.taxonomy ? "Classes of the taxonomy " + cfg.taxonomy->file +
+                                " from the reference render's dominant label; \"---\": fewer than 50 pixels."
+                          : "Buckets from the reference render's dominant label; \"---\": fewer than 50 pixels.";
     for (const VarianceScene& sc : r.scenes) {
         std::vector<Cell> row{Cell::str(sc.name)};
         for (const auto& rho : hi ? sc.bucket_hi : sc.bucket_lo)
@@ -281,13 +298,24 @@ report::Figure split_half_figure(const StudyConfig& cfg, const VarianceResult& r
     return fig;
 }
 
-// Shape check: split-half lowest on the caustic-dominated scene (largest delta-mediated energy share).
-void check_caustic_lowest(StudyOutput& out, const VarianceResult& r) {
+// Shape check: split-half lowest on the caustic-dominated scene (largest delta-mediated energy share; under a
+// taxonomy, the largest share of the classes it declares [rare], and no check without any).
+void check_caustic_lowest(StudyOutput& out, const StudyConfig& cfg, const VarianceResult& r) {
+    std::string rare_names;
+    for (const StudyClass& c : r.classes)
+        if (c.rare) rare_names += (rare_names.empty() ? "" : ", ") + c.name;
+    if (cfg.taxonomy && rare_names.empty()) {
+        out.text("Variance baseline", "The taxonomy " + cfg.taxonomy->file +
+                                          " declares no class [rare], so the paper's check (the split-half rho is "
+                                          "lowest on the caustic-dominated scene) has no caustic classes to read.");
+        return;
+    }
+    const std::string what = cfg.taxonomy ? "the [rare] classes' (" + rare_names + ")" : "delta-mediated";
     std::string lowest_scene, caustic_scene;
     double lowest = INFINITY, caustic_share = -1.0;
     for (const VarianceScene& sc : r.scenes) {
-        if (sc.dm_share > caustic_share) {
-            caustic_share = sc.dm_share;
+        if (sc.rare_share > caustic_share) {
+            caustic_share = sc.rare_share;
             caustic_scene = sc.name;
         }
         const double level_mean = stats::mean(sc.level_rho);
@@ -299,22 +327,27 @@ void check_caustic_lowest(StudyOutput& out, const VarianceResult& r) {
     if (r.scenes.size() > 1)
         out.check("the split-half rho of sigma^2 is lowest on the caustic-dominated scene",
                   lowest_scene == caustic_scene,
-                  "lowest (mean over levels): " + lowest_scene + " (" + report::format("%.3f", lowest) +
-                      "); largest delta-mediated energy share: " + caustic_scene + " (" +
+                  "lowest (mean over levels): " + lowest_scene + " (" + report::format("%.3f", lowest) + "); largest " +
+                      what + " energy share: " + caustic_scene + " (" +
                       report::format("%.1f%%", 100.0 * caustic_share) + ")");
 }
 
 void write_variance(StudyOutput& out, const StudyConfig& cfg, const VarianceResult& r) {
     const std::string sec = "Variance baseline";
     const std::string lo = std::to_string(cfg.variance_spp.front()), hi = std::to_string(cfg.variance_spp.back());
-    check_caustic_lowest(out, r);
+    check_caustic_lowest(out, cfg, r);
+    if (cfg.taxonomy)
+        out.text(sec, "Classes: the taxonomy `" + cfg.taxonomy->file +
+                          "` (docs/lpe.md); the per-class tables show each of its classes where the built-in study "
+                          "shows five buckets.");
     out.table(sec, split_half_table(cfg, r),
               "1 would be a noiseless reference; low values mean the variance field does not even agree with "
               "itself across a seed split. The paper finds it lowest on the caustic-dominated scene.");
-    out.table(sec, bucket_table("sigma_perbucket", hi, r, true),
-              "the same statistic restricted to each dominant bucket at the highest variance level: where "
-              "within an image the variance signal is unreliable.");
-    out.table(sec, bucket_table("sigma_perbucket_" + lo, lo, r, false),
+    out.table(
+        sec, bucket_table(cfg, "sigma_perbucket", hi, r, true),
+        "the same statistic restricted to each dominant label (bucket or class) at the highest variance level: where "
+        "within an image the variance signal is unreliable.");
+    out.table(sec, bucket_table(cfg, "sigma_perbucket_" + lo, lo, r, false),
               "as above at the lowest variance level (the pilot's regime).");
     out.table(sec, alpha_table(cfg, r, lo, hi),
               "alpha_hat near 1 is Monte Carlo's 1/N; a low split-half rho means the per-pixel exponent "

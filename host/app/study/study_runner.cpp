@@ -196,9 +196,10 @@ StudyPlan make_plan(const StudyOptions& o) {
     const std::vector<StudyKind> kinds = parse_study(o.study);
     if (!o.taxonomy.empty()) {
         for (StudyKind k : kinds)
-            if (k != StudyKind::Stability && k != StudyKind::Allocation)
+            if (k != StudyKind::Stability && k != StudyKind::Variance && k != StudyKind::Cost &&
+                k != StudyKind::Allocation)
                 throw std::invalid_argument(
-                    "--taxonomy applies to `vkmech study stability` and `vkmech study allocation`: the other "
+                    "--taxonomy applies to `vkmech study` stability, variance, cost and allocation: the other "
                     "studies' analyses name the paper's buckets (docs/lpe.md)");
         if (!o.jobs_file.empty())
             throw std::invalid_argument("--taxonomy and --jobs: the job commands do not carry the taxonomy yet");
