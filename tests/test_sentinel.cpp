@@ -18,6 +18,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -349,6 +351,50 @@ TEST_CASE("sentinel: verify refuses malformed JSON and missing members and an un
     CHECK(parse_json("{\"a\": [true, null, -1.5e3, \"\\u00e9\"]}"));
 }
 
+TEST_CASE("sentinel: a taxonomy's record is version 2, names the taxonomy and keeps its classes' traits") {
+    sentinel::Record r = small_record();
+    const std::string v1 = sentinel::seal(sentinel::record_json(r));
+    CHECK(v1.find("\"format_version\": 1,") != std::string::npos);
+    CHECK(v1.find("\"taxonomy\"") == std::string::npos);  // a buckets' record is as before
+    r.taxonomy = sentinel::TaxonomyRecord{"/nowhere/t.lpe", sha256_hex("t"), {"caustic", "lamp", "rest", "other"}, {}};
+    r.taxonomy->traits.heavy = 0b0001;
+    r.taxonomy->traits.constant = 0b0010;
+    r.taxonomy->traits.rare = 0b0101;
+    CHECK(r.class_names() == std::vector<std::string>{"caustic", "lamp", "rest", "other"});
+    const std::string v2 = sentinel::seal(sentinel::record_json(r));
+    CHECK(v2.find("\"format_version\": 2,") != std::string::npos);
+    CHECK(v2.find("\"heavy\": [\"caustic\"], \"constant\": [\"lamp\"], \"rare\": [\"caustic\", \"rest\"]") !=
+          std::string::npos);
+    CHECK(sentinel::verify_record(v2, "r.json").kind == sentinel::Verification::Intact);
+    const auto doc = parse_json(v2);
+    REQUIRE(doc);
+    const sentinel::Record b = sentinel::parse_record(*doc);
+    REQUIRE(b.taxonomy);
+    CHECK(b.taxonomy->path == "/nowhere/t.lpe");
+    CHECK(b.taxonomy->sha256 == sha256_hex("t"));
+    CHECK(b.class_names() == r.class_names());
+    CHECK(b.class_traits().heavy == 0b0001);
+    CHECK(b.class_traits().constant == 0b0010);
+    CHECK(b.class_traits().rare == 0b0101);
+    CHECK_FALSE(sentinel::parse_record(*parse_json(v1)).taxonomy);
+    CHECK(sentinel::parse_record(*parse_json(v1)).class_traits().heavy == alloc::ClassTraits{}.heavy);
+    // Version 2 without the taxonomy, or version 1 with one, is malformed (a vkmech that reads version 1 only
+    // must not evaluate a taxonomy's record by the buckets).
+    std::string no_tax = v1;
+    no_tax.replace(no_tax.find("\"format_version\": 1"), 19, "\"format_version\": 2");
+    auto v = sentinel::verify_record(no_tax, "r.json");
+    CHECK(v.kind == sentinel::Verification::Malformed);
+    CHECK(v.message.find("the member \"taxonomy\" is missing") != std::string::npos);
+    std::string as_v1 = v2;
+    as_v1.replace(as_v1.find("\"format_version\": 2"), 19, "\"format_version\": 1");
+    CHECK(sentinel::verify_record(as_v1, "r.json").kind == sentinel::Verification::Malformed);
+    // A property naming no class is refused when read.
+    std::string unknown = v2;
+    unknown.replace(unknown.find("\"constant\": [\"lamp\"]"), 20, "\"constant\": [\"lump\"]");
+    CHECK_THROWS_WITH_AS(sentinel::parse_record(*parse_json(unknown)), doctest::Contains("taxonomy.constant"),
+                         std::runtime_error);
+}
+
 TEST_CASE("sentinel: the prediction rules over a pilot diagnosis") {
     const Frame f = synthetic_pilot(10, 10, 0);
     const Pilot pilot = make_pilot(f, {});
@@ -423,6 +469,87 @@ TEST_SUITE("gpu") {
         CHECK(r.diagnosis.pixels == 1024);
         CHECK(r.diagnosis.robust_checked);  // N0 = 16 allows the median of means
         CHECK(find(r.predictions, "allocation.robust-floor_vs_robust-var"));
+    }
+
+    TEST_CASE(
+        "sentinel: register and evaluate --taxonomy label by the classes, and paper.lpe predicts as the buckets") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("sentinel_tax");
+        const std::string small =
+            "sentinel register --scene glass_caustic --res 24 --pilot 8 --reference-spp 64 "
+            "--draws 2 --out ";
+        const std::string paper = std::string(VKMECH_SOURCE_DIR) + "/taxonomies/paper.lpe";
+        // The same lines in reverse order: every class in another slot.
+        std::string reversed;
+        {
+            std::vector<std::string> lines;
+            std::istringstream in(read_text(paper));
+            for (std::string l; std::getline(in, l);)
+                if (!l.empty() && l[0] != '#') lines.insert(lines.begin(), l);
+            for (const auto& l : lines) reversed += l + "\n";
+        }
+        write_text(dir.file("rev.lpe"), reversed);
+        struct Run {
+            std::map<std::string, JsonValue> predictions, outcomes;
+            std::optional<JsonValue> record;
+            std::string diagnosis;  // the record's line
+        };
+        auto run = [&](const std::string& name, const std::string& taxonomy) {
+            const std::string rec = dir.file(name + ".json");
+            auto r = testing::run_cli(small + rec + (taxonomy.empty() ? "" : " --taxonomy " + taxonomy));
+            INFO(r.output);
+            REQUIRE(r.code == 0);
+            auto e = testing::run_cli("sentinel evaluate " + rec + " --out " + dir.file(name + "_ev"));
+            INFO(e.output);
+            REQUIRE(e.code == 0);
+            Run out;
+            const std::string text = read_text(rec);
+            out.record = parse_json(text);
+            REQUIRE(out.record);
+            const size_t at = text.find("\"diagnosis\":");
+            REQUIRE(at != std::string::npos);
+            out.diagnosis = text.substr(at, text.find('\n', at) - at);
+            for (const JsonValue& p : out.record->find("predictions")->array)
+                out.predictions[p.find("name")->string] = p;
+            const auto ev = parse_json(read_text(dir.file(name + "_ev") + "/evaluation.json"));
+            REQUIRE(ev);
+            for (const JsonValue& o : ev->find("outcomes")->array) out.outcomes[o.find("name")->string] = o;
+            return out;
+        };
+        const Run b = run("b", ""), p = run("p", paper), rv = run("rv", dir.file("rev.lpe"));
+        CHECK(b.record->find("format_version")->number == 1);
+        CHECK(p.record->find("format_version")->number == 2);
+        CHECK(p.record->find("taxonomy")->find("sha256")->string == sha256_file(paper));
+        CHECK(p.record->find("curve")->kind == JsonValue::Null);
+        CHECK(rv.record->find("taxonomy")->find("classes")->array[0].string == "specular_direct");
+        // Every prediction but the curve's (reliability.*), with the same value or outcome, and the same verdict.
+        CHECK(b.predictions.count("reliability.margin") == 1);
+        for (const Run* t : {&p, &rv}) {
+            CHECK(t->predictions.size() + 2 == b.predictions.size());
+            CHECK(t->diagnosis == b.diagnosis);
+            for (const auto& entry : t->predictions) {
+                const std::string& name = entry.first;
+                CAPTURE(name);
+                REQUIRE(b.predictions.count(name) == 1);
+                const JsonValue &x = *entry.second.find("predicted"), &y = *b.predictions.at(name).find("predicted");
+                CHECK(x.kind == y.kind);
+                CHECK(x.number == y.number);
+                CHECK(x.string == y.string);
+                CHECK(t->outcomes.at(name).find("measured")->string == b.outcomes.at(name).find("measured")->string);
+                CHECK(t->outcomes.at(name).find("verdict")->string == b.outcomes.at(name).find("verdict")->string);
+            }
+        }
+        CHECK(read_text(dir.file("rv_ev") + "/report.md").find("Labels: the classes of the taxonomy") !=
+              std::string::npos);
+        // A taxonomy edited after registration is refused (exit 1), as an edited scene is.
+        write_text(dir.file("rev.lpe"), reversed + "# edited\n");
+        auto e = testing::run_cli("sentinel evaluate " + dir.file("rv.json") + " --out " + dir.file("rv_ev2"));
+        CHECK(e.code == 1);
+        CHECK(e.output.find("refusing to evaluate a record of another taxonomy") != std::string::npos);
+        // The reliability curve was fitted on the buckets: --curve with --taxonomy is refused (exit 2).
+        e = testing::run_cli(small + dir.file("c.json") + " --taxonomy " + paper + " --curve " + dir.file("rev.lpe"));
+        CHECK(e.code == 2);
+        CHECK(e.output.find("--curve and --taxonomy") != std::string::npos);
     }
 
     TEST_CASE("sentinel: register on cubes_dof writes a record that verify accepts and an edited copy is refused") {

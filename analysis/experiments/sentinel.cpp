@@ -7,6 +7,7 @@
 #include "io/sha256.hpp"
 #include "render/descriptor.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -49,8 +50,12 @@ Prediction outcome(std::string name, std::string what, std::string covers, std::
 
 }  // namespace
 
+std::vector<std::string> Record::class_names() const {
+    return taxonomy ? taxonomy->classes : std::vector<std::string>(kBucketNames.begin(), kBucketNames.end());
+}
+
 std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis& d, const ReliabilityCurve* curve,
-                                const SeparationMeasures* sep) {
+                                const SeparationMeasures* sep, const std::vector<std::string>& classes) {
     std::vector<Prediction> out;
     const std::string all_px = "all " + std::to_string(d.pixels) + " pixels";
 
@@ -71,18 +76,21 @@ std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis&
                        kReliabilityTolerance});
     }
 
-    // (b) Per-bucket coverage of the pilot (§3.2 summary): predicted to hold at the reference.
+    // (b) Per-bucket (or per-class) coverage of the pilot (§3.2 summary): predicted to hold at the reference.
     const Descriptor desc = derive_descriptor(pilot);
     const DescriptorSummary s = summarize(pilot, desc);
-    for (uint32_t b = 0; b < kBucketCount; ++b) {
-        const std::string bucket = kBucketNames[b];
+    const bool by_class = !classes.empty();
+    const size_t slots = by_class ? std::min<size_t>(classes.size(), kBucketCount) : kBucketCount;
+    for (uint32_t b = 0; b < slots; ++b) {
+        const std::string bucket = by_class ? classes[b] : kBucketNames[b];
+        const std::string kind = by_class ? "class " : "bucket ";
         const std::string band = "PASS if |measured - predicted| <= " + json_number(kShareTolerance) + "; measured: ";
         out.push_back({"coverage." + bucket + ".pixel_share", "", s.pixel_share[b],
                        std::to_string(s.labelled_pixels) + " pilot-labelled pixels",
-                       "the pilot's share of labelled pixels whose dominant bucket is " + bucket,
+                       "the pilot's share of labelled pixels whose dominant " + kind + "is " + bucket,
                        band + "the same share in the reference", kShareTolerance});
         out.push_back({"coverage." + bucket + ".energy_share", "", s.energy_share[b], all_px,
-                       "the pilot's share of the image energy in bucket " + bucket,
+                       "the pilot's share of the image energy in " + kind + bucket,
                        band + "the same share in the reference", kShareTolerance});
     }
 
@@ -137,7 +145,8 @@ std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis&
 std::string record_json(const Record& r) {
     const alloc::PilotDiagnosis& d = r.diagnosis;
     std::ostringstream j;
-    j << "{\n  \"format\": " << json_string(kFormat) << ",\n  \"format_version\": " << kFormatVersion;
+    j << "{\n  \"format\": " << json_string(kFormat)
+      << ",\n  \"format_version\": " << (r.taxonomy ? kTaxonomyFormatVersion : kFormatVersion);
     j << ",\n  \"scene\": {\"name\": " << json_string(r.scene_name) << ", \"path\": " << json_string(r.scene_path)
       << ", \"sha256\": " << json_string(r.scene_sha256) << ", \"files\": [";
     for (size_t i = 0; i < r.scene_files.size(); ++i)
@@ -155,6 +164,20 @@ std::string record_json(const Record& r) {
       << ", \"rr_depth\": " << r.rr_depth << ", \"traversal\": " << json_string(r.traversal) << "}";
     j << ",\n  \"protocol\": {\"reference_spp\": " << r.protocol.reference_spp << ", \"draws\": " << r.protocol.draws
       << ", \"extra_spp\": " << r.protocol.extra_spp << ", \"floor\": " << r.protocol.floor << "}";
+    if (r.taxonomy) {
+        const TaxonomyRecord& t = *r.taxonomy;
+        auto names = [&](uint32_t bits) {
+            std::string list;
+            for (size_t c = 0; c < t.classes.size(); ++c)
+                if ((bits >> c) & 1u) list += (list.empty() ? "" : ", ") + json_string(t.classes[c]);
+            return "[" + list + "]";
+        };
+        j << ",\n  \"taxonomy\": {\"path\": " << json_string(t.path) << ", \"sha256\": " << json_string(t.sha256)
+          << ", \"classes\": [";
+        for (size_t c = 0; c < t.classes.size(); ++c) j << (c ? ", " : "") << json_string(t.classes[c]);
+        j << "], \"heavy\": " << names(t.traits.heavy) << ", \"constant\": " << names(t.traits.constant)
+          << ", \"rare\": " << names(t.traits.rare) << "}";
+    }
     j << ",\n  \"renders\": [";
     for (size_t i = 0; i < r.renders.size(); ++i)
         j << (i ? ", " : "") << "{\"purpose\": \"pilot\", \"seed\": " << r.renders[i].seed
@@ -226,10 +249,16 @@ Verification verify_record(const std::string& text, const std::string& file) {
         return bad(std::string("it lacks \"format\": \"") + kFormat + "\"");
     const JsonValue* version = doc->find("format_version");
     if (!version || version->kind != JsonValue::Number) return bad("it lacks a numeric \"format_version\"");
-    if (version->number != kFormatVersion)
+    if (version->number != kFormatVersion && version->number != kTaxonomyFormatVersion)
         return {Verification::Malformed, f + ": unknown sentinel record format version " +
-                                             json_number(version->number) + " (this vkmech reads version " +
-                                             std::to_string(kFormatVersion) + ")"};
+                                             json_number(version->number) + " (this vkmech reads versions " +
+                                             std::to_string(kFormatVersion) + " and " +
+                                             std::to_string(kTaxonomyFormatVersion) + ")"};
+    const JsonValue* tax = doc->find("taxonomy");
+    if ((version->number == kTaxonomyFormatVersion) != (tax && tax->kind == JsonValue::Object))
+        return bad(version->number == kTaxonomyFormatVersion
+                       ? "format version 2 is a taxonomy's record, and the member \"taxonomy\" is missing"
+                       : "a record with a \"taxonomy\" is format version 2");
     struct Required {
         const char* key;
         JsonValue::Kind kind;
@@ -370,6 +399,33 @@ Record parse_record(const JsonValue& doc) {
         m.segments = count(*s, "segments", "separation");
         m.visible = count(*s, "visible", "separation");
         r.separation = m;
+    }
+    if (const JsonValue* t = doc.find("taxonomy"); t && t->kind == JsonValue::Object) {
+        TaxonomyRecord tr;
+        tr.path = text(*t, "path", "taxonomy");
+        tr.sha256 = text(*t, "sha256", "taxonomy");
+        for (const JsonValue& c : member(*t, "classes", JsonValue::Array, "taxonomy").array) {
+            if (c.kind != JsonValue::String)
+                throw std::runtime_error("sentinel record: taxonomy.classes holds a non-string");
+            tr.classes.push_back(c.string);
+        }
+        if (tr.classes.empty() || tr.classes.size() > kBucketCount)
+            throw std::runtime_error("sentinel record: taxonomy.classes has " + std::to_string(tr.classes.size()) +
+                                     " classes (1 to " + std::to_string(kBucketCount) + ")");
+        auto bits = [&](const std::string& key) {
+            uint32_t b = 0;
+            for (const JsonValue& n : member(*t, key, JsonValue::Array, "taxonomy").array) {
+                const auto at = std::find(tr.classes.begin(), tr.classes.end(), n.string);
+                if (n.kind != JsonValue::String || at == tr.classes.end())
+                    throw std::runtime_error("sentinel record: taxonomy." + key + " names no class");
+                b |= 1u << (at - tr.classes.begin());
+            }
+            return b;
+        };
+        tr.traits.heavy = bits("heavy");
+        tr.traits.constant = bits("constant");
+        tr.traits.rare = bits("rare");
+        r.taxonomy = std::move(tr);
     }
     for (const JsonValue& p : member(doc, "predictions", JsonValue::Array, "the record").array) {
         Prediction x;

@@ -33,6 +33,9 @@ namespace vkmech::sentinel {
 
 inline constexpr const char* kFormat = "vkmech sentinel record";
 inline constexpr int kFormatVersion = 1;
+// A record whose pilot a user taxonomy labelled (`sentinel register --taxonomy`, docs/lpe.md) is version
+// 2, so that a vkmech reading version 1 only refuses it rather than evaluate it by the buckets.
+inline constexpr int kTaxonomyFormatVersion = 2;
 
 // The written-down thresholds of the prediction rules (docs/descriptor.md §9.3).
 // A pilot-variance strategy is predicted to fail against uniform when at
@@ -76,11 +79,21 @@ struct Prediction {
 // reliability (when a curve is given), per-bucket pilot coverage, the
 // allocation strategies' outcomes (the robust ones when diag.robust_checked),
 // and the sign of rho(C, G) when both families exist (sep defined).
+// `classes`: the names of the pilot's label slots, for the coverage predictions (empty: the buckets').
 std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis& diag, const ReliabilityCurve* curve,
-                                const SeparationMeasures* sep);
+                                const SeparationMeasures* sep, const std::vector<std::string>& classes = {});
 
 struct FileDigest {
     std::string path, sha256;
+};
+
+// The taxonomy a record's pilot was labelled by: its file, named by path and SHA-256 as the scene is,
+// its classes (the lines', then `other`, slot order) and the classes its lines declare [heavy],
+// [constant] and [rare] (a bit per class), which the allocation rules read.
+struct TaxonomyRecord {
+    std::string path, sha256;
+    std::vector<std::string> classes;
+    alloc::ClassTraits traits;
 };
 
 struct Record {
@@ -109,6 +122,10 @@ struct Record {
     alloc::PilotDiagnosis diagnosis;
     std::optional<SeparationMeasures> separation;
     std::vector<Prediction> predictions;
+    std::optional<TaxonomyRecord> taxonomy;  // none: the seven buckets (a version-1 record)
+    // The labels' names (the taxonomy's classes, else the buckets') and their traits.
+    std::vector<std::string> class_names() const;
+    alloc::ClassTraits class_traits() const { return taxonomy ? taxonomy->traits : alloc::ClassTraits{}; }
 };
 
 // The record's JSON without the "sha256" member (the canonical body B above).

@@ -85,8 +85,10 @@ Scores score_strategies(const Record& r, const EvalInputs& in, const alloc::Pilo
     Scores sc;
     for (uint32_t k = 0; k < r.protocol.draws; ++k) {
         const Pilot& pl = in.pilots[k];
-        const alloc::PilotDiagnosis dg = k == 0 ? d0 : alloc::diagnose_pilot(pl);
+        const alloc::PilotDiagnosis dg = k == 0 ? d0 : alloc::diagnose_pilot(pl, r.class_traits());
         alloc::ScoreInputs si;
+        si.heavy = r.class_traits().heavy;
+        si.rare = r.class_traits().rare;
         si.pilot_var = &pl.var;
         si.pilot_labels = &pl.labels;
         si.oracle_var = &in.pool->oracle_var;
@@ -118,15 +120,16 @@ Scores score_strategies(const Record& r, const EvalInputs& in, const alloc::Pilo
     return sc;
 }
 
-// coverage.<bucket>.<pixel_share|energy_share>: the reference's share.
-void measure_coverage(const Prediction& pr, const DescriptorSummary& rs, Outcome& o) {
+// coverage.<bucket or class>.<pixel_share|energy_share>: the reference's share. `classes`: the slots' names.
+void measure_coverage(const Prediction& pr, const DescriptorSummary& rs, const std::vector<std::string>& classes,
+                      Outcome& o) {
     const std::string rest = pr.name.substr(9);
-    const size_t dot = rest.find('.');
+    const size_t dot = rest.rfind('.');
     const std::string bucket = rest.substr(0, dot), what = dot == std::string::npos ? "" : rest.substr(dot + 1);
     uint32_t b = 0;
-    while (b < kBucketCount && bucket != kBucketNames[b]) ++b;
+    while (b < classes.size() && bucket != classes[b]) ++b;
     double m = NAN;
-    if (b < kBucketCount)
+    if (b < classes.size() && b < kBucketCount)
         m = what == "pixel_share" ? rs.pixel_share[b] : what == "energy_share" ? rs.energy_share[b] : NAN;
     o.measured = fmt("%.4f", m);
     o.verdict = verdict_band(pr.value, m, pr.tolerance);
@@ -214,7 +217,7 @@ Evaluation evaluate(const Record& r, const EvalInputs& in) {
     e.peak = psnr_peak(ref_rgb);
     const Descriptor rd = derive_descriptor(ref);
     const DescriptorSummary rs = summarize(ref, rd);
-    const alloc::PilotDiagnosis d0 = alloc::diagnose_pilot(in.pilots[0]);
+    const alloc::PilotDiagnosis d0 = alloc::diagnose_pilot(in.pilots[0], r.class_traits());
     check_reproduced(r, d0, e);
     const std::vector<uint8_t> ref_labels = rd.dominant;
     const Scores sc = score_strategies(r, in, d0, ref_rgb, ref_labels, e);
@@ -235,7 +238,7 @@ Evaluation evaluate(const Record& r, const EvalInputs& in) {
                        std::to_string(static_cast<uint64_t>(conf.total())) + " pixels labelled in both; |error| " +
                        fmt("%.4f", std::abs(agree - pr.value)) + " (band " + fmt("%.3f", pr.tolerance) + ")";
         } else if (pr.name.rfind("coverage.", 0) == 0) {
-            measure_coverage(pr, rs, o);
+            measure_coverage(pr, rs, r.class_names(), o);
         } else if (pr.name.rfind("allocation.", 0) == 0) {
             measure_allocation(pr, sc, o);
         } else if (pr.name == "structure.rho_CG_sign") {
@@ -294,6 +297,13 @@ std::string evaluation_markdown(const Record& r, const std::string& record_file,
       << r.height << ". Protocol (fixed at registration): reference " << r.protocol.reference_spp << " spp, "
       << r.protocol.draws << " pilot draws, extra budget " << r.protocol.extra_spp << " spp, floor " << r.protocol.floor
       << ".\n\n";
+    if (r.taxonomy) {
+        m << "Labels: the classes of the taxonomy `" << r.taxonomy->path << "` (sha256 `" << r.taxonomy->sha256
+          << "`): ";
+        for (size_t c = 0; c < r.taxonomy->classes.size(); ++c) m << (c ? ", " : "") << r.taxonomy->classes[c];
+        m << ". Every render of the evaluation labels by it; the allocation rules read the classes its lines declare "
+             "[heavy], [constant] and [rare].\n\n";
+    }
     m << "**" << e.pass << " PASS, " << e.fail << " FAIL, " << e.indeterminate << " INDETERMINATE** of "
       << e.outcomes.size() << " predictions.\n\n";
     m << "| prediction | predicted | measured | verdict | how measured |\n|---|---|---|---|---|\n";

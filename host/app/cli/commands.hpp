@@ -2,6 +2,7 @@
 // (register_*), and shares the helpers below.
 #pragma once
 
+#include "render/taxonomy.hpp"
 #include "scene/scene.hpp"
 #include "study/study_runner.hpp"
 #include "vk/context.hpp"
@@ -84,6 +85,7 @@ struct SentinelOptions {
     std::string out;          // the record (default sentinel_<scene>.json)
     std::string curve;        // frozen predictor curve (default: found as `vkmech paths` says)
     std::string name;         // the scene's name in the record (default: the file stem)
+    std::string taxonomy;     // --taxonomy FILE (docs/lpe.md): the pilot labelled by its classes
     bool force = false;       // overwrite an existing record
     // The evaluation protocol, fixed in the record (docs/descriptor.md §9.4).
     uint32_t reference_spp = 2048, draws = 10, extra = 32, floor = 1;
@@ -140,6 +142,13 @@ std::map<std::string, std::string> parse_defines(const std::vector<std::string>&
 // The scene of --scene with -D, --res, --substitute and --max-triangles
 // applied; its warnings and substitutions on stderr when `report`.
 Scene load_for_cli(const CommonOptions& o, bool report = true);
+
+// `--taxonomy FILE` and `--lpe name=EXPR` (repeatable; docs/lpe.md): read, and the shapes they name given
+// materials of their own (before the scene goes to the device); then compiled against the scene on the device,
+// the taxonomy as a partition and the queries as overlapping channels, warnings printed. Errors are usage errors
+// (exit 2) naming file (or `--lpe`, the k-th option for line k), line and column.
+lpe::TaxonomySource read_labels_for_cli(const std::function<lpe::TaxonomySource()>& read, Scene& scene);
+SceneTaxonomy compile_labels_for_cli(const lpe::TaxonomySource& source, const Scene& scene, bool queries);
 // "ring_caustic" for "ring_caustic" and for "path/to/ring_caustic.xml".
 std::string scene_stem(const std::string& name_or_path);
 

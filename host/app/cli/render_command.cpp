@@ -231,10 +231,9 @@ bool wants_direct_glossy(const RenderOptions& o, bool capture) {
     return on;
 }
 
-// `--taxonomy FILE` and `--lpe name=EXPR` (repeatable; docs/lpe.md): read, and the shapes they name given
-// materials of their own (before the scene goes to the device); then compiled against the scene on the device,
-// the taxonomy as a partition and the queries as overlapping channels, warnings printed. Errors are usage errors
-// (exit 2) naming file (or `--lpe`, the k-th option for line k), line and column.
+}  // namespace
+
+// commands.hpp.
 lpe::TaxonomySource read_labels_for_cli(const std::function<lpe::TaxonomySource()>& read, Scene& scene) {
     try {
         lpe::TaxonomySource source = read();
@@ -253,6 +252,8 @@ SceneTaxonomy compile_labels_for_cli(const lpe::TaxonomySource& source, const Sc
         throw UsageError(std::string(queries ? "" : "--taxonomy: ") + e.what());
     }
 }
+
+namespace {
 
 // The query channels' energy (luminance summed over the film) as shares of the image's, in channel order.
 void print_query_shares(const std::vector<ExrChannel>& channels, const Frame& frame, double seconds) {

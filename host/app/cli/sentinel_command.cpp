@@ -47,14 +47,20 @@ std::string utc_now() {
 // Renders only the pilot and writes the sealed pre-registration record.
 int cmd_sentinel_register(const SentinelOptions& o) {
     // Everything that can be refused is refused before the pilot renders (exit 2).
-    const Resource found = o.curve.empty() ? find_predictor_curve() : Resource{};
+    const bool by_taxonomy = !o.taxonomy.empty();
+    if (by_taxonomy && !o.curve.empty())
+        throw UsageError(
+            "--curve and --taxonomy: the reliability curve was fitted on the buckets' labels, so a "
+            "taxonomy's record predicts no label reliability (docs/lpe.md)");
+    const Resource found = o.curve.empty() && !by_taxonomy ? find_predictor_curve() : Resource{};
     const std::string curve_path = o.curve.empty() ? found.path : o.curve;
-    if (curve_path.empty())
+    if (curve_path.empty() && !by_taxonomy)
         throw UsageError("sentinel register needs the frozen reliability curve: " + found.missing_message());
-    if (!fs::exists(curve_path)) throw UsageError("predictor curve '" + curve_path + "' does not exist");
+    if (!by_taxonomy && !fs::exists(curve_path))
+        throw UsageError("predictor curve '" + curve_path + "' does not exist");
     ReliabilityCurve curve;
     try {
-        curve = ReliabilityCurve::load(curve_path);
+        if (!by_taxonomy) curve = ReliabilityCurve::load(curve_path);
     } catch (const std::runtime_error& e) {
         throw UsageError(e.what());
     }
@@ -68,6 +74,8 @@ int cmd_sentinel_register(const SentinelOptions& o) {
         throw UsageError("'" + out + "' exists: a registration is never overwritten (remove it, or --force)");
     require_writable_dir(fs::path(canonical_path(out)).parent_path().string(), "--out");
     Scene loaded = load_for_cli(o.common);
+    std::optional<lpe::TaxonomySource> taxonomy;
+    if (by_taxonomy) taxonomy = read_labels_for_cli([&] { return lpe::read_taxonomy(o.taxonomy); }, loaded);
 
     sentinel::Record rec;
     rec.scene_name = name;
@@ -81,7 +89,7 @@ int cmd_sentinel_register(const SentinelOptions& o) {
     try {
         rec.scene_sha256 = sha256_file(scene_path);
         for (const auto& [path, sha] : scene_input_files(loaded)) rec.scene_files.push_back({path, sha});
-        rec.curve_sha256 = sha256_file(curve_path);
+        if (!by_taxonomy) rec.curve_sha256 = sha256_file(curve_path);
     } catch (const std::runtime_error& e) {
         throw UsageError(e.what());
     }
@@ -93,6 +101,17 @@ int cmd_sentinel_register(const SentinelOptions& o) {
     RenderSession session(ctx, std::move(loaded), trav, lights);
     // The paper's protocol (as render --adaptive): NEE, the descriptor captured, the default end vertex.
     Features features = session.features(Estimator::Nee, true);
+    std::optional<sentinel::TaxonomyRecord> tax_record;
+    if (taxonomy) {  // the pilot labelled by its classes (docs/lpe.md)
+        const SceneTaxonomy t = compile_labels_for_cli(*taxonomy, session.scene(), /*queries=*/false);
+        features.taxonomy = t.words;
+        try {
+            tax_record = sentinel::TaxonomyRecord{canonical_path(o.taxonomy), sha256_file(o.taxonomy), t.class_names(),
+                                                  class_traits(&t)};
+        } catch (const std::runtime_error& e) {
+            throw UsageError(e.what());
+        }
+    }
     Renderer renderer = session.renderer(features);
     std::fprintf(stderr, "vkmech: sentinel %s: %dx%d, pilot %u spp (seed %u) on '%s'; the reference is not rendered\n",
                  name.c_str(), session.scene().camera.width, session.scene().camera.height, o.pilot,
@@ -101,7 +120,8 @@ int cmd_sentinel_register(const SentinelOptions& o) {
         throw_if_interrupted();
         return render_pilot(renderer, n0, seed, robust);
     };
-    sentinel::Record r = register_sentinel(session, pilot_fn, o.pilot, o.pilot_draw, &curve);
+    sentinel::Record r = register_sentinel(session, pilot_fn, o.pilot, o.pilot_draw, by_taxonomy ? nullptr : &curve,
+                                           tax_record ? &*tax_record : nullptr);
     throw_if_interrupted();
 
     r.scene_name = rec.scene_name;
@@ -119,10 +139,12 @@ int cmd_sentinel_register(const SentinelOptions& o) {
     r.spirv_sha256 = Sha256().update(spirv.data(), spirv.size_bytes()).hex();
     r.registered_utc = utc_now();
     r.device = ctx.info().name;
-    r.curve_path = canonical_path(curve_path);
-    r.curve_sha256 = rec.curve_sha256;
-    r.curve_pilot_spp = curve.pilot_spp;
-    r.curve_reference_spp = curve.reference_spp;
+    if (!by_taxonomy) {
+        r.curve_path = canonical_path(curve_path);
+        r.curve_sha256 = rec.curve_sha256;
+        r.curve_pilot_spp = curve.pilot_spp;
+        r.curve_reference_spp = curve.reference_spp;
+    }
     r.params = rec.params;
     r.protocol = rec.protocol;
 
@@ -185,6 +207,12 @@ int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o) {
                          "' does not exist (moved? the record names it absolutely)");
     std::vector<std::pair<std::string, std::string>> files = {{r.scene_path, r.scene_sha256}};
     for (const auto& f : r.scene_files) files.emplace_back(f.path, f.sha256);
+    if (r.taxonomy) {  // the taxonomy too, byte for byte
+        if (!fs::is_regular_file(r.taxonomy->path))
+            throw UsageError("the registered taxonomy '" + r.taxonomy->path +
+                             "' does not exist (moved? the record names it absolutely)");
+        files.emplace_back(r.taxonomy->path, r.taxonomy->sha256);
+    }
     for (const auto& [path, digest] : files) {
         std::string now;
         try {
@@ -194,8 +222,8 @@ int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o) {
         }
         if (now != digest) {
             std::cerr << "vkmech: error: '" << path << "' changed since registration (SHA-256 " << now.substr(0, 16)
-                      << "..., registered " << digest.substr(0, 16)
-                      << "...); refusing to evaluate a record of another scene\n";
+                      << "..., registered " << digest.substr(0, 16) << "...); refusing to evaluate a record of another "
+                      << (r.taxonomy && path == r.taxonomy->path ? "taxonomy" : "scene") << "\n";
             return 1;
         }
     }
@@ -244,6 +272,13 @@ int cmd_sentinel_evaluate(const SentinelEvaluateOptions& o) {
     cfg.alloc_draws = static_cast<int>(r.protocol.draws);
     cfg.alloc_ref_chunk_spp = r.protocol.reference_spp % 256 == 0 ? 256 : r.protocol.reference_spp;
     cfg.alloc_ref_chunks = r.protocol.reference_spp / cfg.alloc_ref_chunk_spp;
+    if (r.taxonomy) {  // every render labelled by the registered taxonomy's classes
+        try {
+            cfg.taxonomy = lpe::read_taxonomy(r.taxonomy->path);
+        } catch (const lpe::LpeError& e) {
+            throw UsageError(std::string("the registered taxonomy: ") + e.what());
+        }
+    }
     const RenderCache cache(cache_dir);
     RenderedAllocationSource source(cfg, ctx, trav, cache, digest, [] { return pending_signal() != 0; });
     const SceneVariant& sv = cfg.scenes.front();
@@ -312,6 +347,13 @@ void register_sentinel(CLI::App& app, CliCommands& commands) {
     sentinel_register->add_option("--curve", o->curve,
                                   "Frozen label-reliability curve (default: predictor_curve.json, see `vkmech paths`)");
     sentinel_register->add_flag("--force", o->force, "Overwrite an existing record");
+    sentinel_register
+        ->add_option("--taxonomy", o->taxonomy,
+                     "Label the pilot by a user taxonomy's classes (docs/lpe.md): coverage is predicted per class and "
+                     "the allocation rules read the classes its lines declare [heavy], [constant] and [rare]; no "
+                     "label-reliability or Finding 1 prediction (both are defined on the buckets); the record (format "
+                     "version 2) names the file by its SHA-256, and evaluate labels by it")
+        ->check(CLI::ExistingFile);
     sentinel_register->add_option("--name", o->name,
                                   "The scene's name in the record and reports (default: the file stem)");
     sentinel_register

@@ -7,7 +7,8 @@
 namespace vkmech {
 
 sentinel::Record register_sentinel(const RenderSession& session, const PilotRenderFn& render, uint32_t pilot_spp,
-                                   uint32_t pilot_draw, const ReliabilityCurve* curve) {
+                                   uint32_t pilot_draw, const ReliabilityCurve* curve,
+                                   const sentinel::TaxonomyRecord* taxonomy) {
     const Scene& scene = session.scene();
     sentinel::Record r;
     r.width = scene.camera.width;
@@ -23,11 +24,15 @@ sentinel::Record register_sentinel(const RenderSession& session, const PilotRend
     const bool robust = alloc::mom_defined(static_cast<int>(pilot_spp));
     r.renders.push_back({r.pilot_seed, pilot_spp});
     const Pilot pilot = render(pilot_spp, r.pilot_seed, robust);
-    r.diagnosis = alloc::diagnose_pilot(pilot);
+    if (taxonomy) r.taxonomy = *taxonomy;
+    r.diagnosis = alloc::diagnose_pilot(pilot, r.class_traits());
 
-    const SeparationMeasures sep = measure_separation(session);
-    if (sep.defined()) r.separation = sep;
-    r.predictions = sentinel::predict(pilot.frame, r.diagnosis, curve, r.separation ? &*r.separation : nullptr);
+    if (!taxonomy) {
+        const SeparationMeasures sep = measure_separation(session);
+        if (sep.defined()) r.separation = sep;
+    }
+    r.predictions = sentinel::predict(pilot.frame, r.diagnosis, curve, r.separation ? &*r.separation : nullptr,
+                                      taxonomy ? taxonomy->classes : std::vector<std::string>{});
     return r;
 }
 

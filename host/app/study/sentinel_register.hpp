@@ -22,8 +22,12 @@ using PilotRenderFn = std::function<Pilot(uint32_t n0, uint32_t seed, bool robus
 // downstream_seeds::pilot(pilot_draw)), rendered through `render`. `curve`
 // (optional) gives the reliability predictions. The session supplies the
 // film, the integrator settings and the separation segments (traced with the
-// ray caster, not the path tracer).
+// ray caster, not the path tracer). `taxonomy` (optional; `render` then labels
+// by its classes): the pilot's classes and their traits, which the diagnosis
+// and the predictions read; the record names it, and Finding 1's sign, defined
+// by the buckets' caustic_frac and glossy_frac, is not predicted.
 sentinel::Record register_sentinel(const RenderSession& session, const PilotRenderFn& render, uint32_t pilot_spp,
-                                   uint32_t pilot_draw, const ReliabilityCurve* curve);
+                                   uint32_t pilot_draw, const ReliabilityCurve* curve,
+                                   const sentinel::TaxonomyRecord* taxonomy = nullptr);
 
 }  // namespace vkmech
