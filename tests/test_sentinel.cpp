@@ -387,7 +387,15 @@ TEST_CASE("sentinel: a taxonomy's record is version 2, names the taxonomy and ke
     CHECK(v.message.find("the member \"taxonomy\" is missing") != std::string::npos);
     std::string as_v1 = v2;
     as_v1.replace(as_v1.find("\"format_version\": 2"), 19, "\"format_version\": 1");
-    CHECK(sentinel::verify_record(as_v1, "r.json").kind == sentinel::Verification::Malformed);
+    v = sentinel::verify_record(as_v1, "r.json");
+    CHECK(v.kind == sentinel::Verification::Malformed);
+    CHECK(v.message.find("a record with a \"taxonomy\" is format version 2") != std::string::npos);
+    std::string not_object = v2;
+    const size_t tax_at = not_object.find("\"taxonomy\": {");
+    not_object.replace(tax_at, not_object.find('\n', tax_at) - tax_at, "\"taxonomy\": 7,");
+    v = sentinel::verify_record(not_object, "r.json");
+    CHECK(v.kind == sentinel::Verification::Malformed);
+    CHECK(v.message.find("the member \"taxonomy\" has the wrong type") != std::string::npos);
     // A property naming no class is refused when read.
     std::string unknown = v2;
     unknown.replace(unknown.find("\"constant\": [\"lamp\"]"), 20, "\"constant\": [\"lump\"]");
@@ -541,15 +549,29 @@ TEST_SUITE("gpu") {
         }
         CHECK(read_text(dir.file("rv_ev") + "/report.md").find("Labels: the classes of the taxonomy") !=
               std::string::npos);
+        // With fewer lines than buckets `other` is not slot 6: the report's `other` energy is the last class's.
+        write_text(dir.file("two.lpe"), "caustic [heavy rare] = C .* S .* [LB]\ndirect = C [DG] [LB]\n");
+        const Run two = run("two", dir.file("two.lpe"));
+        CHECK(two.predictions.count("coverage.other.energy_share") == 1);
+        CHECK(two.predictions.count("coverage.glossy.energy_share") == 0);
+        CHECK(std::stod(two.outcomes.at("coverage.other.energy_share").find("measured")->string) > 0.1);
+        CHECK(read_text(dir.file("two_ev") + "/report.md").find("`other` energy 0,") == std::string::npos);
+        // Finding 1's sign reads the buckets' caustic_frac and glossy_frac: a taxonomy's record does not predict it.
+        const std::string mixed = "sentinel register --scene tabletop_mixed --res 16 --pilot 4 --out ";
+        REQUIRE(testing::run_cli(mixed + dir.file("mb.json")).code == 0);
+        REQUIRE(testing::run_cli(mixed + dir.file("mt.json") + " --taxonomy " + paper).code == 0);
+        CHECK(read_text(dir.file("mb.json")).find("\"structure.rho_CG_sign\"") != std::string::npos);
+        CHECK(read_text(dir.file("mt.json")).find("\"structure.rho_CG_sign\"") == std::string::npos);
         // A taxonomy edited after registration is refused (exit 1), as an edited scene is.
         write_text(dir.file("rev.lpe"), reversed + "# edited\n");
         auto e = testing::run_cli("sentinel evaluate " + dir.file("rv.json") + " --out " + dir.file("rv_ev2"));
         CHECK(e.code == 1);
         CHECK(e.output.find("refusing to evaluate a record of another taxonomy") != std::string::npos);
-        // The reliability curve was fitted on the buckets: --curve with --taxonomy is refused (exit 2).
-        e = testing::run_cli(small + dir.file("c.json") + " --taxonomy " + paper + " --curve " + dir.file("rev.lpe"));
+        // The installed curve was fitted on the buckets: --curve with it and --taxonomy is refused (exit 2).
+        e = testing::run_cli(small + dir.file("c.json") + " --taxonomy " + paper + " --curve " + VKMECH_SOURCE_DIR +
+                             "/docs/results/predictor_curve.json");
         CHECK(e.code == 2);
-        CHECK(e.output.find("--curve and --taxonomy") != std::string::npos);
+        CHECK(e.output.find("was fitted on the paper's buckets, not on a taxonomy's classes") != std::string::npos);
     }
 
     TEST_CASE("sentinel: register on cubes_dof writes a record that verify accepts and an edited copy is refused") {

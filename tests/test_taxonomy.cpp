@@ -7,6 +7,8 @@
 #include "temp_dir.hpp"
 
 #include "io/exr.hpp"
+#include "io/json_value.hpp"
+#include "io/sha256.hpp"
 #include "render/descriptor.hpp"
 #include "render/renderer.hpp"
 #include "render/session.hpp"
@@ -296,16 +298,17 @@ TEST_SUITE("gpu") {
                              dir.file("lights.lpe") + " --out " + dir.file("o3"));
         CHECK(r.code == 2);
         CHECK(r.output.find("--capture on") != std::string::npos);
-        // The frozen reliability curve is of the buckets, not of a taxonomy's classes.
+        // The installed reliability curve is of the buckets, not of a taxonomy's classes.
         r = testing::run_cli("render --scene cubes_dof --adaptive bucket-floor --pilot 4 --budget 8 --curve " +
-                             dir.file("lights.lpe") + " --taxonomy " + dir.file("lights.lpe") + " --out " +
-                             dir.file("o4"));
+                             source_path("docs/results/predictor_curve.json") + " --taxonomy " +
+                             dir.file("lights.lpe") + " --out " + dir.file("o4"));
         CHECK(r.code == 2);
-        CHECK(r.output.find("--curve and --taxonomy") != std::string::npos);
+        CHECK(r.output.find("was fitted on the paper's buckets, not on a taxonomy's classes") != std::string::npos);
     }
 
     TEST_CASE(
-        "taxonomy: vkmech study stability --taxonomy measures the classes, and only stability, variance, cost and "
+        "taxonomy: vkmech study stability --taxonomy measures the classes, and only stability, variance, cost, "
+        "predictor and "
         "allocation take one") {
         testing::TempDir dir("taxstudy");
         std::ofstream(dir.file("lights.lpe"))
@@ -326,8 +329,9 @@ TEST_SUITE("gpu") {
         r = testing::run_cli("study structure --preset quick --scenes cubes_dof --no-plots --taxonomy " +
                              dir.file("lights.lpe") + " --out " + dir.file("sv"));
         CHECK(r.code == 2);
-        CHECK(r.output.find("--taxonomy applies to `vkmech study` stability, variance, cost and allocation") !=
-              std::string::npos);
+        CHECK(
+            r.output.find("--taxonomy applies to `vkmech study` stability, variance, cost, predictor and allocation") !=
+            std::string::npos);
     }
 
     TEST_CASE("taxonomy: vkmech study allocation --taxonomy allocates by the classes and the properties they declare") {
@@ -506,6 +510,58 @@ TEST_SUITE("gpu") {
         CHECK(b.at("cost_by_bucket_detail.csv").size() >= 4);             // three buckets or more have pixels
         CHECK(paper.at("cost_by_bucket.csv")[1][0] == "emitter_direct");  // the rows in the slots' order
         CHECK(rev.at("cost_by_bucket.csv")[1][0] == "specular_direct");
+    }
+}
+
+TEST_SUITE("gpu") {
+    TEST_CASE("taxonomy: study predictor --taxonomy fits a curve of the classes, which only the same taxonomy takes") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("taxcurve");
+        const std::string paper = source_path("taxonomies/paper.lpe");
+        auto study = [&](const std::string& out, const std::string& args) {
+            return testing::run_cli("study predictor --preset quick --no-plots --out " + dir.file(out) + " " + args);
+        };
+        REQUIRE(study("b", "--scenes glass_caustic").code == 0);
+        REQUIRE(study("t", "--scenes glass_caustic --taxonomy " + paper).code == 0);
+        const std::string b = testing::read_text(dir.file("b/predictor_curve.json")),
+                          t = testing::read_text(dir.file("t/predictor_curve.json"));
+        // paper.lpe's classes are the buckets: the same curve, which records the taxonomy it was fitted on.
+        CHECK(t.substr(0, t.find("\"scenes\"")) == b.substr(0, b.find("\"scenes\"")));
+        CHECK(b.find("\"taxonomy\"") == std::string::npos);
+        CHECK(t.find("\"sha256\": \"" + sha256_file(paper) + "\"") != std::string::npos);
+        const std::string bc = " --curve " + dir.file("b/predictor_curve.json"),
+                          tc = " --curve " + dir.file("t/predictor_curve.json");
+        // A curve predicts only the labels it was fitted on (exit 2 before anything renders).
+        auto r = study("x", "--scenes cubes_dof" + tc);
+        CHECK(r.code == 2);
+        CHECK(r.output.find("was fitted on the classes of the taxonomy") != std::string::npos);
+        r = study("x", "--scenes cubes_dof --taxonomy " + paper + bc);
+        CHECK(r.code == 2);
+        CHECK(r.output.find("was fitted on the paper's buckets") != std::string::npos);
+        REQUIRE(study("nb", "--scenes cubes_dof" + bc).code == 0);
+        REQUIRE(study("nt", "--scenes cubes_dof --taxonomy " + paper + tc).code == 0);
+        CHECK(testing::read_text(dir.file("nt/tables/predictor_new.csv")) ==
+              testing::read_text(dir.file("nb/tables/predictor_new.csv")));
+        // Sentinels and adaptive renders take it likewise.
+        const std::string reg = "sentinel register --scene glass_caustic --res 24 --pilot 8 --out ";
+        REQUIRE(testing::run_cli(reg + dir.file("sb.json") + bc).code == 0);
+        REQUIRE(testing::run_cli(reg + dir.file("st.json") + " --taxonomy " + paper + tc).code == 0);
+        auto margin = [&](const std::string& rec) {
+            const auto doc = parse_json(testing::read_text(rec));
+            REQUIRE(doc);
+            for (const JsonValue& p : doc->find("predictions")->array)
+                if (p.find("name")->string == "reliability.margin") return p.find("predicted")->number;
+            return -1.0;
+        };
+        CHECK(margin(dir.file("sb.json")) > 0.0);
+        CHECK(margin(dir.file("st.json")) == margin(dir.file("sb.json")));
+        CHECK(testing::run_cli(reg + dir.file("sx.json") + tc).code == 2);
+        r = testing::run_cli(
+            "render --scene glass_caustic --res 16 --adaptive observed-var --pilot 4 --budget 4 "
+            "--taxonomy " +
+            paper + bc + " --out " + dir.file("a"));
+        CHECK(r.code == 2);
+        CHECK(r.output.find("was fitted on the paper's buckets") != std::string::npos);
     }
 }
 

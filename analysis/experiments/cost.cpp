@@ -239,16 +239,17 @@ void write_cost(StudyOutput& out, const StudyConfig& cfg, const std::string& dev
                           "` (docs/lpe.md); the rows are its classes, and each class's share of a pixel's energy "
                           "(\"<class> share\") is a component where the built-in study has caustic_frac.");
     out.table(sec, spp_t,
-              "how many samples a pixel of each bucket needs to get within 10% of the reference; a † entry "
-              "is where the continuous cost measurement saturates at the cap.");
+              "how many samples a pixel of each " + label +
+                  " needs to get within 10% of the reference; a † entry "
+                  "is where the continuous cost measurement saturates at the cap.");
     out.table(sec, ms_t, "the same medians as wall-clock time of whole-image rendering on this device.");
     out.table(sec, detail_table(r, label),
-              "per scene and bucket: population, median, whether it is a lower bound, and the censoring rate.");
+              "per scene and " + label + ": population, median, whether it is a lower bound, and the censoring rate.");
     out.table(sec, dim_t,
               "whether any single continuous component would serve as a cost proxy (paper: none does stably).");
     out.figure(sec, cost_figure(r, label),
-               "grouped bars: median cost per bucket, one colour per scene, log scale; hatched bars are censored "
-               "lower bounds.");
+               "grouped bars: median cost per " + label +
+                   ", one colour per scene, log scale; hatched bars are censored lower bounds.");
 }
 
 }  // namespace

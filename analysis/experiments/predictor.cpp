@@ -2,12 +2,14 @@
 
 #include "experiments/study_context.hpp"
 #include "io/atomic_file.hpp"
+#include "io/json_value.hpp"
 #include "stats/binning.hpp"
 #include "stats/isotonic.hpp"
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -118,7 +120,11 @@ std::string ReliabilityCurve::json() const {
     arr(purity);
     o << ",\n  \"scenes\": [";
     for (size_t i = 0; i < scenes.size(); ++i) o << (i ? ", " : "") << "\"" << json_escape(scenes[i]) << "\"";
-    o << "]\n}\n";
+    o << "]";
+    if (!taxonomy_sha256.empty())
+        o << ",\n  \"taxonomy\": {\"file\": \"" << json_escape(taxonomy_file) << "\", \"sha256\": \""
+          << json_escape(taxonomy_sha256) << "\"}";
+    o << "\n}\n";
     return o.str();
 }
 
@@ -151,10 +157,35 @@ ReliabilityCurve ReliabilityCurve::load(const std::string& path) {
         };
         c.pilot_spp = num("pilot_spp");
         c.reference_spp = num("reference_spp");
+        if (text.find("\"taxonomy\"") != std::string::npos) {  // fitted on a taxonomy's classes
+            const std::optional<JsonValue> doc = parse_json(text);
+            const JsonValue* t = doc ? doc->find("taxonomy") : nullptr;
+            const JsonValue* sha = t && t->kind == JsonValue::Object ? t->find("sha256") : nullptr;
+            const JsonValue* file = t && t->kind == JsonValue::Object ? t->find("file") : nullptr;
+            if (!sha || sha->kind != JsonValue::String || sha->string.empty() || !file ||
+                file->kind != JsonValue::String)
+                throw std::runtime_error("its \"taxonomy\" is not {\"file\": ..., \"sha256\": ...}");
+            c.taxonomy_file = file->string;
+            c.taxonomy_sha256 = sha->string;
+        }
     } catch (const std::runtime_error& e) {
         throw std::runtime_error("'" + path + "' is not a valid reliability curve: " + e.what());
     }
     return c;
+}
+
+std::string curve_label_mismatch(const ReliabilityCurve& curve, const std::string& curve_file,
+                                 const std::string& taxonomy_sha256) {
+    if (curve.taxonomy_sha256 == taxonomy_sha256) return "";
+    const std::string c = "the reliability curve '" + curve_file + "' was fitted on ";
+    if (curve.taxonomy_sha256.empty())
+        return c +
+               "the paper's buckets, not on a taxonomy's classes (fit one with `vkmech study predictor --taxonomy "
+               "FILE`, docs/lpe.md)";
+    return c + "the classes of the taxonomy " + curve.taxonomy_file + " (SHA-256 " +
+           curve.taxonomy_sha256.substr(0, 16) + "...), " +
+           (taxonomy_sha256.empty() ? std::string("not on the paper's buckets")
+                                    : "not on this taxonomy (SHA-256 " + taxonomy_sha256.substr(0, 16) + "...)");
 }
 
 namespace {
@@ -241,6 +272,10 @@ PredictorResult compute_predictor(StudyContext& ctx) {
     r.curve.bins = bins;
     r.curve.margin = pooled_curve(by_margin, all, bins);
     r.curve.purity = pooled_curve(by_purity, all, bins);
+    if (cfg.taxonomy) {
+        r.curve.taxonomy_file = cfg.taxonomy->file;
+        r.curve.taxonomy_sha256 = cfg.taxonomy_sha256;
+    }
     r.curve.pilot_spp = cfg.pilot_spp();
     r.curve.reference_spp = cfg.stability_reference_spp();
     for (const auto& s : cfg.scenes) r.curve.scenes.push_back(s.name);

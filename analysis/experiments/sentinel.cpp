@@ -255,10 +255,11 @@ Verification verify_record(const std::string& text, const std::string& file) {
                                              std::to_string(kFormatVersion) + " and " +
                                              std::to_string(kTaxonomyFormatVersion) + ")"};
     const JsonValue* tax = doc->find("taxonomy");
-    if ((version->number == kTaxonomyFormatVersion) != (tax && tax->kind == JsonValue::Object))
-        return bad(version->number == kTaxonomyFormatVersion
-                       ? "format version 2 is a taxonomy's record, and the member \"taxonomy\" is missing"
-                       : "a record with a \"taxonomy\" is format version 2");
+    if (version->number == kTaxonomyFormatVersion && !tax)
+        return bad("format version 2 is a taxonomy's record, and the member \"taxonomy\" is missing");
+    if (version->number == kTaxonomyFormatVersion && tax->kind != JsonValue::Object)
+        return bad("the member \"taxonomy\" has the wrong type");
+    if (version->number == kFormatVersion && tax) return bad("a record with a \"taxonomy\" is format version 2");
     struct Required {
         const char* key;
         JsonValue::Kind kind;
@@ -415,9 +416,12 @@ Record parse_record(const JsonValue& doc) {
         auto bits = [&](const std::string& key) {
             uint32_t b = 0;
             for (const JsonValue& n : member(*t, key, JsonValue::Array, "taxonomy").array) {
+                if (n.kind != JsonValue::String)
+                    throw std::runtime_error("sentinel record: taxonomy." + key + " holds a non-string");
                 const auto at = std::find(tr.classes.begin(), tr.classes.end(), n.string);
-                if (n.kind != JsonValue::String || at == tr.classes.end())
-                    throw std::runtime_error("sentinel record: taxonomy." + key + " names no class");
+                if (at == tr.classes.end())
+                    throw std::runtime_error("sentinel record: taxonomy." + key + " names no class ('" + n.string +
+                                             "')");
                 b |= 1u << (at - tr.classes.begin());
             }
             return b;

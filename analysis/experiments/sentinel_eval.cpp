@@ -215,7 +215,8 @@ Evaluation evaluate(const Record& r, const EvalInputs& in) {
     // The reference: unclamped RGB, the PSNR peak, its descriptor.
     const std::vector<double> ref_rgb = mean_rgb(ref);
     e.peak = psnr_peak(ref_rgb);
-    const Descriptor rd = derive_descriptor(ref);
+    Descriptor rd = derive_descriptor(ref);
+    if (r.taxonomy) use_taxonomy_classes(rd, r.taxonomy->classes);  // `other` is its last class
     const DescriptorSummary rs = summarize(ref, rd);
     const alloc::PilotDiagnosis d0 = alloc::diagnose_pilot(in.pilots[0], r.class_traits());
     check_reproduced(r, d0, e);
@@ -302,7 +303,7 @@ std::string evaluation_markdown(const Record& r, const std::string& record_file,
           << "`): ";
         for (size_t c = 0; c < r.taxonomy->classes.size(); ++c) m << (c ? ", " : "") << r.taxonomy->classes[c];
         m << ". Every render of the evaluation labels by it; the allocation rules read the classes its lines declare "
-             "[heavy], [constant] and [rare].\n\n";
+             "[heavy] and [constant].\n\n";
     }
     m << "**" << e.pass << " PASS, " << e.fail << " FAIL, " << e.indeterminate << " INDETERMINATE** of "
       << e.outcomes.size() << " predictions.\n\n";

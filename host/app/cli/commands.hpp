@@ -2,6 +2,7 @@
 // (register_*), and shares the helpers below.
 #pragma once
 
+#include "experiments/predictor.hpp"
 #include "render/taxonomy.hpp"
 #include "scene/scene.hpp"
 #include "study/study_runner.hpp"
@@ -157,6 +158,9 @@ std::string scene_stem(const std::string& name_or_path);
 // reliability curve.
 void require_writable_dir(const std::string& dir, const std::string& option);
 void check_curve_for_cli(const std::string& path);
+// A --curve, read (UsageError on a missing or malformed file) and refused (UsageError) unless it was fitted on the
+// labels in use: `taxonomy_sha256`, the SHA-256 of the --taxonomy file, empty for the buckets.
+ReliabilityCurve load_curve_for_cli(const std::string& path, const std::string& taxonomy_sha256 = "");
 
 // One `vkmech` subcommand and its action, which main runs once the command line is parsed;
 // `args` is the command line after `vkmech` (a study records it). Each command file adds its

@@ -11,6 +11,7 @@
 #include "io/interrupt.hpp"
 #include "io/output_set.hpp"
 #include "io/png.hpp"
+#include "io/sha256.hpp"
 #include "render/descriptor.hpp"
 #include "render/features.hpp"
 #include "render/live_view.hpp"
@@ -110,13 +111,21 @@ RenderInfo render_info(const std::string& name, const RenderOptions& o, const vk
     return info;
 }
 
-ReliabilityCurve load_curve_for_cli(const std::string& path) {
+}  // namespace
+
+ReliabilityCurve load_curve_for_cli(const std::string& path, const std::string& taxonomy_sha256) {
+    ReliabilityCurve c;
     try {
-        return ReliabilityCurve::load(path);
+        c = ReliabilityCurve::load(path);
     } catch (const std::runtime_error& e) {
         throw UsageError(e.what());
     }
+    const std::string why = curve_label_mismatch(c, path, taxonomy_sha256);
+    if (!why.empty()) throw UsageError("--curve: " + why);
+    return c;
 }
+
+namespace {
 
 // docs/descriptor.md §6.5: the pilot diagnosis as printed by `render --adaptive`, after the
 // pilot and before the allocation. Abstention is said for the strategies that floor; untrusted
@@ -353,7 +362,13 @@ CliRender open_cli_render(const RenderOptions& o, Estimator estimator, bool capt
 
 }  // namespace
 
-void check_curve_for_cli(const std::string& path) { (void)load_curve_for_cli(path); }
+void check_curve_for_cli(const std::string& path) {
+    try {
+        (void)ReliabilityCurve::load(path);
+    } catch (const std::runtime_error& e) {
+        throw UsageError(e.what());
+    }
+}
 
 int cmd_render_adaptive(const RenderOptions& o);
 int cmd_render_threshold(const RenderOptions& o);
@@ -535,14 +550,10 @@ int cmd_render_adaptive(const RenderOptions& o) {
     (void)wants_direct_glossy(o, true);  // refused before anything loads
     // The frozen curve is read before anything renders: a bad file is bad input (exit 2).
     // Without --curve: the installed (or source tree's) frozen curve; none found means no prediction.
-    // A taxonomy's labels are not the buckets the curve was fitted on: no prediction.
+    // A taxonomy's labels are not the buckets the frozen curve was fitted on: a prediction only with a --curve
+    // fitted on the taxonomy (`vkmech study predictor --taxonomy FILE`).
     std::string curve_path = o.curve;
-    if (!o.taxonomy.empty()) {
-        if (!o.curve.empty())
-            throw UsageError(
-                "--curve and --taxonomy: the reliability curve was fitted on the paper's buckets, not on a "
-                "taxonomy's classes");
-    } else if (curve_path.empty()) {
+    if (o.taxonomy.empty() && curve_path.empty()) {
         const Resource found = find_predictor_curve();
         curve_path = found.path;
         if (!found.found())
@@ -552,7 +563,8 @@ int cmd_render_adaptive(const RenderOptions& o) {
     if (!o.curve.empty() && !fs::exists(curve_path))
         throw UsageError("predictor curve '" + o.curve + "' does not exist");
     std::optional<ReliabilityCurve> curve;
-    if (!curve_path.empty() && fs::exists(curve_path)) curve = load_curve_for_cli(curve_path);
+    if (!curve_path.empty() && fs::exists(curve_path))
+        curve = load_curve_for_cli(curve_path, o.taxonomy.empty() ? std::string() : sha256_file(o.taxonomy));
     const Estimator estimator = render_estimator(o, Estimator::Nee);
     SignalGuard signals;
     CliRender cr = open_cli_render(o, estimator, true, /*generic=*/false);
@@ -959,7 +971,8 @@ void register_render(CLI::App& app, CliCommands& commands) {
         ->check(CLI::IsMember({"guarded", "bucket-floor", "observed-var"}))
         ->needs(threshold_opt);
     render->add_option("--curve", o->curve,
-                       "Adaptive: frozen label-reliability curve (default: predictor_curve.json, see `vkmech paths`)");
+                       "Adaptive: frozen label-reliability curve (default: predictor_curve.json, see `vkmech paths`; "
+                       "with --taxonomy, a curve fitted on that taxonomy, and none by default)");
 
     commands.push_back({render, [o](const std::vector<std::string>&) { return cmd_render(*o); }});
 }

@@ -47,23 +47,19 @@ std::string utc_now() {
 // Renders only the pilot and writes the sealed pre-registration record.
 int cmd_sentinel_register(const SentinelOptions& o) {
     // Everything that can be refused is refused before the pilot renders (exit 2).
+    // The frozen curve predicts the labels it was fitted on: the buckets' (found as `vkmech paths` says), or with
+    // --taxonomy only a --curve fitted on that taxonomy (`vkmech study predictor --taxonomy FILE`); a taxonomy's
+    // record without one predicts no label reliability.
     const bool by_taxonomy = !o.taxonomy.empty();
-    if (by_taxonomy && !o.curve.empty())
-        throw UsageError(
-            "--curve and --taxonomy: the reliability curve was fitted on the buckets' labels, so a "
-            "taxonomy's record predicts no label reliability (docs/lpe.md)");
     const Resource found = o.curve.empty() && !by_taxonomy ? find_predictor_curve() : Resource{};
     const std::string curve_path = o.curve.empty() ? found.path : o.curve;
     if (curve_path.empty() && !by_taxonomy)
         throw UsageError("sentinel register needs the frozen reliability curve: " + found.missing_message());
-    if (!by_taxonomy && !fs::exists(curve_path))
+    if (!curve_path.empty() && !fs::exists(curve_path))
         throw UsageError("predictor curve '" + curve_path + "' does not exist");
+    const bool with_curve = !curve_path.empty();
     ReliabilityCurve curve;
-    try {
-        if (!by_taxonomy) curve = ReliabilityCurve::load(curve_path);
-    } catch (const std::runtime_error& e) {
-        throw UsageError(e.what());
-    }
+    if (with_curve) curve = load_curve_for_cli(curve_path, by_taxonomy ? sha256_file(o.taxonomy) : std::string());
     if (o.common.substitute)
         throw UsageError(
             "sentinel register does not take --substitute: the evaluation must load the scene as registered");
@@ -89,7 +85,7 @@ int cmd_sentinel_register(const SentinelOptions& o) {
     try {
         rec.scene_sha256 = sha256_file(scene_path);
         for (const auto& [path, sha] : scene_input_files(loaded)) rec.scene_files.push_back({path, sha});
-        if (!by_taxonomy) rec.curve_sha256 = sha256_file(curve_path);
+        if (with_curve) rec.curve_sha256 = sha256_file(curve_path);
     } catch (const std::runtime_error& e) {
         throw UsageError(e.what());
     }
@@ -120,7 +116,7 @@ int cmd_sentinel_register(const SentinelOptions& o) {
         throw_if_interrupted();
         return render_pilot(renderer, n0, seed, robust);
     };
-    sentinel::Record r = register_sentinel(session, pilot_fn, o.pilot, o.pilot_draw, by_taxonomy ? nullptr : &curve,
+    sentinel::Record r = register_sentinel(session, pilot_fn, o.pilot, o.pilot_draw, with_curve ? &curve : nullptr,
                                            tax_record ? &*tax_record : nullptr);
     throw_if_interrupted();
 
@@ -139,7 +135,7 @@ int cmd_sentinel_register(const SentinelOptions& o) {
     r.spirv_sha256 = Sha256().update(spirv.data(), spirv.size_bytes()).hex();
     r.registered_utc = utc_now();
     r.device = ctx.info().name;
-    if (!by_taxonomy) {
+    if (with_curve) {
         r.curve_path = canonical_path(curve_path);
         r.curve_sha256 = rec.curve_sha256;
         r.curve_pilot_spp = curve.pilot_spp;
@@ -345,14 +341,16 @@ void register_sentinel(CLI::App& app, CliCommands& commands) {
         ->check(CLI::Range(0u, 899u));
     sentinel_register->add_option("--out", o->out, "The record (default sentinel_<scene>.json)");
     sentinel_register->add_option("--curve", o->curve,
-                                  "Frozen label-reliability curve (default: predictor_curve.json, see `vkmech paths`)");
+                                  "Frozen label-reliability curve (default: predictor_curve.json, see `vkmech paths`; "
+                                  "with --taxonomy, a curve fitted on that taxonomy, and none by default)");
     sentinel_register->add_flag("--force", o->force, "Overwrite an existing record");
     sentinel_register
         ->add_option("--taxonomy", o->taxonomy,
                      "Label the pilot by a user taxonomy's classes (docs/lpe.md): coverage is predicted per class and "
-                     "the allocation rules read the classes its lines declare [heavy], [constant] and [rare]; no "
-                     "label-reliability or Finding 1 prediction (both are defined on the buckets); the record (format "
-                     "version 2) names the file by its SHA-256, and evaluate labels by it")
+                     "the allocation rules read the classes its lines declare [heavy] and [constant]; label "
+                     "reliability only with a --curve fitted on this taxonomy (`study predictor --taxonomy`), and no "
+                     "Finding 1 prediction (defined on the buckets); the record (format version 2) names the file by "
+                     "its SHA-256, and evaluate labels by it")
         ->check(CLI::ExistingFile);
     sentinel_register->add_option("--name", o->name,
                                   "The scene's name in the record and reports (default: the file stem)");

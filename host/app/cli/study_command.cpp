@@ -169,11 +169,13 @@ void add_study_options(CLI::App* app, StudyOptions& o) {
                     "Write one self-contained command per work unit missing from the cache to this file (for Slurm "
                     "job arrays, GNU parallel or xargs) and render nothing");
     app->add_option("--taxonomy", o.taxonomy,
-                    "`study stability`, `variance`, `cost` and `allocation` by a user taxonomy's classes (a file of "
-                    "`name = light path expression` lines, docs/lpe.md): every render classifies by it; stability's "
-                    "tables are the classes' shares, their cross-SPP agreement and the binned-variance baseline; "
-                    "variance's and cost's per-bucket tables are per class; allocation's strategies read the "
-                    "classes and the properties their lines declare ([heavy], [constant], [rare])")
+                    "`study stability`, `variance`, `cost`, `predictor` and `allocation` by a user taxonomy's "
+                    "classes (a file of `name = light path expression` lines, docs/lpe.md): every render classifies "
+                    "by it; stability's tables are the classes' shares, their cross-SPP agreement and the "
+                    "binned-variance baseline; variance's and cost's per-bucket tables are per class; predictor's "
+                    "curve is fitted on the classes and records the taxonomy (a --curve must have been fitted on "
+                    "the same one); allocation's strategies read the classes and the properties their lines declare "
+                    "([heavy], [constant], [rare])")
         ->check(CLI::ExistingFile);
     app->add_option("-D,--define", o.defines,
                     "Set a parameter of every --scenes scene: -D name=value (as Mitsuba's -D; e.g. -D lights=4 for "

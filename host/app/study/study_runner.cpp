@@ -1,8 +1,10 @@
 #include "study/study_runner.hpp"
 
+#include "experiments/predictor.hpp"
 #include "experiments/study_context.hpp"
 #include "io/atomic_file.hpp"
 #include "io/output_set.hpp"
+#include "io/sha256.hpp"
 #include "render/features.hpp"
 #include "render/gpu_scene.hpp"
 #include "render/live_view.hpp"
@@ -197,14 +199,15 @@ StudyPlan make_plan(const StudyOptions& o) {
     if (!o.taxonomy.empty()) {
         for (StudyKind k : kinds)
             if (k != StudyKind::Stability && k != StudyKind::Variance && k != StudyKind::Cost &&
-                k != StudyKind::Allocation)
+                k != StudyKind::Predictor && k != StudyKind::Allocation)
                 throw std::invalid_argument(
-                    "--taxonomy applies to `vkmech study` stability, variance, cost and allocation: the other "
-                    "studies' analyses name the paper's buckets (docs/lpe.md)");
+                    "--taxonomy applies to `vkmech study` stability, variance, cost, predictor and allocation: the "
+                    "other studies' analyses name the paper's buckets (docs/lpe.md)");
         if (!o.jobs_file.empty())
             throw std::invalid_argument("--taxonomy and --jobs: the job commands do not carry the taxonomy yet");
         try {
             cfg.taxonomy = lpe::read_taxonomy(o.taxonomy);
+            cfg.taxonomy_sha256 = sha256_file(o.taxonomy);
             const lpe::CompiledTaxonomy probe = lpe::compile_taxonomy(*cfg.taxonomy, {});  // errors before rendering
             if (probe.class_names.size() > gpu::BUCKET_COUNT)
                 throw lpe::LpeError(o.taxonomy, cfg.taxonomy->lines[gpu::BUCKET_COUNT - 1].line, 0,
@@ -213,6 +216,16 @@ StudyPlan make_plan(const StudyOptions& o) {
         } catch (const lpe::LpeError& e) {
             throw std::invalid_argument(std::string("--taxonomy: ") + e.what());
         }
+    }
+    if (!cfg.predictor_curve.empty() && std::find(kinds.begin(), kinds.end(), StudyKind::Predictor) != kinds.end()) {
+        std::string why;  // a curve predicts only the labels it was fitted on: refused before anything renders
+        try {
+            why = curve_label_mismatch(ReliabilityCurve::load(cfg.predictor_curve), cfg.predictor_curve,
+                                       cfg.taxonomy_sha256);
+        } catch (const std::runtime_error& e) {
+            why = e.what();
+        }
+        if (!why.empty()) throw std::invalid_argument("--curve: " + why);
     }
     cfg.validate(std::find(kinds.begin(), kinds.end(), StudyKind::Cost) != kinds.end());
     const std::string out_dir = o.out_dir;
