@@ -529,6 +529,8 @@ TEST_SUITE("gpu") {
         CHECK(t.substr(0, t.find("\"scenes\"")) == b.substr(0, b.find("\"scenes\"")));
         CHECK(b.find("\"taxonomy\"") == std::string::npos);
         CHECK(t.find("\"sha256\": \"" + sha256_file(paper) + "\"") != std::string::npos);
+        CHECK(testing::read_text(dir.file("t/tables/predictor.csv")) ==
+              testing::read_text(dir.file("b/tables/predictor.csv")));
         const std::string bc = " --curve " + dir.file("b/predictor_curve.json"),
                           tc = " --curve " + dir.file("t/predictor_curve.json");
         // A curve predicts only the labels it was fitted on (exit 2 before anything renders).
@@ -538,6 +540,10 @@ TEST_SUITE("gpu") {
         r = study("x", "--scenes cubes_dof --taxonomy " + paper + bc);
         CHECK(r.code == 2);
         CHECK(r.output.find("was fitted on the paper's buckets") != std::string::npos);
+        std::ofstream(dir.file("one.lpe")) << "direct = C [DG] [LB]\n";  // another taxonomy
+        r = study("x", "--scenes cubes_dof --taxonomy " + dir.file("one.lpe") + tc);
+        CHECK(r.code == 2);
+        CHECK(r.output.find("not on this taxonomy") != std::string::npos);
         REQUIRE(study("nb", "--scenes cubes_dof" + bc).code == 0);
         REQUIRE(study("nt", "--scenes cubes_dof --taxonomy " + paper + tc).code == 0);
         CHECK(testing::read_text(dir.file("nt/tables/predictor_new.csv")) ==
@@ -555,7 +561,9 @@ TEST_SUITE("gpu") {
         };
         CHECK(margin(dir.file("sb.json")) > 0.0);
         CHECK(margin(dir.file("st.json")) == margin(dir.file("sb.json")));
-        CHECK(testing::run_cli(reg + dir.file("sx.json") + tc).code == 2);
+        r = testing::run_cli(reg + dir.file("sx.json") + tc);
+        CHECK(r.code == 2);
+        CHECK(r.output.find("was fitted on the classes of the taxonomy") != std::string::npos);
         r = testing::run_cli(
             "render --scene glass_caustic --res 16 --adaptive observed-var --pilot 4 --budget 4 "
             "--taxonomy " +

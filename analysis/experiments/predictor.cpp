@@ -157,11 +157,14 @@ ReliabilityCurve ReliabilityCurve::load(const std::string& path) {
         };
         c.pilot_spp = num("pilot_spp");
         c.reference_spp = num("reference_spp");
-        if (text.find("\"taxonomy\"") != std::string::npos) {  // fitted on a taxonomy's classes
-            const std::optional<JsonValue> doc = parse_json(text);
-            const JsonValue* t = doc ? doc->find("taxonomy") : nullptr;
-            const JsonValue* sha = t && t->kind == JsonValue::Object ? t->find("sha256") : nullptr;
-            const JsonValue* file = t && t->kind == JsonValue::Object ? t->find("file") : nullptr;
+        if (text.find("\"taxonomy\"") != std::string::npos) {  // perhaps fitted on a taxonomy's classes
+            std::string why;
+            const std::optional<JsonValue> doc = parse_json(text, &why);
+            if (!doc || doc->kind != JsonValue::Object) throw std::runtime_error("malformed JSON: " + why);
+            const JsonValue* t = doc->find("taxonomy");  // the top-level member (a scene may be named so)
+            if (!t) return c;
+            const JsonValue* sha = t->kind == JsonValue::Object ? t->find("sha256") : nullptr;
+            const JsonValue* file = t->kind == JsonValue::Object ? t->find("file") : nullptr;
             if (!sha || sha->kind != JsonValue::String || sha->string.empty() || !file ||
                 file->kind != JsonValue::String)
                 throw std::runtime_error("its \"taxonomy\" is not {\"file\": ..., \"sha256\": ...}");
@@ -368,6 +371,10 @@ Table predictor_table(const StudyConfig& cfg, const PredictorResult& r) {
 void write_predictor(StudyOutput& out, const StudyConfig& cfg, const PredictorResult& r) {
     const std::string sec = "Reliability predictor";
     write_file_atomic((std::filesystem::path(out.dir()) / "predictor_curve.json").string(), r.curve.json());
+    if (cfg.taxonomy)
+        out.text(sec, "Labels: the classes of the taxonomy `" + cfg.taxonomy->file +
+                          "` (docs/lpe.md); predictor_curve.json records it, and only renders and sentinels labelled "
+                          "by the same file (by SHA-256) take the curve.");
     out.table(sec, predictor_table(cfg, r),
               "how well a scene's own pilot predicts its pilot-vs-reference agreement before any reference "
               "exists (the paper reports LOSO errors of at most 0.061 purity, 0.079 margin).");

@@ -63,11 +63,14 @@ std::vector<Prediction> predict(const Frame& pilot, const alloc::PilotDiagnosis&
     if (curve) {
         const PilotPrediction p = predict_from_pilot(*curve, pilot);
         const std::string covers = std::to_string(p.labelled) + " pilot-labelled pixels of " + std::to_string(d.pixels);
-        const std::string pass =
-            "PASS if |measured - predicted| <= " + json_number(kReliabilityTolerance) +
-            " (the curve's largest first-party leave-one-scene-out error, rounded up); measured: "
-            "the share of the pixels labelled in both the registered pilot and the reference whose "
-            "dominant labels agree (§5 agreement)";
+        const std::string band =
+            curve->taxonomy_sha256.empty()
+                ? " (the curve's largest first-party leave-one-scene-out error, rounded up)"
+                : " (the band of the buckets' frozen curve, its largest first-party leave-one-scene-out error rounded "
+                  "up; not derived for this taxonomy's curve)";
+        const std::string pass = "PASS if |measured - predicted| <= " + json_number(kReliabilityTolerance) + band +
+                                 "; measured: the share of the pixels labelled in both the registered pilot and the "
+                                 "reference whose dominant labels agree (§5 agreement)";
         out.push_back({"reliability.margin", "", p.margin, covers,
                        "mean of the frozen margin curve over the pilot-labelled pixels' argmax margins (§5.6)", pass,
                        kReliabilityTolerance});

@@ -52,11 +52,14 @@ def summary_rows(folder):
             raise SystemExit("summary.py: %s has no evaluation (%s)" % (name, path))
         with open(path) as f:
             ev = json.load(f)
+        with open(os.path.join(folder, name)) as f:
+            if "taxonomy" in json.load(f):
+                raise SystemExit("summary.py: %s labels by a taxonomy's classes: this table reads the buckets' "
+                                 "predictions" % name)
         margin = outcome(ev, "reliability.margin")
-        if margin is None or outcome(ev, "coverage.diffuse_indirect.pixel_share") is None:
-            raise SystemExit("summary.py: %s's evaluation has no reliability.margin or no diffuse_indirect coverage "
-                             "(a record by a taxonomy's classes, or one made without a curve): this table reads the "
-                             "buckets' predictions (%s)" % (name, path))
+        if margin is None:
+            raise SystemExit("summary.py: %s's evaluation has no reliability.margin (registered without a curve?): "
+                             "this table reads it (%s)" % (name, path))
         other = outcome(ev, "coverage.other.energy_share")
         uni, ov, bf, orc = (strategy(ev, s) for s in ("uniform", "observed-var", "bucket-floor", "oracle"))
         rho = outcome(ev, "structure.rho_CG_sign")

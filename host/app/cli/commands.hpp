@@ -161,6 +161,8 @@ void check_curve_for_cli(const std::string& path);
 // A --curve, read (UsageError on a missing or malformed file) and refused (UsageError) unless it was fitted on the
 // labels in use: `taxonomy_sha256`, the SHA-256 of the --taxonomy file, empty for the buckets.
 ReliabilityCurve load_curve_for_cli(const std::string& path, const std::string& taxonomy_sha256 = "");
+// The SHA-256 of a --taxonomy file; UsageError (exit 2) when it cannot be read.
+std::string taxonomy_sha256_for_cli(const std::string& path);
 
 // One `vkmech` subcommand and its action, which main runs once the command line is parsed;
 // `args` is the command line after `vkmech` (a study records it). Each command file adds its

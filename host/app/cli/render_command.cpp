@@ -113,6 +113,14 @@ RenderInfo render_info(const std::string& name, const RenderOptions& o, const vk
 
 }  // namespace
 
+std::string taxonomy_sha256_for_cli(const std::string& path) {
+    try {
+        return sha256_file(path);
+    } catch (const std::runtime_error& e) {
+        throw UsageError(std::string("--taxonomy: ") + e.what());
+    }
+}
+
 ReliabilityCurve load_curve_for_cli(const std::string& path, const std::string& taxonomy_sha256) {
     ReliabilityCurve c;
     try {
@@ -121,7 +129,7 @@ ReliabilityCurve load_curve_for_cli(const std::string& path, const std::string& 
         throw UsageError(e.what());
     }
     const std::string why = curve_label_mismatch(c, path, taxonomy_sha256);
-    if (!why.empty()) throw UsageError("--curve: " + why);
+    if (!why.empty()) throw UsageError(why);
     return c;
 }
 
@@ -564,7 +572,8 @@ int cmd_render_adaptive(const RenderOptions& o) {
         throw UsageError("predictor curve '" + o.curve + "' does not exist");
     std::optional<ReliabilityCurve> curve;
     if (!curve_path.empty() && fs::exists(curve_path))
-        curve = load_curve_for_cli(curve_path, o.taxonomy.empty() ? std::string() : sha256_file(o.taxonomy));
+        curve =
+            load_curve_for_cli(curve_path, o.taxonomy.empty() ? std::string() : taxonomy_sha256_for_cli(o.taxonomy));
     const Estimator estimator = render_estimator(o, Estimator::Nee);
     SignalGuard signals;
     CliRender cr = open_cli_render(o, estimator, true, /*generic=*/false);

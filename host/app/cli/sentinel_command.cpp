@@ -59,7 +59,8 @@ int cmd_sentinel_register(const SentinelOptions& o) {
         throw UsageError("predictor curve '" + curve_path + "' does not exist");
     const bool with_curve = !curve_path.empty();
     ReliabilityCurve curve;
-    if (with_curve) curve = load_curve_for_cli(curve_path, by_taxonomy ? sha256_file(o.taxonomy) : std::string());
+    if (with_curve)
+        curve = load_curve_for_cli(curve_path, by_taxonomy ? taxonomy_sha256_for_cli(o.taxonomy) : std::string());
     if (o.common.substitute)
         throw UsageError(
             "sentinel register does not take --substitute: the evaluation must load the scene as registered");
