@@ -25,7 +25,8 @@
 # the paper's panel, each kernel), bench, main, pipeline-cache, study-quick,
 # cornell (the Cornell box of ci/scenes at 1024^2 x 64 spp, each kernel), profile, ablation, bisect,
 # paper (the paper preset of every study, as far as PAPER_BUDGET_S allows), threshold (a
-# noise-threshold render and uniform sampling at its samples).
+# noise-threshold render and uniform sampling at its samples), taxonomy (renders with the buckets, paper.lpe, --lpe
+# queries and an example taxonomy: what a taxonomy costs).
 # Results go to docs/gpu.md by hand, with the device, driver and date.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -61,6 +62,12 @@ stage() {
     # The binaries find scenes/, docs/ and analysis/ under the source directory
     # they were built from; the run step links that path to its own checkout.
     sed -n 's/^CMAKE_HOME_DIRECTORY:INTERNAL=//p' "$build/CMakeCache.txt" >.gpu/source_dir
+    # The tests run the CLI by the path it was built at (VKMECH_CLI): the run step links that
+    # build directory to its own build/.
+    (cd "$build" && pwd) >.gpu/build_dir
+    # The largest files travel compressed (the run's tree is limited to 64 MiB); the run step
+    # unpacks them.
+    xz -T0 -6 -f .gpu/bin/vkmech_tests .gpu/lib/libVkLayer_khronos_validation.so 2>/dev/null
     # The Vulkan loader and the GL vendor-neutral dispatch libraries as Debian
     # packages: the NVIDIA ICD (libGLX_nvidia.so.0) needs libGLdispatch, which
     # the target image lacks.
@@ -92,6 +99,8 @@ timed() {  # timed LABEL CMD...: runs CMD, prints its wall time and exit code
 device_env() {
     [[ -d .gpu/bin ]] || { echo "gpu-check: no .gpu/ here: run 'bash ci/gpu-check.sh stage' and carry .gpu and .gl"; exit 2; }
     local f
+    for f in .gpu/bin/*.xz .gpu/lib/*.xz; do [[ -f $f ]] && xz -d -f "$f"; done
+    chmod +x .gpu/bin/*
     for f in .gl/*.deb; do dpkg -x "$f" /; done
     ldconfig
     export LD_LIBRARY_PATH=$root/.gpu/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
@@ -111,6 +120,9 @@ device_env() {
     src=$(cat .gpu/source_dir)
     if [[ -n $src && $src != "$root" && ! -e $src ]]; then mkdir -p "$(dirname "$src")" && ln -s "$root" "$src"; fi
     mkdir -p build && cp .gpu/bin/vkmech .gpu/bin/vkmech_tests build/
+    local bld
+    bld=$(cat .gpu/build_dir 2>/dev/null)
+    if [[ -n $bld && $bld != "$root/build" && ! -e $bld ]]; then mkdir -p "$(dirname "$bld")" && ln -s "$root/build" "$bld"; fi
 }
 
 # The GPU suite in $1 processes at once, each bounded by $2 seconds; each
@@ -270,6 +282,36 @@ run() {
                 done
             done
             cp out/env-gpu-envmap/val_envmap.png "$out/" 2>/dev/null
+        fi
+        if has taxonomy; then
+            # What labelling by a taxonomy costs on this device (issue 37): each scene with
+            # the built-in buckets, with taxonomies/paper.lpe (the same labels by the DFA,
+            # SPEC_TAXONOMY on), with three --lpe queries (a second pass), and kitchen_counter
+            # by its example taxonomy; two rounds, alternating; the paths/s line of each
+            # (pipeline creation is not in it) and the class table, which paper.lpe must repeat.
+            local s v r o
+            mkdir -p out
+            for r in 1 2; do
+                for s in ${TAXONOMY_SCENES:-glass_caustic kitchen_counter ring_caustic}; do
+                    local vs=(builtin paper lpe)
+                    [[ $s == kitchen_counter ]] && vs+=(material)
+                    ((r == 2)) && mapfile -t vs < <(printf '%s\n' "${vs[@]}" | tac)
+                    for v in "${vs[@]}"; do
+                        case $v in
+                            builtin) o=() ;;
+                            paper) o=(--taxonomy taxonomies/paper.lpe) ;;
+                            lpe) o=(--lpe "caustic=C D S+ [LB]" --lpe "glossy=C .* G .* [LB]" --lpe "anything=C .* [LB]") ;;
+                            material) o=(--taxonomy taxonomies/examples/kitchen_caustics_by_material.lpe) ;;
+                        esac
+                        section "taxonomy round $r: $s at ${TAXONOMY_RES:-512} px, ${TAXONOMY_SPP:-512} spp, $v"
+                        timed "taxonomy $s $v" "$vk" render --scene "$s" --res "${TAXONOMY_RES:-512}" --spp "${TAXONOMY_SPP:-512}" \
+                            --batch 64 "${o[@]}" --out "out/tax-$s-$v" >"out/tax-$s-$v.log" 2>&1
+                        tail -1 "out/tax-$s-$v.log"
+                        grep -E "paths/s|pipeline creation|^query |error" "out/tax-$s-$v.log"
+                        ((r == 1)) && sed -n -E '/^(class|bucket) /,/^labelled/p; /^lpe\./p' "out/tax-$s-$v.log"
+                    done
+                done
+            done
         fi
         if has profile; then
             # Where the path tracer's time goes on this device, by the shader's clock, with this device's kernel.
@@ -525,5 +567,5 @@ case ${1:-} in
     stage) stage ;;
     run) run "${2:-all}" "${3:-}" ;;
     bisect-stage) shift; bisect_stage "$@" ;;
-    *) echo "usage: bash ci/gpu-check.sh stage | bisect-stage [COMMIT...] | run [devices,tests,bench,main,pipeline-cache,study-quick,paper,cornell,profile,ablation,bisect|all] [--plan]"; exit 2 ;;
+    *) echo "usage: bash ci/gpu-check.sh stage | bisect-stage [COMMIT...] | run [devices,tests,gpu-tests,bench,main,pipeline-cache,study-quick,paper,cornell,envmap,threshold,taxonomy,profile,ablation,bisect|all] [--plan]"; exit 2 ;;
 esac
