@@ -28,11 +28,6 @@ layout(local_size_x = 8, local_size_y = 8) in;
 #include "mechanism.glsl"
 
 layout(std430, set = 0, binding = BINDING_ACCUM) writeonly buffer Accum { GpuPixelAccum accum[]; };
-#ifdef KERNEL_GPU
-// The same buffer, read and written: the GPU kernel's RECORD_TALLY adds each sample's bucket
-// sums to the pixel's batch record in place (no other layout touches it).
-layout(std430, set = 0, binding = BINDING_ACCUM) buffer AccumRecord { GpuPixelAccum accum_record[]; };
-#endif
 // The next pixel slot to claim (params.claimed_pixels: claimed pixels), zeroed before each batch.
 layout(std430, set = 0, binding = BINDING_WORK) buffer Work { uint next_slot; };
 #ifdef VKMECH_COUNTERS
@@ -175,16 +170,12 @@ struct Tally {
 };
 
 #ifdef KERNEL_GPU
-// Specialization (GPU kernel; VKMECH_GPU_TALLY, docs/gpu.md): where the seven RGB bucket sums
-// of the sample and of the pixel live. GPU_TALLY_REGISTERS (the default): two register
-// arrays live through the whole path (42 floats). GPU_TALLY_SHARED: both in shared memory,
-// each invocation its own 21-float slices indexed at run time. GPU_TALLY_RECORD: the
-// sample's in registers, the pixel's in its batch record (accum_record), which each
-// finite sample's sums are added to in place. The adds happen in the same order, so the
-// images are bit-identical in every layout.
-layout(constant_id = SPEC_GPU_TALLY) const uint GPU_TALLY = GPU_TALLY_REGISTERS;
-const bool SHARED_TALLY = GPU_TALLY == GPU_TALLY_SHARED;
-const bool RECORD_TALLY = GPU_TALLY == GPU_TALLY_RECORD;
+// Specialization (GPU kernel; VKMECH_GPU_TALLY=shared, docs/gpu.md): the seven RGB
+// bucket sums of the sample and of the pixel live in shared memory, each
+// invocation its own 21-float slices indexed at run time, instead of two
+// register arrays live through the whole path (42 floats). The adds happen in
+// the same order, so the images are bit-identical either way.
+layout(constant_id = SPEC_SHARED_TALLY) const bool SHARED_TALLY = false;
 const uint TALLY_FLOATS = 3u * BUCKET_COUNT;
 shared float s_sample_tally[SHARED_TALLY ? 64u * TALLY_FLOATS : 1u];
 shared float s_pixel_tally[SHARED_TALLY ? 64u * TALLY_FLOATS : 1u];
@@ -565,8 +556,6 @@ void render_slot(uint slot) {
 #ifdef KERNEL_GPU
     if (SHARED_TALLY)
         for (uint j = 0u; j < TALLY_FLOATS; ++j) s_pixel_tally[tally_base() + j] = 0.0;
-    if (RECORD_TALLY)
-        for (uint k = 0u; k < 6u; ++k) accum_record[pixel].bucket_rgb[k] = vec4(0.0);
 #endif
     float glossy_sum = 0.0;
     float depth_sum = 0.0;
@@ -639,14 +628,7 @@ void render_slot(uint slot) {
         mean_s += delta / n_ok;
         m2_s += delta * (x - mean_s);
 #ifdef KERNEL_GPU
-        if (RECORD_TALLY) {  // packed as at the end below; floats 21..23 stay 0 (direct_glossy_sum goes there)
-            accum_record[pixel].bucket_rgb[0] += vec4(t.bucket[0], t.bucket[1].x);
-            accum_record[pixel].bucket_rgb[1] += vec4(t.bucket[1].yz, t.bucket[2].xy);
-            accum_record[pixel].bucket_rgb[2] += vec4(t.bucket[2].z, t.bucket[3]);
-            accum_record[pixel].bucket_rgb[3] += vec4(t.bucket[4], t.bucket[5].x);
-            accum_record[pixel].bucket_rgb[4] += vec4(t.bucket[5].yz, t.bucket[6].xy);
-            accum_record[pixel].bucket_rgb[5].x += t.bucket[6].z;
-        } else if (SHARED_TALLY)
+        if (SHARED_TALLY)
             for (uint j = 0u; j < TALLY_FLOATS; ++j) s_pixel_tally[tally_base() + j] += s_sample_tally[tally_base() + j];
         else
 #endif
@@ -665,15 +647,6 @@ void render_slot(uint slot) {
     a.lum = vec4(ldexp(mean_s, lum_exp), m2_s, nonfinite, float(lum_exp));
     a.side = vec4(glossy_sum, depth_sum, depth_w, 0.0);
 #ifdef KERNEL_GPU
-    if (RECORD_TALLY) {  // the bucket sums are in the record already
-        accum_record[pixel].rgb = a.rgb;
-        accum_record[pixel].lum = a.lum;
-        accum_record[pixel].side = a.side;
-#ifdef VKMECH_DIRECT_GLOSSY
-        accum_record[pixel].bucket_rgb[5].yzw = direct_glossy_sum;
-#endif
-        return;
-    }
     if (SHARED_TALLY)
         for (uint b = 0u; b < BUCKET_COUNT; ++b) {
             uint i = tally_base() + 3u * b;

@@ -327,14 +327,11 @@ TEST_SUITE("gpu") {
         CHECK(ctx->validation_messages() == 0);
     }
 
-    TEST_CASE(
-        "render: the GPU kernel's bucket tally in shared memory and in the batch record gives the register "
-        "tally's frames bit for bit") {
+    TEST_CASE("render: the GPU kernel's bucket tally in shared memory gives the register tally's frames bit for bit") {
         VKMECH_REQUIRE_GPU(ctx);
         // VKMECH_GPU_TALLY=shared (docs/gpu.md) moves the GPU kernel's per-sample
-        // and per-pixel bucket sums from registers to shared memory, =record the
-        // per-pixel sums to the pixel's batch record; the same adds in the same
-        // order, so every sum must be bit-identical.
+        // and per-pixel bucket sums from registers to shared memory; the same adds
+        // in the same order, so every sum must be bit-identical.
         // Three scenes (every bucket but `other` between them, and the hard
         // cases' extreme radiances); each costs two pipelines on lavapipe.
         std::vector<std::string> paths;
@@ -351,27 +348,24 @@ TEST_SUITE("gpu") {
             setup.batch = 4;  // two batches: the per-pixel sums start again at zero
             setup.kernel = vkmech::vk::KernelClass::Gpu;
             Frame a = testing::render_scene(*ctx, path, setup);
-            for (const std::string layout : {"shared", "record"}) {
-                CAPTURE(layout);
-                Frame b;
-                {
-                    testing::ScopedEnv tally("VKMECH_GPU_TALLY", layout.c_str());
-                    b = testing::render_scene(*ctx, path, setup);
-                }
-                REQUIRE(a.bucket_rgb_sum.size() == a.pixels.size() * Frame::kBucketRgb);
-                REQUIRE(b.bucket_rgb_sum.size() == a.bucket_rgb_sum.size());
-                CHECK(a.bucket_rgb_sum == b.bucket_rgb_sum);
-                size_t differing = 0;
-                double energy = 0.0;
-                for (size_t i = 0; i < a.pixels.size(); ++i) {
-                    const PixelStats &pa = a.pixels[i], &pb = b.pixels[i];
-                    differing += !(pa.rgb_sum == pb.rgb_sum && pa.bucket_sum == pb.bucket_sum &&
-                                   pa.lum_m2 == pb.lum_m2 && pa.count == pb.count && pa.nonfinite == pb.nonfinite);
-                    for (double e : pa.bucket_sum) energy += e;
-                }
-                CHECK(differing == 0);
-                CHECK(energy > 0.0);  // the buckets were filled, so the comparison compared something
+            Frame b;
+            {
+                testing::ScopedEnv shared("VKMECH_GPU_TALLY", "shared");
+                b = testing::render_scene(*ctx, path, setup);
             }
+            REQUIRE(a.bucket_rgb_sum.size() == a.pixels.size() * Frame::kBucketRgb);
+            REQUIRE(b.bucket_rgb_sum.size() == a.bucket_rgb_sum.size());
+            CHECK(a.bucket_rgb_sum == b.bucket_rgb_sum);
+            size_t differing = 0;
+            double energy = 0.0;
+            for (size_t i = 0; i < a.pixels.size(); ++i) {
+                const PixelStats &pa = a.pixels[i], &pb = b.pixels[i];
+                differing += !(pa.rgb_sum == pb.rgb_sum && pa.bucket_sum == pb.bucket_sum && pa.lum_m2 == pb.lum_m2 &&
+                               pa.count == pb.count && pa.nonfinite == pb.nonfinite);
+                for (double e : pa.bucket_sum) energy += e;
+            }
+            CHECK(differing == 0);
+            CHECK(energy > 0.0);  // the buckets were filled, so the comparison compared something
         }
         {
             testing::ScopedEnv bad("VKMECH_GPU_TALLY", "stack");
@@ -380,7 +374,7 @@ TEST_SUITE("gpu") {
             setup.spp = 1;
             setup.kernel = vkmech::vk::KernelClass::Gpu;
             CHECK_THROWS_WITH_AS(testing::render_scene(*ctx, test_scene("hard_cases"), setup),
-                                 doctest::Contains("expected 'registers' (the default), 'shared' or 'record'"),
+                                 doctest::Contains("expected 'registers' (the default) or 'shared'"),
                                  std::invalid_argument);
         }
         CHECK(ctx->validation_messages() == 0);

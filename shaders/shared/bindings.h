@@ -46,16 +46,11 @@ VKM_ID SPEC_DEBUG_EVENTS = 9u;
 VKM_ID SPEC_END_VERTEX_LITERAL = 10u;
 VKM_ID SPEC_ORTHOGRAPHIC = 11u;         // camera.glsl
 VKM_ID SPEC_ENVIRONMENT = 13u;          // features.glsl: emitters at infinity
-VKM_ID SPEC_GPU_TALLY = 14u;            // pathtrace.comp, GPU kernel only: where the bucket tally lives (below)
+VKM_ID SPEC_SHARED_TALLY = 14u;         // pathtrace.comp, GPU kernel only: the bucket tally in shared memory
 VKM_ID SPEC_INSTANCES = 15u;            // trace_bvh_gpu.glsl: the scene has instances (a two-level tree)
 VKM_ID SPEC_WINDOW = 16u;               // pathtrace.comp: the film is a window of the full film (--pixel-bounds)
 VKM_ID SPEC_TANGENTS = 17u;             // features.glsl: meshes with the file's tangents (glTF TANGENT)
 VKM_ID SPEC_TAXONOMY = 18u;             // pathtrace.comp: events classified by a user taxonomy (--taxonomy)
-
-// SPEC_GPU_TALLY's values (VKMECH_GPU_TALLY=registers|shared|record; docs/gpu.md).
-VKM_ID GPU_TALLY_REGISTERS = 0u;  // the sample's and the pixel's sums in registers (the default)
-VKM_ID GPU_TALLY_SHARED = 1u;     // both in shared memory
-VKM_ID GPU_TALLY_RECORD = 2u;     // the sample's in registers, the pixel's in its batch record
 
 #ifdef __cplusplus
 }  // namespace vkmech::gpu

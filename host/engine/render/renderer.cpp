@@ -23,16 +23,15 @@ namespace {
 // The counters buffer: the traversal's work, then 64-bit clock ticks per phase (shared/types.h).
 constexpr uint32_t kCounterWords = gpu::COUNTER_CLOCK + 2 * gpu::PHASE_COUNT;
 
-// VKMECH_GPU_TALLY=registers|shared|record: where the GPU kernel keeps its bucket
-// tally (shaders/pathtrace.comp, GPU_TALLY; docs/gpu.md). A measurement
+// VKMECH_GPU_TALLY=registers|shared: where the GPU kernel keeps its bucket
+// tally (shaders/pathtrace.comp, SHARED_TALLY; docs/gpu.md). A measurement
 // switch for GPU sessions; the CPU kernel has one layout and ignores it.
-uint32_t gpu_tally_from_env() {
+bool shared_tally_from_env() {
     const char* env = std::getenv("VKMECH_GPU_TALLY");
-    if (!env || !*env || std::string(env) == "registers") return gpu::GPU_TALLY_REGISTERS;
-    if (std::string(env) == "shared") return gpu::GPU_TALLY_SHARED;
-    if (std::string(env) == "record") return gpu::GPU_TALLY_RECORD;
+    if (!env || !*env || std::string(env) == "registers") return false;
+    if (std::string(env) == "shared") return true;
     throw std::invalid_argument(std::string("VKMECH_GPU_TALLY='") + env +
-                                "': expected 'registers' (the default), 'shared' or 'record'");
+                                "': expected 'registers' (the default) or 'shared'");
 }
 
 // The pipeline specialization of one Features value.
@@ -46,7 +45,7 @@ std::vector<vk::SpecConstant> spec_constants(const Features& f, bool instanced) 
                                        {SPEC_END_VERTEX_LITERAL, f.end_vertex == EndVertex::Literal},
                                        {SPEC_ORTHOGRAPHIC, f.orthographic},
                                        {SPEC_ENVIRONMENT, f.environment},
-                                       {SPEC_GPU_TALLY, gpu_tally_from_env()},
+                                       {SPEC_SHARED_TALLY, shared_tally_from_env()},
                                        {SPEC_INSTANCES, instanced},
                                        {SPEC_WINDOW, f.window},
                                        {SPEC_TANGENTS, f.tangents},
