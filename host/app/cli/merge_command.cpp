@@ -52,9 +52,10 @@ struct MergeInput {
     std::string taxonomy;
     std::vector<std::string> classes;
     std::string taxonomy_lines;
-    // render --lpe: the queries' record (vkmech.lpe) and the query channels it names, in the render's order;
-    // empty for a render without queries.
+    // render --lpe: the queries' record (vkmech.lpe), its queries as "name = expression" lines and the query
+    // channels it names, in the render's order; empty for a render without queries.
     std::string queries;
+    std::string query_lines;
     std::vector<std::string> query_channels;
 };
 
@@ -136,7 +137,12 @@ void read_queries(MergeInput& m) {
         const JsonValue* name = q.find("name");
         if (!name || name->kind != JsonValue::String || name->string.empty())
             throw UsageError("merge: " + m.path + ": its vkmech.lpe names a query that is not a name");
+        const JsonValue* expression = q.find("expression");
+        if (!expression || expression->kind != JsonValue::String)
+            throw UsageError("merge: " + m.path + ": its vkmech.lpe has a query without an expression (" +
+                             name->string + ")");
         names.push_back(name->string);
+        m.query_lines += name->string + " = " + expression->string + "\n";
     }
     m.query_channels = query_channel_names(names);
 }
@@ -150,7 +156,7 @@ void check_same_render(const MergeInput& a, const MergeInput& b) {
     if (a.queries.empty() != b.queries.empty())
         throw UsageError("merge: " + (a.queries.empty() ? b : a).path + " was rendered with --lpe queries and " +
                          (a.queries.empty() ? a : b).path + " without: different outputs");
-    if (a.queries != b.queries)
+    if (a.query_lines != b.query_lines)  // the queries, not the record's text
         throw UsageError("merge: " + b.path + " and " + a.path +
                          " were rendered with different --lpe queries: their query channels are not the same paths");
     for (const auto* pair : {&a, &b}) {
