@@ -37,12 +37,8 @@ std::vector<CostDim> cost_dims(const Frame& ref, const Descriptor& d, const std:
     if (!taxonomy) shares.push_back({"caustic_frac", {d.caustic_frac.begin(), d.caustic_frac.end()}});
     for (size_t c = 0; taxonomy && c + 1 < classes.size(); ++c) {
         CostDim share{classes[c].name + " share", std::vector<double>(P, 0.0)};
-        for (size_t p = 0; p < P; ++p) {  // as derive_descriptor's caustic_frac: the slot's energy over the sum
-            const PixelStats& px = ref.pixels[p];
-            double total = 0.0;
-            for (uint32_t b = 0; b < kBucketCount; ++b) total += px.count > 0 ? px.bucket_sum[b] / px.count : 0.0;
-            if (total > 0.0) share.value[p] = static_cast<float>(px.bucket_sum[classes[c].slot] / px.count / total);
-        }
+        for (size_t p = 0; p < P; ++p)  // in float, as derive_descriptor's caustic_frac
+            share.value[p] = static_cast<float>(slot_share(ref.pixels[p], classes[c].slot));
         shares.push_back(std::move(share));
     }
     std::vector<double> inv_purity(P);

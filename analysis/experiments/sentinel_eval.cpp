@@ -83,12 +83,13 @@ Scores score_strategies(const Record& r, const EvalInputs& in, const alloc::Pilo
                        Strategy::RobustFloor, Strategy::Guarded, Strategy::Shrink, Strategy::Placebo, Strategy::Oracle})
         if (robust || !alloc::needs_mom(s)) strategies.push_back(s);
     Scores sc;
+    const alloc::ClassTraits traits = r.class_traits();
     for (uint32_t k = 0; k < r.protocol.draws; ++k) {
         const Pilot& pl = in.pilots[k];
-        const alloc::PilotDiagnosis dg = k == 0 ? d0 : alloc::diagnose_pilot(pl, r.class_traits());
+        const alloc::PilotDiagnosis dg = k == 0 ? d0 : alloc::diagnose_pilot(pl, traits);
         alloc::ScoreInputs si;
-        si.heavy = r.class_traits().heavy;
-        si.rare = r.class_traits().rare;
+        si.heavy = traits.heavy;
+        si.rare = traits.rare;
         si.pilot_var = &pl.var;
         si.pilot_labels = &pl.labels;
         si.oracle_var = &in.pool->oracle_var;

@@ -31,6 +31,13 @@ uint8_t dominant_bucket(const std::array<double, kBucketCount>& e) {
     return best;
 }
 
+double slot_share(const PixelStats& p, uint32_t slot) {
+    if (p.count <= 0) return 0.0;
+    double total = 0.0;
+    for (uint32_t b = 0; b < kBucketCount; ++b) total += p.bucket_sum[b] / p.count;
+    return total > 0.0 ? p.bucket_sum[slot] / p.count / total : 0.0;
+}
+
 Descriptor derive_descriptor(const Frame& f) {
     Descriptor d;
     d.width = f.width;
@@ -58,7 +65,7 @@ Descriptor derive_descriptor(const Frame& f) {
         if (total > 0.0) {
             d.purity[i] = static_cast<float>(e[d.dominant[i]] / total);
             d.glossy_frac[i] = static_cast<float>(std::min(1.0, p.glossy_sum / p.count / total));
-            d.caustic_frac[i] = static_cast<float>(e[gpu::BUCKET_DELTA_MEDIATED] / total);
+            d.caustic_frac[i] = static_cast<float>(slot_share(p, gpu::BUCKET_DELTA_MEDIATED));
         }
         d.depth[i] = p.depth_weight > 0.0 ? static_cast<float>(p.depth_weighted_sum / p.depth_weight) : 0.0f;
     }

@@ -39,6 +39,10 @@ struct Descriptor {
 // argmax with ties broken to the lower index; kNoLabel when every entry is 0.
 uint8_t dominant_bucket(const std::array<double, kBucketCount>& energy);
 
+// A pixel's mean energy in tally slot `slot` over its mean energy in every slot; 0 without energy
+// (caustic_frac is delta_mediated's; a taxonomy's class shares are its slots').
+double slot_share(const PixelStats& p, uint32_t slot);
+
 Descriptor derive_descriptor(const Frame& frame);
 // Names the slots by a user taxonomy's classes (docs/lpe.md), `other` last; the slots beyond are
 // empty. Call before summarize.
