@@ -25,6 +25,7 @@
 #include <iterator>
 #include <map>
 #include <regex>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -325,8 +326,7 @@ TEST_SUITE("gpu") {
 
     TEST_CASE(
         "taxonomy: vkmech study stability --taxonomy measures the classes, and only stability, variance, cost, "
-        "predictor and "
-        "allocation take one") {
+        "predictor, allocation and structure take one") {
         testing::TempDir dir("taxstudy");
         std::ofstream(dir.file("lights.lpe"))
             << "first = C .* <L.'sweep_light_0'>\nsecond = C .* <L.'sweep_light_1'>\n";
@@ -343,12 +343,11 @@ TEST_SUITE("gpu") {
         std::ifstream stab(dir.file("st/tables/taxonomy_stability.csv"));
         std::getline(stab, header);
         CHECK(header.find("var3") != std::string::npos);
-        r = testing::run_cli("study structure --preset quick --scenes cubes_dof --no-plots --taxonomy " +
+        r = testing::run_cli("study sensitivity --preset quick --scenes cubes_dof --no-plots --taxonomy " +
                              dir.file("lights.lpe") + " --out " + dir.file("sv"));
         CHECK(r.code == 2);
-        CHECK(
-            r.output.find("--taxonomy applies to `vkmech study` stability, variance, cost, predictor and allocation") !=
-            std::string::npos);
+        CHECK(r.output.find("--taxonomy applies to `vkmech study` stability, variance, cost, predictor, allocation "
+                            "and structure") != std::string::npos);
     }
 
     TEST_CASE("taxonomy: vkmech study allocation --taxonomy allocates by the classes and the properties they declare") {
@@ -518,6 +517,53 @@ TEST_SUITE("gpu") {
         CHECK(b.at("cost_by_bucket_detail.csv").size() >= 4);             // three buckets or more have pixels
         CHECK(paper.at("cost_by_bucket.csv")[1][0] == "emitter_direct");  // the rows in the slots' order
         CHECK(rev.at("cost_by_bucket.csv")[1][0] == "specular_direct");
+    }
+
+    TEST_CASE(
+        "taxonomy: vkmech study structure --taxonomy correlates every pair of the classes' shares, glossy_frac, "
+        "depth and inv_purity") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("taxstructure");
+        const ThreeLabellings runs = three_labellings("structure", dir);
+        // A pair by its two names in either order (the reversed lines list the classes the other way round).
+        auto by_pair = [](const std::vector<std::vector<std::string>>& rows) {
+            std::map<std::set<std::string>, std::string> m;
+            for (const auto& row : rows_by_name(rows)) {
+                const size_t at = row.first.find(" <-> ");
+                REQUIRE(at != std::string::npos);
+                m[{row.first.substr(0, at), row.first.substr(at + 5)}] = row.second.at(0);
+            }
+            return m;
+        };
+        const auto b = by_pair(runs.b.at("correlation_matrix.csv"));
+        REQUIRE(b.size() == 6);
+        // The paper's four components are three of the taxonomy's, C being delta_mediated's share.
+        const std::map<std::string, std::string> same = {
+            {"C", "delta_mediated share"}, {"G", "glossy_frac"}, {"D", "depth"}, {"P", "inv_purity"}};
+        const auto paper = by_pair(runs.paper.at("correlation_matrix.csv"));
+        const auto rev = by_pair(runs.rev.at("correlation_matrix.csv"));
+        CHECK(paper.size() == 36);  // every pair of six shares (not other's), glossy_frac, depth and inv_purity
+        CHECK(rev == paper);
+        size_t measured = 0;
+        for (const auto& pair : b) {
+            std::set<std::string> names;
+            for (const std::string& n : pair.first) names.insert(same.at(n));
+            CAPTURE(*pair.first.begin());
+            CHECK(paper.at(names) == pair.second);
+            measured += pair.second != "deg.";
+        }
+        CHECK(measured >= 3);  // C-P, D-C and D-P are defined on glass_caustic
+        CHECK(paper.at({"direct share", "depth"}) != "deg.");
+        // Findings 1 and 2 read caustic_frac and the buckets' purity: not checked, and no depth_purity table.
+        CHECK(runs.b.count("depth_purity.csv") == 1);
+        CHECK(runs.paper.count("depth_purity.csv") == 0);
+        // tab:sign-reversal's separation measures do not depend on the labels; its caustic side is the [rare]
+        // classes' (delta_mediated and specular_direct under paper.lpe).
+        const auto sep = runs.paper.at("sign_reversal.csv"), bsep = runs.b.at("sign_reversal.csv");
+        REQUIRE(sep.size() == 2);
+        REQUIRE(bsep.size() == 2);
+        CHECK(std::vector<std::string>(sep[1].begin(), sep[1].begin() + 5) ==
+              std::vector<std::string>(bsep[1].begin(), bsep[1].begin() + 5));
     }
 }
 

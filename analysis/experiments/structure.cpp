@@ -2,6 +2,10 @@
 // among caustic_frac (C), glossy_frac (G), depth (D) and inv_purity (P), the
 // separation measures between the delta-S and glossy object families, and
 // the caustic/glossy correlation beside them (tab:sign-reversal).
+// Under --taxonomy (docs/lpe.md): the components are each class's share of the pixel's energy
+// (but `other`'s), G, D and the taxonomy's own P, every pair of them; the caustic side of
+// tab:sign-reversal is the [rare] classes' share; Findings 1 and 2, readings of the buckets, are not
+// checked.
 #include "experiments/separation.hpp"
 #include "experiments/study_context.hpp"
 #include "stats/bootstrap.hpp"
@@ -20,7 +24,56 @@ namespace {
 
 // Pair order as the paper's tab:correlation-matrix; components C, G, D, P.
 const std::vector<std::pair<int, int>> kPairs = {{0, 3}, {3, 1}, {0, 1}, {2, 0}, {2, 1}, {2, 3}};
-const char* const kAbbrev[] = {"C", "G", "D", "P"};
+const std::vector<std::string> kAbbrev = {"C", "G", "D", "P"};
+
+// The continuous components, named as the correlation table names them: C, G, D, P; under a taxonomy
+// "<class> share" for every class but `other`, then glossy_frac, depth and inv_purity.
+struct Components {
+    bool taxonomy = false;
+    std::vector<std::string> names;
+    std::vector<StudyClass> shares;  // the taxonomy's classes whose shares lead the list (none for the buckets)
+    std::vector<std::pair<int, int>> pairs;
+    std::vector<StudyClass> rare;  // the [rare] classes: tab:sign-reversal's caustic side under a taxonomy
+};
+
+Components components(const StudyConfig& cfg) {
+    Components c;
+    if (!cfg.taxonomy) {
+        c.names = kAbbrev;
+        c.pairs = kPairs;
+        return c;
+    }
+    c.taxonomy = true;
+    const std::vector<StudyClass> classes = study_classes(cfg, {});
+    for (size_t i = 0; i + 1 < classes.size(); ++i) {  // every class but `other`, the last
+        c.shares.push_back(classes[i]);
+        c.names.push_back(classes[i].name + " share");
+        if (classes[i].rare) c.rare.push_back(classes[i]);
+    }
+    for (const char* n : {"glossy_frac", "depth", "inv_purity"}) c.names.push_back(n);
+    for (int a = 0; a < static_cast<int>(c.names.size()); ++a)
+        for (int b = a + 1; b < static_cast<int>(c.names.size()); ++b) c.pairs.push_back({a, b});
+    return c;
+}
+
+// Pixel p's components in the order of c.names, and the caustic side of rho C-G (caustic_frac, or the
+// [rare] classes' share) in *caustic.
+std::vector<double> component_values(const Components& c, const Frame& ref, const Descriptor& d, size_t p,
+                                     double* caustic) {
+    std::vector<double> v;
+    if (!c.taxonomy) {
+        v = {d.caustic_frac[p], d.glossy_frac[p], d.depth[p], 1.0 - d.purity[p]};
+        *caustic = v[0];
+        return v;
+    }
+    for (const StudyClass& k : c.shares)  // in float, as derive_descriptor's caustic_frac
+        v.push_back(static_cast<float>(slot_share(ref.pixels[p], k.slot)));
+    double rare = 0.0;
+    for (const StudyClass& k : c.rare) rare += static_cast<float>(slot_share(ref.pixels[p], k.slot));
+    *caustic = rare;
+    v.insert(v.end(), {d.glossy_frac[p], d.depth[p], 1.0 - d.purity[p]});
+    return v;
+}
 
 // ---- compute: per scene the component correlations, their intervals and the separation measures ----
 
@@ -33,46 +86,52 @@ struct StructureScene {
     std::vector<double> scatter_c, scatter_g;  // a deterministic subsample of (C, G) per labelled pixel
 };
 
-StructureScene structure_scene(StudyContext& ctx, const SceneVariant& scene) {
+StructureScene structure_scene(StudyContext& ctx, const SceneVariant& scene, const Components& c) {
     const StudyConfig& cfg = ctx.cfg;
     StructureScene r;
     r.name = scene.name;
     Frame ref = ctx.frames.get(
         {scene, cfg.stability_reference_spp(), seeds::stability(cfg.stability_spp.size() - 1), Estimator::Nee});
     Descriptor d = derive_descriptor(ref);
-    std::array<std::vector<double>, 4> comp;
-    std::array<std::vector<double>, 4> field;  // the same per pixel, NaN where unlabelled (for the bootstrap)
+    // The components, then the caustic side of rho C-G (caustic_frac, or the [rare] classes' share) last.
+    const size_t K = c.names.size(), C = K;
+    const size_t G = K - 3, D = K - 2, P = K - 1;  // glossy_frac, depth and inv_purity close every list
+    std::vector<std::vector<double>> comp(K + 1);
+    std::vector<std::vector<double>> field(K + 1);  // the same per pixel, NaN where unlabelled (for the bootstrap)
     for (auto& f : field) f.assign(d.dominant.size(), std::numeric_limits<double>::quiet_NaN());
-    std::array<bool, 4> nonzero{};
+    std::vector<bool> nonzero(K + 1, false);
     for (size_t p = 0; p < d.dominant.size(); ++p) {
         if (d.dominant[p] == kNoLabel) continue;
-        double v[4] = {d.caustic_frac[p], d.glossy_frac[p], d.depth[p], 1.0 - d.purity[p]};
-        for (int k = 0; k < 4; ++k) {
+        double caustic = 0.0;
+        std::vector<double> v = component_values(c, ref, d, p, &caustic);
+        v.push_back(caustic);
+        for (size_t k = 0; k <= K; ++k) {
             comp[k].push_back(v[k]);
             field[k][p] = v[k];
             nonzero[k] = nonzero[k] || v[k] != 0.0;
         }
     }
-    for (auto [a, b] : kPairs)
+    for (auto [a, b] : c.pairs)
         r.pair_rho.push_back(nonzero[a] && nonzero[b] ? std::optional(stats::spearman(comp[a], comp[b]))
                                                       : std::nullopt);
-    r.rho_cg = nonzero[0] && nonzero[1] ? stats::spearman(comp[0], comp[1]) : NAN;
-    r.rho_dp = nonzero[2] && nonzero[3] ? stats::spearman(comp[2], comp[3]) : NAN;
+    const bool has_caustic = !c.taxonomy || !c.rare.empty();
+    r.rho_cg = has_caustic && nonzero[C] && nonzero[G] ? stats::spearman(comp[C], comp[G]) : NAN;
+    r.rho_dp = nonzero[D] && nonzero[P] ? stats::spearman(comp[D], comp[P]) : NAN;
     const int w = static_cast<int>(ref.width);
-    if (std::isfinite(r.rho_cg)) r.ci_cg = stats::tile_bootstrap_spearman(field[0], field[1], w, 8, 1000, 0);
-    if (std::isfinite(r.rho_dp)) r.ci_dp = stats::tile_bootstrap_spearman(field[2], field[3], w, 8, 1000, 0);
+    if (std::isfinite(r.rho_cg)) r.ci_cg = stats::tile_bootstrap_spearman(field[C], field[G], w, 8, 1000, 0);
+    if (std::isfinite(r.rho_dp)) r.ci_dp = stats::tile_bootstrap_spearman(field[D], field[P], w, 8, 1000, 0);
     if (ctx.separation) r.separation = ctx.separation(scene);
-    size_t n = comp[0].size(), step = std::max<size_t>(1, n / 3000);  // deterministic subsample
-    for (size_t i = 0; i < n; i += step) {
-        r.scatter_c.push_back(comp[0][i]);
-        r.scatter_g.push_back(comp[1][i]);
+    size_t n = comp[C].size(), step = std::max<size_t>(1, n / 3000);  // deterministic subsample
+    for (size_t i = 0; has_caustic && i < n; i += step) {
+        r.scatter_c.push_back(comp[C][i]);
+        r.scatter_g.push_back(comp[G][i]);
     }
     return r;
 }
 
-std::vector<StructureScene> compute_structure(StudyContext& ctx) {
+std::vector<StructureScene> compute_structure(StudyContext& ctx, const Components& c) {
     std::vector<StructureScene> r;
-    for (const auto& scene : ctx.cfg.scenes) r.push_back(structure_scene(ctx, scene));
+    for (const auto& scene : ctx.cfg.scenes) r.push_back(structure_scene(ctx, scene, c));
     return r;
 }
 
@@ -88,19 +147,25 @@ std::string ci_str(const stats::Interval& i) {
     return s;
 }
 
-Table correlation_table(const std::vector<StructureScene>& r) {
+Table correlation_table(const std::vector<StructureScene>& r, const Components& c, const StudyConfig& cfg) {
     Table corr{"correlation_matrix",
-               "Per-pixel Spearman rho among the four continuous components (tab:correlation-matrix)",
+               c.taxonomy ? "Per-pixel Spearman rho among the classes' shares, glossy_frac, depth and inv_purity"
+                          : "Per-pixel Spearman rho among the four continuous components (tab:correlation-matrix)",
                {"pair"},
                {},
                ""};
     corr.note =
-        "C = caustic_frac, G = glossy_frac, D = depth, P = inv_purity (1 - purity), over the reference render's "
-        "labelled pixels. deg.: one component is identically zero in that scene.";
+        c.taxonomy
+            ? "Classes of the taxonomy " + cfg.taxonomy->file +
+                  ": <class> share = the class's share of the pixel's energy (every class but other), glossy_frac, "
+                  "depth, inv_purity = 1 - the taxonomy's purity, over the reference render's labelled pixels; "
+                  "every pair. deg.: one component is identically zero in that scene."
+            : "C = caustic_frac, G = glossy_frac, D = depth, P = inv_purity (1 - purity), over the reference render's "
+              "labelled pixels. deg.: one component is identically zero in that scene.";
     for (const auto& sc : r) corr.columns.push_back(sc.name);
-    for (size_t i = 0; i < kPairs.size(); ++i) {
-        auto [a, b] = kPairs[i];
-        std::vector<Cell> row{Cell::str(std::string(kAbbrev[a]) + " <-> " + kAbbrev[b])};
+    for (size_t i = 0; i < c.pairs.size(); ++i) {
+        auto [a, b] = c.pairs[i];
+        std::vector<Cell> row{Cell::str(c.names[a] + " <-> " + c.names[b])};
         for (const auto& sc : r)
             row.push_back(sc.pair_rho[i] ? Cell::num(*sc.pair_rho[i], "%+.2f") : Cell::str("deg."));
         corr.add(row);
@@ -108,7 +173,14 @@ Table correlation_table(const std::vector<StructureScene>& r) {
     return corr;
 }
 
-Table separation_table(const std::vector<StructureScene>& r) {
+// The caustic side of rho C-G under a taxonomy, for the notes: its [rare] classes.
+std::string rare_names(const Components& c) {
+    std::string s;
+    for (const StudyClass& k : c.rare) s += (s.empty() ? "" : ", ") + k.name;
+    return s;
+}
+
+Table separation_table(const std::vector<StructureScene>& r, const Components& c) {
     Table sep{"sign_reversal",
               "Caustic/glossy correlation and object-space separation (tab:sign-reversal)",
               {"scene", "delta-S objects", "glossy objects", "min dist. (scene units)", "mut. vis.", "rho C-G",
@@ -123,6 +195,11 @@ Table separation_table(const std::vector<StructureScene>& r) {
         "(ray-tested, offset 1e-3, seed 0). n/a: a family is empty. 95% CI: tile bootstrap of rho over the "
         "reference's labelled pixels (8 x 8-pixel tiles, 1000 resamples, seed 0): how much rho varies across "
         "image regions of this one render, not across seeds.";
+    if (c.taxonomy)
+        sep.note += c.rare.empty() ? " rho C-G: the taxonomy declares no class [rare], so there is no caustic side."
+                                   : " C: the share of the classes the taxonomy declares [rare] (" + rare_names(c) +
+                                         ") in place of caustic_frac.";
+    const char* none = c.taxonomy && c.rare.empty() ? "no [rare]" : "deg.";
     std::map<std::string, stats::Interval> ci_cg;  // by scene name, as the rows read them
     for (const auto& sc : r)
         if (sc.ci_cg) ci_cg[sc.name] = *sc.ci_cg;
@@ -131,8 +208,7 @@ Table separation_table(const std::vector<StructureScene>& r) {
         const SeparationMeasures& m = *sc.separation;
         sep.add({Cell::str(sc.name), Cell::integer(m.delta_objects), Cell::integer(m.glossy_objects),
                  Cell::num(m.min_distance, "%.3f", "n/a"), Cell::num(m.mutual_visibility, "%.3f", "n/a"),
-                 Cell::num(sc.rho_cg, "%+.3f", "deg."),
-                 Cell::str(ci_cg.count(sc.name) ? ci_str(ci_cg[sc.name]) : "deg.")});
+                 Cell::num(sc.rho_cg, "%+.3f", none), Cell::str(ci_cg.count(sc.name) ? ci_str(ci_cg[sc.name]) : none)});
     }
     return sep;
 }
@@ -216,14 +292,15 @@ Table finding_2(StudyOutput& out, const std::vector<StructureScene>& r) {
     return f2;
 }
 
-report::Figure scatter_figure(const std::vector<StructureScene>& r) {
-    report::Figure fig{"caustic_vs_glossy", "caustic_frac versus glossy_frac per pixel", "", 0, {}};
+report::Figure scatter_figure(const std::vector<StructureScene>& r, const Components& c) {
+    const std::string x = c.taxonomy ? "[rare] share" : "caustic_frac";
+    report::Figure fig{"caustic_vs_glossy", x + " versus glossy_frac per pixel", "", 0, {}};
     for (const auto& sc : r) {
         report::Panel p;
         p.kind = "scatter";
         p.title =
             sc.name + (std::isfinite(sc.rho_cg) ? " (rho " + report::format("%+.2f", sc.rho_cg) + ")" : " (deg.)");
-        p.xlabel = "caustic_frac";
+        p.xlabel = x;
         p.ylabel = "glossy_frac";
         p.xlim = std::make_pair(-0.02, 1.02);
         p.ylim = std::make_pair(-0.02, 1.02);
@@ -236,11 +313,20 @@ report::Figure scatter_figure(const std::vector<StructureScene>& r) {
     return fig;
 }
 
-void write_structure(StudyOutput& out, const std::vector<StructureScene>& r) {
+void write_structure(StudyOutput& out, const StudyConfig& cfg, const std::vector<StructureScene>& r,
+                     const Components& c) {
     const std::string sec = "Correlation structure";
-    const Table corr = correlation_table(r), sep = separation_table(r);
-    check_finding_1(out, r);
-    const Table f2 = finding_2(out, r);
+    const Table corr = correlation_table(r, c, cfg), sep = separation_table(r, c);
+    Table f2;
+    if (c.taxonomy) {  // the paper's Findings are readings of caustic_frac and of the buckets' purity
+        out.text(sec, "Labels: the classes of the taxonomy `" + cfg.taxonomy->file +
+                          "` (docs/lpe.md). Findings 1 and 2 are the paper's readings of caustic_frac and of the "
+                          "buckets' purity, so they are not checked; the correlation table has every pair of the "
+                          "classes' shares, glossy_frac, depth and the taxonomy's inv_purity.");
+    } else {
+        check_finding_1(out, r);
+        f2 = finding_2(out, r);
+    }
     out.table(sec, corr,
               "each cell is a per-pixel rank correlation within one scene; a pair whose sign flips across "
               "scenes points at a scene-level variable (the paper's Findings 1 and 2).");
@@ -253,12 +339,16 @@ void write_structure(StudyOutput& out, const std::vector<StructureScene>& r) {
         out.table(sec, sep,
                   "Finding 1: the caustic/glossy correlation should follow the mutual visibility of the two "
                   "object families (positive when light paths can meet both, negative when separated).");
-    out.figure(sec, scatter_figure(r),
-               "one panel per scene; every point is a labelled pixel (subsampled to about 3000).");
+    if (!c.taxonomy || !c.rare.empty())
+        out.figure(sec, scatter_figure(r, c),
+                   "one panel per scene; every point is a labelled pixel (subsampled to about 3000).");
 }
 
 }  // namespace
 
-void run_structure(StudyContext& ctx) { write_structure(ctx.out, compute_structure(ctx)); }
+void run_structure(StudyContext& ctx) {
+    const Components c = components(ctx.cfg);
+    write_structure(ctx.out, ctx.cfg, compute_structure(ctx, c), c);
+}
 
 }  // namespace vkmech
