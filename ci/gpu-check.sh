@@ -67,7 +67,10 @@ stage() {
     (cd "$build" && pwd) >.gpu/build_dir
     # The largest files travel compressed (the run's tree is limited to 64 MiB); the run step
     # unpacks them.
-    xz -T0 -6 -f .gpu/bin/vkmech_tests .gpu/lib/libVkLayer_khronos_validation.so 2>/dev/null
+    local big
+    for big in .gpu/bin/vkmech_tests .gpu/lib/libVkLayer_khronos_validation.so; do
+        [[ -f $big ]] && { xz -T0 -6 -f "$big" || { echo "gpu-check: stage: cannot pack $big with xz"; exit 2; }; }
+    done
     # The Vulkan loader and the GL vendor-neutral dispatch libraries as Debian
     # packages: the NVIDIA ICD (libGLX_nvidia.so.0) needs libGLdispatch, which
     # the target image lacks.
@@ -99,7 +102,10 @@ timed() {  # timed LABEL CMD...: runs CMD, prints its wall time and exit code
 device_env() {
     [[ -d .gpu/bin ]] || { echo "gpu-check: no .gpu/ here: run 'bash ci/gpu-check.sh stage' and carry .gpu and .gl"; exit 2; }
     local f
-    for f in .gpu/bin/*.xz .gpu/lib/*.xz; do [[ -f $f ]] && xz -d -f "$f"; done
+    if compgen -G '.gpu/*/*.xz' >/dev/null; then
+        command -v xz >/dev/null || { echo "gpu-check: the staged files are packed with xz, which this machine lacks"; exit 2; }
+        for f in .gpu/bin/*.xz .gpu/lib/*.xz; do [[ -f $f ]] && xz -d -f "$f"; done
+    fi
     chmod +x .gpu/bin/*
     for f in .gl/*.deb; do dpkg -x "$f" /; done
     ldconfig
@@ -122,7 +128,7 @@ device_env() {
     mkdir -p build && cp .gpu/bin/vkmech .gpu/bin/vkmech_tests build/
     local bld
     bld=$(cat .gpu/build_dir 2>/dev/null)
-    if [[ -n $bld && $bld != "$root/build" && ! -e $bld ]]; then mkdir -p "$(dirname "$bld")" && ln -s "$root/build" "$bld"; fi
+    if [[ -n $bld && $bld != "$root/build" && ! -e $bld ]]; then mkdir -p "$(dirname "$bld")" && ln -sfn "$root/build" "$bld"; fi
 }
 
 # The GPU suite in $1 processes at once, each bounded by $2 seconds; each

@@ -407,8 +407,9 @@ namespace {
 
 // A study's CSV tables (the file's name -> rows of cells), but those that hold measured times.
 using CsvTables = std::map<std::string, std::vector<std::vector<std::string>>>;
-CsvTables study_tables(const std::string& study, const std::string& out, const std::string& taxonomy) {
-    const auto r = testing::run_cli("study " + study + " --preset quick --scenes glass_caustic --no-plots --out " +
+CsvTables study_tables(const std::string& study, const std::string& out, const std::string& taxonomy,
+                       const std::string& scene = "glass_caustic") {
+    const auto r = testing::run_cli("study " + study + " --preset quick --scenes " + scene + " --no-plots --out " +
                                     out + (taxonomy.empty() ? "" : " --taxonomy " + taxonomy));
     CAPTURE(r.output);
     REQUIRE(r.code == 0);
@@ -564,6 +565,31 @@ TEST_SUITE("gpu") {
         REQUIRE(bsep.size() == 2);
         CHECK(std::vector<std::string>(sep[1].begin(), sep[1].begin() + 5) ==
               std::vector<std::string>(bsep[1].begin(), bsep[1].begin() + 5));
+
+        // On a scene with glossy energy (kitchen_counter): with delta_mediated the only [rare] class, the caustic
+        // side is caustic_frac and rho C-G and its interval are the built-in ones; without a [rare] class there is
+        // no caustic side.
+        const std::string lines =
+            "emitter_direct = C [LB]\ndirect = C [DG] [LB]\ndiffuse_indirect = C [DG]+ D [LB]\n"
+            "glossy = C [DG]+ G [LB]\ndelta_mediated%s = C (S+ [DG] | [DG]+ S) .* [LB]\n"
+            "specular_direct = C S+ [LB]\n";
+        const size_t at = lines.find("%s");
+        std::ofstream(dir.file("dm_rare.lpe")) << std::string(lines).replace(at, 2, " [rare]");
+        std::ofstream(dir.file("no_rare.lpe")) << std::string(lines).replace(at, 2, "");
+        const auto kb = study_tables("structure", dir.file("kb"), "", "kitchen_counter");
+        const auto kr = study_tables("structure", dir.file("kr"), dir.file("dm_rare.lpe"), "kitchen_counter");
+        const auto kn = study_tables("structure", dir.file("kn"), dir.file("no_rare.lpe"), "kitchen_counter");
+        const auto krow = kb.at("sign_reversal.csv").at(1);
+        REQUIRE(krow.size() >= 7);
+        CAPTURE(krow[5]);
+        CHECK(krow[5] != "deg.");  // kitchen_counter has glossy and caustic energy: a defined rho
+        CHECK(kr.at("sign_reversal.csv").at(1) == krow);
+        const auto nrow = kn.at("sign_reversal.csv").at(1);
+        REQUIRE(nrow.size() >= 7);
+        CHECK(std::vector<std::string>(nrow.begin(), nrow.begin() + 5) ==
+              std::vector<std::string>(krow.begin(), krow.begin() + 5));
+        CHECK(nrow[5].empty());  // a number's column: the CSV leaves it empty, the Markdown says why
+        CHECK(nrow[6] == "no [rare]");
     }
 }
 
@@ -679,6 +705,7 @@ TEST_SUITE("gpu") {
             const std::string cmd = "render --scene glass_caustic --res 24 --adaptive " + strategy +
                                     " --pilot 4 --budget 8 --out " + dir.file("b_" + strategy);
             const auto builtin = testing::run_cli(cmd);
+            CAPTURE(builtin.output);
             REQUIRE(builtin.code == 0);
             // The floor acts on glass_caustic's pilot (its caustic is heavy-tailed), and the guard flags dark
             // pixels (23 on lavapipe) while it trusts the lamp seen directly: equality is not an abstention.

@@ -328,8 +328,9 @@ void write_structure(StudyOutput& out, const StudyConfig& cfg, const std::vector
         f2 = finding_2(out, r);
     }
     out.table(sec, corr,
-              "each cell is a per-pixel rank correlation within one scene; a pair whose sign flips across "
-              "scenes points at a scene-level variable (the paper's Findings 1 and 2).");
+              std::string("each cell is a per-pixel rank correlation within one scene; a pair whose sign flips "
+                          "across scenes points at a scene-level variable") +
+                  (c.taxonomy ? "." : " (the paper's Findings 1 and 2)."));
     if (!f2.rows.empty())
         out.table(sec, f2,
                   "Finding 2: the sign of the depth/purity correlation separates specular-chain scenes "
@@ -337,8 +338,12 @@ void write_structure(StudyOutput& out, const StudyConfig& cfg, const std::vector
                   "render agrees, with its uncertainty.");
     if (!sep.rows.empty())
         out.table(sec, sep,
-                  "Finding 1: the caustic/glossy correlation should follow the mutual visibility of the two "
-                  "object families (positive when light paths can meet both, negative when separated).");
+                  c.taxonomy ? "the separation of the delta-S and glossy object families beside the correlation of "
+                               "the [rare] classes' share with glossy_frac (the paper's Finding 1 reads it with "
+                               "caustic_frac)."
+                             : "Finding 1: the caustic/glossy correlation should follow the mutual visibility of the "
+                               "two object families (positive when light paths can meet both, negative when "
+                               "separated).");
     if (!c.taxonomy || !c.rare.empty())
         out.figure(sec, scatter_figure(r, c),
                    "one panel per scene; every point is a labelled pixel (subsampled to about 3000).");
