@@ -326,7 +326,7 @@ TEST_SUITE("gpu") {
 
     TEST_CASE(
         "taxonomy: vkmech study stability --taxonomy measures the classes, and only stability, variance, cost, "
-        "predictor, allocation and structure take one") {
+        "predictor, allocation, structure and sensitivity take one") {
         testing::TempDir dir("taxstudy");
         std::ofstream(dir.file("lights.lpe"))
             << "first = C .* <L.'sweep_light_0'>\nsecond = C .* <L.'sweep_light_1'>\n";
@@ -343,11 +343,11 @@ TEST_SUITE("gpu") {
         std::ifstream stab(dir.file("st/tables/taxonomy_stability.csv"));
         std::getline(stab, header);
         CHECK(header.find("var3") != std::string::npos);
-        r = testing::run_cli("study sensitivity --preset quick --scenes cubes_dof --no-plots --taxonomy " +
-                             dir.file("lights.lpe") + " --out " + dir.file("sv"));
+        r = testing::run_cli("study sweep-lights --preset quick --no-plots --taxonomy " + dir.file("lights.lpe") +
+                             " --out " + dir.file("sv"));
         CHECK(r.code == 2);
-        CHECK(r.output.find("--taxonomy applies to `vkmech study` stability, variance, cost, predictor, allocation "
-                            "and structure") != std::string::npos);
+        CHECK(r.output.find("--taxonomy applies to `vkmech study` stability, variance, cost, predictor, allocation, "
+                            "structure and sensitivity") != std::string::npos);
     }
 
     TEST_CASE("taxonomy: vkmech study allocation --taxonomy allocates by the classes and the properties they declare") {
@@ -590,6 +590,39 @@ TEST_SUITE("gpu") {
               std::vector<std::string>(krow.begin(), krow.begin() + 5));
         CHECK(nrow[5].empty());  // a number's column: the CSV leaves it empty, the Markdown says why
         CHECK(nrow[6] == "no [rare]");
+    }
+
+    TEST_CASE(
+        "taxonomy: vkmech study sensitivity --taxonomy reads the classes declared heavy - paper.lpe in reverse "
+        "order gives the buckets' table") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("taxsensitivity");
+        std::ofstream(dir.file("reversed.lpe")) << kReversedPaper;
+        auto table = [&](const std::string& out, const std::string& taxonomy) {
+            const auto r = testing::run_cli(
+                "study sensitivity --preset quick --res 16 --no-plots --scenes glass_caustic "
+                "--out " +
+                dir.file(out) + (taxonomy.empty() ? "" : " --taxonomy " + taxonomy));
+            CAPTURE(r.output);
+            REQUIRE(r.code == 0);
+            std::vector<std::string> rows;
+            std::ifstream in(dir.file(out + "/tables/sensitivity_glass_caustic.csv"));
+            for (std::string line; std::getline(in, line);) rows.push_back(line);
+            return rows;
+        };
+        const auto b = table("b", "");
+        REQUIRE(b.size() == 19);  // the header and 18 levels
+        size_t heavy_levels = 0;  // levels with heavy pixels (the 8th column), so the comparison compares them
+        for (size_t i = 1; i < b.size(); ++i) {
+            size_t at = 0;
+            for (int c = 0; c < 7; ++c) at = b[i].find(',', at) + 1;
+            heavy_levels += b[i].compare(at, 2, "0,") != 0;
+        }
+        CHECK(heavy_levels >= 9);
+        // The reversed lines put the heavy classes (specular_direct, delta_mediated, glossy) in slots 0-2, where the
+        // buckets have emitter_direct, direct and diffuse_indirect: only their declared [heavy] gives the buckets'
+        // heavy share and pixels; label agreement does not depend on which slot a class is in.
+        CHECK(table("r", dir.file("reversed.lpe")) == b);
     }
 }
 

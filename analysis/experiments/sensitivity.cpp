@@ -8,6 +8,8 @@
 //    (what an adaptive sampler sees against what it should see),
 //  - agreement of the pilot's dominant label with the reference's (paper §4.3),
 //  - the label's margin over the 3- and 7-bin quantile-binned variance labels.
+// Under --taxonomy (docs/lpe.md) the labels are the taxonomy's classes and the heavy ones those its
+// lines declare [heavy]; every other measure does not depend on the labels.
 #include "experiments/study_context.hpp"
 #include "stats/agreement.hpp"
 #include "stats/rank.hpp"
@@ -45,7 +47,30 @@ struct Point {
     double agree = NAN, bin3 = NAN, bin7 = NAN;
 };
 
-Point measure_level(StudyContext& ctx, const SensitivityLevel& lv, const std::vector<stats::Partition>& partitions) {
+// The heavy-tailed slots: the buckets' (glossy, delta-mediated, specular-direct), or the classes a taxonomy
+// declares [heavy], and their names for the table's note.
+struct HeavySlots {
+    std::vector<bool> slot = std::vector<bool>(kBucketCount, false);
+    std::string names;
+};
+
+HeavySlots heavy_slots(const StudyConfig& cfg) {
+    HeavySlots h;
+    if (!cfg.taxonomy) {
+        h.slot = heavy_buckets();
+        return h;
+    }
+    for (size_t i = 0; i < cfg.taxonomy->lines.size() && i < kBucketCount; ++i)
+        if (cfg.taxonomy->lines[i].heavy) {
+            h.slot[i] = true;
+            h.names += (h.names.empty() ? "" : ", ") + cfg.taxonomy->lines[i].name;
+        }
+    if (h.names.empty()) h.names = "none: the taxonomy declares no class [heavy]";
+    return h;
+}
+
+Point measure_level(StudyContext& ctx, const SensitivityLevel& lv, const std::vector<stats::Partition>& partitions,
+                    const HeavySlots& hs) {
     const StudyConfig& cfg = ctx.cfg;
     const uint32_t n0 = cfg.pilot_spp();
     const Frame pilot = ctx.frames.get({lv.variant, n0, seeds::stability(0), lv.estimator});
@@ -55,7 +80,7 @@ Point measure_level(StudyContext& ctx, const SensitivityLevel& lv, const std::ve
     Point pt;
     const DescriptorSummary sm = summarize(ref, dr);
     for (uint32_t b = 0; b < kBucketCount; ++b)
-        if (heavy_buckets()[b]) pt.heavy_share += sm.energy_share[b];
+        if (hs.slot[b]) pt.heavy_share += sm.energy_share[b];
 
     std::vector<std::vector<double>> m;
     for (int s = 0; s < cfg.variance_seeds; ++s)
@@ -70,7 +95,7 @@ Point measure_level(StudyContext& ctx, const SensitivityLevel& lv, const std::ve
     }
     std::vector<uint8_t> heavy(fg.size(), 0);
     for (size_t p = 0; p < fg.size(); ++p) {
-        heavy[p] = fg[p] && dr.dominant[p] != stats::kNoLabel && heavy_buckets()[dr.dominant[p]];
+        heavy[p] = fg[p] && dr.dominant[p] != stats::kNoLabel && hs.slot[dr.dominant[p]];
         pt.heavy_px += heavy[p];
     }
     std::vector<double> rhos, heavy_rhos;
@@ -100,7 +125,7 @@ Point measure_level(StudyContext& ctx, const SensitivityLevel& lv, const std::ve
 
 void write_table(StudyOutput& out, const StudyConfig& cfg, const std::string& scene,
                  const std::vector<SensitivityAxis>& axes, const std::vector<std::vector<Point>>& points,
-                 size_t partitions) {
+                 size_t partitions, const HeavySlots& hs) {
     Table t{"sensitivity_" + scene,
             "Sensitivity of the premise on " + scene + ": sigma^2 reliability and label stability per level",
             {"axis", "level", "fg px", "heavy share", "split-half rho sigma^2", "(sd)", "rho(sigma^2 pilot, ref)",
@@ -109,19 +134,24 @@ void write_table(StudyOutput& out, const StudyConfig& cfg, const std::string& sc
             {},
             ""};
     const std::string n0 = std::to_string(cfg.pilot_spp()), ref = std::to_string(cfg.stability_reference_spp());
+    // The built-in buckets' wording as before; a taxonomy's [heavy] classes by name.
+    const std::string heavy_share = cfg.taxonomy
+                                        ? "the energy share of the classes of the taxonomy " + cfg.taxonomy->file +
+                                              " declared [heavy] (" + hs.names + ") in the "
+                                        : std::string("glossy + delta-mediated + specular-direct energy of the ");
+    const std::string heavy_px =
+        cfg.taxonomy ? "is one of those classes" : "is glossy, delta-mediated or specular-direct";
     t.note =
         "One parameter varied at a time; \"as committed\" is the scene of the other studies. Per level: the "
-        "foreground pixels (reference and seed mean above 1e-4); heavy share = glossy + delta-mediated + "
-        "specular-direct energy of the " +
-        ref + "-SPP reference; split-half rho of sigma^2 over " + std::to_string(cfg.variance_seeds) + " seeds x " +
-        n0 + " SPP, mean (and sd) over " + std::to_string(partitions) +
+        "foreground pixels (reference and seed mean above 1e-4); heavy share = " +
+        heavy_share + ref + "-SPP reference; split-half rho of sigma^2 over " + std::to_string(cfg.variance_seeds) +
+        " seeds x " + n0 + " SPP, mean (and sd) over " + std::to_string(partitions) +
         " random halves; rho(sigma^2 pilot, ref): Spearman of the per-pixel sample variance of the " + n0 +
-        "-SPP pilot against the reference's; heavy px: foreground pixels whose reference label is glossy, "
-        "delta-mediated or specular-direct, with the two rhos over them alone (\"---\" below 50 pixels); label "
-        "agreement: the pilot's dominant label against the "
-        "reference's; the binned columns: the same agreement for quantile-binned variance labels. The "
-        "paper's glass_caustic has split-half 0.18-0.26 and rho(sigma^2_64, sigma^2_ref) 0.26; its cubes_dof "
-        "0.31.";
+        "-SPP pilot against the reference's; heavy px: foreground pixels whose reference label " + heavy_px +
+        ", with the two rhos over them alone (\"---\" below 50 pixels); label agreement: the pilot's dominant "
+        "label against the reference's; the binned columns: the same agreement for quantile-binned variance "
+        "labels. The paper's glass_caustic has split-half 0.18-0.26 and rho(sigma^2_64, sigma^2_ref) 0.26; its "
+        "cubes_dof 0.31.";
     for (size_t a = 0; a < axes.size(); ++a)
         for (size_t l = 0; l < axes[a].levels.size(); ++l) {
             const Point& p = points[a][l];
@@ -225,6 +255,7 @@ void run_sensitivity(StudyContext& ctx) {
         return;
     }
     const auto partitions = stats::random_halves(ctx.cfg.variance_seeds, ctx.cfg.split_half_partitions, 0);
+    const HeavySlots hs = heavy_slots(ctx.cfg);
     // Axes come grouped by scene (sensitivity_axes walks cfg.scenes).
     for (size_t first = 0; first < all.size();) {
         size_t last = first;
@@ -237,13 +268,13 @@ void run_sensitivity(StudyContext& ctx) {
             points.emplace_back();
             for (const auto& lv : axis.levels) {
                 auto [it, fresh] = measured.try_emplace({lv.variant, lv.estimator});
-                if (fresh) it->second = measure_level(ctx, lv, partitions);
+                if (fresh) it->second = measure_level(ctx, lv, partitions, hs);
                 points.back().push_back(it->second);
             }
         }
         const std::string& scene = axes.front().scene;
         const bool glass = scene.find("glass_caustic") != std::string::npos;
-        write_table(ctx.out, ctx.cfg, scene, axes, points, partitions.size());
+        write_table(ctx.out, ctx.cfg, scene, axes, points, partitions.size(), hs);
         write_figure(ctx.out, scene, axes, points, glass);
         write_verdict(ctx.out, scene, axes, points, glass);
         first = last;

@@ -86,7 +86,8 @@ struct StudyConfig {
     uint32_t sweep_ref_spp = 64;
     std::string sweep_roughness_scene, sweep_lights_scene;  // resolved paths
     std::string predictor_curve;                            // --curve: predict new scenes from their pilots only
-    // --taxonomy FILE (docs/lpe.md; `study stability`, variance, cost, predictor, allocation, structure): every
+    // --taxonomy FILE (docs/lpe.md; `study stability`, variance, cost, predictor, allocation, structure,
+    // sensitivity): every
     // render classifies by it (the render cache keys each variant's renders by the compiled words); the
     // stability study measures its classes, and the allocation study's strategies read them and the
     // properties its lines declare ([heavy], [constant], [rare]).

@@ -170,15 +170,16 @@ void add_study_options(CLI::App* app, StudyOptions& o) {
                     "job arrays, GNU parallel or xargs) and render nothing");
     app->add_option(
            "--taxonomy", o.taxonomy,
-           "`study stability`, `variance`, `cost`, `predictor`, `allocation` and `structure` by a user "
-           "taxonomy's "
-           "classes (a file of `name = light path expression` lines, docs/lpe.md): every render classifies "
+           "`study stability`, `variance`, `cost`, `predictor`, `allocation`, `structure` and `sensitivity` by "
+           "a user taxonomy's classes (a file of `name = light path expression` lines, docs/lpe.md): every render "
+           "classifies "
            "by it; stability's tables are the classes' shares, their cross-SPP agreement and the "
            "binned-variance baseline; variance's and cost's per-bucket tables are per class; predictor's "
            "curve is fitted on the classes and records the taxonomy (a --curve must have been fitted on "
            "the same one); allocation's strategies read the classes and the properties their lines declare "
            "([heavy], [constant], [rare]); structure correlates every pair of the classes' shares, glossy_frac, "
-           "depth and inv_purity, and its caustic side is the [rare] classes' share")
+           "depth and inv_purity, and its caustic side is the [rare] classes' share; sensitivity's heavy share "
+           "and pixels are the [heavy] classes'")
         ->check(CLI::ExistingFile);
     app->add_option("-D,--define", o.defines,
                     "Set a parameter of every --scenes scene: -D name=value (as Mitsuba's -D; e.g. -D lights=4 for "

@@ -199,10 +199,11 @@ StudyPlan make_plan(const StudyOptions& o) {
     if (!o.taxonomy.empty()) {
         for (StudyKind k : kinds)
             if (k != StudyKind::Stability && k != StudyKind::Variance && k != StudyKind::Cost &&
-                k != StudyKind::Predictor && k != StudyKind::Allocation && k != StudyKind::Structure)
+                k != StudyKind::Predictor && k != StudyKind::Allocation && k != StudyKind::Structure &&
+                k != StudyKind::Sensitivity)
                 throw std::invalid_argument(
-                    "--taxonomy applies to `vkmech study` stability, variance, cost, predictor, allocation and "
-                    "structure: the sensitivity and sweep studies' analyses name the paper's buckets (docs/lpe.md)");
+                    "--taxonomy applies to `vkmech study` stability, variance, cost, predictor, allocation, structure "
+                    "and sensitivity: the sweeps' analyses are the glossy bucket's (docs/lpe.md)");
         if (!o.jobs_file.empty())
             throw std::invalid_argument("--taxonomy and --jobs: the job commands do not carry the taxonomy yet");
         try {
