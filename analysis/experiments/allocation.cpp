@@ -893,8 +893,8 @@ void write_allocation(StudyOutput& out, const StudyConfig& cfg, const std::strin
     const MainChecks checks = fill_tables(cfg, r, t);
     note_equal_sample_tables(cfg, r, t);
     if (cfg.taxonomy)
-        out.text(sec, "Labels: the classes of the taxonomy `" + cfg.taxonomy->file +
-                          "` (docs/lpe.md), not the paper's buckets. Wherever a table or a note below says bucket, "
+        out.text(sec, taxonomy_labels_lead(cfg) +
+                          ", not the paper's buckets. Wherever a table or a note below says bucket, "
                           "read class; the heavy-tailed classes are the lines declared `[heavy]`, the rare-tail "
                           "ones `[rare]`, and those whose zero pilot variance the guard trusts `[constant]`.");
     write_equal_sample_tables(out, sec, t);

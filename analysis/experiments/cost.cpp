@@ -35,11 +35,12 @@ std::vector<CostDim> cost_dims(const Frame& ref, const Descriptor& d, const std:
     std::vector<CostDim> dims{{"depth", {d.depth.begin(), d.depth.end()}}};
     std::vector<CostDim> shares;
     if (!taxonomy) shares.push_back({"caustic_frac", {d.caustic_frac.begin(), d.caustic_frac.end()}});
-    for (size_t c = 0; taxonomy && c + 1 < classes.size(); ++c) {
-        CostDim share{classes[c].name + " share", std::vector<double>(P, 0.0)};
-        for (size_t p = 0; p < P; ++p)  // in float, as derive_descriptor's caustic_frac
-            share.value[p] = static_cast<float>(slot_share(ref.pixels[p], classes[c].slot));
-        shares.push_back(std::move(share));
+    for (size_t c = 0; taxonomy && c + 1 < classes.size(); ++c)
+        shares.push_back({classes[c].name + " share", std::vector<double>(P, 0.0)});
+    for (size_t p = 0; taxonomy && p < P; ++p) {
+        const std::array<double, kBucketCount> share = slot_shares(ref.pixels[p]);
+        for (size_t c = 0; c < shares.size(); ++c)  // in float, as derive_descriptor's caustic_frac
+            shares[c].value[p] = static_cast<float>(share[classes[c].slot]);
     }
     std::vector<double> inv_purity(P);
     for (size_t p = 0; p < P; ++p) inv_purity[p] = 1.0 - d.purity[p];

@@ -372,8 +372,8 @@ void write_predictor(StudyOutput& out, const StudyConfig& cfg, const PredictorRe
     const std::string sec = "Reliability predictor";
     write_file_atomic((std::filesystem::path(out.dir()) / "predictor_curve.json").string(), r.curve.json());
     if (cfg.taxonomy)
-        out.text(sec, "Labels: the classes of the taxonomy `" + cfg.taxonomy->file +
-                          "` (docs/lpe.md); predictor_curve.json records it, and only renders and sentinels labelled "
+        out.text(sec, taxonomy_labels_lead(cfg) +
+                          "; predictor_curve.json records it, and only renders and sentinels labelled "
                           "by the same file (by SHA-256) take the curve.");
     out.table(sec, predictor_table(cfg, r),
               "how well a scene's own pilot predicts its pilot-vs-reference agreement before any reference "

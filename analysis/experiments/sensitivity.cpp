@@ -39,10 +39,10 @@ constexpr double kPaperCrossRho = 0.26;                               // rho(sig
 
 struct Point {
     size_t fg_px = 0;
-    double heavy_share = 0;  // energy share of the heavy buckets in the reference
+    double heavy_share = 0;  // energy share of the heavy buckets (or [heavy] classes) in the reference
     double split_half = NAN, split_half_sd = NAN;
     double cross_rho = NAN;
-    size_t heavy_px = 0;                               // foreground pixels whose reference label is a heavy bucket
+    size_t heavy_px = 0;                               // foreground pixels whose reference label is heavy
     double heavy_split_half = NAN, heavy_cross = NAN;  // the same two rhos over those pixels (NaN below 50)
     double agree = NAN, bin3 = NAN, bin7 = NAN;
 };
@@ -56,16 +56,14 @@ struct HeavySlots {
 
 HeavySlots heavy_slots(const StudyConfig& cfg) {
     HeavySlots h;
-    if (!cfg.taxonomy) {
-        h.slot = heavy_buckets();
-        return h;
+    std::vector<uint32_t> all(kBucketCount);
+    for (uint32_t b = 0; b < kBucketCount; ++b) all[b] = b;
+    for (const StudyClass& c : study_classes(cfg, all)) {
+        if (!c.heavy || c.slot >= kBucketCount) continue;
+        h.slot[c.slot] = true;
+        if (cfg.taxonomy) h.names += (h.names.empty() ? "" : ", ") + c.name;
     }
-    for (size_t i = 0; i < cfg.taxonomy->lines.size() && i < kBucketCount; ++i)
-        if (cfg.taxonomy->lines[i].heavy) {
-            h.slot[i] = true;
-            h.names += (h.names.empty() ? "" : ", ") + cfg.taxonomy->lines[i].name;
-        }
-    if (h.names.empty()) h.names = "none: the taxonomy declares no class [heavy]";
+    if (cfg.taxonomy && h.names.empty()) h.names = "none: the taxonomy declares no class [heavy]";
     return h;
 }
 

@@ -66,10 +66,11 @@ std::vector<double> component_values(const Components& c, const Frame& ref, cons
         *caustic = v[0];
         return v;
     }
+    const std::array<double, kBucketCount> share = slot_shares(ref.pixels[p]);
     for (const StudyClass& k : c.shares)  // in float, as derive_descriptor's caustic_frac
-        v.push_back(static_cast<float>(slot_share(ref.pixels[p], k.slot)));
+        v.push_back(static_cast<float>(share[k.slot]));
     double rare = 0.0;
-    for (const StudyClass& k : c.rare) rare += static_cast<float>(slot_share(ref.pixels[p], k.slot));
+    for (const StudyClass& k : c.rare) rare += static_cast<float>(share[k.slot]);
     *caustic = rare;
     v.insert(v.end(), {d.glossy_frac[p], d.depth[p], 1.0 - d.purity[p]});
     return v;
@@ -319,8 +320,8 @@ void write_structure(StudyOutput& out, const StudyConfig& cfg, const std::vector
     const Table corr = correlation_table(r, c, cfg), sep = separation_table(r, c);
     Table f2;
     if (c.taxonomy) {  // the paper's Findings are readings of caustic_frac and of the buckets' purity
-        out.text(sec, "Labels: the classes of the taxonomy `" + cfg.taxonomy->file +
-                          "` (docs/lpe.md). Findings 1 and 2 are the paper's readings of caustic_frac and of the "
+        out.text(sec, taxonomy_labels_lead(cfg) +
+                          ". Findings 1 and 2 are the paper's readings of caustic_frac and of the "
                           "buckets' purity, so they are not checked; the correlation table has every pair of the "
                           "classes' shares, glossy_frac, depth and the taxonomy's inv_purity.");
     } else {

@@ -69,13 +69,20 @@ std::vector<double> margin_field(const Frame& f) {
 std::vector<StudyClass> study_classes(const StudyConfig& cfg, const std::vector<uint32_t>& buckets) {
     std::vector<StudyClass> out;
     if (!cfg.taxonomy) {
-        for (uint32_t b : buckets) out.push_back({b, kBucketNames[b], ((alloc::kRareTailBuckets >> b) & 1u) != 0});
+        for (uint32_t b : buckets)
+            out.push_back({b, kBucketNames[b], ((alloc::kRareTailBuckets >> b) & 1u) != 0,
+                           ((gpu::HEAVY_BUCKETS >> b) & 1u) != 0});
         return out;
     }
     for (const lpe::TaxonomyLine& line : cfg.taxonomy->lines)
-        out.push_back({static_cast<uint32_t>(out.size()), line.name, line.rare});
-    out.push_back({static_cast<uint32_t>(out.size()), "other", false});
+        out.push_back({static_cast<uint32_t>(out.size()), line.name, line.rare, line.heavy});
+    out.push_back({static_cast<uint32_t>(out.size()), "other", false, false});
     return out;
+}
+
+std::string taxonomy_labels_lead(const StudyConfig& cfg) {
+    return "Labels: the classes of the taxonomy `" + (cfg.taxonomy ? cfg.taxonomy->file : std::string()) +
+           "` (docs/lpe.md)";
 }
 
 std::vector<double> bucket_field(const Frame& f, uint32_t b) {

@@ -63,11 +63,15 @@ struct StudyContext {
 struct StudyClass {
     uint32_t slot = 0;
     std::string name;
-    bool rare = false;  // declared [rare] (a taxonomy's); the buckets': delta_mediated and specular_direct
+    bool rare = false;   // declared [rare] (a taxonomy's); the buckets': delta_mediated and specular_direct
+    bool heavy = false;  // declared [heavy] (a taxonomy's); the buckets': glossy, delta_mediated, specular_direct
 };
 // Without --taxonomy, the listed buckets, in the list's order; with it, every class of the taxonomy,
 // its lines' then `other`, in slot order (the study then reads each class as it reads a bucket).
 std::vector<StudyClass> study_classes(const StudyConfig& cfg, const std::vector<uint32_t>& buckets);
+// The opening of a report's note under --taxonomy: "Labels: the classes of the taxonomy `FILE` (docs/lpe.md)";
+// each study goes on with what the classes mean for it.
+std::string taxonomy_labels_lead(const StudyConfig& cfg);
 
 // ---- per-pixel fields shared by the experiments ----
 std::vector<double> lum_mean_field(const Frame& f);

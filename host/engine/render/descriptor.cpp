@@ -31,12 +31,17 @@ uint8_t dominant_bucket(const std::array<double, kBucketCount>& e) {
     return best;
 }
 
-double slot_share(const PixelStats& p, uint32_t slot) {
-    if (p.count <= 0) return 0.0;
+std::array<double, kBucketCount> slot_shares(const PixelStats& p) {
+    std::array<double, kBucketCount> share{};
+    if (p.count <= 0) return share;
     double total = 0.0;
     for (uint32_t b = 0; b < kBucketCount; ++b) total += p.bucket_sum[b] / p.count;
-    return total > 0.0 ? p.bucket_sum[slot] / p.count / total : 0.0;
+    if (total > 0.0)
+        for (uint32_t b = 0; b < kBucketCount; ++b) share[b] = p.bucket_sum[b] / p.count / total;
+    return share;
 }
+
+double slot_share(const PixelStats& p, uint32_t slot) { return slot_shares(p)[slot]; }
 
 Descriptor derive_descriptor(const Frame& f) {
     Descriptor d;

@@ -42,6 +42,8 @@ uint8_t dominant_bucket(const std::array<double, kBucketCount>& energy);
 // A pixel's mean energy in tally slot `slot` over its mean energy in every slot; 0 without energy
 // (caustic_frac is delta_mediated's; a taxonomy's class shares are its slots').
 double slot_share(const PixelStats& p, uint32_t slot);
+// Every slot's share at once (the total summed once): slot_shares(p)[s] == slot_share(p, s).
+std::array<double, kBucketCount> slot_shares(const PixelStats& p);
 
 Descriptor derive_descriptor(const Frame& frame);
 // Names the slots by a user taxonomy's classes (docs/lpe.md), `other` last; the slots beyond are
