@@ -19,6 +19,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -324,9 +325,7 @@ TEST_SUITE("gpu") {
         CHECK(r.output.find("was fitted on the paper's buckets, not on a taxonomy's classes") != std::string::npos);
     }
 
-    TEST_CASE(
-        "taxonomy: vkmech study stability --taxonomy measures the classes, and only stability, variance, cost, "
-        "predictor, allocation, structure and sensitivity take one") {
+    TEST_CASE("taxonomy: vkmech study stability --taxonomy measures the classes at the stability levels only") {
         testing::TempDir dir("taxstudy");
         std::ofstream(dir.file("lights.lpe"))
             << "first = C .* <L.'sweep_light_0'>\nsecond = C .* <L.'sweep_light_1'>\n";
@@ -343,11 +342,32 @@ TEST_SUITE("gpu") {
         std::ifstream stab(dir.file("st/tables/taxonomy_stability.csv"));
         std::getline(stab, header);
         CHECK(header.find("var3") != std::string::npos);
-        r = testing::run_cli("study sweep-lights --preset quick --no-plots --taxonomy " + dir.file("lights.lpe") +
-                             " --out " + dir.file("sv"));
-        CHECK(r.code == 2);
-        CHECK(r.output.find("--taxonomy applies to `vkmech study` stability, variance, cost, predictor, allocation, "
-                            "structure and sensitivity") != std::string::npos);
+        // --jobs carries -D and --taxonomy: the job commands render the units, then --analyse-only gives the
+        // single process's tables.
+        const std::string jb =
+            "study stability --preset quick --res 16 --spp-levels 2,8 --scenes sweep_lights -D "
+            "lights=2 --no-plots --taxonomy " +
+            dir.file("lights.lpe") + " --out " + dir.file("jb");
+        r = testing::run_cli(jb + " --jobs " + dir.file("jobs.txt"));
+        CAPTURE(r.output);
+        REQUIRE(r.code == 0);
+        std::ifstream jobs(dir.file("jobs.txt"));
+        size_t commands = 0;
+        for (std::string line; std::getline(jobs, line); ++commands) {
+            CAPTURE(line);
+            CHECK(line.find("-D lights=2") != std::string::npos);
+            CHECK(line.find("--taxonomy " + std::filesystem::absolute(dir.file("lights.lpe")).string()) !=
+                  std::string::npos);
+            CHECK(std::system((line + " > /dev/null 2>&1").c_str()) == 0);
+        }
+        CHECK(commands == 2);
+        r = testing::run_cli(jb + " --analyse-only");
+        REQUIRE(r.code == 0);
+        for (const char* t : {"taxonomy_shares.csv", "taxonomy_stability.csv"}) {
+            CAPTURE(t);
+            CHECK(testing::read_text(dir.file(std::string("jb/tables/") + t)) ==
+                  testing::read_text(dir.file(std::string("st/tables/") + t)));
+        }
     }
 
     TEST_CASE("taxonomy: vkmech study allocation --taxonomy allocates by the classes and the properties they declare") {
@@ -408,9 +428,9 @@ namespace {
 // A study's CSV tables (the file's name -> rows of cells), but those that hold measured times.
 using CsvTables = std::map<std::string, std::vector<std::vector<std::string>>>;
 CsvTables study_tables(const std::string& study, const std::string& out, const std::string& taxonomy,
-                       const std::string& scene = "glass_caustic") {
+                       const std::string& scene = "glass_caustic", const std::string& extra = "") {
     const auto r = testing::run_cli("study " + study + " --preset quick --scenes " + scene + " --no-plots --out " +
-                                    out + (taxonomy.empty() ? "" : " --taxonomy " + taxonomy));
+                                    out + (taxonomy.empty() ? "" : " --taxonomy " + taxonomy) + extra);
     CAPTURE(r.output);
     REQUIRE(r.code == 0);
     CsvTables t;
@@ -623,10 +643,68 @@ TEST_SUITE("gpu") {
         // buckets have emitter_direct, direct and diffuse_indirect: only their declared [heavy] gives the buckets'
         // heavy share and pixels; label agreement does not depend on which slot a class is in.
         CHECK(table("r", dir.file("reversed.lpe")) == b);
+        // The note names the classes declared [heavy], in their lines' order.
+        const std::string report = testing::read_text(dir.file("r/report.md"));
+        CHECK(report.find("declared [heavy] (specular_direct, delta_mediated, glossy)") != std::string::npos);
+        CHECK(testing::read_text(dir.file("b/report.md")).find("declared [heavy]") == std::string::npos);
     }
 }
 
 TEST_SUITE("gpu") {
+    TEST_CASE(
+        "taxonomy: vkmech study sweep-roughness --taxonomy follows the classes declared heavy - glossy alone in "
+        "another slot gives the built-in rows") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("taxsweep");
+        // paper.lpe's lines in reverse order (glossy in slot 2, where the buckets have diffuse_indirect), with
+        // [heavy] on glossy alone, on diffuse_indirect alone, or on no class.
+        auto without = [](std::string text, const std::string& what) {
+            for (size_t at = text.find(what); at != std::string::npos; at = text.find(what))
+                text.erase(at, what.size());
+            return text;
+        };
+        const std::string glossy = without(kReversedPaper, " [heavy rare]");
+        const std::string none = without(glossy, " [heavy]");
+        std::string diffuse = none;
+        diffuse.replace(diffuse.find("diffuse_indirect ="), 18, "diffuse_indirect [heavy] =");
+        std::ofstream(dir.file("glossy.lpe")) << glossy;
+        std::ofstream(dir.file("diffuse.lpe")) << diffuse;
+        std::ofstream(dir.file("none.lpe")) << none;
+        // The taxonomies' lines are the same (only their properties differ): one cache serves them.
+        auto rows = [&](const std::string& out, const std::string& taxonomy) {
+            return study_tables("sweep-roughness", dir.file(out), taxonomy.empty() ? "" : dir.file(taxonomy),
+                                "glass_caustic", taxonomy.empty() ? "" : " --cache " + dir.file("taxcache"))
+                .at("sweep_roughness.csv");
+        };
+        const auto b = rows("b", ""), g = rows("g", "glossy.lpe");
+        REQUIRE(b.size() > 2);
+        REQUIRE(g.size() == b.size());
+        CHECK(b[0].at(1) == "glossy-dominant px");
+        CHECK(g[0].at(1) == "[heavy]-dominant px");
+        size_t measured = 0;  // levels with firefly ratios, so the comparison compares them
+        for (size_t i = 1; i < b.size(); ++i) {
+            CAPTURE(i);
+            CHECK(g[i] == b[i]);
+            measured += b[i].at(3) != "---";
+        }
+        CHECK(measured >= 2);
+        // Another class declared [heavy]: another population.
+        const auto d = rows("d", "diffuse.lpe");
+        REQUIRE(d.size() == b.size());
+        size_t differ = 0;
+        for (size_t i = 1; i < b.size(); ++i) differ += d[i].at(1) != b[i].at(1);
+        CHECK(differ >= 1);
+        // No [heavy] class: no population, no measure; the note says why.
+        const auto n = rows("n", "none.lpe");
+        for (size_t i = 1; i < n.size(); ++i) {
+            CAPTURE(i);
+            CHECK(n[i].at(1) == "0");
+            CHECK(n[i].at(3) == "---");
+        }
+        CHECK(testing::read_text(dir.file("n/report.md")).find("none: the taxonomy declares no class [heavy]") !=
+              std::string::npos);
+    }
+
     TEST_CASE("taxonomy: study predictor --taxonomy fits a curve of the classes, which only the same taxonomy takes") {
         VKMECH_REQUIRE_GPU(ctx);
         testing::TempDir dir("taxcurve");

@@ -2,7 +2,9 @@
 // conductor sphere over eight roughnesses, and 1..16 energy-conserving lights
 // at alpha 0.03. Per level: the glossy-dominant population of a reference
 // render, the firefly ratio (seed-wise max / mean of the glossy contribution)
-// and the split-half rho of sigma^2 over those pixels.
+// and the split-half rho of sigma^2 over those pixels. Under --taxonomy (docs/lpe.md) the population is
+// that of the classes the taxonomy declares [heavy], and the firefly ratio reads their summed energy; a
+// taxonomy whose only [heavy] class is the buckets' glossy gives the built-in tables.
 #include "experiments/study_context.hpp"
 #include "stats/firefly.hpp"
 #include "stats/rank.hpp"
@@ -30,6 +32,35 @@ struct SweepSpec {
     std::string title;
 };
 
+// The sweeps' population: the glossy bucket, or the classes a taxonomy declares [heavy].
+struct SweepClasses {
+    std::vector<uint32_t> slots;
+    std::string label;  // in the tables' words: "glossy" or "[heavy]"
+    std::string names;  // a taxonomy's [heavy] classes, for the note
+};
+
+SweepClasses sweep_classes(const StudyConfig& cfg) {
+    if (!cfg.taxonomy) return {{gpu::BUCKET_GLOSSY}, "glossy", ""};
+    SweepClasses c{{}, "[heavy]", ""};
+    for (const StudyClass& k : study_classes(cfg, {}))
+        if (k.heavy) {
+            c.slots.push_back(k.slot);
+            c.names += (c.names.empty() ? "" : ", ") + k.name;
+        }
+    if (c.names.empty()) c.names = "none: the taxonomy declares no class [heavy]";
+    return c;
+}
+
+// The mean per-sample energy of the classes' slots summed (one slot: bucket_field's values themselves).
+std::vector<double> classes_field(const Frame& f, const std::vector<uint32_t>& slots) {
+    std::vector<double> v = bucket_field(f, slots.front());
+    for (size_t i = 1; i < slots.size(); ++i) {
+        const std::vector<double> o = bucket_field(f, slots[i]);
+        for (size_t p = 0; p < v.size(); ++p) v[p] += o[p];
+    }
+    return v;
+}
+
 // ---- compute: per level the glossy-dominant population, its firefly ratios and split-half rho ----
 
 struct SweepLevel {
@@ -39,23 +70,26 @@ struct SweepLevel {
     double median_firefly = 0, p90_firefly = 0, rho = 0;
 };
 
-SweepLevel sweep_level(StudyContext& ctx, const SceneVariant& variant,
-                       const std::vector<stats::Partition>& partitions) {
+SweepLevel sweep_level(StudyContext& ctx, const SceneVariant& variant, const std::vector<stats::Partition>& partitions,
+                       const SweepClasses& classes) {
     const StudyConfig& cfg = ctx.cfg;
     const int S = cfg.sweep_seeds;
     SweepLevel lv;
     Frame ref = ctx.frames.get({variant, cfg.sweep_ref_spp, seeds::sweep_reference(), Estimator::Nee});
     Descriptor d = derive_descriptor(ref);
-    std::vector<size_t> glossy;
+    std::vector<bool> in_class(kBucketCount, false);
+    for (uint32_t slot : classes.slots) in_class[slot] = true;
+    std::vector<size_t> glossy;  // the pixels the classes dominate
     for (size_t p = 0; p < d.dominant.size(); ++p)
-        if (d.dominant[p] == gpu::BUCKET_GLOSSY) glossy.push_back(p);
+        if (d.dominant[p] < kBucketCount && in_class[d.dominant[p]]) glossy.push_back(p);
     lv.glossy_px = glossy.size();
-    lv.glossy_share = summarize(ref, d).energy_share[gpu::BUCKET_GLOSSY];
+    const DescriptorSummary sm = summarize(ref, d);
+    for (uint32_t slot : classes.slots) lv.glossy_share += sm.energy_share[slot];
     if (glossy.size() < kMinGlossyPixels) return lv;
     std::vector<std::vector<double>> g(S), m(S);
     for (int s = 0; s < S; ++s) {
         Frame f = ctx.frames.get({variant, cfg.sweep_spp, seeds::sweep(s), Estimator::Nee});
-        auto gf = bucket_field(f, gpu::BUCKET_GLOSSY);
+        auto gf = classes_field(f, classes.slots);
         auto mf = lum_mean_field(f);
         for (size_t p : glossy) {
             g[s].push_back(gf[p]);
@@ -89,26 +123,30 @@ SweepLevel sweep_level(StudyContext& ctx, const SceneVariant& variant,
 // ---- writer ----
 
 void write_sweep(StudyOutput& out, const StudyConfig& cfg, const SweepSpec& spec, size_t partitions,
-                 const std::vector<SweepLevel>& levels) {
+                 const std::vector<SweepLevel>& levels, const SweepClasses& classes) {
+    const std::string& g = classes.label;
     Table t{spec.name,
             spec.title,
-            {spec.xlabel, "glossy-dominant px", "glossy energy share", "median firefly", "p90 firefly",
+            {spec.xlabel, g + "-dominant px", g + " energy share", "median firefly", "p90 firefly",
              "split-half rho sigma^2"},
             {},
             ""};
-    t.note = "Per level: glossy-dominant pixels of a " + std::to_string(cfg.sweep_ref_spp) +
+    const std::string energy = cfg.taxonomy ? "of the energy of the classes of the taxonomy " + cfg.taxonomy->file +
+                                                  " declared [heavy] (" + classes.names + "), summed"
+                                            : std::string("of the glossy bucket's energy");
+    t.note = "Per level: " + g + "-dominant pixels of a " + std::to_string(cfg.sweep_ref_spp) +
              "-SPP reference; firefly ratio "
              "per pixel = max / mean over " +
-             std::to_string(cfg.sweep_seeds) + " seeds (" + std::to_string(cfg.sweep_spp) +
-             " SPP each) of the glossy bucket's energy; split-half rho of sigma^2 over the same pixels (" +
-             std::to_string(partitions) + " partitions). \"---\": fewer than 50 glossy-dominant pixels.";
+             std::to_string(cfg.sweep_seeds) + " seeds (" + std::to_string(cfg.sweep_spp) + " SPP each) " + energy +
+             "; split-half rho of sigma^2 over the same pixels (" + std::to_string(partitions) +
+             " partitions). \"---\": fewer than 50 " + g + "-dominant pixels.";
     report::Figure fig{spec.name, spec.title, "", 2, {}};
     report::Panel pf, pr;
-    pf.title = "firefly ratio over glossy-dominant pixels (median, p50-p90 band)";
+    pf.title = "firefly ratio over " + g + "-dominant pixels (median, p50-p90 band)";
     pf.xlabel = spec.xlabel;
     pf.ylabel = "max / mean";
     pf.logx = spec.logx;
-    pr.title = "split-half rho of sigma^2 (glossy-dominant pixels)";
+    pr.title = "split-half rho of sigma^2 (" + g + "-dominant pixels)";
     pr.xlabel = spec.xlabel;
     pr.ylabel = "rho";
     pr.logx = spec.logx;
@@ -137,17 +175,20 @@ void write_sweep(StudyOutput& out, const StudyConfig& cfg, const SweepSpec& spec
     fig.panels = {pf, pr};
     out.table(spec.section, t,
               "narrow lobes should carry heavier per-pixel tails (larger firefly ratios); the split-half "
-              "column shows whether sigma^2 agrees with itself on the glossy pixels at that level.");
+              "column shows whether sigma^2 agrees with itself on the " +
+                  g + " pixels at that level.");
     out.figure(spec.section, fig,
                "left: firefly ratio against the level (band p50-p90); right: split-half rho of sigma^2 "
-               "(levels with too few glossy pixels are omitted).");
+               "(levels with too few " +
+                   g + " pixels are omitted).");
 }
 
 void run_sweep(StudyContext& ctx, const SweepSpec& spec) {
     const auto partitions = stats::random_halves(ctx.cfg.sweep_seeds, ctx.cfg.split_half_partitions, 0);
+    const SweepClasses classes = sweep_classes(ctx.cfg);
     std::vector<SweepLevel> levels;
-    for (const auto& variant : spec.variants) levels.push_back(sweep_level(ctx, variant, partitions));
-    write_sweep(ctx.out, ctx.cfg, spec, partitions.size(), levels);
+    for (const auto& variant : spec.variants) levels.push_back(sweep_level(ctx, variant, partitions, classes));
+    write_sweep(ctx.out, ctx.cfg, spec, partitions.size(), levels, classes);
 }
 
 }  // namespace

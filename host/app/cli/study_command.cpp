@@ -170,7 +170,7 @@ void add_study_options(CLI::App* app, StudyOptions& o) {
                     "job arrays, GNU parallel or xargs) and render nothing");
     app->add_option(
            "--taxonomy", o.taxonomy,
-           "`study stability`, `variance`, `cost`, `predictor`, `allocation`, `structure` and `sensitivity` by "
+           "Every study (and so `study all`) by "
            "a user taxonomy's classes (a file of `name = light path expression` lines, docs/lpe.md): every render "
            "classifies "
            "by it; stability's tables are the classes' shares, their cross-SPP agreement and the "
@@ -179,7 +179,7 @@ void add_study_options(CLI::App* app, StudyOptions& o) {
            "the same one); allocation's strategies read the classes and the properties their lines declare "
            "([heavy], [constant], [rare]); structure correlates every pair of the classes' shares, glossy_frac, "
            "depth and inv_purity, and its caustic side is the [rare] classes' share; sensitivity's heavy share "
-           "and pixels are the [heavy] classes'")
+           "and pixels, and the sweeps' population and firefly ratio, are the [heavy] classes'")
         ->check(CLI::ExistingFile);
     app->add_option("-D,--define", o.defines,
                     "Set a parameter of every --scenes scene: -D name=value (as Mitsuba's -D; e.g. -D lights=4 for "

@@ -183,8 +183,6 @@ StudyPlan make_plan(const StudyOptions& o) {
     cfg.sweep_roughness_scene = o.sweep_roughness_scene;
     cfg.sweep_lights_scene = o.sweep_lights_scene;
     std::map<std::string, std::string> params;
-    if (!o.defines.empty() && !o.jobs_file.empty())
-        throw std::invalid_argument("-D and --jobs: the job commands do not carry the scene parameters yet");
     for (const auto& d : o.defines) {
         const size_t eq = d.find('=');
         if (eq == std::string::npos || eq == 0) throw std::invalid_argument("-D expects name=value, got '" + d + "'");
@@ -197,15 +195,6 @@ StudyPlan make_plan(const StudyOptions& o) {
     }
     const std::vector<StudyKind> kinds = parse_study(o.study);
     if (!o.taxonomy.empty()) {
-        for (StudyKind k : kinds)
-            if (k != StudyKind::Stability && k != StudyKind::Variance && k != StudyKind::Cost &&
-                k != StudyKind::Predictor && k != StudyKind::Allocation && k != StudyKind::Structure &&
-                k != StudyKind::Sensitivity)
-                throw std::invalid_argument(
-                    "--taxonomy applies to `vkmech study` stability, variance, cost, predictor, allocation, structure "
-                    "and sensitivity: the sweeps' analyses are the glossy bucket's (docs/lpe.md)");
-        if (!o.jobs_file.empty())
-            throw std::invalid_argument("--taxonomy and --jobs: the job commands do not carry the taxonomy yet");
         try {
             cfg.taxonomy = lpe::read_taxonomy(o.taxonomy);
             cfg.taxonomy_sha256 = sha256_file(o.taxonomy);
@@ -569,6 +558,8 @@ std::string unit_command(const StudyOptions& o, const StudyPlan& p, size_t k, si
         }
         a.insert(a.end(), {"--scenes", list});
     }
+    for (const std::string& d : o.defines) a.insert(a.end(), {"-D", d});
+    if (!o.taxonomy.empty()) a.insert(a.end(), {"--taxonomy", absolute_path(o.taxonomy)});
     if (o.res) a.insert(a.end(), {"--res", std::to_string(*o.res)});
     if (!o.spp_levels.empty()) {
         std::string list;
