@@ -181,6 +181,14 @@ shared float s_sample_tally[SHARED_TALLY ? 64u * TALLY_FLOATS : 1u];
 shared float s_pixel_tally[SHARED_TALLY ? 64u * TALLY_FLOATS : 1u];
 uint tally_base() { return gl_LocalInvocationIndex * TALLY_FLOATS; }  // 21 is odd: no bank conflicts
 #endif
+#ifdef VKMECH_DIRECT_TALLY
+// The direct tally (GPU kernel, VKMECH_GPU_TALLY=direct, docs/gpu.md; a module of its own, so the
+// default modules are unchanged): Tally::bucket holds the pixel's sums for the whole batch and each
+// event is added to them at once, 21 floats live through the path instead of 42. A non-finite
+// sample's events are then in the sums too; render_slot traces such a batch again (rare), and
+// g_tally_off keeps a sample's events out of the sums while it finds out whether the sample counts.
+bool g_tally_off = false;
+#endif
 
 // tax_cls: the event's class under a user taxonomy (read only when TAXONOMY).
 void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_before, bool glossy_before,
@@ -198,6 +206,9 @@ void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_be
     } else {
         // Constant indices: a GPU keeps the tally in registers, where an index
         // known only at run time puts the whole array in local memory.
+#ifdef VKMECH_DIRECT_TALLY
+        if (!g_tally_off)
+#endif
         [[unroll]] for (uint k = 0u; k < BUCKET_COUNT; ++k) t.bucket[k] += k == b ? contrib : vec3(0.0);
     }
 #else
@@ -517,6 +528,47 @@ uint film_tiles_x() { return (params.film_width + 7u) / 8u; }
 // tiles, tile t = slot / 64 (row-major over the film's tiles) and
 // invocation slot % 64 within it; in the adaptive mode the slot-th pixel of
 // the active list (sample_counts[width * height + slot]).
+#ifdef VKMECH_DIRECT_TALLY
+// The direct tally's redo of a batch with a non-finite sample: the buckets from zero, each sample
+// traced with the tally off to find whether it counts (the first pass's test, on the same running
+// sums), then, if it does, once more into the sums. The streams are deterministic, so every sample
+// traces the same path each time.
+void redo_direct_tally(inout Tally t, uint stream, uint first, uint count, uvec2 full_px, uvec2 full_size) {
+    g_debug_pixel = false;
+    for (uint b = 0u; b < BUCKET_COUNT; ++b) t.bucket[b] = vec3(0.0);
+    vec3 rgb_sum = vec3(0.0);
+    float depth_sum = 0.0;
+    for (uint i = 0u; i < count; ++i) {
+        for (uint pass = 0u; pass < 2u; ++pass) {
+            g_tally_off = pass == 0u;
+            g_sample_index = first + i;
+            Rng rng = rng_init(params.seed, stream, first + i);
+            vec2 jitter = rng_next2(rng);
+            vec2 lens = rng_next2(rng);
+            vec2 film_uv = (vec2(full_px) + jitter) / vec2(full_size);
+            vec3 o, d;
+            vec2 t_range;
+            camera_ray(film_uv, lens, o, d, t_range);
+            t.L = vec3(0.0);
+            t.glossy = 0.0;
+            t.depth_sum = 0.0;
+            t.depth_w = 0.0;
+            path_sample(rng, o, d, t_range, t);
+            if (pass == 1u) break;
+            float lum = luminance(t.L);
+            vec3 rgb_next = rgb_sum + t.L;
+            float depth_next = depth_sum + t.depth_sum;
+            if (any(isnan(rgb_next)) || any(isinf(rgb_next)) || isnan(lum) || isinf(lum) || isnan(depth_next) ||
+                isinf(depth_next))
+                break;  // not counted: its events stay out of the sums
+            rgb_sum = rgb_next;
+            depth_sum = depth_next;
+        }
+    }
+    g_tally_off = false;
+}
+#endif
+
 void render_slot(uint slot) {
     uint width = params.film_width;
     uint height = params.film_height;
@@ -572,6 +624,10 @@ void render_slot(uint slot) {
         full_size = uvec2(params.full_width, params.full_height);
     }
     uint stream = WINDOW ? full_px.y * full_size.x + full_px.x : pixel;
+#ifdef VKMECH_DIRECT_TALLY
+    Tally t;  // its buckets: the pixel's sums through the batch
+    for (uint b = 0u; b < BUCKET_COUNT; ++b) t.bucket[b] = vec3(0.0);
+#endif
     for (uint i = 0u; i < count; ++i) {
         CLOCK_START(c_camera);
         g_sample_index = first + i;
@@ -582,9 +638,13 @@ void render_slot(uint slot) {
         vec3 o, d;
         vec2 t_range;
         camera_ray(film_uv, lens, o, d, t_range);
+#ifndef VKMECH_DIRECT_TALLY
         Tally t;
         t.L = vec3(0.0);
         for (uint b = 0u; b < BUCKET_COUNT; ++b) t.bucket[b] = vec3(0.0);
+#else
+        t.L = vec3(0.0);
+#endif
 #ifdef KERNEL_GPU
         if (SHARED_TALLY)
             for (uint j = 0u; j < TALLY_FLOATS; ++j) s_sample_tally[tally_base() + j] = 0.0;
@@ -627,12 +687,14 @@ void render_slot(uint slot) {
         float delta = x - mean_s;  // Welford within the batch
         mean_s += delta / n_ok;
         m2_s += delta * (x - mean_s);
-#ifdef KERNEL_GPU
+#if defined(KERNEL_GPU) && !defined(VKMECH_DIRECT_TALLY)
         if (SHARED_TALLY)
             for (uint j = 0u; j < TALLY_FLOATS; ++j) s_pixel_tally[tally_base() + j] += s_sample_tally[tally_base() + j];
         else
 #endif
+#ifndef VKMECH_DIRECT_TALLY
             for (uint b = 0u; b < BUCKET_COUNT; ++b) bucket_sum[b] += t.bucket[b];
+#endif
         glossy_sum += t.glossy;
         depth_sum += t.depth_sum;
         depth_w += t.depth_w;
@@ -640,6 +702,10 @@ void render_slot(uint slot) {
         direct_glossy_sum += t.direct_glossy;
 #endif
     }
+#ifdef VKMECH_DIRECT_TALLY
+    if (nonfinite > 0.0 && params.mode == MODE_PATH) redo_direct_tally(t, stream, first, count, full_px, full_size);
+    for (uint b = 0u; b < BUCKET_COUNT; ++b) bucket_sum[b] = t.bucket[b];
+#endif
     GpuPixelAccum a;
     a.rgb = vec4(rgb_sum, n_ok);
     // x: the mean itself (at most the largest sample: finite); y, w: M2 as

@@ -32,6 +32,23 @@ Scene quad_scene() {
     return s;
 }
 
+void add_square_lamp(Scene& s, const std::string& name, float x, float z, bool faces_minus_z, float radiance,
+                     uint32_t material) {
+    Mesh q;
+    q.name = name;
+    q.kind = ShapeKind::Rectangle;
+    q.positions = {{x - 0.5f, -0.5f, z}, {x + 0.5f, -0.5f, z}, {x + 0.5f, 0.5f, z}, {x - 0.5f, 0.5f, z}};
+    q.indices =
+        faces_minus_z ? std::vector<glm::uvec3>{{0, 2, 1}, {0, 3, 2}} : std::vector<glm::uvec3>{{0, 1, 2}, {0, 2, 3}};
+    q.material = material;
+    q.emitter = static_cast<int>(s.emitters.size());
+    s.meshes.push_back(q);
+    AreaEmitter e;
+    e.mesh = static_cast<int>(s.meshes.size()) - 1;
+    e.radiance = glm::vec3(radiance);
+    s.emitters.push_back(e);
+}
+
 std::vector<glm::vec3> graded_triangles(uint32_t max_count, float ratio, float z_slope) {
     std::vector<glm::vec3> pos;
     float s = 1.0f;

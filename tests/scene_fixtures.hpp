@@ -14,6 +14,10 @@ std::vector<std::string> project_scene_paths();
 // A unit quad [-1,1]^2 at z = 0 (normal +z), a camera above it looking down,
 // no emitter.
 Scene quad_scene();
+// Appends an area lamp to s: a unit square centred at (x, 0, z) in the plane z, facing +z (or -z),
+// of material `material`, with an emitter of radiance `radiance` (grey).
+void add_square_lamp(Scene& s, const std::string& name, float x, float z, bool faces_minus_z, float radiance,
+                     uint32_t material);
 
 // Triangles whose sizes and positions shrink geometrically towards the
 // origin (a fractal, or a scene mixing kilometres and millimetres): triangle

@@ -71,21 +71,9 @@ Scene two_lamp_scene(float radiance_a, float radiance_b) {
     Material lamp;
     lamp.id = "lamp_material";
     s.materials.push_back(lamp);
-    for (int k = 0; k < 2; ++k) {
-        Mesh q;
-        q.name = k == 0 ? "lamp_a" : "lamp_b";
-        q.kind = ShapeKind::Rectangle;
-        const float x = k == 0 ? -1.5f : 1.5f;
-        q.positions = {{x - 0.5f, -0.5f, -2}, {x + 0.5f, -0.5f, -2}, {x + 0.5f, 0.5f, -2}, {x - 0.5f, 0.5f, -2}};
-        q.indices = {{0, 1, 2}, {0, 2, 3}};  // faces +z, towards the floor
-        q.material = 1;
-        q.emitter = static_cast<int>(s.emitters.size());
-        s.meshes.push_back(q);
-        AreaEmitter e;
-        e.mesh = static_cast<int>(s.meshes.size()) - 1;
-        e.radiance = glm::vec3(k == 0 ? radiance_a : radiance_b);
-        s.emitters.push_back(e);
-    }
+    for (int k = 0; k < 2; ++k)  // facing +z, towards the floor
+        testing::add_square_lamp(s, k == 0 ? "lamp_a" : "lamp_b", k == 0 ? -1.5f : 1.5f, -2.0f, false,
+                                 k == 0 ? radiance_a : radiance_b, 1);
     s.camera.to_world[3] = glm::vec4(0, 0, -6, 1);
     return s;
 }

@@ -23,17 +23,6 @@ namespace {
 // The counters buffer: the traversal's work, then 64-bit clock ticks per phase (shared/types.h).
 constexpr uint32_t kCounterWords = gpu::COUNTER_CLOCK + 2 * gpu::PHASE_COUNT;
 
-// VKMECH_GPU_TALLY=registers|shared: where the GPU kernel keeps its bucket
-// tally (shaders/pathtrace.comp, SHARED_TALLY; docs/gpu.md). A measurement
-// switch for GPU sessions; the CPU kernel has one layout and ignores it.
-bool shared_tally_from_env() {
-    const char* env = std::getenv("VKMECH_GPU_TALLY");
-    if (!env || !*env || std::string(env) == "registers") return false;
-    if (std::string(env) == "shared") return true;
-    throw std::invalid_argument(std::string("VKMECH_GPU_TALLY='") + env +
-                                "': expected 'registers' (the default) or 'shared'");
-}
-
 // The pipeline specialization of one Features value.
 std::vector<vk::SpecConstant> spec_constants(const Features& f, bool instanced) {
     using namespace gpu;
@@ -45,7 +34,7 @@ std::vector<vk::SpecConstant> spec_constants(const Features& f, bool instanced) 
                                        {SPEC_END_VERTEX_LITERAL, f.end_vertex == EndVertex::Literal},
                                        {SPEC_ORTHOGRAPHIC, f.orthographic},
                                        {SPEC_ENVIRONMENT, f.environment},
-                                       {SPEC_SHARED_TALLY, shared_tally_from_env()},
+                                       {SPEC_SHARED_TALLY, gpu_tally_from_env() == GpuTally::Shared},
                                        {SPEC_INSTANCES, instanced},
                                        {SPEC_WINDOW, f.window},
                                        {SPEC_TANGENTS, f.tangents},

@@ -2,9 +2,13 @@
 #include "io/invariant.hpp"
 
 #include <cstdint>
+#include <cstdlib>
+#include <stdexcept>
+#include <string>
 
 #include "shaders/spv_pathtrace_bvh.h"
 #include "shaders/spv_pathtrace_bvh_gpu.h"
+#include "shaders/spv_pathtrace_bvh_gpu_direct.h"
 #include "shaders/spv_pathtrace_counters_bvh.h"
 #include "shaders/spv_pathtrace_counters_bvh_gpu.h"
 #include "shaders/spv_pathtrace_direct_glossy_bvh.h"
@@ -31,8 +35,24 @@ bool gpu_kernel(vk::KernelClass k) {
 
 }  // namespace
 
+GpuTally gpu_tally_from_env() {
+    const char* env = std::getenv("VKMECH_GPU_TALLY");
+    const std::string v = env ? env : "";
+    if (v.empty() || v == "registers") return GpuTally::Registers;
+    if (v == "shared") return GpuTally::Shared;
+    if (v == "direct") return GpuTally::Direct;
+    throw std::invalid_argument("VKMECH_GPU_TALLY='" + v +
+                                "': expected 'registers' (the default), 'shared' or 'direct'");
+}
+
 std::span<const uint32_t> pathtrace_spirv(Traversal t, vk::KernelClass k) {
     const bool g = gpu_kernel(k);
+    if (g && gpu_tally_from_env() == GpuTally::Direct) {
+        if (t != Traversal::Bvh)
+            throw std::invalid_argument(
+                "VKMECH_GPU_TALLY=direct: only the software BVH's GPU kernel has the direct tally (--traversal bvh)");
+        return spv_pathtrace_bvh_gpu_direct;
+    }
     if (t == Traversal::RayQuery)
         return g ? std::span<const uint32_t>(spv_pathtrace_rayquery_gpu) : spv_pathtrace_rayquery;
     return g ? std::span<const uint32_t>(spv_pathtrace_bvh_gpu) : spv_pathtrace_bvh;

@@ -13,10 +13,17 @@ namespace vkmech {
 // with `direct_glossy`, the variant compiled with VKMECH_DIRECT_GLOSSY
 // (docs/descriptor.md §3.4). The Cpu kernel's modules are the ones vkmech had
 // before the split, byte for byte.
+// With VKMECH_GPU_TALLY=direct (gpu_tally_from_env), the Gpu kernel's software-BVH module is the
+// direct-tally one (VKMECH_DIRECT_TALLY, docs/gpu.md); std::invalid_argument for ray query.
 std::span<const uint32_t> pathtrace_spirv(Traversal t, vk::KernelClass k);
 // `counters`: the instrumented variant (VKMECH_COUNTERS; software BVH, not with direct_glossy;
 // InternalError otherwise).
 std::span<const uint32_t> pathtrace_spirv(Traversal t, vk::KernelClass k, bool direct_glossy, bool counters = false);
+// VKMECH_GPU_TALLY=registers|shared|direct: where the GPU kernel keeps its bucket tally (docs/gpu.md).
+// A measurement switch for GPU sessions; the Cpu kernel has one layout and ignores it. Unset or empty:
+// registers; std::invalid_argument for anything else.
+enum class GpuTally { Registers, Shared, Direct };
+GpuTally gpu_tally_from_env();
 // The ray tracer of tests and benchmarks; `counters`: the instrumented variant
 // (VKMECH_COUNTERS, software BVH only; InternalError for ray query).
 // `slices` (software BVH, Cpu kernel, not counters): the kernel that gives each
