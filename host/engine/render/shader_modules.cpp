@@ -47,12 +47,7 @@ GpuTally gpu_tally_from_env() {
 
 std::span<const uint32_t> pathtrace_spirv(Traversal t, vk::KernelClass k) {
     const bool g = gpu_kernel(k);
-    if (g && gpu_tally_from_env() == GpuTally::Direct) {
-        if (t != Traversal::Bvh)
-            throw std::invalid_argument(
-                "VKMECH_GPU_TALLY=direct: only the software BVH's GPU kernel has the direct tally (--traversal bvh)");
-        return spv_pathtrace_bvh_gpu_direct;
-    }
+    if (g && t == Traversal::Bvh && gpu_tally_from_env() == GpuTally::Direct) return spv_pathtrace_bvh_gpu_direct;
     if (t == Traversal::RayQuery)
         return g ? std::span<const uint32_t>(spv_pathtrace_rayquery_gpu) : spv_pathtrace_rayquery;
     return g ? std::span<const uint32_t>(spv_pathtrace_bvh_gpu) : spv_pathtrace_bvh;

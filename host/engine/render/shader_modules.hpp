@@ -14,7 +14,7 @@ namespace vkmech {
 // (docs/descriptor.md §3.4). The Cpu kernel's modules are the ones vkmech had
 // before the split, byte for byte.
 // With VKMECH_GPU_TALLY=direct (gpu_tally_from_env), the Gpu kernel's software-BVH module is the
-// direct-tally one (VKMECH_DIRECT_TALLY, docs/gpu.md); std::invalid_argument for ray query.
+// direct-tally one (VKMECH_DIRECT_TALLY, docs/gpu.md); ray query keeps the register tally.
 std::span<const uint32_t> pathtrace_spirv(Traversal t, vk::KernelClass k);
 // `counters`: the instrumented variant (VKMECH_COUNTERS; software BVH, not with direct_glossy;
 // InternalError otherwise).
