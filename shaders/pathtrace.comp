@@ -9,6 +9,9 @@
 // VKMECH_COUNTERS (software BVH only; `bench render --profile --counters`)
 // it also adds the traversal's work of each invocation to BINDING_COUNTERS:
 // traces, interior nodes, leaves, triangles tested, and the deepest stack.
+// With VKMECH_DIRECT_TALLY (the GPU kernel's software-BVH module for
+// VKMECH_GPU_TALLY=direct, docs/gpu.md) the bucket events go straight into
+// the pixel's sums, and a batch with a non-finite sample is traced again.
 #extension GL_GOOGLE_include_directive : require
 #ifdef KERNEL_GPU
 #extension GL_EXT_control_flow_attributes : require
@@ -524,22 +527,24 @@ uint mulmod(uint a, uint b, uint n) {
 // The film's 8 x 8 tiles per row.
 uint film_tiles_x() { return (params.film_width + 7u) / 8u; }
 
-// Renders this batch's samples of the pixel in slot `slot`: the film in 8 x 8
-// tiles, tile t = slot / 64 (row-major over the film's tiles) and
-// invocation slot % 64 within it; in the adaptive mode the slot-th pixel of
-// the active list (sample_counts[width * height + slot]).
 #ifdef VKMECH_DIRECT_TALLY
-// The direct tally's redo of a batch with a non-finite sample: the buckets from zero, each sample
-// traced with the tally off to find whether it counts (the first pass's test, on the same running
-// sums), then, if it does, once more into the sums. The streams are deterministic, so every sample
-// traces the same path each time.
-void redo_direct_tally(inout Tally t, uint stream, uint first, uint count, uvec2 full_px, uvec2 full_size) {
+#ifndef KERNEL_GPU
+#error "VKMECH_DIRECT_TALLY is the GPU kernel's: the CPU kernel's add_event has no g_tally_off"
+#endif
+// The direct tally's redo of a batch with a non-finite sample: the buckets from zero, and every sample
+// that counted traced once more into them (the streams are deterministic: the same paths). bad_mask
+// holds the first pass's decisions for the batch's samples 0..63, so the redo does not decide again;
+// only where a sample beyond the 64th was non-finite (bad_beyond) does it find out again, tracing each
+// sample first with the tally off and applying the first pass's test to the same running sums.
+void redo_direct_tally(inout Tally t, uint stream, uint first, uint count, uvec2 full_px, uvec2 full_size,
+                       uvec2 bad_mask, bool bad_beyond) {
     g_debug_pixel = false;
     for (uint b = 0u; b < BUCKET_COUNT; ++b) t.bucket[b] = vec3(0.0);
     vec3 rgb_sum = vec3(0.0);
     float depth_sum = 0.0;
     for (uint i = 0u; i < count; ++i) {
-        for (uint pass = 0u; pass < 2u; ++pass) {
+        if (!bad_beyond && i < 64u && (bad_mask[i >> 5u] & (1u << (i & 31u))) != 0u) continue;
+        for (uint pass = bad_beyond ? 0u : 1u; pass < 2u; ++pass) {
             g_tally_off = pass == 0u;
             g_sample_index = first + i;
             Rng rng = rng_init(params.seed, stream, first + i);
@@ -569,6 +574,10 @@ void redo_direct_tally(inout Tally t, uint stream, uint first, uint count, uvec2
 }
 #endif
 
+// Renders this batch's samples of the pixel in slot `slot`: the film in 8 x 8
+// tiles, tile t = slot / 64 (row-major over the film's tiles) and
+// invocation slot % 64 within it; in the adaptive mode the slot-th pixel of
+// the active list (sample_counts[width * height + slot]).
 void render_slot(uint slot) {
     uint width = params.film_width;
     uint height = params.film_height;
@@ -627,6 +636,8 @@ void render_slot(uint slot) {
 #ifdef VKMECH_DIRECT_TALLY
     Tally t;  // its buckets: the pixel's sums through the batch
     for (uint b = 0u; b < BUCKET_COUNT; ++b) t.bucket[b] = vec3(0.0);
+    uvec2 bad_mask = uvec2(0u);  // the batch's non-finite samples among its first 64
+    bool bad_beyond = false;     // a non-finite sample beyond them
 #endif
     for (uint i = 0u; i < count; ++i) {
         CLOCK_START(c_camera);
@@ -672,6 +683,12 @@ void render_slot(uint slot) {
                    isinf(depth_next);
         if (bad) {
             nonfinite += 1.0;
+#ifdef VKMECH_DIRECT_TALLY
+            if (i < 64u)
+                bad_mask[i >> 5u] |= 1u << (i & 31u);
+            else
+                bad_beyond = true;
+#endif
             continue;
         }
         rgb_sum = rgb_next;
@@ -703,7 +720,8 @@ void render_slot(uint slot) {
 #endif
     }
 #ifdef VKMECH_DIRECT_TALLY
-    if (nonfinite > 0.0 && params.mode == MODE_PATH) redo_direct_tally(t, stream, first, count, full_px, full_size);
+    if (nonfinite > 0.0 && params.mode == MODE_PATH)
+        redo_direct_tally(t, stream, first, count, full_px, full_size, bad_mask, bad_beyond);
     for (uint b = 0u; b < BUCKET_COUNT; ++b) bucket_sum[b] = t.bucket[b];
 #endif
     GpuPixelAccum a;
@@ -742,7 +760,7 @@ void main() {
     // Tiles: the workgroup with index w renders tile w * stride mod n
     // (params.workgroup_stride, coprime with n: a permutation), an order spread
     // over the image (docs/performance.md, "Balancing lavapipe's threads").
-    // One call site: the path tracer is inlined once.
+    // One call site: the path tracer is inlined once (the direct tally's module also traces in its redo).
 #ifdef VKMECH_COUNTERS
     for (uint p = 0u; p < PHASE_COUNT; ++p) g_clock[p] = uvec2(0u);
 #endif

@@ -2,6 +2,7 @@
 #include "gpu_fixture.hpp"
 #include "io/invariant.hpp"
 #include "render/session.hpp"
+#include "render/shader_modules.hpp"
 #include "render_fixture.hpp"
 #include "scene_fixtures.hpp"
 #include "scoped_env.hpp"
@@ -380,6 +381,19 @@ TEST_SUITE("gpu") {
         CHECK(ctx->validation_messages() == 0);
     }
 
+    TEST_CASE("render: VKMECH_GPU_TALLY=direct selects a module of its own for the software BVH's GPU kernel only") {
+        const auto bvh = pathtrace_spirv(Traversal::Bvh, vkmech::vk::KernelClass::Gpu),
+                   rq = pathtrace_spirv(Traversal::RayQuery, vkmech::vk::KernelClass::Gpu),
+                   cpu = pathtrace_spirv(Traversal::Bvh, vkmech::vk::KernelClass::Cpu);
+        testing::ScopedEnv direct("VKMECH_GPU_TALLY", "direct");
+        CHECK(pathtrace_spirv(Traversal::Bvh, vkmech::vk::KernelClass::Gpu).data() != bvh.data());
+        CHECK(pathtrace_spirv(Traversal::RayQuery, vkmech::vk::KernelClass::Gpu).data() == rq.data());
+        CHECK(pathtrace_spirv(Traversal::Bvh, vkmech::vk::KernelClass::Cpu).data() == cpu.data());
+        // The instrumented and direct_glossy variants keep the register tally.
+        CHECK(pathtrace_spirv(Traversal::Bvh, vkmech::vk::KernelClass::Gpu, true).data() !=
+              pathtrace_spirv(Traversal::Bvh, vkmech::vk::KernelClass::Gpu).data());
+    }
+
     TEST_CASE(
         "render: the GPU kernel's direct tally gives the register tally's frames to float rounding - and keeps "
         "non-finite samples' events out") {
@@ -397,11 +411,14 @@ TEST_SUITE("gpu") {
         testing::add_square_lamp(lamps, "bright", -0.7f, -2.0f, /*faces_minus_z=*/true, 5e37f, 1);  // the camera
         testing::add_square_lamp(lamps, "dim", 1.2f, -2.0f, /*faces_minus_z=*/false, 1.0f, 1);      // the floor
         lamps.camera.to_world[3] = glm::vec4(0, 0, -6, 1);
-        {
+        // Batches of 32 (the first pass's decisions all in the redo's mask) and of 96 (non-finite samples past
+        // the 64th: the redo decides again).
+        for (uint32_t batch : {32u, 96u}) {
+            CAPTURE(batch);
             RenderSetup setup;
             setup.res = 16;
-            setup.spp = 64;
-            setup.batch = 32;  // two batches: the sums start again at zero
+            setup.spp = 2 * batch;  // two batches: the sums start again at zero
+            setup.batch = batch;
             setup.kernel = vkmech::vk::KernelClass::Gpu;
             Frame a = testing::render_scene(*ctx, lamps, setup);
             Frame b;
@@ -410,24 +427,28 @@ TEST_SUITE("gpu") {
                 b = testing::render_scene(*ctx, lamps, setup);
             }
             REQUIRE(b.pixels.size() == a.pixels.size());
-            size_t differing = 0, off = 0;
+            size_t differing = 0, off = 0, mixed = 0;
             double nonfinite = 0.0, energy = 0.0;
             for (size_t i = 0; i < a.pixels.size(); ++i) {
                 const PixelStats &pa = a.pixels[i], &pb = b.pixels[i];
                 differing += !(pa.rgb_sum == pb.rgb_sum && pa.lum_m2 == pb.lum_m2 && pa.count == pb.count &&
                                pa.nonfinite == pb.nonfinite);
                 nonfinite += pa.nonfinite;
-                double total = 0.0;
-                for (double e : pa.bucket_sum) total += std::abs(e);
-                energy += total;
-                for (size_t k = 0; k < pa.bucket_sum.size(); ++k)
+                size_t filled = 0;
+                for (size_t k = 0; k < pa.bucket_sum.size(); ++k) {
+                    // Every contribution is >= 0, so a sum in another order is within n eps of itself.
                     off += !(std::isfinite(pb.bucket_sum[k]) &&
-                             std::abs(pb.bucket_sum[k] - pa.bucket_sum[k]) <= 1e-5 * total);
+                             std::abs(pb.bucket_sum[k] - pa.bucket_sum[k]) <= 1e-5 * std::abs(pa.bucket_sum[k]));
+                    energy += pa.bucket_sum[k];
+                    filled += pa.bucket_sum[k] > 0.0;
+                }
+                mixed += pa.nonfinite > 0.0 && filled >= 2;
             }
             CHECK(differing == 0);
             CHECK(off == 0);
             CHECK(energy > 0.0);       // the buckets were filled, so the comparison compared something
             CHECK(nonfinite > 100.0);  // the bright lamp's pixels: the redo was exercised
+            CHECK(mixed > 0);          // and redone pixels whose counted samples fill two buckets or more
         }
         CHECK(ctx->validation_messages() == 0);
     }

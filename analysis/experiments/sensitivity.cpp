@@ -55,15 +55,10 @@ struct HeavySlots {
 };
 
 HeavySlots heavy_slots(const StudyConfig& cfg) {
+    const HeavyClasses c = heavy_classes(cfg);
     HeavySlots h;
-    std::vector<uint32_t> all(kBucketCount);
-    for (uint32_t b = 0; b < kBucketCount; ++b) all[b] = b;
-    for (const StudyClass& c : study_classes(cfg, all)) {
-        if (!c.heavy || c.slot >= kBucketCount) continue;
-        h.slot[c.slot] = true;
-        if (cfg.taxonomy) h.names += (h.names.empty() ? "" : ", ") + c.name;
-    }
-    if (cfg.taxonomy && h.names.empty()) h.names = "none: the taxonomy declares no class [heavy]";
+    for (uint32_t slot : c.slots) h.slot[slot] = true;
+    h.names = c.names;
     return h;
 }
 

@@ -80,6 +80,19 @@ std::vector<StudyClass> study_classes(const StudyConfig& cfg, const std::vector<
     return out;
 }
 
+HeavyClasses heavy_classes(const StudyConfig& cfg) {
+    HeavyClasses h;
+    std::vector<uint32_t> all(kBucketCount);
+    for (uint32_t b = 0; b < kBucketCount; ++b) all[b] = b;
+    for (const StudyClass& c : study_classes(cfg, all)) {
+        if (!c.heavy || c.slot >= kBucketCount) continue;
+        h.slots.push_back(c.slot);
+        if (cfg.taxonomy) h.names += (h.names.empty() ? "" : ", ") + c.name;
+    }
+    if (cfg.taxonomy && h.names.empty()) h.names = "none: the taxonomy declares no class [heavy]";
+    return h;
+}
+
 std::string taxonomy_labels_lead(const StudyConfig& cfg) {
     return "Labels: the classes of the taxonomy `" + (cfg.taxonomy ? cfg.taxonomy->file : std::string()) +
            "` (docs/lpe.md)";

@@ -72,6 +72,13 @@ std::vector<StudyClass> study_classes(const StudyConfig& cfg, const std::vector<
 // The opening of a report's note under --taxonomy: "Labels: the classes of the taxonomy `FILE` (docs/lpe.md)";
 // each study goes on with what the classes mean for it.
 std::string taxonomy_labels_lead(const StudyConfig& cfg);
+// The heavy-tailed classes by slot: the buckets' (glossy, delta_mediated, specular_direct), or those a taxonomy
+// declares [heavy]; under a taxonomy also their names for a note ("none: ..." when it declares none).
+struct HeavyClasses {
+    std::vector<uint32_t> slots;
+    std::string names;
+};
+HeavyClasses heavy_classes(const StudyConfig& cfg);
 
 // ---- per-pixel fields shared by the experiments ----
 std::vector<double> lum_mean_field(const Frame& f);

@@ -41,18 +41,13 @@ struct SweepClasses {
 
 SweepClasses sweep_classes(const StudyConfig& cfg) {
     if (!cfg.taxonomy) return {{gpu::BUCKET_GLOSSY}, "glossy", ""};
-    SweepClasses c{{}, "[heavy]", ""};
-    for (const StudyClass& k : study_classes(cfg, {}))
-        if (k.heavy) {
-            c.slots.push_back(k.slot);
-            c.names += (c.names.empty() ? "" : ", ") + k.name;
-        }
-    if (c.names.empty()) c.names = "none: the taxonomy declares no class [heavy]";
-    return c;
+    HeavyClasses h = heavy_classes(cfg);
+    return {std::move(h.slots), "[heavy]", std::move(h.names)};
 }
 
 // The mean per-sample energy of the classes' slots summed (one slot: bucket_field's values themselves).
 std::vector<double> classes_field(const Frame& f, const std::vector<uint32_t>& slots) {
+    if (slots.empty()) return std::vector<double>(f.pixels.size(), 0.0);
     std::vector<double> v = bucket_field(f, slots.front());
     for (size_t i = 1; i < slots.size(); ++i) {
         const std::vector<double> o = bucket_field(f, slots[i]);
@@ -64,9 +59,9 @@ std::vector<double> classes_field(const Frame& f, const std::vector<uint32_t>& s
 // ---- compute: per level the glossy-dominant population, its firefly ratios and split-half rho ----
 
 struct SweepLevel {
-    size_t glossy_px = 0;
-    double glossy_share = 0;  // energy share of the glossy bucket in the reference
-    bool measured = false;    // false: fewer than kMinGlossyPixels glossy-dominant pixels
+    size_t glossy_px = 0;     // pixels the glossy bucket (a taxonomy's [heavy] classes) dominates
+    double glossy_share = 0;  // their energy share in the reference
+    bool measured = false;    // false: fewer than kMinGlossyPixels such pixels
     double median_firefly = 0, p90_firefly = 0, rho = 0;
 };
 

@@ -53,7 +53,7 @@ struct StudyOptions {
     bool analyse_only = false;
     std::string command_line;          // for the report
     std::string display_server;        // host:port of a tev viewer: the renders in progress (render/live_view.hpp)
-    std::string taxonomy;              // --taxonomy FILE (docs/lpe.md): `study stability` by a user taxonomy's classes
+    std::string taxonomy;              // --taxonomy FILE (docs/lpe.md): every study by a user taxonomy's classes
     std::vector<std::string> defines;  // -D name=value: parameters of every --scenes scene
 };
 
