@@ -576,6 +576,7 @@ std::string unit_command(const StudyOptions& o, const StudyPlan& p, size_t k, si
     if (o.device) a.insert(a.end(), {"--device", std::to_string(*o.device)});
     if (o.pipeline_cache) a.insert(a.end(), {"--pipeline-cache", *o.pipeline_cache});
     a.insert(a.end(), {"--traversal", o.traversal});
+    if (o.kernel != "auto") a.insert(a.end(), {"--kernel", o.kernel});
     if (o.equal_time) a.push_back("--equal-time");
     a.insert(a.end(), {"--shard", std::to_string(k) + "/" + std::to_string(M)});
     std::string cmd;
