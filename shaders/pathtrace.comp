@@ -527,6 +527,22 @@ uint mulmod(uint a, uint b, uint n) {
 // The film's 8 x 8 tiles per row.
 uint film_tiles_x() { return (params.film_width + 7u) / 8u; }
 
+// One sample's camera ray, shared by render_slot and the direct tally's redo: the sample's
+// stream (pixel `stream`, sample `index`), the box filter's jitter inside the pixel and the lens
+// sample, in that order. Declares rng, o, d and t_range in the enclosing scope.
+#define SAMPLE_CAMERA_RAY(index)                                   \
+    Rng rng = rng_init(params.seed, stream, index);                \
+    vec2 jitter = rng_next2(rng);                                  \
+    vec2 lens = rng_next2(rng);                                    \
+    vec2 film_uv = (vec2(full_px) + jitter) / vec2(full_size);     \
+    vec3 o, d;                                                     \
+    vec2 t_range;                                                  \
+    camera_ray(film_uv, lens, o, d, t_range)
+// A sample that would make the batch's running sums non-finite (docs/descriptor.md §3): counted, never added.
+#define SAMPLE_NOT_FINITE(rgb_next, lum, depth_next)                                                        \
+    (any(isnan(rgb_next)) || any(isinf(rgb_next)) || isnan(lum) || isinf(lum) || isnan(depth_next) || \
+     isinf(depth_next))
+
 #ifdef VKMECH_DIRECT_TALLY
 #ifndef KERNEL_GPU
 #error "VKMECH_DIRECT_TALLY is the GPU kernel's: the CPU kernel's add_event has no g_tally_off"
@@ -547,13 +563,7 @@ void redo_direct_tally(inout Tally t, uint stream, uint first, uint count, uvec2
         for (uint pass = bad_beyond ? 0u : 1u; pass < 2u; ++pass) {
             g_tally_off = pass == 0u;
             g_sample_index = first + i;
-            Rng rng = rng_init(params.seed, stream, first + i);
-            vec2 jitter = rng_next2(rng);
-            vec2 lens = rng_next2(rng);
-            vec2 film_uv = (vec2(full_px) + jitter) / vec2(full_size);
-            vec3 o, d;
-            vec2 t_range;
-            camera_ray(film_uv, lens, o, d, t_range);
+            SAMPLE_CAMERA_RAY(first + i);
             t.L = vec3(0.0);
             t.glossy = 0.0;
             t.depth_sum = 0.0;
@@ -563,9 +573,7 @@ void redo_direct_tally(inout Tally t, uint stream, uint first, uint count, uvec2
             float lum = luminance(t.L);
             vec3 rgb_next = rgb_sum + t.L;
             float depth_next = depth_sum + t.depth_sum;
-            if (any(isnan(rgb_next)) || any(isinf(rgb_next)) || isnan(lum) || isinf(lum) || isnan(depth_next) ||
-                isinf(depth_next))
-                break;  // not counted: its events stay out of the sums
+            if (SAMPLE_NOT_FINITE(rgb_next, lum, depth_next)) break;  // not counted: its events stay out of the sums
             rgb_sum = rgb_next;
             depth_sum = depth_next;
         }
@@ -642,13 +650,7 @@ void render_slot(uint slot) {
     for (uint i = 0u; i < count; ++i) {
         CLOCK_START(c_camera);
         g_sample_index = first + i;
-        Rng rng = rng_init(params.seed, stream, first + i);
-        vec2 jitter = rng_next2(rng);  // box filter: uniform inside the pixel
-        vec2 lens = rng_next2(rng);
-        vec2 film_uv = (vec2(full_px) + jitter) / vec2(full_size);
-        vec3 o, d;
-        vec2 t_range;
-        camera_ray(film_uv, lens, o, d, t_range);
+        SAMPLE_CAMERA_RAY(first + i);
 #ifndef VKMECH_DIRECT_TALLY
         Tally t;
         t.L = vec3(0.0);
@@ -679,8 +681,7 @@ void render_slot(uint slot) {
         // one that is already: counted, never added (docs/descriptor.md §3).
         vec3 rgb_next = rgb_sum + t.L;
         float depth_next = depth_sum + t.depth_sum;
-        bool bad = any(isnan(rgb_next)) || any(isinf(rgb_next)) || isnan(lum) || isinf(lum) || isnan(depth_next) ||
-                   isinf(depth_next);
+        bool bad = SAMPLE_NOT_FINITE(rgb_next, lum, depth_next);
         if (bad) {
             nonfinite += 1.0;
 #ifdef VKMECH_DIRECT_TALLY

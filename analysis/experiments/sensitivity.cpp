@@ -47,23 +47,8 @@ struct Point {
     double agree = NAN, bin3 = NAN, bin7 = NAN;
 };
 
-// The heavy-tailed slots: the buckets' (glossy, delta-mediated, specular-direct), or the classes a taxonomy
-// declares [heavy], and their names for the table's note.
-struct HeavySlots {
-    std::vector<bool> slot = std::vector<bool>(kBucketCount, false);
-    std::string names;
-};
-
-HeavySlots heavy_slots(const StudyConfig& cfg) {
-    const HeavyClasses c = heavy_classes(cfg);
-    HeavySlots h;
-    for (uint32_t slot : c.slots) h.slot[slot] = true;
-    h.names = c.names;
-    return h;
-}
-
 Point measure_level(StudyContext& ctx, const SensitivityLevel& lv, const std::vector<stats::Partition>& partitions,
-                    const HeavySlots& hs) {
+                    const HeavyClasses& hs) {
     const StudyConfig& cfg = ctx.cfg;
     const uint32_t n0 = cfg.pilot_spp();
     const Frame pilot = ctx.frames.get({lv.variant, n0, seeds::stability(0), lv.estimator});
@@ -73,7 +58,7 @@ Point measure_level(StudyContext& ctx, const SensitivityLevel& lv, const std::ve
     Point pt;
     const DescriptorSummary sm = summarize(ref, dr);
     for (uint32_t b = 0; b < kBucketCount; ++b)
-        if (hs.slot[b]) pt.heavy_share += sm.energy_share[b];
+        if (hs.mask[b]) pt.heavy_share += sm.energy_share[b];
 
     std::vector<std::vector<double>> m;
     for (int s = 0; s < cfg.variance_seeds; ++s)
@@ -88,7 +73,7 @@ Point measure_level(StudyContext& ctx, const SensitivityLevel& lv, const std::ve
     }
     std::vector<uint8_t> heavy(fg.size(), 0);
     for (size_t p = 0; p < fg.size(); ++p) {
-        heavy[p] = fg[p] && dr.dominant[p] != stats::kNoLabel && hs.slot[dr.dominant[p]];
+        heavy[p] = fg[p] && dr.dominant[p] != stats::kNoLabel && hs.mask[dr.dominant[p]];
         pt.heavy_px += heavy[p];
     }
     std::vector<double> rhos, heavy_rhos;
@@ -118,7 +103,7 @@ Point measure_level(StudyContext& ctx, const SensitivityLevel& lv, const std::ve
 
 void write_table(StudyOutput& out, const StudyConfig& cfg, const std::string& scene,
                  const std::vector<SensitivityAxis>& axes, const std::vector<std::vector<Point>>& points,
-                 size_t partitions, const HeavySlots& hs) {
+                 size_t partitions, const HeavyClasses& hs) {
     Table t{"sensitivity_" + scene,
             "Sensitivity of the premise on " + scene + ": sigma^2 reliability and label stability per level",
             {"axis", "level", "fg px", "heavy share", "split-half rho sigma^2", "(sd)", "rho(sigma^2 pilot, ref)",
@@ -129,8 +114,7 @@ void write_table(StudyOutput& out, const StudyConfig& cfg, const std::string& sc
     const std::string n0 = std::to_string(cfg.pilot_spp()), ref = std::to_string(cfg.stability_reference_spp());
     // The built-in buckets' wording as before; a taxonomy's [heavy] classes by name.
     const std::string heavy_share = cfg.taxonomy
-                                        ? "the energy share of the classes of the taxonomy " + cfg.taxonomy->file +
-                                              " declared [heavy] (" + hs.names + ") in the "
+                                        ? "the energy share of " + hs.declared + " in the "
                                         : std::string("glossy + delta-mediated + specular-direct energy of the ");
     const std::string heavy_px =
         cfg.taxonomy ? "is one of those classes" : "is glossy, delta-mediated or specular-direct";
@@ -248,7 +232,7 @@ void run_sensitivity(StudyContext& ctx) {
         return;
     }
     const auto partitions = stats::random_halves(ctx.cfg.variance_seeds, ctx.cfg.split_half_partitions, 0);
-    const HeavySlots hs = heavy_slots(ctx.cfg);
+    const HeavyClasses hs = heavy_classes(ctx.cfg);
     // Axes come grouped by scene (sensitivity_axes walks cfg.scenes).
     for (size_t first = 0; first < all.size();) {
         size_t last = first;

@@ -87,9 +87,12 @@ HeavyClasses heavy_classes(const StudyConfig& cfg) {
     for (const StudyClass& c : study_classes(cfg, all)) {
         if (!c.heavy || c.slot >= kBucketCount) continue;
         h.slots.push_back(c.slot);
+        h.mask[c.slot] = true;
         if (cfg.taxonomy) h.names += (h.names.empty() ? "" : ", ") + c.name;
     }
-    if (cfg.taxonomy && h.names.empty()) h.names = "none: the taxonomy declares no class [heavy]";
+    if (!cfg.taxonomy) return h;
+    if (h.names.empty()) h.names = "none: the taxonomy declares no class [heavy]";
+    h.declared = "the classes of the taxonomy " + cfg.taxonomy->file + " declared [heavy] (" + h.names + ")";
     return h;
 }
 

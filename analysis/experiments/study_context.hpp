@@ -76,7 +76,9 @@ std::string taxonomy_labels_lead(const StudyConfig& cfg);
 // declares [heavy]; under a taxonomy also their names for a note ("none: ..." when it declares none).
 struct HeavyClasses {
     std::vector<uint32_t> slots;
+    std::vector<bool> mask = std::vector<bool>(kBucketCount, false);  // mask[slot]: the slot is one of `slots`
     std::string names;
+    std::string declared;  // under a taxonomy, for a note: "the classes of the taxonomy FILE declared [heavy] (names)"
 };
 HeavyClasses heavy_classes(const StudyConfig& cfg);
 

@@ -34,15 +34,16 @@ struct SweepSpec {
 
 // The sweeps' population: the glossy bucket, or the classes a taxonomy declares [heavy].
 struct SweepClasses {
-    std::vector<uint32_t> slots;
+    HeavyClasses heavy;
     std::string label;  // in the tables' words: "glossy" or "[heavy]"
-    std::string names;  // a taxonomy's [heavy] classes, for the note
 };
 
 SweepClasses sweep_classes(const StudyConfig& cfg) {
-    if (!cfg.taxonomy) return {{gpu::BUCKET_GLOSSY}, "glossy", ""};
-    HeavyClasses h = heavy_classes(cfg);
-    return {std::move(h.slots), "[heavy]", std::move(h.names)};
+    if (cfg.taxonomy) return {heavy_classes(cfg), "[heavy]"};
+    HeavyClasses glossy;
+    glossy.slots = {gpu::BUCKET_GLOSSY};
+    glossy.mask[gpu::BUCKET_GLOSSY] = true;
+    return {std::move(glossy), "glossy"};
 }
 
 // The mean per-sample energy of the classes' slots summed (one slot: bucket_field's values themselves).
@@ -72,19 +73,17 @@ SweepLevel sweep_level(StudyContext& ctx, const SceneVariant& variant, const std
     SweepLevel lv;
     Frame ref = ctx.frames.get({variant, cfg.sweep_ref_spp, seeds::sweep_reference(), Estimator::Nee});
     Descriptor d = derive_descriptor(ref);
-    std::vector<bool> in_class(kBucketCount, false);
-    for (uint32_t slot : classes.slots) in_class[slot] = true;
     std::vector<size_t> glossy;  // the pixels the classes dominate
     for (size_t p = 0; p < d.dominant.size(); ++p)
-        if (d.dominant[p] < kBucketCount && in_class[d.dominant[p]]) glossy.push_back(p);
+        if (d.dominant[p] < kBucketCount && classes.heavy.mask[d.dominant[p]]) glossy.push_back(p);
     lv.glossy_px = glossy.size();
     const DescriptorSummary sm = summarize(ref, d);
-    for (uint32_t slot : classes.slots) lv.glossy_share += sm.energy_share[slot];
+    for (uint32_t slot : classes.heavy.slots) lv.glossy_share += sm.energy_share[slot];
     if (glossy.size() < kMinGlossyPixels) return lv;
     std::vector<std::vector<double>> g(S), m(S);
     for (int s = 0; s < S; ++s) {
         Frame f = ctx.frames.get({variant, cfg.sweep_spp, seeds::sweep(s), Estimator::Nee});
-        auto gf = classes_field(f, classes.slots);
+        auto gf = classes_field(f, classes.heavy.slots);
         auto mf = lum_mean_field(f);
         for (size_t p : glossy) {
             g[s].push_back(gf[p]);
@@ -126,8 +125,7 @@ void write_sweep(StudyOutput& out, const StudyConfig& cfg, const SweepSpec& spec
              "split-half rho sigma^2"},
             {},
             ""};
-    const std::string energy = cfg.taxonomy ? "of the energy of the classes of the taxonomy " + cfg.taxonomy->file +
-                                                  " declared [heavy] (" + classes.names + "), summed"
+    const std::string energy = cfg.taxonomy ? "of the energy of " + classes.heavy.declared + ", summed"
                                             : std::string("of the glossy bucket's energy");
     t.note = "Per level: " + g + "-dominant pixels of a " + std::to_string(cfg.sweep_ref_spp) +
              "-SPP reference; firefly ratio "
