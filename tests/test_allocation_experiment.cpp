@@ -243,6 +243,25 @@ TEST_CASE(
     CHECK(mom.size() == 1 + 5);  // k = 2, 3, 4, 6, 8 all give blocks of >= 2 samples at N0 = 16
     auto all = read_csv(tmp.file("tables/downstream_all.csv"));
     CHECK(all.size() == 1 + 2 * 9 + 4);
+    // The seed std of MSE (the paper's strict criterion, §7 Result 2): uniform's allocation is the same in every
+    // draw, so its MSE is the test's own and its std 0; observed-var's follows each draw's pilot.
+    REQUIRE(all[0].size() == 13);
+    CHECK(all[0][7] == "MSE");
+    CHECK(all[0][8] == "MSE std");
+    size_t seen = 0;
+    for (const auto& row : all) {
+        if (row[1] != "4" || row[2] != "1" || row[3] != "32") continue;
+        CAPTURE(row[4]);
+        if (row[4] == "uniform") {
+            CHECK(std::stod(row[7]) == doctest::Approx(se / 16).epsilon(1e-3));
+            CHECK(std::stod(row[8]) == 0.0);
+            ++seen;
+        } else if (row[4] == "observed-var") {
+            CHECK(std::stod(row[8]) > 0.0);
+            ++seen;
+        }
+    }
+    CHECK(seen == 2);
     // robust-adaptive against the others at N0 = 16 (the only pilot where median-of-means is defined here); the
     // synthetic labels have no rare-tail pixel, so it is robust-var exactly.
     auto adaptive = read_csv(tmp.file("tables/robust_adaptive.csv"));

@@ -110,9 +110,9 @@ const std::vector<Errors>& run_config(ErrorsByKey& res, const SceneData& d, uint
 }
 
 // Every configuration of the tables at equal samples: every pilot and floor at the study's extra budget, and the
-// budget sweep at the smallest pilot.
+// budget sweep at every pilot (the figure draws the smallest's; downstream_all lists them all).
 ErrorsByKey run_configs(const SceneData& d, const StudyConfig& cfg) {
-    const uint32_t K = static_cast<uint32_t>(cfg.alloc_draws), n0_main = cfg.alloc_pilots.front();
+    const uint32_t K = static_cast<uint32_t>(cfg.alloc_draws);
     ErrorsByKey res;
     for (uint32_t n0 : cfg.alloc_pilots)
         for (uint32_t floor : cfg.alloc_floors) {
@@ -121,9 +121,10 @@ ErrorsByKey run_configs(const SceneData& d, const StudyConfig& cfg) {
             if (alloc::mom_defined(static_cast<int>(n0)))
                 for (Strategy s : kRobust) run_config(res, d, K, {n0, floor, cfg.alloc_extra, s});
         }
-    for (uint32_t extra : cfg.alloc_budget_sweep)
-        for (Strategy s : {Strategy::Uniform, Strategy::ObservedVar, Strategy::BucketFloor, Strategy::Oracle})
-            run_config(res, d, K, {n0_main, 1, extra, s});
+    for (uint32_t n0 : cfg.alloc_pilots)
+        for (uint32_t extra : cfg.alloc_budget_sweep)
+            for (Strategy s : {Strategy::Uniform, Strategy::ObservedVar, Strategy::BucketFloor, Strategy::Oracle})
+                run_config(res, d, K, {n0, 1, extra, s});
     return res;
 }
 
@@ -246,8 +247,8 @@ struct AllocationScene {
     std::vector<EqualTimeSeries> equal_main, equal_robust;
 };
 
-AllocationScene compute_scene(AllocationSource& source, const StudyConfig& cfg, const SceneVariant& scene) {
-    const SceneData d = load_scene_data(source, cfg, scene);
+AllocationScene compute_scene(AllocationSource& source, const StudyConfig& cfg, const SceneVariant& scene,
+                              const SceneData& d) {
     AllocationScene r;
     r.name = scene.name;
     r.peak = d.peak;
@@ -280,12 +281,18 @@ struct AllocationResult {
     std::vector<AllocationScene> scenes;
 };
 
-AllocationResult compute_allocation(const StudyConfig& cfg, AllocationSource& source) {
+// Every scene's tables at equal samples, and its pool resampling from the same loaded data (one scene in memory
+// at a time: its pool is kPoolSize frames).
+AllocationResult compute_allocation(const StudyConfig& cfg, AllocationSource& source, AllocationPools& pools) {
     AllocationResult r;
     r.n0_main = cfg.alloc_pilots.front();
     r.n0_robust = first_robust_pilot(cfg);
     r.K = static_cast<uint32_t>(cfg.alloc_draws);
-    for (const auto& scene : cfg.scenes) r.scenes.push_back(compute_scene(source, cfg, scene));
+    for (const auto& scene : cfg.scenes) {
+        const SceneData d = load_scene_data(source, cfg, scene);
+        r.scenes.push_back(compute_scene(source, cfg, scene, d));
+        pools.add_scene(source, scene, d);
+    }
     return r;
 }
 
@@ -443,6 +450,7 @@ void add_all_rows(const AllocationScene& sc, Table& all_t) {
                    Cell::str(alloc::to_string(k.s)), Cell::num(stats::mean(p), "%.3f"),
                    Cell::num(std::sqrt(stats::sample_variance(p)), "%.3f"),
                    Cell::num(stats::mean(e.mses(k, false)), "%.4g"),
+                   Cell::num(std::sqrt(stats::sample_variance(e.mses(k, false))), "%.4g"),
                    Cell::num(stats::mean(e.per_draw(k, &Errors::rel_mse)), "%.4g"),
                    Cell::num(stats::mean(e.mses(k, true)), "%.4g"), Cell::num(stats::mean(e.psnrs_clamped(k)), "%.3f"),
                    Cell::str(has_ov ? wins_text(w) : "")});
@@ -615,11 +623,11 @@ void make_equal_sample_tables(const AllocationResult& r, AllocationTables& t) {
                 {},
                 ""};
     t.all_t = {"downstream_all",
-               "Every configuration: PSNR (dB, unclamped, reference peak) mean and seed std, MSE, relative "
-               "MSE and p99 error on unclamped linear RGB, the clamped PSNR beside them, paired wins against "
-               "observed-var",
-               {"scene", "N0", "floor", "extra SPP", "strategy", "PSNR", "PSNR std", "MSE", "rel MSE", "p99 |lum err|",
-                "PSNR clamped", "MSE wins vs obs-var"},
+               "Every configuration: PSNR (dB, unclamped, reference peak) mean and seed std, MSE mean and seed "
+               "std, relative MSE and p99 error on unclamped linear RGB, the clamped PSNR beside them, paired wins "
+               "against observed-var",
+               {"scene", "N0", "floor", "extra SPP", "strategy", "PSNR", "PSNR std", "MSE", "MSE std", "rel MSE",
+                "p99 |lum err|", "PSNR clamped", "MSE wins vs obs-var"},
                {},
                ""};
     t.bucket_t = {"perbucket_mse",
@@ -908,8 +916,9 @@ void write_allocation(StudyOutput& out, const StudyConfig& cfg, const std::strin
 
 void run_allocation(StudyContext& ctx) {
     if (!ctx.allocation) throw std::logic_error("allocation study: no allocation source in the study context");
-    write_allocation(ctx.out, ctx.cfg, ctx.device, compute_allocation(ctx.cfg, *ctx.allocation));
-    run_allocation_pools(ctx);
+    AllocationPools pools(ctx.cfg);
+    write_allocation(ctx.out, ctx.cfg, ctx.device, compute_allocation(ctx.cfg, *ctx.allocation, pools));
+    pools.write(ctx.out);
 }
 
 }  // namespace vkmech

@@ -13,6 +13,7 @@
 #include "allocation/plan.hpp"
 #include "experiments/study_context.hpp"
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -51,10 +52,26 @@ public:
 std::vector<alloc::Strategy> allocation_timed_strategies(uint32_t n0);
 std::vector<alloc::Strategy> allocation_equal_time_strategies(uint32_t n0);
 
+namespace allocation_data {
+struct SceneData;
+}
+
 // The allocation study's pool resampling (allocation_pools.cpp): the main
 // configurations scored on cfg.alloc_pools pools (nothing below two), with
-// firefly-robust companions. run_allocation calls it after its own tables.
-void run_allocation_pools(StudyContext& ctx);
+// firefly-robust companions. run_allocation adds each scene from the data it
+// loaded for its own tables (loaded once), then writes these tables after its own.
+class AllocationPools {
+public:
+    explicit AllocationPools(const StudyConfig& cfg);
+    ~AllocationPools();
+    void add_scene(AllocationSource& source, const SceneVariant& scene, const allocation_data::SceneData& d);
+    void write(StudyOutput& out) const;
+
+private:
+    struct Tables;
+    const StudyConfig& cfg_;
+    std::unique_ptr<Tables> t_;
+};
 
 // Paths per pixel the allocation study traces for one scene (reference, pool,
 // pilots, timing renders), for the study's cost estimate.

@@ -42,8 +42,8 @@ std::vector<Strategy> pool_strategies(uint32_t n0) {
     return s;
 }
 
-PoolScene compute_pool_scene(AllocationSource& source, const StudyConfig& cfg, const SceneVariant& scene) {
-    const SceneData d = load_scene_data(source, cfg, scene);
+PoolScene compute_pool_scene(AllocationSource& source, const StudyConfig& cfg, const SceneVariant& scene,
+                             const SceneData& d) {
     PoolScene r;
     r.name = scene.name;
     r.peak = d.peak;
@@ -210,24 +210,36 @@ PoolTables make_tables(const StudyConfig& cfg) {
 
 }  // namespace
 
-void run_allocation_pools(StudyContext& ctx) {
-    if (!ctx.allocation) throw std::logic_error("allocation study: no allocation source in the study context");
-    const StudyConfig& cfg = ctx.cfg;
-    if (cfg.alloc_pools < 2) return;
-    PoolTables t = make_tables(cfg);
-    for (const auto& scene : cfg.scenes) add_rows(cfg, compute_pool_scene(*ctx.allocation, cfg, scene), t);
+struct AllocationPools::Tables {
+    PoolTables t;
+};
+
+AllocationPools::AllocationPools(const StudyConfig& cfg) : cfg_(cfg) {
+    if (cfg.alloc_pools >= 2) t_ = std::make_unique<Tables>(Tables{make_tables(cfg)});
+}
+
+AllocationPools::~AllocationPools() = default;
+
+void AllocationPools::add_scene(AllocationSource& source, const SceneVariant& scene, const SceneData& d) {
+    if (t_) add_rows(cfg_, compute_pool_scene(source, cfg_, scene, d), t_->t);
+}
+
+void AllocationPools::write(StudyOutput& out) const {
+    if (!t_) return;  // fewer than two pools: nothing to resample
+    const StudyConfig& cfg = cfg_;
+    const PoolTables& t = t_->t;
     const std::string sec = "Downstream allocation: pool resampling";
-    ctx.out.table(sec, t.spread,
-                  "the consistency, placebo and robust comparisons with the pool resampled: the win counts over all "
-                  "pairs and their range from pool to pool say how much one pool decided.");
-    ctx.out.table(sec, t.firefly,
-                  "whether bucket-floor's wins and losses survive measures that a few firefly pixels cannot "
-                  "dominate.");
+    out.table(sec, t.spread,
+              "the consistency, placebo and robust comparisons with the pool resampled: the win counts over all "
+              "pairs and their range from pool to pool say how much one pool decided.");
+    out.table(sec, t.firefly,
+              "whether bucket-floor's wins and losses survive measures that a few firefly pixels cannot "
+              "dominate.");
     const std::string n0s = std::to_string(cfg.alloc_pilots.front());
-    ctx.out.check("bucket-floor beats observed-var on paired MSE in at least 70% of the pool x draw pairs at N0 = " +
-                      n0s + " on every scene with heavy-tailed buckets (the paper's 7 of 10, over resampled pools)",
-                  t.fail_heavy.empty(),
-                  t.fail_heavy.empty() ? "on every such scene (tab:alloc_pools)" : "not on: " + t.fail_heavy);
+    out.check("bucket-floor beats observed-var on paired MSE in at least 70% of the pool x draw pairs at N0 = " + n0s +
+                  " on every scene with heavy-tailed buckets (the paper's 7 of 10, over resampled pools)",
+              t.fail_heavy.empty(),
+              t.fail_heavy.empty() ? "on every such scene (tab:alloc_pools)" : "not on: " + t.fail_heavy);
 }
 
 }  // namespace vkmech
