@@ -417,6 +417,9 @@ RenderTally render_missing(const StudyPlan& p, const StudyDevice& dev, RenderCac
             }
         }
     }
+    if (done > 0)
+        std::fprintf(stderr, "study: rendered %zu in %.1f s (%.1f s of it on the device)\n", done,
+                     std::chrono::duration<double>(clock_type::now() - t_render).count(), render_seconds);
     return t;
 }
 
@@ -440,7 +443,10 @@ void analyse(const StudyPlan& p, const StudyDevice& dev, StudyOutput& out, Frame
                     allocation};
     for (StudyKind k : p.kinds) {
         std::fprintf(stderr, "study: analysing %s\n", to_string(k));
+        const auto t0 = clock_type::now();
         study_function(k)(sc);
+        std::fprintf(stderr, "study: analysed %s in %.1f s\n", to_string(k),
+                     std::chrono::duration<double>(clock_type::now() - t0).count());
     }
 }
 
@@ -455,7 +461,10 @@ int plot(const StudyOptions& o, const std::string& out_dir) {
         rc = 1;
     } else if (!o.no_plots && fs::exists(fig_dir)) {
         std::string cmd = "python3 '" + o.plot_script + "' '" + fig_dir + "' > /dev/null";
+        const auto t0 = clock_type::now();
         int status = std::system(cmd.c_str());
+        std::fprintf(stderr, "study: figures drawn in %.1f s\n",
+                     std::chrono::duration<double>(clock_type::now() - t0).count());
         if (status != 0) {
             std::fprintf(stderr, "vkmech study: plotting failed (%s); the figure specs are in %s\n", cmd.c_str(),
                          fig_dir.c_str());
