@@ -193,6 +193,40 @@ TEST_SUITE("gpu") {
             CHECK(e.path().filename().string().find(".tmp") == std::string::npos);
     }
 
+    TEST_CASE(
+        "pipeline cache: a pipeline made again from the same inputs in one process is reused, not compiled "
+        "again - and renders the same image") {
+        VKMECH_REQUIRE_GPU(shared);
+        TempDir dir("kept");
+        auto ctx = context_with_cache(dir.path.string());  // validation on: a shared layout must be compatible
+        auto a = tracerays_pipeline(*ctx);
+        const vkc::PipelineStats first = ctx->pipeline_cache().stats();
+        CHECK(first.created == 1);
+        auto b = tracerays_pipeline(*ctx);
+        CHECK(ctx->pipeline_cache().stats().created == 2);
+        CHECK(ctx->pipeline_cache().stats().hits == first.hits + 1);
+        CHECK(ctx->pipeline_cache().stats().seconds == first.seconds);  // nothing compiled
+        // Whole renders: the second render of a scene takes the first's pipelines; another estimator's
+        // specialization is a pipeline of its own, compiled.
+        testing::RenderSetup setup;
+        setup.res = 16;
+        setup.spp = 4;
+        const std::string scene = std::string(VKMECH_SOURCE_DIR) + "/scenes/glass_caustic.xml";
+        const Frame f1 = testing::render_scene(*ctx, scene, setup);
+        const vkc::PipelineStats after_one = ctx->pipeline_cache().stats();
+        const Frame f2 = testing::render_scene(*ctx, scene, setup);
+        const vkc::PipelineStats after_two = ctx->pipeline_cache().stats();
+        CHECK(after_two.created > after_one.created);
+        CHECK(after_two.hits - after_one.hits == after_two.created - after_one.created);  // every one reused
+        REQUIRE(f1.pixels.size() == f2.pixels.size());
+        CHECK(std::memcmp(f1.pixels.data(), f2.pixels.data(), f1.pixels.size() * sizeof(f1.pixels[0])) == 0);
+        setup.estimator = Estimator::Mis;
+        testing::render_scene(*ctx, scene, setup);
+        const vkc::PipelineStats after_mis = ctx->pipeline_cache().stats();
+        CHECK(after_mis.hits - after_two.hits < after_mis.created - after_two.created);  // the MIS pipeline compiled
+        CHECK(ctx->validation_messages() == 0);
+    }
+
     TEST_CASE("pipeline cache: a corrupted cache file is ignored and rendering still works") {
         VKMECH_REQUIRE_GPU(shared);
         TempDir dir("corrupt");

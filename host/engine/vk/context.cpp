@@ -314,6 +314,22 @@ Context::Context(const ContextOptions& options) : messages_(std::make_unique<Mes
     return pipeline;
 }
 
+std::shared_ptr<const PipelineCore> Context::kept_pipeline(const std::string& key) const {
+    std::lock_guard<std::mutex> lock(kept_mutex_);
+    for (auto it = kept_.begin(); it != kept_.end(); ++it)
+        if (it->first == key) {
+            kept_.splice(kept_.begin(), kept_, it);  // the most recently used first
+            return kept_.front().second;
+        }
+    return nullptr;
+}
+
+void Context::keep_pipeline(const std::string& key, std::shared_ptr<const PipelineCore> core) const {
+    std::lock_guard<std::mutex> lock(kept_mutex_);
+    kept_.emplace_front(key, std::move(core));
+    if (kept_.size() > kKeptPipelines) kept_.pop_back();
+}
+
 Context::~Context() {
     if (device_) device_->waitIdle();
 }

@@ -5,7 +5,9 @@
 
 #include <vulkan/vulkan_raii.hpp>
 
+#include <list>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -57,6 +59,8 @@ struct ContextOptions {
     KernelClass kernel = KernelClass::Auto;  // --kernel
 };
 
+struct PipelineCore;  // vk/pipeline.hpp
+
 class Context {
 public:
     explicit Context(const ContextOptions& options = {});
@@ -93,6 +97,15 @@ public:
     ::vk::raii::Pipeline create_compute_pipeline(const ::vk::ComputePipelineCreateInfo& info) const;
     PipelineCache& pipeline_cache() const { return *pipeline_cache_; }
 
+    // Compiled pipelines kept for reuse within this process (ComputePipeline): one made again from the same
+    // SPIR-V, bindings, push-constant size and specialization takes the compiled one (a study makes the same
+    // pipeline for every scene variant with the same features; lavapipe spends about a second on each
+    // creation). kept_pipeline returns nullptr when none is kept; keep_pipeline holds at most kKeptPipelines,
+    // dropping the least recently used (its users keep their own reference).
+    static constexpr size_t kKeptPipelines = 32;
+    std::shared_ptr<const PipelineCore> kept_pipeline(const std::string& key) const;
+    void keep_pipeline(const std::string& key, std::shared_ptr<const PipelineCore> core) const;
+
     uint32_t find_memory_type(uint32_t type_bits, ::vk::MemoryPropertyFlags wanted,
                               ::vk::MemoryPropertyFlags fallback = {}) const;
 
@@ -111,6 +124,8 @@ private:
     std::unique_ptr<::vk::raii::CommandPool> pool_;
     std::unique_ptr<::vk::raii::Fence> fence_;
     std::unique_ptr<PipelineCache> pipeline_cache_;  // destroyed before device_
+    mutable std::mutex kept_mutex_;
+    mutable std::list<std::pair<std::string, std::shared_ptr<const PipelineCore>>> kept_;  // most recent first
     uint32_t queue_family_ = 0;
     DeviceInfo info_;
     KernelClass kernel_ = KernelClass::Cpu;

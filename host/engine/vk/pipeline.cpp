@@ -1,33 +1,49 @@
 #include "vk/pipeline.hpp"
 
 #include <chrono>
+#include <cstdint>
 #include <map>
+#include <memory>
+#include <string>
 
 namespace vkmech::vk {
 
-ComputePipeline::ComputePipeline(const Context& ctx, std::span<const uint32_t> spirv, std::vector<BindingDesc> bindings,
-                                 uint32_t push_constant_bytes, const std::vector<SpecConstant>& spec)
-    : ctx_(ctx), bindings_(std::move(bindings)), push_bytes_(push_constant_bytes) {
+namespace {
+
+// The inputs that determine a compiled pipeline: the SPIR-V (the embedded modules are static arrays, so their
+// address and size name them), the bindings, the push-constant size and the specialization.
+std::string pipeline_key(std::span<const uint32_t> spirv, const std::vector<BindingDesc>& bindings, uint32_t push_bytes,
+                         const std::vector<SpecConstant>& spec) {
+    std::string key = std::to_string(reinterpret_cast<uintptr_t>(spirv.data())) + ":" + std::to_string(spirv.size()) +
+                      "|" + std::to_string(push_bytes) + "|";
+    for (const auto& b : bindings)
+        key += std::to_string(b.binding) + "=" + std::to_string(static_cast<uint32_t>(b.type)) + ",";
+    key += "|";
+    for (const auto& c : spec) key += std::to_string(c.id) + "=" + std::to_string(c.value) + ",";
+    return key;
+}
+
+std::shared_ptr<const PipelineCore> make_core(const Context& ctx, std::span<const uint32_t> spirv,
+                                              const std::vector<BindingDesc>& bindings, uint32_t push_bytes,
+                                              const std::vector<SpecConstant>& spec) {
     const auto& dev = ctx.device();
+    auto core = std::make_shared<PipelineCore>();
     std::vector<::vk::DescriptorSetLayoutBinding> lb;
-    std::map<::vk::DescriptorType, uint32_t> counts;
-    for (const auto& b : bindings_) {
+    for (const auto& b : bindings)
         lb.push_back(::vk::DescriptorSetLayoutBinding{.binding = b.binding,
                                                       .descriptorType = b.type,
                                                       .descriptorCount = 1,
                                                       .stageFlags = ::vk::ShaderStageFlagBits::eCompute});
-        counts[b.type] += 1;
-    }
-    set_layout_ = std::make_unique<::vk::raii::DescriptorSetLayout>(
+    core->set_layout = std::make_unique<::vk::raii::DescriptorSetLayout>(
         dev,
         ::vk::DescriptorSetLayoutCreateInfo{.bindingCount = static_cast<uint32_t>(lb.size()), .pBindings = lb.data()});
-    ::vk::PushConstantRange range{.stageFlags = ::vk::ShaderStageFlagBits::eCompute, .offset = 0, .size = push_bytes_};
-    ::vk::DescriptorSetLayout raw_layout = **set_layout_;
-    layout_ = std::make_unique<::vk::raii::PipelineLayout>(
+    ::vk::PushConstantRange range{.stageFlags = ::vk::ShaderStageFlagBits::eCompute, .offset = 0, .size = push_bytes};
+    ::vk::DescriptorSetLayout raw_layout = **core->set_layout;
+    core->layout = std::make_unique<::vk::raii::PipelineLayout>(
         dev, ::vk::PipelineLayoutCreateInfo{.setLayoutCount = 1,
                                             .pSetLayouts = &raw_layout,
-                                            .pushConstantRangeCount = push_bytes_ ? 1u : 0u,
-                                            .pPushConstantRanges = push_bytes_ ? &range : nullptr});
+                                            .pushConstantRangeCount = push_bytes ? 1u : 0u,
+                                            .pPushConstantRanges = push_bytes ? &range : nullptr});
     ::vk::raii::ShaderModule module(
         dev, ::vk::ShaderModuleCreateInfo{.codeSize = spirv.size_bytes(), .pCode = spirv.data()});
     std::vector<::vk::SpecializationMapEntry> entries;
@@ -46,8 +62,28 @@ ComputePipeline::ComputePipeline(const Context& ctx, std::span<const uint32_t> s
                                                      .module = *module,
                                                      .pName = "main",
                                                      .pSpecializationInfo = spec.empty() ? nullptr : &spec_info},
-        .layout = **layout_};
-    pipeline_ = std::make_unique<::vk::raii::Pipeline>(ctx.create_compute_pipeline(pci));
+        .layout = **core->layout};
+    core->pipeline = std::make_unique<::vk::raii::Pipeline>(ctx.create_compute_pipeline(pci));
+    return core;
+}
+
+}  // namespace
+
+ComputePipeline::ComputePipeline(const Context& ctx, std::span<const uint32_t> spirv, std::vector<BindingDesc> bindings,
+                                 uint32_t push_constant_bytes, const std::vector<SpecConstant>& spec)
+    : ctx_(ctx), bindings_(std::move(bindings)), push_bytes_(push_constant_bytes) {
+    const auto& dev = ctx.device();
+    const std::string key = pipeline_key(spirv, bindings_, push_bytes_, spec);
+    core_ = ctx.kept_pipeline(key);
+    if (core_) {
+        ctx.pipeline_cache().record(0.0, true);  // reused: a hit of the process's own cache, nothing compiled
+    } else {
+        core_ = make_core(ctx, spirv, bindings_, push_bytes_, spec);
+        ctx.keep_pipeline(key, core_);
+    }
+    std::map<::vk::DescriptorType, uint32_t> counts;
+    for (const auto& b : bindings_) counts[b.type] += 1;
+    ::vk::DescriptorSetLayout raw_layout = **core_->set_layout;
 
     std::vector<::vk::DescriptorPoolSize> sizes;
     for (auto [type, n] : counts) sizes.push_back(::vk::DescriptorPoolSize{.type = type, .descriptorCount = n});
@@ -100,9 +136,10 @@ void ComputePipeline::warm_up() const {
 
 void ComputePipeline::record(::vk::CommandBuffer cmd, uint32_t gx, uint32_t gy, uint32_t gz, const void* push,
                              uint32_t push_bytes) const {
-    cmd.bindPipeline(::vk::PipelineBindPoint::eCompute, **pipeline_);
-    cmd.bindDescriptorSets(::vk::PipelineBindPoint::eCompute, **layout_, 0, {**set_}, {});
-    if (push && push_bytes) cmd.pushConstants(**layout_, ::vk::ShaderStageFlagBits::eCompute, 0, push_bytes, push);
+    cmd.bindPipeline(::vk::PipelineBindPoint::eCompute, **core_->pipeline);
+    cmd.bindDescriptorSets(::vk::PipelineBindPoint::eCompute, **core_->layout, 0, {**set_}, {});
+    if (push && push_bytes)
+        cmd.pushConstants(**core_->layout, ::vk::ShaderStageFlagBits::eCompute, 0, push_bytes, push);
     cmd.dispatch(gx, gy, gz);
 }
 

@@ -20,6 +20,14 @@ struct SpecConstant {
     uint32_t value;
 };
 
+// What ComputePipelines made from the same inputs share (Context::kept_pipeline): the compiled pipeline with
+// the layouts it was created with; each ComputePipeline has its own descriptor set.
+struct PipelineCore {
+    std::unique_ptr<::vk::raii::DescriptorSetLayout> set_layout;
+    std::unique_ptr<::vk::raii::PipelineLayout> layout;
+    std::unique_ptr<::vk::raii::Pipeline> pipeline;
+};
+
 class ComputePipeline {
 public:
     ComputePipeline(const Context& ctx, std::span<const uint32_t> spirv, std::vector<BindingDesc> bindings,
@@ -45,9 +53,7 @@ private:
     void write(uint32_t binding, ::vk::WriteDescriptorSet w);
     const Context& ctx_;
     std::vector<BindingDesc> bindings_;
-    std::unique_ptr<::vk::raii::DescriptorSetLayout> set_layout_;
-    std::unique_ptr<::vk::raii::PipelineLayout> layout_;
-    std::unique_ptr<::vk::raii::Pipeline> pipeline_;
+    std::shared_ptr<const PipelineCore> core_;
     std::unique_ptr<::vk::raii::DescriptorPool> pool_;
     std::unique_ptr<::vk::raii::DescriptorSet> set_;
     uint32_t push_bytes_ = 0;
