@@ -319,6 +319,7 @@ TEST_CASE(
     TempDir tmp("alloc_pools");
     StudyConfig cfg = small_config();
     cfg.alloc_pools = 3;
+    cfg.alloc_budget_sweep = {32, 64};
     SyntheticSource src;
     StudyOutput out(tmp.path.string());
     NoFrames no_frames;
@@ -326,6 +327,14 @@ TEST_CASE(
     run_allocation(ctx);
     for (const char* pool : {"pool 1 synthetic", "pool 2 synthetic"})
         CHECK(std::count(src.calls.begin(), src.calls.end(), pool) == 1);
+    // The budget sweep at every pilot: uniform, observed-var, bucket-floor and oracle at 64 extra SPP, N0 = 4 and 16.
+    size_t swept = 0;
+    for (const auto& row : read_csv(tmp.file("tables/downstream_all.csv")))
+        swept += row.size() > 4 && row[2] == "1" && row[3] == "64";
+    CHECK(swept == 2 * 4);
+    // The scene's data is loaded once for the tables at equal samples and the pool resampling alike.
+    for (const char* once : {"reference synthetic", "pool synthetic", "pilot synthetic 4 0", "pilot synthetic 16 2"})
+        CHECK(std::count(src.calls.begin(), src.calls.end(), once) == 1);
 
     // Uniform at N0 = 4: per pool, the mean of its first 33 frames against the reference, worked out here.
     const SampleFn ref = SyntheticSource::stream(9);

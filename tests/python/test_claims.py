@@ -35,6 +35,8 @@ def test_committed_readme_is_current():
 def results_copy(tmp_path):
     dst = tmp_path / "results"
     shutil.copytree(os.path.join(RESULTS, "tables"), dst / "tables")
+    # The allocation study's own tables (the strict criterion and the budget sweep at every pilot).
+    shutil.copytree(os.path.join(RESULTS, "allocation", "tables"), dst / "allocation" / "tables")
     shutil.copy(os.path.join(RESULTS, "README.md"), dst / "README.md")
     # The sentinel claims read ../sentinels/**/summary.csv beside the results folder.
     for rel in ("summary.csv", "paper-set/summary.csv", "paper-set/clearcoat_sweep.csv"):

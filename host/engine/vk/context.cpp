@@ -332,6 +332,7 @@ void Context::keep_pipeline(const std::string& key, std::shared_ptr<const Pipeli
 
 Context::~Context() {
     if (device_) device_->waitIdle();
+    kept_.clear();  // before the device and the validation messenger's messages
 }
 
 uint32_t Context::validation_messages() const { return messages_->count.load(); }

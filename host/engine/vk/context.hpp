@@ -125,7 +125,8 @@ private:
     std::unique_ptr<::vk::raii::Fence> fence_;
     std::unique_ptr<PipelineCache> pipeline_cache_;  // destroyed before device_
     mutable std::mutex kept_mutex_;
-    mutable std::list<std::pair<std::string, std::shared_ptr<const PipelineCore>>> kept_;  // most recent first
+    // Most recent first; cleared in ~Context, before the device.
+    mutable std::list<std::pair<std::string, std::shared_ptr<const PipelineCore>>> kept_;
     uint32_t queue_family_ = 0;
     DeviceInfo info_;
     KernelClass kernel_ = KernelClass::Cpu;

@@ -10,12 +10,14 @@ namespace vkmech::vk {
 
 namespace {
 
-// The inputs that determine a compiled pipeline: the SPIR-V (the embedded modules are static arrays, so their
-// address and size name them), the bindings, the push-constant size and the specialization.
+// The inputs that determine a compiled pipeline: the SPIR-V's contents (a 64-bit FNV-1a hash and the size:
+// hashing a module takes well under a millisecond, creating its pipeline about a second on lavapipe), the
+// bindings, the push-constant size and the specialization.
 std::string pipeline_key(std::span<const uint32_t> spirv, const std::vector<BindingDesc>& bindings, uint32_t push_bytes,
                          const std::vector<SpecConstant>& spec) {
-    std::string key = std::to_string(reinterpret_cast<uintptr_t>(spirv.data())) + ":" + std::to_string(spirv.size()) +
-                      "|" + std::to_string(push_bytes) + "|";
+    uint64_t h = 14695981039346656037ull;
+    for (uint32_t word : spirv) h = (h ^ word) * 1099511628211ull;
+    std::string key = std::to_string(h) + ":" + std::to_string(spirv.size()) + "|" + std::to_string(push_bytes) + "|";
     for (const auto& b : bindings)
         key += std::to_string(b.binding) + "=" + std::to_string(static_cast<uint32_t>(b.type)) + ",";
     key += "|";
@@ -76,7 +78,7 @@ ComputePipeline::ComputePipeline(const Context& ctx, std::span<const uint32_t> s
     const std::string key = pipeline_key(spirv, bindings_, push_bytes_, spec);
     core_ = ctx.kept_pipeline(key);
     if (core_) {
-        ctx.pipeline_cache().record(0.0, true);  // reused: a hit of the process's own cache, nothing compiled
+        ctx.pipeline_cache().record_reuse();  // nothing created, nothing compiled
     } else {
         core_ = make_core(ctx, spirv, bindings_, push_bytes_, spec);
         ctx.keep_pipeline(key, core_);

@@ -1,5 +1,6 @@
-// A compute pipeline with its own descriptor-set layout, one descriptor set,
-// push constants and specialization constants.
+// A compute pipeline with one descriptor set of its own, push constants and
+// specialization constants; the compiled pipeline and its layouts are shared
+// with every other made from the same inputs in the process (PipelineCore).
 #pragma once
 
 #include "vk/context.hpp"

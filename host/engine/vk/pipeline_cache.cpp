@@ -73,10 +73,11 @@ std::string pipeline_cache_file_name(const PipelineCacheIdentity& id, uint32_t d
 }
 
 PipelineStats operator-(const PipelineStats& a, const PipelineStats& b) {
-    return {a.created - b.created, a.hits - b.hits, a.seconds - b.seconds};
+    return {a.created - b.created, a.hits - b.hits, a.seconds - b.seconds, a.reused - b.reused};
 }
 
 std::string pipeline_cache_outcome(const PipelineStats& s, bool cache_enabled) {
+    if (s.created == 0 && s.reused > 0) return "reused in this process";
     if (!cache_enabled) return "cache off";
     return s.created > 0 && s.hits == s.created ? "cache hit" : "cache miss";
 }

@@ -54,15 +54,16 @@ struct PipelineStats {
     uint32_t created = 0;  // pipelines created
     uint32_t hits = 0;     // of which the driver reported found in the application cache
     double seconds = 0.0;  // wall time spent creating them (and compiling, see Context::create_compute_pipeline)
+    uint32_t reused = 0;   // pipelines not created: kept from earlier in the process (Context::kept_pipeline)
 };
 
 // The pipelines created between two snapshots of PipelineCache::stats().
 PipelineStats operator-(const PipelineStats& after, const PipelineStats& before);
 
 // How those pipelines were obtained, for messages and summaries: "cache hit"
-// (the driver reported every one found in the cache), "cache miss", or
-// "cache off". A miss may still be fast: drivers keep their own shader caches
-// (Mesa's in ~/.cache/mesa_shader_cache*), which this one does not see.
+// (the driver reported every one found in the cache), "cache miss", "cache off",
+// or "reused in this process" when none was created and one was kept from earlier. A miss may still be fast: drivers
+// keep their own shader caches (Mesa's in ~/.cache/mesa_shader_cache*), which this one does not see.
 std::string pipeline_cache_outcome(const PipelineStats& s, bool cache_enabled);
 
 // The validation messenger's tally (vk::Context). While `expecting` is above 0, a call runs that may
@@ -100,6 +101,7 @@ public:
 
     // Accounting for Context::create_compute_pipeline.
     void record(double seconds, bool hit);
+    void record_reuse() { stats_.reused += 1; }
     void add_seconds(double seconds) { stats_.seconds += seconds; }
     const PipelineStats& stats() const { return stats_; }
 
