@@ -315,6 +315,13 @@ TEST_SUITE("gpu") {
         CHECK(predicted.find("sweep_lights,4,") != std::string::npos);
         fs::remove_all(pred);
 
+        // The first run's own command again is all cache: its plan renders nothing (--plan stops there).
+        {
+            REQUIRE(run_shell(cmd + " --plan > " + (out.string() + ".log") + " 2>&1") == 0);
+            const std::string plan_log = slurp(out.string() + ".log");
+            INFO(plan_log);
+            CHECK(plan_log.find(" cached, 0 to render)") != std::string::npos);
+        }
         // A rerun is all cache and gives identical tables (the timing tables are measurements). It leaves out
         // what only costs time: the equal-time renders (measurements, never cached: the tables compared leave
         // them out) and the figures.
