@@ -153,6 +153,8 @@ gpu_suite_sharded() {
     grep -h -E 'ERROR|FATAL' -A4 "$dir"/gpu-tests-*.log | head -60
     # The slowest cases (doctest -d prints each case's seconds before its name).
     grep -h -E '^[0-9]+\.[0-9]+ s: ' "$dir"/gpu-tests-*.log | sort -rn | head -12
+    # Where the solo case's time went: its study prints each phase, and the case passes them on as MESSAGEs.
+    grep -h 'MESSAGE' "$dir"/gpu-tests-solo.log | cut -c1-1500
     echo "gpu-check: the shards' whole logs:"
     cat "$dir"/gpu-tests-*.log
     return $rc
