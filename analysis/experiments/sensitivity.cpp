@@ -58,7 +58,7 @@ Point measure_level(StudyContext& ctx, const SensitivityLevel& lv, const std::ve
     Point pt;
     const DescriptorSummary sm = summarize(ref, dr);
     for (uint32_t b = 0; b < kBucketCount; ++b)
-        if (hs.mask[b]) pt.heavy_share += sm.energy_share[b];
+        if (hs.contains(b)) pt.heavy_share += sm.energy_share[b];
 
     std::vector<std::vector<double>> m;
     for (int s = 0; s < cfg.variance_seeds; ++s)
@@ -73,7 +73,7 @@ Point measure_level(StudyContext& ctx, const SensitivityLevel& lv, const std::ve
     }
     std::vector<uint8_t> heavy(fg.size(), 0);
     for (size_t p = 0; p < fg.size(); ++p) {
-        heavy[p] = fg[p] && dr.dominant[p] != stats::kNoLabel && hs.mask[dr.dominant[p]];
+        heavy[p] = fg[p] && dr.dominant[p] != stats::kNoLabel && hs.contains(dr.dominant[p]);
         pt.heavy_px += heavy[p];
     }
     std::vector<double> rhos, heavy_rhos;

@@ -84,15 +84,15 @@ HeavyClasses heavy_classes(const StudyConfig& cfg) {
     HeavyClasses h;
     std::vector<uint32_t> all(kBucketCount);
     for (uint32_t b = 0; b < kBucketCount; ++b) all[b] = b;
+    std::string names;
     for (const StudyClass& c : study_classes(cfg, all)) {
         if (!c.heavy || c.slot >= kBucketCount) continue;
         h.slots.push_back(c.slot);
-        h.mask[c.slot] = true;
-        if (cfg.taxonomy) h.names += (h.names.empty() ? "" : ", ") + c.name;
+        if (cfg.taxonomy) names += (names.empty() ? "" : ", ") + c.name;
     }
     if (!cfg.taxonomy) return h;
-    if (h.names.empty()) h.names = "none: the taxonomy declares no class [heavy]";
-    h.declared = "the classes of the taxonomy " + cfg.taxonomy->file + " declared [heavy] (" + h.names + ")";
+    if (names.empty()) names = "none: the taxonomy declares no class [heavy]";
+    h.declared = "the classes of the taxonomy " + cfg.taxonomy->file + " declared [heavy] (" + names + ")";
     return h;
 }
 

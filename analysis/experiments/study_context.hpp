@@ -9,6 +9,7 @@
 #include "report/figure.hpp"
 #include "report/table.hpp"
 
+#include <algorithm>
 #include <array>
 #include <functional>
 #include <string>
@@ -73,12 +74,11 @@ std::vector<StudyClass> study_classes(const StudyConfig& cfg, const std::vector<
 // each study goes on with what the classes mean for it.
 std::string taxonomy_labels_lead(const StudyConfig& cfg);
 // The heavy-tailed classes by slot: the buckets' (glossy, delta_mediated, specular_direct), or those a taxonomy
-// declares [heavy]; under a taxonomy also their names for a note ("none: ..." when it declares none).
+// declares [heavy]; under a taxonomy also the phrase naming them for a note ("none: ..." when it declares none).
 struct HeavyClasses {
     std::vector<uint32_t> slots;
-    std::vector<bool> mask = std::vector<bool>(kBucketCount, false);  // mask[slot]: the slot is one of `slots`
-    std::string names;
-    std::string declared;  // under a taxonomy, for a note: "the classes of the taxonomy FILE declared [heavy] (names)"
+    std::string declared;  // under a taxonomy: "the classes of the taxonomy FILE declared [heavy] (names)"
+    bool contains(uint32_t slot) const { return std::find(slots.begin(), slots.end(), slot) != slots.end(); }
 };
 HeavyClasses heavy_classes(const StudyConfig& cfg);
 

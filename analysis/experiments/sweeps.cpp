@@ -40,10 +40,7 @@ struct SweepClasses {
 
 SweepClasses sweep_classes(const StudyConfig& cfg) {
     if (cfg.taxonomy) return {heavy_classes(cfg), "[heavy]"};
-    HeavyClasses glossy;
-    glossy.slots = {gpu::BUCKET_GLOSSY};
-    glossy.mask[gpu::BUCKET_GLOSSY] = true;
-    return {std::move(glossy), "glossy"};
+    return {HeavyClasses{{gpu::BUCKET_GLOSSY}, ""}, "glossy"};
 }
 
 // The mean per-sample energy of the classes' slots summed (one slot: bucket_field's values themselves).
@@ -75,7 +72,7 @@ SweepLevel sweep_level(StudyContext& ctx, const SceneVariant& variant, const std
     Descriptor d = derive_descriptor(ref);
     std::vector<size_t> glossy;  // the pixels the classes dominate
     for (size_t p = 0; p < d.dominant.size(); ++p)
-        if (d.dominant[p] < kBucketCount && classes.heavy.mask[d.dominant[p]]) glossy.push_back(p);
+        if (d.dominant[p] < kBucketCount && classes.heavy.contains(d.dominant[p])) glossy.push_back(p);
     lv.glossy_px = glossy.size();
     const DescriptorSummary sm = summarize(ref, d);
     for (uint32_t slot : classes.heavy.slots) lv.glossy_share += sm.energy_share[slot];
