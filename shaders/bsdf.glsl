@@ -751,6 +751,19 @@ SHARED_FN BsdfSample roughdiffuse_sample(GpuMaterial m, vec3 albedo, vec3 wo, fl
     return bsdf_make_sample(wi, f, pdf, LOBE_G, 1.0);
 }
 
+// ---- blendbsdf (Mitsuba's `blendbsdf`) ----
+// Not a BSDF of its own: the path tracer resolves a blend to one of its components at each
+// hit, before any query (blend_resolve in pathtrace.comp), so the dispatch never reaches
+// these; a blend queried directly has no lobe and reflects nothing.
+
+SHARED_FN vec3 blendbsdf_eval_pdf(GpuMaterial m, vec3 albedo, vec3 wo, vec3 wi, OUT(float) pdf) {
+    return delta_only_eval_pdf(pdf);
+}
+
+SHARED_FN BsdfSample blendbsdf_sample(GpuMaterial m, vec3 albedo, vec3 wo, float u_lobe, vec2 u) {
+    return bsdf_sample_none();
+}
+
 // ---- dispatch ----
 
 // The lobe classes the material can sample (lobes.glsl, docs/descriptor.md §2).

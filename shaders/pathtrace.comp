@@ -234,6 +234,39 @@ void add_event(inout Tally t, vec3 contrib, uint n, uint end_lobe, bool delta_be
     }
 }
 
+// Mitsuba's blendbsdf (docs/descriptor.md §2): the material a hit sees is one of the
+// blend's components, the second with probability `weight` and the first otherwise; a
+// textured weight is the texture at uv (its luminance, which the loader stores in every
+// channel). NEE, MIS and the sampled bounce at the vertex all query that one component, so
+// each is unbiased for the blend, (1 - w) f1 + w f2, and the event's label follows the
+// component's lobes. Nested blends are resolved with the same uniform number, rescaled; a
+// weight of 0 or 1 draws none. A blend's twosided flag and its normal or bump map pass to a
+// component that has none of its own (the loader refuses two).
+GpuMaterial blend_resolve(GpuMaterial m, vec2 uv, inout Rng rng) {
+    float u = -1.0;
+    for (uint level = 0u; level < BLEND_MAX_DEPTH && m.header.x == MAT_BLEND; ++level) {
+        float w = m.reflectance.x;
+        uint t_weight = m.header.z & MAT_TEX_MASK;
+        if (FEATURE_TEXTURES && t_weight != 0u) w = texture_lookup(t_weight - 1u, uv).x;  // luminance in every channel
+        w = clamp(w, 0.0, 1.0);
+        bool second = w >= 1.0;
+        if (w > 0.0 && w < 1.0) {
+            if (u < 0.0) u = rng_next(rng);
+            second = u < w;
+            u = second ? u / w : (u - w) / (1.0 - w);
+        }
+        GpuMaterial c = material_at(second ? m.header.w >> 16 : m.header.w & 0xFFFFu);
+        c.header.y |= m.header.y & 1u;
+        if (FEATURE_TEXTURES && c.frame_tex.x == 0u) {
+            c.frame_tex.x = m.frame_tex.x;
+            c.frame_tex.y = m.frame_tex.y;
+            c.frame_tex.w = m.frame_tex.w;
+        }
+        m = c;
+    }
+    return m;
+}
+
 // The shading normal a normal map gives at s (GpuMaterial::frame_tex): the map's
 // tangent-space normal n (texel x 2 - 1, x and y times the scale) in the frame
 // t = dp/du made orthogonal to the shading normal ns, b = ns x t, ns (Mitsuba's
@@ -367,6 +400,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, vec2 t_range, inout Tally tally)
         if (k >= max_depth) PATH_BREAK;  // no segment left for NEE or a bounce
 
         GpuMaterial m = material_at(s.material);
+        if (FEATURE_BLEND) m = blend_resolve(m, s.uv, rng);
         if (FEATURE_TEXTURES && m.frame_tex.x != 0u) {
             uint normal_slot = m.frame_tex.x & MAT_TEX_MASK;
             float scale = uintBitsToFloat(m.frame_tex.y);

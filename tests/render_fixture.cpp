@@ -2,9 +2,26 @@
 
 #include "render/session.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace vkmech::testing {
+
+std::vector<double> pixel_values(const Frame& f) {
+    std::vector<double> v;
+    for (const PixelStats& p : f.pixels) {
+        v.insert(v.end(), p.rgb_sum.begin(), p.rgb_sum.end());
+        v.insert(v.end(), p.bucket_sum.begin(), p.bucket_sum.end());
+    }
+    return v;
+}
+
+double max_relative_difference(const std::vector<double>& a, const std::vector<double>& b) {
+    double worst = 0.0;
+    for (size_t i = 0; i < a.size() && i < b.size(); ++i)
+        worst = std::max(worst, std::abs(a[i] - b[i]) / (std::abs(b[i]) + 1e-3));
+    return worst;
+}
 
 Frame render_scene(vk::Context& ctx, const std::string& path, const RenderSetup& setup) {
     return render_scene(ctx, load_scene(path, setup.load), setup);

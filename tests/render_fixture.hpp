@@ -30,6 +30,11 @@ struct RenderSetup {
     bool bvh_arrays = false;
 };
 
+// Per pixel its RGB sum and its seven buckets' energies, in pixel order.
+std::vector<double> pixel_values(const Frame& f);
+// The largest |a_i - b_i| / (|b_i| + 1e-3) (a and b of one size).
+double max_relative_difference(const std::vector<double>& a, const std::vector<double>& b);
+
 Frame render_scene(vk::Context& ctx, const std::string& path, const RenderSetup& setup);
 // The same for a scene already loaded (and perhaps changed by the test).
 Frame render_scene(vk::Context& ctx, Scene scene, const RenderSetup& setup);

@@ -60,4 +60,21 @@ std::vector<glm::vec3> graded_triangles(uint32_t max_count, float ratio, float z
     return pos;
 }
 
+std::string sphere_on_floor_xml(const std::string& bsdf) {
+    return R"(<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="6"/></integrator>
+  <sensor type="perspective"><float name="fov" value="40"/>
+    <transform name="to_world"><lookat origin="0, -4, 1.5" target="0, 0, 0.5" up="0, 0, 1"/></transform>
+    <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="24"/></film></sensor>
+  <shape type="rectangle"><transform name="to_world"><scale value="4"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.5, 0.4"/></bsdf></shape>
+  <shape type="sphere"><point name="center" value="0, 0, 0.8"/><float name="radius" value="0.8"/>
+    )" + bsdf +
+           R"(</shape>
+  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="180"/><translate value="0, 0, 4"/></transform>
+    <emitter type="area"><rgb name="radiance" value="8"/></emitter></shape>
+</scene>
+)";
+}
+
 }  // namespace vkmech::testing

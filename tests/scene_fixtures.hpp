@@ -19,6 +19,10 @@ Scene quad_scene();
 void add_square_lamp(Scene& s, const std::string& name, float x, float z, bool faces_minus_z, float radiance,
                      uint32_t material);
 
+// Mitsuba XML: a sphere of material `bsdf` (a whole <bsdf> element) on a diffuse floor under a
+// rectangle lamp, 24 x 24 pixels, max_depth 6.
+std::string sphere_on_floor_xml(const std::string& bsdf);
+
 // Triangles whose sizes and positions shrink geometrically towards the
 // origin (a fractal, or a scene mixing kilometres and millimetres): triangle
 // i has scale s = ratio^i and vertices c + s (0,0,0), c + s (0.1,0,0),

@@ -221,7 +221,8 @@ TEST_CASE("mitsuba third-party: roughdiffuse loads as Oren-Nayar, without --subs
           }) == 1);
 }
 
-TEST_CASE("mitsuba third-party: --substitute maps point lights, phong and blendbsdf to the model") {
+TEST_CASE(
+    "mitsuba third-party: --substitute maps point lights, phong and mixturebsdf to the model - blendbsdf needs none") {
     std::string path = write_scene("outside", R"(
   <emitter type="point"><point name="position" x="0" y="2" z="0"/><rgb name="intensity" value="10"/></emitter>
   <shape type="cube"><bsdf type="phong"><float name="exponent" value="48"/></bsdf></shape>
@@ -237,8 +238,11 @@ TEST_CASE("mitsuba third-party: --substitute maps point lights, phong and blendb
     const Material& phong = s.materials[s.meshes[0].material];
     CHECK(phong.type == BsdfType::RoughPlastic);
     CHECK(phong.alpha_u == doctest::Approx(0.2f));
-    // blendbsdf with weight 0.8 keeps its second component.
-    CHECK(s.materials[s.meshes[1].material].type == BsdfType::RoughConductor);
+    // blendbsdf is rendered as it is (tests/test_blend.cpp), substituted or not.
+    const Material& blend = s.materials[s.meshes[1].material];
+    CHECK(blend.type == BsdfType::Blend);
+    CHECK(blend.blend_weight == doctest::Approx(0.8f));
+    CHECK(s.materials[blend.blend_second].type == BsdfType::RoughConductor);
     // The point light: a sphere emitter of the same power, 4 pi I = 4 pi r^2 * pi L.
     REQUIRE(s.emitters.size() == 1);
     const Mesh& bulb = s.meshes[s.emitters[0].mesh];
@@ -248,7 +252,7 @@ TEST_CASE("mitsuba third-party: --substitute maps point lights, phong and blendb
     CHECK(s.emitters[0].radiance.x == doctest::Approx(10.0 / (M_PI * r * r)).epsilon(1e-4));
     // mixturebsdf keeps its heaviest component.
     CHECK(s.materials[s.meshes[2].material].type == BsdfType::Conductor);
-    CHECK(s.substitutions.size() == 4);
+    CHECK(s.substitutions.size() == 3);
 
     // A directional light is an emitter at infinity (docs/descriptor.md §1), with or without --substitute.
     std::string sun = write_scene("sun", R"(

@@ -5,6 +5,7 @@
 // and lobe flags come from the same rows.
 #include "gpu_fixture.hpp"
 #include "render_fixture.hpp"
+#include "scene_fixtures.hpp"
 #include "temp_dir.hpp"
 
 #include "bsdf.glsl"
@@ -25,30 +26,7 @@ namespace {
 // One sphere of the material `plugin` (its Mitsuba defaults; `body` adds
 // parameters) on a diffuse floor under a rectangle lamp.
 std::string one_material_scene(const std::string& plugin, const std::string& body) {
-    return R"(<scene version="3.0.0">
-  <integrator type="path"><integer name="max_depth" value="6"/></integrator>
-  <sensor type="perspective"><float name="fov" value="40"/>
-    <transform name="to_world"><lookat origin="0, -4, 1.5" target="0, 0, 0.5" up="0, 0, 1"/></transform>
-    <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="24"/></film></sensor>
-  <shape type="rectangle"><transform name="to_world"><scale value="4"/></transform>
-    <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.5, 0.4"/></bsdf></shape>
-  <shape type="sphere"><point name="center" value="0, 0, 0.8"/><float name="radius" value="0.8"/>
-    <bsdf type=")" +
-           plugin + R"(">)" + body + R"(</bsdf></shape>
-  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="180"/><translate value="0, 0, 4"/></transform>
-    <emitter type="area"><rgb name="radiance" value="8"/></emitter></shape>
-</scene>
-)";
-}
-
-// Per pixel its RGB sum and its seven buckets' energies.
-std::vector<double> pixel_values(const Frame& f) {
-    std::vector<double> v;
-    for (const PixelStats& p : f.pixels) {
-        v.insert(v.end(), p.rgb_sum.begin(), p.rgb_sum.end());
-        v.insert(v.end(), p.bucket_sum.begin(), p.bucket_sum.end());
-    }
-    return v;
+    return testing::sphere_on_floor_xml("<bsdf type=\"" + plugin + "\">" + body + "</bsdf>");
 }
 
 double luminance_sum(const Frame& f) {
@@ -69,7 +47,8 @@ TEST_CASE("material table: the rows have distinct codes and plugin names, and th
         CHECK(names.insert(name).second);
         REQUIRE(bsdf_type_of(name).has_value());
         CHECK(*bsdf_type_of(name) == type);
-        CHECK(gpu::material_lobes(t) != 0u);
+        // blendbsdf has no lobes of its own: a hit resolves it to a component first.
+        CHECK((gpu::material_lobes(t) != 0u) == (type != BsdfType::Blend));
         CHECK((gpu::material_features(t) & ~gpu::FEATURE_BITS_ALL) == 0u);
     }
     CHECK_FALSE(bsdf_type_of("phong").has_value());
@@ -86,7 +65,15 @@ TEST_SUITE("gpu") {
             std::string plugin, body;
         };
         std::vector<Case> cases;
-        for (uint32_t t = 0; t < gpu::MAT_COUNT; ++t) cases.push_back({to_string(static_cast<BsdfType>(t)), ""});
+        for (uint32_t t = 0; t < gpu::MAT_COUNT; ++t) {
+            const BsdfType type = static_cast<BsdfType>(t);
+            // A blend needs its two components (here two families, so that its pipeline needs
+            // their features and its own).
+            cases.push_back({to_string(type), type != BsdfType::Blend
+                                                  ? ""
+                                                  : R"(<float name="weight" value="0.3"/>)"
+                                                    R"(<bsdf type="diffuse"/><bsdf type="roughconductor"/>)"});
+        }
         // FEATURE_TEXTURES: a textured reflectance.
         cases.push_back({"diffuse",
                          R"(<texture type="checkerboard" name="reflectance"><rgb name="color0" value="0.1"/>)"
@@ -98,8 +85,12 @@ TEST_SUITE("gpu") {
             std::ofstream(path) << one_material_scene(c.plugin, c.body);
             const Scene scene = load_scene(path);
             const Features spec = Features::from_scene(scene);
-            // The sphere's model alone decides the material features (the floor is diffuse).
-            CHECK(spec.materials == gpu::material_features(static_cast<uint32_t>(scene.materials.at(1).type)));
+            // The sphere's model alone decides the material features (the floor is diffuse; a
+            // blend's components come before it).
+            uint32_t sphere = 0u;
+            for (size_t i = 1; i < scene.materials.size(); ++i)
+                sphere |= gpu::material_features(static_cast<uint32_t>(scene.materials[i].type));
+            CHECK(spec.materials == sphere);
             testing::RenderSetup setup;
             setup.res = 24;
             setup.spp = 8;
@@ -107,15 +98,12 @@ TEST_SUITE("gpu") {
             const Frame a = testing::render_scene(*ctx, scene, setup);
             setup.generic = true;
             const Frame b = testing::render_scene(*ctx, scene, setup);
-            const std::vector<double> va = pixel_values(a), vb = pixel_values(b);
+            const std::vector<double> va = testing::pixel_values(a), vb = testing::pixel_values(b);
             REQUIRE(va.size() == vb.size());
             const double total = luminance_sum(b);
             REQUIRE(total > 0.0);
             CHECK(std::abs(luminance_sum(a) - total) <= 1e-5 * total);
-            double worst = 0.0;
-            for (size_t i = 0; i < va.size(); ++i)
-                worst = std::max(worst, std::abs(va[i] - vb[i]) / (std::abs(vb[i]) + 1e-3));
-            CHECK(worst <= 1e-4);
+            CHECK(testing::max_relative_difference(va, vb) <= 1e-4);
         }
     }
 }

@@ -660,7 +660,7 @@ const Fault kFaults[] = {
     {"unbound_param.xml", "unbound_param.xml", 8, "unbound parameter '$roughness'"},
     {"unsupported_emitter.xml", "unsupported_emitter.xml", 6, "unsupported emitter plugin 'sunsky'"},
     {"point_light.xml", "point_light.xml", 6, "unsupported emitter plugin 'point'"},
-    {"unsupported_bsdf.xml", "unsupported_bsdf.xml", 7, "unsupported bsdf plugin 'blendbsdf'"},
+    {"unsupported_bsdf.xml", "unsupported_bsdf.xml", 7, "unsupported bsdf plugin 'measured_polarized'"},
     {"unsupported_shape.xml", "unsupported_shape.xml", 6, "unsupported shape plugin 'bsplinecurve'"},
     {"unsupported_sensor.xml", "unsupported_sensor.xml", 3, "unsupported sensor plugin 'radiancemeter'"},
     {"unknown_conductor.xml", "unknown_conductor.xml", 7, "unknown conductor material 'Unobtainium'"},

@@ -134,7 +134,7 @@ TEST_CASE("separation: family rule by BSDF lobe flags for every material type") 
         {BsdfType::RoughConductor, SeparationFamily::Glossy},  {BsdfType::Dielectric, SeparationFamily::Delta},
         {BsdfType::RoughDielectric, SeparationFamily::Glossy}, {BsdfType::ThinDielectric, SeparationFamily::Delta},
         {BsdfType::Principled, SeparationFamily::Glossy},      {BsdfType::RoughDiffuse, SeparationFamily::Glossy}};
-    CHECK(std::size(rows) == gpu::MAT_COUNT);  // a new BsdfType needs a row
+    CHECK(std::size(rows) + 1 == gpu::MAT_COUNT);  // a new BsdfType needs a row (Blend: below)
     for (const Row& r : rows)
         for (bool twosided : {false, true}) {
             CAPTURE(to_string(r.type));
@@ -143,6 +143,25 @@ TEST_CASE("separation: family rule by BSDF lobe flags for every material type") 
             scene.materials[1].twosided = twosided;
             CHECK(separation_family(scene, 1) == r.family);
         }
+    // A blend is of the family its components' flags together make: a diffuse and a mirror
+    // component delta-S, a mirror and a rough metal glossy.
+    {
+        Scene b = scene;
+        const int first = static_cast<int>(b.materials.size());
+        for (BsdfType t : {BsdfType::Diffuse, BsdfType::Conductor, BsdfType::RoughConductor}) {
+            Material c;
+            c.type = t;
+            b.materials.push_back(c);
+        }
+        b.materials[1] = Material{};
+        b.materials[1].type = BsdfType::Blend;
+        for (auto [second, family] :
+             {std::pair{first + 1, SeparationFamily::Delta}, std::pair{first + 2, SeparationFamily::Glossy}}) {
+            b.materials[1].blend_first = second == first + 1 ? first : first + 1;
+            b.materials[1].blend_second = second;
+            CHECK(separation_family(b, 1) == family);
+        }
+    }
     // Principled is glossy with or without its diffuse lobe (its specular
     // lobe is a microfacet lobe for every parameter value).
     scene.materials[1].type = BsdfType::Principled;

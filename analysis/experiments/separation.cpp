@@ -432,7 +432,7 @@ SeparationFamily separation_family(const Scene& scene, size_t mesh_index) {
     if (m.emitter >= 0 || m.material < 0 || static_cast<size_t>(m.material) >= scene.materials.size())
         return SeparationFamily::None;
     if (!(mesh_area(m) > 0.0)) return SeparationFamily::None;
-    return separation_family_of(scene.materials[m.material].lobe_flags());
+    return separation_family_of(scene.lobe_flags(m.material));  // a blend: its components' flags
 }
 
 SeparationFamily separation_family_of(uint32_t lobe_flags) {

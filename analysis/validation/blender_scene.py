@@ -3,7 +3,7 @@ with Cycles to a linear float OpenEXR (R, G, B).
 
   blender -b --factory-startup --python analysis/validation/blender_scene.py -- \
       SCENE.xml OUT.exr SPP RES [--bounces B] [--seed S] [--threads N]
-      [--mutate roughness-linear|two-sided-light|env-no-rotation|env-mirror-u|env-turn-180|instance-order|no-shear]
+      [--mutate roughness-linear|two-sided-light|env-no-rotation|env-mirror-u|env-turn-180|instance-order|no-shear|blend-reversed]
       [--png PREVIEW.png]
 
 A glTF scene (SCENE.gltf or .glb) is imported with Blender's own glTF
@@ -31,8 +31,9 @@ Only the subset of Mitsuba XML that make_scenes.py writes is understood
   obj shapes (v, vt, vn, triangles; optional to_world), rectangle, cube
   and sphere shapes (to_world of translate / rotate / scale; sphere center
   and radius), shapegroups and instances (below), bsdfs diffuse
-  (rgb or bitmap reflectance), twosided, dielectric, conductor and
-  roughconductor (material none, ggx), area emitters (rgb radiance), one
+  (rgb or bitmap reflectance), twosided, dielectric, conductor,
+  roughconductor (material none, ggx) and blendbsdf (constant or bitmap
+  weight, nested bsdfs written inline), area emitters (rgb radiance), one
   envmap emitter (filename, scale, to_world of rotations) and directional
   emitters (direction, rgb irradiance).
 
@@ -42,6 +43,9 @@ Mapping (Mitsuba -> Cycles 3.4):
   conductor none     -> Glossy BSDF, Sharp, colour specular_reflectance
   roughconductor ggx -> Glossy BSDF, GGX, roughness sqrt(alpha)
                         (Cycles svm closure: alpha = roughness^2)
+  blendbsdf          -> Mix Shader (Fac = weight: 0 the first nested bsdf,
+                        1 the second); a bitmap weight through RGB to BW
+                        (luminance), Non-Color where the bitmap is raw
   rectangle / cube   -> the same quad [-1,1]^2 (normal +z) / box [-1,1]^3
                         as a mesh, transformed by to_world
   sphere             -> UV sphere mesh, 128 segments x 64 rings, smooth
@@ -361,14 +365,58 @@ class Materials:
         return m, nt, out
 
     def bsdf(self, node):
+        m, nt, out = self.new(node.attrib["type"])
+        nt.links.new(self.shader(nt, node), out.inputs["Surface"])
+        return m
+
+    def image_node(self, nt, tp, colorspace):
+        """A bitmap texture's Image Texture node (uv map UVMap, REPEAT)."""
+        img = bpy.data.images.load(os.path.join(self.base, tp["filename"].attrib["value"]))
+        img.colorspace_settings.name = colorspace
+        tex = nt.nodes.new("ShaderNodeTexImage")
+        tex.image = img
+        ft = tp["filter_type"].attrib["value"] if "filter_type" in tp else "bilinear"
+        tex.interpolation = "Closest" if ft == "nearest" else "Linear"
+        tex.extension = "REPEAT"
+        uvn = nt.nodes.new("ShaderNodeUVMap")
+        uvn.uv_map = "UVMap"
+        nt.links.new(uvn.outputs["UV"], tex.inputs["Vector"])
+        return tex
+
+    def shader(self, nt, node):
+        """The shader output socket of a Mitsuba bsdf, built in node tree nt."""
         t = node.attrib["type"]
         if t == "twosided":
             inner = [c for c in node if c.tag == "bsdf"]
             if len(inner) != 1:
                 die("twosided needs one nested bsdf")
-            return self.bsdf(inner[0])  # Cycles BSDFs are two-sided already
+            return self.shader(nt, inner[0])  # Cycles BSDFs are two-sided already
         p = props(node)
-        m, nt, out = self.new(t)
+        if t == "blendbsdf":
+            # Mix Shader: Fac 0 = the first input (Mitsuba's first nested bsdf), 1 = the second;
+            # a textured weight is the texture's luminance (RGB to BW: Rec. 709 weights).
+            inner = [c for c in node if c.tag == "bsdf"]
+            if len(inner) != 2:
+                die("blendbsdf needs two nested bsdfs")
+            mix = nt.nodes.new("ShaderNodeMixShader")
+            w = p.get("weight")
+            if w is None:
+                mix.inputs["Fac"].default_value = 0.5
+            elif w.tag == "texture":
+                tp = props(w)
+                if w.attrib["type"] != "bitmap":
+                    die("only bitmap textures")
+                raw = "raw" in tp and tp["raw"].attrib["value"] == "true"
+                tex = self.image_node(nt, tp, "Non-Color" if raw else "sRGB")
+                bw = nt.nodes.new("ShaderNodeRGBToBW")
+                nt.links.new(tex.outputs["Color"], bw.inputs["Color"])
+                nt.links.new(bw.outputs["Val"], mix.inputs["Fac"])
+            else:
+                mix.inputs["Fac"].default_value = float(w.attrib["value"])
+            a, b = (1, 2) if MUTATE != "blend-reversed" else (2, 1)  # the weight read as the first's share
+            nt.links.new(self.shader(nt, inner[0]), mix.inputs[a])
+            nt.links.new(self.shader(nt, inner[1]), mix.inputs[b])
+            return mix.outputs["Shader"]
         if t == "diffuse":
             sh = nt.nodes.new("ShaderNodeBsdfDiffuse")
             sh.inputs["Roughness"].default_value = 0.0
@@ -376,19 +424,9 @@ class Materials:
             if r is None:
                 sh.inputs["Color"].default_value = (0.5, 0.5, 0.5, 1)
             elif r.tag == "texture":
-                tp = props(r)
                 if r.attrib["type"] != "bitmap":
                     die("only bitmap textures")
-                img = bpy.data.images.load(os.path.join(self.base, tp["filename"].attrib["value"]))
-                img.colorspace_settings.name = "sRGB"  # Mitsuba bitmap raw=false: sRGB-decoded
-                tex = nt.nodes.new("ShaderNodeTexImage")
-                tex.image = img
-                ft = tp["filter_type"].attrib["value"] if "filter_type" in tp else "bilinear"
-                tex.interpolation = "Closest" if ft == "nearest" else "Linear"
-                tex.extension = "REPEAT"
-                uvn = nt.nodes.new("ShaderNodeUVMap")
-                uvn.uv_map = "UVMap"
-                nt.links.new(uvn.outputs["UV"], tex.inputs["Vector"])
+                tex = self.image_node(nt, props(r), "sRGB")  # Mitsuba bitmap raw=false: sRGB-decoded
                 nt.links.new(tex.outputs["Color"], sh.inputs["Color"])
             else:
                 sh.inputs["Color"].default_value = rgb(r)
@@ -414,8 +452,7 @@ class Materials:
             sh.inputs["Color"].default_value = rgb(p["specular_reflectance"])
         else:
             die("unsupported bsdf " + t)
-        nt.links.new(sh.outputs["BSDF"], out.inputs["Surface"])
-        return m
+        return sh.outputs["BSDF"]
 
     def emitter(self, radiance):
         """One-sided emission (front = side of the geometric normal), black
@@ -615,7 +652,7 @@ def main():
     global MUTATE
     MUTATE = opts.get("--mutate")
     if MUTATE not in (None, "roughness-linear", "two-sided-light", "env-no-rotation", "env-mirror-u", "env-turn-180",
-                      "instance-order", "no-shear"):
+                      "instance-order", "no-shear", "blend-reversed"):
         die("unknown --mutate " + MUTATE)
 
     for ob in list(bpy.data.objects):

@@ -32,6 +32,7 @@ TOL = 0.02
 # The mirror sphere's region leaves out 3.5 px around the sun's reflection
 # (58.5, 57.7): those few pixels of radiance ~400 would dominate its noise.
 ROI = {"val_glass": [("sphere", 81.4, 93.9, 17.0)], "val_metal": [("sphere", 81.4, 93.9, 17.0)],
+       "val_blend": [("sphere", 81.4, 93.9, 17.0)],
        "val_envmap": [("mirror sphere", 64.0, 62.4, 14.0, (58.5, 57.7, 3.5)), ("gold sphere", 108.1, 74.4, 11.0)]}
 
 

@@ -358,6 +358,40 @@ SCENES = {
         </bsdf>
     </shape>
 """ + TALL + SHORT),
+    "val_blend": ("The box with Mitsuba's blendbsdf: the floor a blend of the white diffuse and a rough "
+                  "Fresnel-free gold metal (GGX alpha 0.3) weighted by a raw 8-bit bitmap (8 stripes along u, "
+                  "weights 38/255 and 217/255, bilinear), the sphere a constant blend (weight 0.35) of a red "
+                  "diffuse and a rough Fresnel-free metal (GGX alpha 0.1), and the tall block.",
+                  """    <shape type="obj">
+        <string name="filename" value="meshes/floor_uv.obj"/>
+        <bsdf type="blendbsdf">
+            <texture type="bitmap" name="weight">
+                <string name="filename" value="textures/blend_weight.png"/>
+                <boolean name="raw" value="true"/>
+            </texture>
+            <bsdf type="diffuse"><rgb name="reflectance" value="0.73, 0.73, 0.70"/></bsdf>
+            <bsdf type="roughconductor">
+                <string name="material" value="none"/>
+                <string name="distribution" value="ggx"/>
+                <float name="alpha" value="0.3"/>
+                <rgb name="specular_reflectance" value="0.9, 0.7, 0.4"/>
+            </bsdf>
+        </bsdf>
+    </shape>
+    <shape type="obj">
+        <string name="filename" value="meshes/sphere.obj"/>
+        <bsdf type="blendbsdf">
+            <float name="weight" value="0.35"/>
+            <bsdf type="diffuse"><rgb name="reflectance" value="0.63, 0.065, 0.05"/></bsdf>
+            <bsdf type="roughconductor">
+                <string name="material" value="none"/>
+                <string name="distribution" value="ggx"/>
+                <float name="alpha" value="0.1"/>
+                <rgb name="specular_reflectance" value="0.9, 0.9, 0.9"/>
+            </bsdf>
+        </bsdf>
+    </shape>
+""" + TALL),
 }
 
 
@@ -807,6 +841,9 @@ def main():
     box("short_block", 0.4, -0.25, 0.0, 0.55, 0.55, 0.55, -17)
     sphere("sphere", (0.35, -0.3, 0.4), 0.4)
     checker_png(os.path.join(OUT, "textures", "checker.png"))
+    # val_blend's floor weight: 8 stripes along u, 38 and 217 (read raw: 0.149 and 0.851)
+    write_png(os.path.join(OUT, "textures", "blend_weight.png"), 64, 8,
+              lambda x, y: (38, 38, 38) if (x // 8) % 2 == 0 else (217, 217, 217))
     # val_envmap (outdoors, z up): an 8 m x 8 m floor and three objects
     quad("env_floor", (-4, -4, 0), (4, -4, 0), (4, 4, 0), (-4, 4, 0))
     box("env_block", -1.3, -0.2, 0.0, 0.7, 0.7, 0.9, 25)

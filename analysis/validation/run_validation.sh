@@ -19,7 +19,7 @@ RES=${RES:-128}
 OUT=${OUT:-out/validation}
 PY=/usr/bin/python3
 SCENES=("$@")
-[ ${#SCENES[@]} -gt 0 ] || SCENES=(val_diffuse val_glass val_metal val_texture val_envmap val_instances)
+[ ${#SCENES[@]} -gt 0 ] || SCENES=(val_diffuse val_glass val_metal val_texture val_envmap val_instances val_blend)
 D=analysis/validation/scenes
 
 $PY analysis/validation/make_scenes.py   # deterministic: rewrites the committed files identically

@@ -33,3 +33,4 @@ run env_mirror_u val_envmap --mutate env-mirror-u          # the map mirrored le
 run env_turn_180 val_envmap --mutate env-turn-180          # the map turned 180 deg about world z
 run inst_order val_instances --mutate instance-order   # to_world(shape) @ to_world(instance): the composition reversed
 run inst_no_shear val_instances --mutate no-shear     # matrix_world assigned as it is: Blender drops the sheared instances' shear
+run blend_reversed val_blend --mutate blend-reversed   # blendbsdf's weight read as the first component's share

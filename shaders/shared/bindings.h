@@ -37,7 +37,7 @@ VKM_ID BINDING_INSTANCES = 19u;    // the GPU kernel's software BVH: the instanc
 VKM_ID BINDING_TAXONOMY = 20u;     // pathtrace.comp: a user taxonomy's DFA (shared/types.h TAX_*), when SPEC_TAXONOMY
 
 // Specialization-constant ids (layout(constant_id = ...)).
-// 1..5 and 12 on: the material features, SPEC_<NAME> of shared/materials.h.
+// 1..5, 12 and 19: the material features, SPEC_<NAME> of shared/materials.h.
 VKM_ID SPEC_THIN_LENS = 0u;             // camera.glsl
 VKM_ID SPEC_TEXTURES = 6u;              // features.glsl, 6..7
 VKM_ID SPEC_CAPTURE = 7u;

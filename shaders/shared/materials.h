@@ -23,7 +23,8 @@
     X(PLASTIC, plastic, 2u, 3u)               \
     X(PRINCIPLED, principled, 3u, 4u)         \
     X(CONDUCTOR, conductor, 4u, 5u)           \
-    X(ROUGHDIFFUSE, roughdiffuse, 5u, 12u)
+    X(ROUGHDIFFUSE, roughdiffuse, 5u, 12u)    \
+    X(BLEND, blend, 6u, 19u)
 
 // Material properties (the `flags` column below).
 // MATF_ALBEDO: the model's colour is GpuMaterial.reflectance, which may be a
@@ -41,7 +42,9 @@
 //   name      the Mitsuba plugin name, and the prefix of the model's functions in
 //             bsdf.glsl: <name>_eval_pdf(m, albedo, wo, wi, pdf), <name>_sample(m, albedo, wo, u_lobe, u);
 //   features  FEATURE_BIT_* the model needs compiled in (0: always);
-//   lobes     LOBE_BIT_D/G/S it can sample (docs/descriptor.md §2);
+//   lobes     LOBE_BIT_D/G/S it can sample (docs/descriptor.md §2); 0 for blendbsdf, which is
+//             no BSDF of its own: each hit resolves it to one of its components (blend_resolve
+//             in shaders/pathtrace.comp), whose lobes it then has;
 //   flags     VKM_MATF_* above.
 #define VKM_MATERIALS(X)                                                                                            \
     X(0u, DIFFUSE, Diffuse, diffuse, 0u, LOBE_BIT_D, VKM_MATF_ALBEDO)                                               \
@@ -57,7 +60,8 @@
     X(7u, THINDIELECTRIC, ThinDielectric, thindielectric, FEATURE_BIT_DIELECTRIC, LOBE_BIT_S, VKM_MATF_TRANSMISSIVE) \
     X(8u, PRINCIPLED, Principled, principled, FEATURE_BIT_PRINCIPLED, LOBE_BIT_G | LOBE_BIT_D,                      \
       VKM_MATF_ALBEDO | VKM_MATF_TRANSMISSIVE)                                                                     \
-    X(9u, ROUGHDIFFUSE, RoughDiffuse, roughdiffuse, FEATURE_BIT_ROUGHDIFFUSE, LOBE_BIT_G, VKM_MATF_ALBEDO)
+    X(9u, ROUGHDIFFUSE, RoughDiffuse, roughdiffuse, FEATURE_BIT_ROUGHDIFFUSE, LOBE_BIT_G, VKM_MATF_ALBEDO)          \
+    X(10u, BLEND, Blend, blendbsdf, FEATURE_BIT_BLEND, 0u, 0u)
 
 #ifdef __cplusplus
 namespace vkmech::gpu {

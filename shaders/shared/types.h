@@ -109,6 +109,11 @@ VKM_CONST MAT_EMISSION_TEX_MASK = 0x7FFFu;
 // factors multiplied in: G the roughness, B the metallic, replacing model0.y
 // and model0.x at each hit. Models that read header.w as their distribution
 // never have one.
+// blendbsdf (MAT_BLEND) only: header.w holds its components' material indices (the
+// first's in the low 16 bits, the second's in the high: TRI_MATERIAL_MASK bounds both),
+// header.z's low slot the weight's texture (its luminance at the hit), reflectance.x the
+// constant weight, the probability of the second component.
+VKM_CONST BLEND_MAX_DEPTH = 8u;  // blends nested in blends, at most (the loader refuses more)
 
 // Texture table (3 uvec4 per texture): [0] first texel, width, height, kind
 // | nearest << 8; [1], [2]: rows 0 and 1 of the 2D affine uv transform

@@ -15,10 +15,10 @@ namespace vkmech {
 
 namespace {
 
-// docs/descriptor.md §2's lobe classes a material can sample (Material::lobe_flags,
-// the renderer's table): D diffuse, G glossy, S delta.
-std::string lobe_classes(const Material& m) {
-    uint32_t f = m.lobe_flags();
+// docs/descriptor.md §2's lobe classes a material can sample (Scene::lobe_flags, the
+// renderer's table; a blend's are its components'): D diffuse, G glossy, S delta.
+std::string lobe_classes(const Scene& scene, int index) {
+    uint32_t f = scene.lobe_flags(index);
     std::string s;
     for (auto [bit, name] :
          {std::pair{gpu::LOBE_BIT_D, "D"}, std::pair{gpu::LOBE_BIT_G, "G"}, std::pair{gpu::LOBE_BIT_S, "S"}})
@@ -48,15 +48,31 @@ int cmd_check(const CommonOptions& o) {
     std::printf("bounds: (%g, %g, %g) .. (%g, %g, %g)\n", arrays.bbox_lo.x, arrays.bbox_lo.y, arrays.bbox_lo.z,
                 arrays.bbox_hi.x, arrays.bbox_hi.y, arrays.bbox_hi.z);
     std::printf("materials: %zu\n", scene.materials.size());
-    for (const auto& m : scene.materials) {
+    for (size_t i = 0; i < scene.materials.size(); ++i) {
+        const Material& m = scene.materials[i];
         int users = 0;
-        for (const auto& mesh : scene.meshes) users += &scene.materials[mesh.material] == &m;
+        for (const auto& mesh : scene.meshes) users += mesh.material == static_cast<int>(i);
         std::string tex;
         m.for_each_named_texture([&](const char* slot, int t) {
             if (t >= 0) tex += std::string(" ") + slot + "=" + scene.textures[t].path;
         });
-        std::printf("  %-24s %-16s lobes %-4s %d shape%s%s%s\n", m.id.c_str(), to_string(m.type),
-                    lobe_classes(m).c_str(), users, users == 1 ? "" : "s", m.twosided ? ", twosided" : "", tex.c_str());
+        int in_blends = 0;
+        for (const Material& b : scene.materials)
+            in_blends += b.type == BsdfType::Blend &&
+                         (b.blend_first == static_cast<int>(i)) + (b.blend_second == static_cast<int>(i)) > 0;
+        std::string blend =
+            in_blends == 0 ? "" : ", in " + std::to_string(in_blends) + " blend" + (in_blends == 1 ? "" : "s");
+        if (m.type == BsdfType::Blend) {
+            const std::string& first = scene.materials.at(static_cast<size_t>(m.blend_first)).id;
+            const std::string& second = scene.materials.at(static_cast<size_t>(m.blend_second)).id;
+            char w[32];
+            std::snprintf(w, sizeof w, "%g", m.blend_weight);
+            blend += ", " + first + " or " + second + " (weight " +
+                     (m.blend_weight_texture >= 0 ? std::string("textured") : std::string(w)) + ")";
+        }
+        std::printf("  %-24s %-16s lobes %-5s %d shape%s%s%s%s\n", m.id.c_str(), to_string(m.type),
+                    lobe_classes(scene, static_cast<int>(i)).c_str(), users, users == 1 ? "" : "s",
+                    m.twosided ? ", twosided" : "", blend.c_str(), tex.c_str());
     }
     // Normal maps and the frame they are read in (glTF TANGENT, else the uv derivatives).
     size_t mapped = 0, file_frame = 0, no_uv = 0;

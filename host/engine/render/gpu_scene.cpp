@@ -102,6 +102,15 @@ gpu::GpuMaterial pack_material(const Material& m, const std::vector<Texture>& te
                              m.normal_uv_handed ? 1u : 0u);
     // roughplastic: precomputed coat transmittance table in the unused fields.
     if (m.type == BsdfType::RoughPlastic) g = shader::roughplastic_prepare(g);
+    // blendbsdf: its components, its weight and the weight's texture (shared/types.h MAT_BLEND).
+    if (m.type == BsdfType::Blend) {
+        VKM_ASSERT(m.blend_first >= 0 && m.blend_second >= 0 && m.blend_first <= int(gpu::TRI_MATERIAL_MASK) &&
+                       m.blend_second <= int(gpu::TRI_MATERIAL_MASK),
+                   "blend '" + m.id + "' has no components, or ones past the material limit");
+        g.header.z = texture_slot(m.blend_weight_texture);
+        g.header.w = static_cast<uint32_t>(m.blend_first) | static_cast<uint32_t>(m.blend_second) << 16;
+        g.reflectance = glm::vec4(m.blend_weight, 0.0f, 0.0f, 0.0f);
+    }
     return g;
 }
 

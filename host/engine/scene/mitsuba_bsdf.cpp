@@ -308,10 +308,12 @@ int MitsubaLoader::bsdf(const XNode& n) {
         if (!map || (map->tag() != "texture" && map->tag() != "ref"))
             n.fail("bsdf 'normalmap' needs a texture property 'normalmap'");
         int tex = texture(*map);
-        m = scene_.materials[bsdf(nested_ignoring_textures(p, n))];
-        if (m.normal_texture >= 0 || m.bump_texture >= 0)
+        const int inner = bsdf(nested_ignoring_textures(p, n));
+        m = scene_.materials[inner];
+        if (shading_normal_mapped(inner))
             n.fail(
-                "bsdf 'normalmap' around a bsdf that already has a normal or bump map: vkmech applies one "
+                "bsdf 'normalmap' around a bsdf that already has a normal or bump map (a blendbsdf: in a component): "
+                "vkmech applies one "
                 "shading-normal texture per material");
         m.normal_texture = tex;
     } else if (type == "bumpmap") {
@@ -328,10 +330,12 @@ int MitsubaLoader::bsdf(const XNode& n) {
         const int tex = texture(*height);
         const float scale = p.get_float({"scale"}, 1.0f);
         if (!std::isfinite(scale)) p.find({"scale"})->fail("bsdf 'bumpmap': 'scale' must be a finite number");
-        m = scene_.materials[bsdf(nested_ignoring_textures(p, n))];
-        if (m.normal_texture >= 0 || m.bump_texture >= 0)
+        const int inner = bsdf(nested_ignoring_textures(p, n));
+        m = scene_.materials[inner];
+        if (shading_normal_mapped(inner))
             n.fail(
-                "bsdf 'bumpmap' around a bsdf that already has a normal or bump map: vkmech applies one "
+                "bsdf 'bumpmap' around a bsdf that already has a normal or bump map (a blendbsdf: in a component): "
+                "vkmech applies one "
                 "shading-normal texture per material");
         m.bump_texture = tex;
         m.bump_scale = scale;
@@ -354,26 +358,7 @@ int MitsubaLoader::bsdf(const XNode& n) {
                                     std::string(textured ? "opacity texture" : "opacity") + " is ignored)");
         }
     } else if (type == "blendbsdf") {
-        // The nearest model material: the component with the larger weight.
-        require_substitute(n, "bsdf", "its component of larger weight");
-        float w = 0.5f;
-        if (const XNode* wn = p.find({"weight"})) {
-            if (wn->tag() == "texture" || wn->tag() == "ref")
-                w = 0.5f;
-            else
-                w = wn->as_float();
-        }
-        std::vector<const XNode*> parts;
-        for (const XNode& o : p.objects()) {
-            if (o.tag() != "bsdf" && o.tag() != "ref") o.fail("unexpected <" + o.tag() + "> inside " + n.describe());
-            parts.push_back(&o);
-        }
-        if (parts.size() != 2) n.fail(n.describe() + " needs exactly two nested bsdfs");
-        int a = bsdf(*parts[0]), b = bsdf(*parts[1]);
-        record_substitution(n, "bsdf",
-                            std::string("its ") + (w > 0.5f ? "second" : "first") + " component (weight " +
-                                fmt_weight(w > 0.5f ? w : 1.0f - w) + ")");
-        m = scene_.materials[w > 0.5f ? b : a];
+        m = blend(p, n);
     } else if (type == "mixturebsdf") {
         // Mitsuba 0.6's weighted mixture: the component of largest weight.
         require_substitute(n, "bsdf", "its component of largest weight");
@@ -428,7 +413,7 @@ int MitsubaLoader::bsdf(const XNode& n) {
     } else {
         unsupported(n, "bsdf",
                     " (docs/descriptor.md §2: " + bsdf_plugin_names() +
-                        ", twosided, normalmap, bumpmap; with --substitute also mask, blendbsdf, "
+                        ", twosided, normalmap, bumpmap; with --substitute also mask, mixturebsdf, "
                         "phong)");
     }
     if (alpha_tex[0] >= 0) m.alpha_u_texture = alpha_tex[0];
@@ -441,6 +426,58 @@ int MitsubaLoader::bsdf(const XNode& n) {
     scene_.materials.push_back(m);
     register_id(n, IdKind::Bsdf, index);
     return index;
+}
+
+Material MitsubaLoader::blend(const XProps& p, const XNode& n) {
+    Material m;
+    m.type = BsdfType::Blend;
+    std::vector<int> parts;
+    for (const XNode& o : p.objects()) {
+        if (o.tag() != "bsdf" && o.tag() != "ref") o.fail("unexpected <" + o.tag() + "> inside " + n.describe());
+        parts.push_back(bsdf(o));
+    }
+    if (parts.size() != 2)
+        n.fail(n.describe() + " needs exactly two nested bsdfs (it has " + std::to_string(parts.size()) + ")");
+    m.blend_first = parts[0];
+    m.blend_second = parts[1];
+    if (const XNode* w = p.find({"weight"})) {
+        if (w->tag() == "texture" || w->tag() == "ref") {
+            // Mitsuba reads a float texture's luminance: a copy holds it in every channel,
+            // summed in double so that a white texel is exactly 1 (the second component, no draw).
+            Texture lum = scene_.textures[texture(*w)];
+            double sum = 0.0;
+            for (size_t i = 0; i + 2 < lum.rgb.size(); i += 3) {
+                const double l = double(gpu::LUM_R) * lum.rgb[i] + double(gpu::LUM_G) * lum.rgb[i + 1] +
+                                 double(gpu::LUM_B) * lum.rgb[i + 2];
+                lum.rgb[i] = lum.rgb[i + 1] = lum.rgb[i + 2] = static_cast<float>(l);
+                sum += l;
+            }
+            lum.path = "luminance of " + lum.path;
+            m.blend_weight = static_cast<float>(sum / std::max<double>(1.0, static_cast<double>(lum.rgb.size() / 3)));
+            scene_.textures.push_back(std::move(lum));
+            m.blend_weight_texture = static_cast<int>(scene_.textures.size()) - 1;
+        } else {
+            m.blend_weight = w->as_float();
+            if (!(m.blend_weight >= 0.0f && m.blend_weight <= 1.0f))
+                w->fail("bsdf 'blendbsdf': 'weight' must lie in [0, 1] (it is the second bsdf's share)");
+        }
+    }
+    if (1 + std::max(blend_depth(parts[0]), blend_depth(parts[1])) > static_cast<int>(gpu::BLEND_MAX_DEPTH))
+        n.fail(n.describe() + ": blends nested more than " + std::to_string(gpu::BLEND_MAX_DEPTH) +
+               " deep (vkmech resolves at most that many at a hit)");
+    return m;
+}
+
+int MitsubaLoader::blend_depth(int index) const {
+    const Material& m = scene_.materials.at(static_cast<size_t>(index));
+    if (m.type != BsdfType::Blend) return 0;
+    return 1 + std::max(blend_depth(m.blend_first), blend_depth(m.blend_second));
+}
+
+bool MitsubaLoader::shading_normal_mapped(int index) const {
+    const Material& m = scene_.materials.at(static_cast<size_t>(index));
+    if (m.normal_texture >= 0 || m.bump_texture >= 0) return true;
+    return m.type == BsdfType::Blend && (shading_normal_mapped(m.blend_first) || shading_normal_mapped(m.blend_second));
 }
 
 // The parameters of a model of the material table, by Mitsuba's names.
@@ -484,6 +521,8 @@ void MitsubaLoader::model_parameters(const XProps& p, const XNode& n, Material& 
             if (p.get_bool({"use_fast_approx", "useFastApprox"}, false))
                 warn(n, "use_fast_approx is ignored: the full Oren-Nayar model is rendered (Mitsuba's default)");
             return;
+        case BsdfType::Blend:
+            break;  // MitsubaLoader::blend; never parsed here
     }
     VKM_ASSERT(false, "BsdfType " + std::to_string(static_cast<uint32_t>(m.type)) + " has no parameter parsing");
 }

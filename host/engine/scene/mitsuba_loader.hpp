@@ -89,6 +89,12 @@ private:
     // The parameters of a model of the material table (m.type set): one case per BsdfType.
     void model_parameters(const XProps& p, const XNode& n, Material& m);
     void conductor_parameters(const XProps& p, const XNode& n, Material& m);
+    // Mitsuba's blendbsdf: a Blend material over its two nested bsdfs (Material::blend_first).
+    Material blend(const XProps& p, const XNode& n);
+    // How many blends deep material `index` is (0: not a blend).
+    int blend_depth(int index) const;
+    // Whether material `index`, or a component of it, has a normal or a bump map.
+    bool shading_normal_mapped(int index) const;
     // A colour-valued BSDF parameter: a constant, or a bitmap / checkerboard
     // texture (Spectrum3::value then holds the texture's mean).
     Spectrum3 reflectance(const XProps& p, std::initializer_list<const char*> names, glm::vec3 fallback);

@@ -928,14 +928,19 @@ void MitsubaLoader::prune_unused() {
     std::vector<int> mat_map(scene_.materials.size(), -1), tex_map(scene_.textures.size(), -1);
     std::vector<Material> mats;
     std::vector<Texture> texs;
-    for (auto& mesh : scene_.meshes) {
-        int& slot = mat_map[mesh.material];
-        if (slot < 0) {
-            slot = static_cast<int>(mats.size());
-            mats.push_back(scene_.materials[mesh.material]);
+    // A blend keeps its components, which come before it as they did.
+    auto keep_material = [&](auto& self, int i) -> int {
+        if (mat_map[i] >= 0) return mat_map[i];
+        Material m = scene_.materials[i];
+        if (m.type == BsdfType::Blend) {
+            m.blend_first = self(self, m.blend_first);
+            m.blend_second = self(self, m.blend_second);
         }
-        mesh.material = slot;
-    }
+        mat_map[i] = static_cast<int>(mats.size());
+        mats.push_back(std::move(m));
+        return mat_map[i];
+    };
+    for (auto& mesh : scene_.meshes) mesh.material = keep_material(keep_material, mesh.material);
     auto keep = [&](int& t) {
         if (t < 0) return;
         if (tex_map[t] < 0) {

@@ -70,6 +70,12 @@ bool Material::is_delta_only() const { return lobe_flags() == gpu::LOBE_BIT_S; }
 // flags say; a textured base colour does not change that.
 bool Material::has_diffuse() const { return (lobe_flags() & gpu::LOBE_BIT_D) != 0u; }
 
+uint32_t Scene::lobe_flags(int index) const {
+    const Material& m = materials.at(static_cast<size_t>(index));
+    if (m.type != BsdfType::Blend) return m.lobe_flags();
+    return lobe_flags(m.blend_first) | lobe_flags(m.blend_second);  // components come first: no cycle
+}
+
 size_t Scene::triangle_count() const {
     size_t n = 0;
     for (const auto& m : meshes) n += m.indices.size();

@@ -108,6 +108,15 @@ struct Material {
     // the textures' mean luminances.
     int alpha_u_texture = -1;
     int alpha_v_texture = -1;
+    // blendbsdf (type Blend, Mitsuba's `blendbsdf`): at each hit the material is its component
+    // blend_second with probability blend_weight (blend_weight_texture's luminance at the hit,
+    // where it is >= 0) and blend_first otherwise (indices into Scene::materials, both earlier
+    // than the blend). No other field of a blend is read but twosided and the shading-normal
+    // texture, which pass to a component without its own (shaders/pathtrace.comp blend_resolve).
+    int blend_first = -1;
+    int blend_second = -1;
+    float blend_weight = 0.5f;
+    int blend_weight_texture = -1;
     // Calls f on every texture index above (-1: none), as int& (const int& on a const
     // Material): the one list of a material's textures, for whoever remaps or tests them.
     template <class F>
@@ -141,6 +150,7 @@ private:
         f("bump", m.bump_texture);
         f("alpha_u", m.alpha_u_texture);
         f("alpha_v", m.alpha_v_texture);
+        f("blend_weight", m.blend_weight_texture);
     }
 
 public:
@@ -174,6 +184,7 @@ public:
     // The lobe classes the BSDF can sample, bits gpu::LOBE_BIT_D/G/S: the
     // table of shaders/lobes.glsl, which the renderer reads too
     // (docs/descriptor.md §2).
+    // A blend has none of its own (0): Scene::lobe_flags(index) joins its components'.
     uint32_t lobe_flags() const;
     bool is_delta_only() const;  // S only: conductor, dielectric, thindielectric
     bool has_diffuse() const;    // a D lobe: diffuse, plastic family, principled with diffuse
@@ -308,6 +319,9 @@ struct Scene {
     }
     // The triangles the camera sees: each group's as many times as it is instanced.
     size_t instanced_triangle_count() const;
+    // The lobe classes material `index` can sample (gpu::LOBE_BIT_*): its own, or for a blend
+    // the union of its components' (a component of weight 0 or 1 everywhere still counts).
+    uint32_t lobe_flags(int index) const;
     // Every mesh keeps the Mesh invariant (check_mesh, mesh_ops.hpp) and
     // names a material and emitter that exist; groups and instances refer to
     // each other consistently; throws SceneError at source.

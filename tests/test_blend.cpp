@@ -1,0 +1,210 @@
+// Mitsuba's blendbsdf (docs/descriptor.md §2): (1 - weight) times the first nested bsdf
+// plus weight times the second, the weight a constant or a texture read at each hit. The
+// path tracer resolves the blend to one component per hit (shaders/pathtrace.comp
+// blend_resolve), so a weight of 0 or 1 is exactly that component, a 0/1 texture is a
+// per-hit choice, and a weight in between mixes the two in expectation.
+#include "gpu_fixture.hpp"
+#include "render_fixture.hpp"
+#include "scene_fixtures.hpp"
+#include "temp_dir.hpp"
+
+#include "scene/scene.hpp"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <fstream>
+#include <string>
+
+using namespace vkmech;
+
+namespace {
+
+std::string sphere_scene(const std::string& bsdf) { return testing::sphere_on_floor_xml(bsdf); }
+
+const std::string kRed = R"(<bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.2, 0.1"/></bsdf>)";
+const std::string kMirror = R"(<bsdf type="conductor"/>)";
+
+std::string blend(const std::string& weight, const std::string& first, const std::string& second) {
+    return R"(<bsdf type="blendbsdf">)" + weight + first + second + "</bsdf>";
+}
+
+std::string write(testing::TempDir& dir, const std::string& name, const std::string& text) {
+    const std::string path = dir.file(name + ".xml");
+    std::ofstream(path) << text;
+    return path;
+}
+
+// The image's mean luminance and that mean's standard error (pixel variances over their counts).
+std::pair<double, double> mean_and_error(const Frame& f) {
+    double sum = 0.0, var = 0.0;
+    for (const PixelStats& p : f.pixels) {
+        sum += p.lum_mean;
+        var += p.lum_var() / p.count;
+    }
+    const double n = static_cast<double>(f.pixels.size());
+    return {sum / n, std::sqrt(var) / n};
+}
+
+}  // namespace
+
+TEST_CASE(
+    "blendbsdf: the loader reads the components, a constant or textured weight and the wrappers, and refuses what it "
+    "cannot render") {
+    testing::TempDir dir("blend_loader");
+    SUBCASE("a constant weight, components in document order, lobes of both") {
+        const Scene s =
+            load_scene(write(dir, "c", sphere_scene(blend(R"(<float name="weight" value="0.3"/>)", kRed, kMirror))));
+        const Material& b = s.materials.at(static_cast<size_t>(s.meshes[1].material));
+        REQUIRE(b.type == BsdfType::Blend);
+        CHECK(std::string(to_string(b.type)) == "blendbsdf");
+        CHECK(b.blend_weight == doctest::Approx(0.3f));
+        CHECK(b.blend_weight_texture == -1);
+        CHECK(s.materials.at(static_cast<size_t>(b.blend_first)).type == BsdfType::Diffuse);
+        CHECK(s.materials.at(static_cast<size_t>(b.blend_second)).type == BsdfType::Conductor);
+        CHECK(s.lobe_flags(s.meshes[1].material) == (gpu::LOBE_BIT_D | gpu::LOBE_BIT_S));
+        CHECK(s.substitutions.empty());
+        CHECK(s.warnings.empty());
+    }
+    SUBCASE("Mitsuba's default weight is 0.5; a texture is kept, its mean luminance beside it") {
+        const Scene d = load_scene(write(dir, "d", sphere_scene(blend("", kRed, kMirror))));
+        CHECK(d.materials.at(static_cast<size_t>(d.meshes[1].material)).blend_weight == doctest::Approx(0.5f));
+        const Scene t = load_scene(
+            write(dir, "t",
+                  sphere_scene(blend(R"(<texture type="checkerboard" name="weight">)"
+                                     R"(<rgb name="color0" value="0"/><rgb name="color1" value="0.6"/></texture>)",
+                                     kRed, kMirror))));
+        const Material& b = t.materials.at(static_cast<size_t>(t.meshes[1].material));
+        REQUIRE(b.blend_weight_texture >= 0);
+        CHECK(t.textures.at(static_cast<size_t>(b.blend_weight_texture)).kind == TextureKind::Checkerboard);
+        CHECK(b.blend_weight == doctest::Approx(0.3f).epsilon(1e-4));
+        CHECK(b.has_texture());
+    }
+    SUBCASE("twosided around a blend marks the blend; a normal map in a component and around the blend is refused") {
+        const Scene s = load_scene(
+            write(dir, "two", sphere_scene("<bsdf type=\"twosided\">" + blend("", kRed, kMirror) + "</bsdf>")));
+        const Material& b = s.materials.at(static_cast<size_t>(s.meshes[1].material));
+        CHECK(b.type == BsdfType::Blend);
+        CHECK(b.twosided);
+        const std::string map =
+            R"(<texture type="checkerboard" name="normalmap"><rgb name="color0" value="0.5, 0.5, 1"/>)"
+            R"(<rgb name="color1" value="0.6, 0.5, 0.9"/></texture>)";
+        const std::string mapped_red = "<bsdf type=\"normalmap\">" + map + kRed + "</bsdf>";
+        CHECK_NOTHROW(load_scene(write(dir, "inner", sphere_scene(blend("", mapped_red, kMirror)))));
+        CHECK_NOTHROW(load_scene(write(
+            dir, "outer", sphere_scene("<bsdf type=\"normalmap\">" + map + blend("", kRed, kMirror) + "</bsdf>"))));
+        CHECK_THROWS_WITH_AS(load_scene(write(dir, "both",
+                                              sphere_scene("<bsdf type=\"normalmap\">" + map +
+                                                           blend("", mapped_red, kMirror) + "</bsdf>"))),
+                             doctest::Contains("a blendbsdf: in a component"), SceneError);
+    }
+    SUBCASE("refused: one component, a weight outside [0, 1], blends nested too deep") {
+        CHECK_THROWS_WITH_AS(
+            load_scene(write(dir, "one", sphere_scene("<bsdf type=\"blendbsdf\">" + kRed + "</bsdf>"))),
+            doctest::Contains("needs exactly two nested bsdfs (it has 1)"), SceneError);
+        CHECK_THROWS_WITH_AS(
+            load_scene(write(dir, "w", sphere_scene(blend(R"(<float name="weight" value="1.5"/>)", kRed, kMirror)))),
+            doctest::Contains("'weight' must lie in [0, 1]"), SceneError);
+        std::string deep = kRed;
+        for (uint32_t level = 0; level <= gpu::BLEND_MAX_DEPTH; ++level) deep = blend("", deep, kMirror);
+        CHECK_THROWS_WITH_AS(load_scene(write(dir, "deep", sphere_scene(deep))),
+                             doctest::Contains("blends nested more than 8 deep"), SceneError);
+    }
+}
+
+// Renders on the device: in the GPU suite. Every render here goes through the generic
+// pipeline (one compile for the whole case); "material table: every material renders the
+// same..." compares a blend's specialized pipeline with it.
+TEST_SUITE("gpu") {
+    TEST_CASE("blendbsdf: a weight of 0 or 1 renders exactly its component - pixels and labels") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("blend_ends");
+        testing::RenderSetup setup;
+        setup.res = 24;
+        setup.spp = 16;
+        setup.estimator = Estimator::Mis;
+        setup.generic = true;
+        const struct {
+            const char* weight;
+            const std::string& component;
+        } ends[] = {{"0", kRed}, {"1", kMirror}};
+        for (const auto& e : ends) {
+            CAPTURE(e.weight);
+            const std::string w = std::string(R"(<float name="weight" value=")") + e.weight + "\"/>";
+            const Frame blended = testing::render_scene(
+                *ctx, write(dir, std::string("b") + e.weight, sphere_scene(blend(w, kRed, kMirror))), setup);
+            const Frame alone =
+                testing::render_scene(*ctx, write(dir, std::string("a") + e.weight, sphere_scene(e.component)), setup);
+            CHECK(testing::pixel_values(blended) == testing::pixel_values(alone));
+        }
+    }
+
+    TEST_CASE(
+        "blendbsdf: a textured weight is read at each hit, not averaged - a 0/1 checkerboard equals a checkerboard "
+        "reflectance") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("blend_texture");
+        const std::string blue = R"(<bsdf type="diffuse"><rgb name="reflectance" value="0.1, 0.3, 0.9"/></bsdf>)";
+        const std::string checker =
+            R"(<texture type="checkerboard" name="weight"><float name="color0" value="0"/>)"
+            R"(<float name="color1" value="1"/><transform name="to_uv"><scale value="4"/></transform></texture>)";
+        const std::string blended = write(dir, "blend", sphere_scene(blend(checker, kRed, blue)));
+        const std::string painted =
+            write(dir, "paint",
+                  sphere_scene(R"(<bsdf type="diffuse"><texture type="checkerboard" name="reflectance">)"
+                               R"(<rgb name="color0" value="0.8, 0.2, 0.1"/><rgb name="color1" value="0.1, 0.3, 0.9"/>)"
+                               R"(<transform name="to_uv"><scale value="4"/></transform></texture></bsdf>)"));
+        const std::string averaged =
+            write(dir, "mean", sphere_scene(blend(R"(<float name="weight" value="0.5"/>)", kRed, blue)));
+        for (vkmech::vk::KernelClass kernel : {vkmech::vk::KernelClass::Cpu, vkmech::vk::KernelClass::Gpu}) {
+            CAPTURE(vkmech::vk::to_string(kernel));
+            testing::RenderSetup setup;
+            setup.res = 24;
+            setup.spp = 16;
+            setup.estimator = Estimator::Mis;
+            setup.generic = true;
+            setup.kernel = kernel;
+            const Frame b = testing::render_scene(*ctx, blended, setup);
+            const Frame p = testing::render_scene(*ctx, painted, setup);
+            const std::vector<double> vb = testing::pixel_values(b), vp = testing::pixel_values(p);
+            REQUIRE(vb.size() == vp.size());
+            CHECK(testing::max_relative_difference(vb, vp) <= 1e-5);
+            // The weight's mean (0.5) in its place gives another image: the test can tell.
+            const std::vector<double> vm = testing::pixel_values(testing::render_scene(*ctx, averaged, setup));
+            CHECK(testing::max_relative_difference(vm, vp) > 0.1);
+        }
+    }
+
+    TEST_CASE("blendbsdf: a constant weight mixes its components in expectation - (1 - w) f1 + w f2") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("blend_mean");
+        testing::RenderSetup setup;
+        setup.res = 24;
+        setup.spp = 512;
+        setup.batch = 64;
+        setup.estimator = Estimator::Mis;
+        setup.generic = true;
+        // 0.75 x 0.8 + 0.25 x 0.2 = 0.65 (the weight is the second component's share).
+        const std::string light = R"(<bsdf type="diffuse"><rgb name="reflectance" value="0.8"/></bsdf>)";
+        const std::string dark = R"(<bsdf type="diffuse"><rgb name="reflectance" value="0.2"/></bsdf>)";
+        const auto [mb, eb] = mean_and_error(testing::render_scene(
+            *ctx, write(dir, "blend", sphere_scene(blend(R"(<float name="weight" value="0.25"/>)", light, dark))),
+            setup));
+        const auto [mm, em] = mean_and_error(testing::render_scene(
+            *ctx,
+            write(dir, "mixed", sphere_scene(R"(<bsdf type="diffuse"><rgb name="reflectance" value="0.65"/></bsdf>)")),
+            setup));
+        // The weight read the other way round (0.35): far outside the noise.
+        const auto [mr, er] = mean_and_error(testing::render_scene(
+            *ctx,
+            write(dir, "reversed",
+                  sphere_scene(R"(<bsdf type="diffuse"><rgb name="reflectance" value="0.35"/></bsdf>)")),
+            setup));
+        INFO("blend " << mb << " +- " << eb << ", mixed albedo " << mm << " +- " << em << ", reversed " << mr << " +- "
+                      << er);
+        const double combined = std::sqrt(eb * eb + em * em);
+        REQUIRE(combined > 0.0);
+        CHECK(std::abs(mb - mm) < 4.0 * combined);
+        CHECK(std::abs(mb - mr) > 10.0 * std::sqrt(eb * eb + er * er));
+    }
+}
