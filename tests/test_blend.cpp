@@ -98,6 +98,37 @@ TEST_CASE(
                                                            blend("", mapped_red, kMirror) + "</bsdf>"))),
                              doctest::Contains("a blendbsdf: in a component"), SceneError);
     }
+    SUBCASE(
+        "mixturebsdf (Mitsuba 0.6): a chain of blends, a black component for weights summing below 1, rescaled above") {
+        const std::string light = R"(<bsdf type="diffuse"><rgb name="reflectance" value="0.8"/></bsdf>)";
+        const Scene s =
+            load_scene(write(dir, "mix",
+                             sphere_scene(R"(<bsdf type="mixturebsdf"><string name="weights" value="0.5, 0.3"/>)" +
+                                          light + kMirror + "</bsdf>")));
+        const Material& m = s.materials.at(static_cast<size_t>(s.meshes[1].material));
+        REQUIRE(m.type == BsdfType::Blend);
+        CHECK(m.blend_weight == doctest::Approx(0.5f));  // the first with 0.5
+        const Material& rest = s.materials.at(static_cast<size_t>(m.blend_second));
+        REQUIRE(rest.type == BsdfType::Blend);
+        CHECK(rest.blend_weight == doctest::Approx(0.4f));  // then the mirror with 0.3 / 0.5
+        const Material& black = s.materials.at(static_cast<size_t>(rest.blend_second));
+        CHECK(black.type == BsdfType::Diffuse);
+        CHECK(black.reflectance.value == glm::vec3(0.0f));
+        CHECK(s.substitutions.empty());
+        const Scene over =
+            load_scene(write(dir, "over",
+                             sphere_scene(R"(<bsdf type="mixturebsdf"><string name="weights" value="1, 3"/>)" + light +
+                                          kMirror + "</bsdf>")));
+        const Material& o = over.materials.at(static_cast<size_t>(over.meshes[1].material));
+        CHECK(o.blend_weight == doctest::Approx(0.75f));
+        CHECK(over.warnings.size() == 1);
+        CHECK_THROWS_WITH_AS(
+            load_scene(write(dir, "keep",
+                             sphere_scene(R"(<bsdf type="mixturebsdf"><string name="weights" value="1, 3"/>)"
+                                          R"(<boolean name="ensureEnergyConservation" value="false"/>)" +
+                                          light + kMirror + "</bsdf>"))),
+            doctest::Contains("must sum to at most 1"), SceneError);
+    }
     SUBCASE("refused: one component, a weight outside [0, 1], blends nested too deep") {
         CHECK_THROWS_WITH_AS(
             load_scene(write(dir, "one", sphere_scene("<bsdf type=\"blendbsdf\">" + kRed + "</bsdf>"))),
@@ -116,7 +147,8 @@ TEST_CASE(
 // pipeline (one compile for the whole case); "material table: every material renders the
 // same..." compares a blend's specialized pipeline with it.
 TEST_SUITE("gpu") {
-    TEST_CASE("blendbsdf: a weight of 0 or 1 renders exactly its component - pixels and labels") {
+    TEST_CASE(
+        "blendbsdf: a weight of 0 or 1 renders exactly its component - pixels and labels - eight blends deep too") {
         VKMECH_REQUIRE_GPU(ctx);
         testing::TempDir dir("blend_ends");
         testing::RenderSetup setup;
@@ -137,6 +169,14 @@ TEST_SUITE("gpu") {
                 testing::render_scene(*ctx, write(dir, std::string("a") + e.weight, sphere_scene(e.component)), setup);
             CHECK(testing::pixel_values(blended) == testing::pixel_values(alone));
         }
+        // Blends nested as deep as a hit resolves them (BLEND_MAX_DEPTH), weight 0 at every level:
+        // the innermost first component, not a blend left unresolved (which would reflect nothing).
+        std::string deep = kRed;
+        for (uint32_t level = 0; level < gpu::BLEND_MAX_DEPTH; ++level)
+            deep = blend(R"(<float name="weight" value="0"/>)", deep, kMirror);
+        const Frame nested = testing::render_scene(*ctx, write(dir, "deep", sphere_scene(deep)), setup);
+        const Frame red = testing::render_scene(*ctx, write(dir, "a0", sphere_scene(kRed)), setup);
+        CHECK(testing::pixel_values(nested) == testing::pixel_values(red));
     }
 
     TEST_CASE(
@@ -175,7 +215,9 @@ TEST_SUITE("gpu") {
         }
     }
 
-    TEST_CASE("blendbsdf: a constant weight mixes its components in expectation - (1 - w) f1 + w f2") {
+    TEST_CASE(
+        "blendbsdf: a constant weight mixes its components in expectation - (1 - w) f1 + w f2 - and so does a "
+        "mixturebsdf") {
         VKMECH_REQUIRE_GPU(ctx);
         testing::TempDir dir("blend_mean");
         testing::RenderSetup setup;
@@ -200,11 +242,27 @@ TEST_SUITE("gpu") {
             write(dir, "reversed",
                   sphere_scene(R"(<bsdf type="diffuse"><rgb name="reflectance" value="0.35"/></bsdf>)")),
             setup));
+        // Mitsuba 0.6's mixturebsdf 0.5 x 0.8 + 0.3 x 0.2 (the rest, 0.2, absorbed) = 0.46, a chain of two
+        // blends over the two components and a black one.
+        const auto [mx, ex] = mean_and_error(testing::render_scene(
+            *ctx,
+            write(dir, "mixture",
+                  sphere_scene(R"(<bsdf type="mixturebsdf"><string name="weights" value="0.5, 0.3"/>)" + light + dark +
+                               "</bsdf>")),
+            setup));
+        const auto [m46, e46] = mean_and_error(testing::render_scene(
+            *ctx,
+            write(dir, "albedo46",
+                  sphere_scene(R"(<bsdf type="diffuse"><rgb name="reflectance" value="0.46"/></bsdf>)")),
+            setup));
         INFO("blend " << mb << " +- " << eb << ", mixed albedo " << mm << " +- " << em << ", reversed " << mr << " +- "
                       << er);
+        INFO("mixture " << mx << " +- " << ex << ", albedo 0.46 " << m46 << " +- " << e46);
         const double combined = std::sqrt(eb * eb + em * em);
         REQUIRE(combined > 0.0);
         CHECK(std::abs(mb - mm) < 4.0 * combined);
         CHECK(std::abs(mb - mr) > 10.0 * std::sqrt(eb * eb + er * er));
+        CHECK(std::abs(mx - m46) < 4.0 * std::sqrt(ex * ex + e46 * e46));
+        CHECK(std::abs(mx - mm) > 10.0 * std::sqrt(ex * ex + em * em));  // not the blend's 0.65
     }
 }

@@ -222,7 +222,8 @@ TEST_CASE("mitsuba third-party: roughdiffuse loads as Oren-Nayar, without --subs
 }
 
 TEST_CASE(
-    "mitsuba third-party: --substitute maps point lights, phong and mixturebsdf to the model - blendbsdf needs none") {
+    "mitsuba third-party: --substitute maps point lights and phong to the model - blendbsdf and mixturebsdf need "
+    "none") {
     std::string path = write_scene("outside", R"(
   <emitter type="point"><point name="position" x="0" y="2" z="0"/><rgb name="intensity" value="10"/></emitter>
   <shape type="cube"><bsdf type="phong"><float name="exponent" value="48"/></bsdf></shape>
@@ -250,9 +251,18 @@ TEST_CASE(
     double r = bulb.radius;
     CHECK(r > 0.0);
     CHECK(s.emitters[0].radiance.x == doctest::Approx(10.0 / (M_PI * r * r)).epsilon(1e-4));
-    // mixturebsdf keeps its heaviest component.
-    CHECK(s.materials[s.meshes[2].material].type == BsdfType::Conductor);
-    CHECK(s.substitutions.size() == 3);
+    // mixturebsdf 0.2, 0.7, 0.1: a chain of blends, diffuse with probability 0.2, else the conductor
+    // with 0.7 / 0.8, else the plastic (tests/test_blend.cpp renders one).
+    const Material& mix = s.materials[s.meshes[2].material];
+    REQUIRE(mix.type == BsdfType::Blend);
+    CHECK(s.materials[mix.blend_first].type == BsdfType::Diffuse);
+    CHECK(mix.blend_weight == doctest::Approx(0.8f));
+    const Material& rest = s.materials[mix.blend_second];
+    REQUIRE(rest.type == BsdfType::Blend);
+    CHECK(s.materials[rest.blend_first].type == BsdfType::Conductor);
+    CHECK(s.materials[rest.blend_second].type == BsdfType::Plastic);
+    CHECK(rest.blend_weight == doctest::Approx(0.125f));
+    CHECK(s.substitutions.size() == 2);
 
     // A directional light is an emitter at infinity (docs/descriptor.md §1), with or without --substitute.
     std::string sun = write_scene("sun", R"(

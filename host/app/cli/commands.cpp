@@ -25,11 +25,10 @@ void add_common_options(CLI::App* app, CommonOptions& o) {
     app->add_option("--device", o.device, "Vulkan device index (see `vkmech devices`)");
     app->add_option("--traversal", o.traversal, "Ray traversal: auto, rayquery or bvh")
         ->check(CLI::IsMember({"auto", "rayquery", "bvh"}));
-    app->add_flag(
-        "--substitute", o.substitute,
-        "Replace what is outside the model by its nearest model, and record each replacement: point/spot "
-        "lights by small spherical emitters of the same power, phong/mixturebsdf/cut-out masks/other BSDFs by "
-        "the nearest material, media ignored (README: Your own scenes)");
+    app->add_flag("--substitute", o.substitute,
+                  "Replace what is outside the model by its nearest model, and record each replacement: point/spot "
+                  "lights by small spherical emitters of the same power, phong/cut-out masks/other BSDFs by "
+                  "the nearest material, media ignored (README: Your own scenes)");
     app->add_option("--environment", o.environment,
                     "Light the scene with a latitude-longitude environment map (OpenEXR or Radiance HDR, +y up as in "
                     "Mitsuba), replacing any environment the scene has; recorded in the outputs")

@@ -360,24 +360,7 @@ int MitsubaLoader::bsdf(const XNode& n) {
     } else if (type == "blendbsdf") {
         m = blend(p, n);
     } else if (type == "mixturebsdf") {
-        // Mitsuba 0.6's weighted mixture: the component of largest weight.
-        require_substitute(n, "bsdf", "its component of largest weight");
-        std::vector<double> w;
-        if (auto ws = p.opt_string({"weights"})) w = n.numbers(*ws, "weights");
-        std::vector<int> parts;
-        for (const XNode& o : p.objects()) {
-            if (o.tag() != "bsdf" && o.tag() != "ref") o.fail("unexpected <" + o.tag() + "> inside " + n.describe());
-            parts.push_back(bsdf(o));
-        }
-        if (parts.empty()) n.fail(n.describe() + " needs nested bsdfs");
-        if (w.size() != parts.size())
-            n.fail(n.describe() + ": 'weights' must give one weight per nested bsdf (" + std::to_string(parts.size()) +
-                   ")");
-        size_t best = static_cast<size_t>(std::max_element(w.begin(), w.end()) - w.begin());
-        record_substitution(n, "bsdf",
-                            "its component " + std::to_string(best + 1) + " of " + std::to_string(parts.size()) +
-                                " (weight " + fmt_weight(float(w[best])) + ")");
-        m = scene_.materials[parts[best]];
+        m = mixture(p, n, id);
     } else if (type == "phong") {
         // The nearest model material: rough plastic whose Beckmann roughness
         // matches the Phong exponent (alpha = sqrt(2 / (n + 2)), Walter 2007).
@@ -413,7 +396,7 @@ int MitsubaLoader::bsdf(const XNode& n) {
     } else {
         unsupported(n, "bsdf",
                     " (docs/descriptor.md §2: " + bsdf_plugin_names() +
-                        ", twosided, normalmap, bumpmap; with --substitute also mask, mixturebsdf, "
+                        ", mixturebsdf, twosided, normalmap, bumpmap; with --substitute also mask, "
                         "phong)");
     }
     if (alpha_tex[0] >= 0) m.alpha_u_texture = alpha_tex[0];
@@ -466,6 +449,74 @@ Material MitsubaLoader::blend(const XProps& p, const XNode& n) {
         n.fail(n.describe() + ": blends nested more than " + std::to_string(gpu::BLEND_MAX_DEPTH) +
                " deep (vkmech resolves at most that many at a hit)");
     return m;
+}
+
+Material MitsubaLoader::mixture(const XProps& p, const XNode& n, const std::string& id) {
+    std::vector<double> w;
+    if (auto ws = p.opt_string({"weights"})) w = n.numbers(*ws, "weights");
+    std::vector<int> parts;
+    for (const XNode& o : p.objects()) {
+        if (o.tag() != "bsdf" && o.tag() != "ref") o.fail("unexpected <" + o.tag() + "> inside " + n.describe());
+        parts.push_back(bsdf(o));
+    }
+    if (parts.empty()) n.fail(n.describe() + " needs nested bsdfs");
+    if (w.size() != parts.size())
+        n.fail(n.describe() + ": 'weights' must give one weight per nested bsdf (" + std::to_string(parts.size()) +
+               ")");
+    // The name bsdf() gives the mixture (its nested bsdfs counted), for the blends and the black part.
+    const std::string name = id.empty() ? "mixturebsdf#" + std::to_string(bsdf_count_) : id;
+    const bool conserve = p.get_bool({"ensureEnergyConservation", "ensure_energy_conservation"}, true);
+    double total = 0.0;
+    for (double x : w) {
+        if (!(x >= 0.0)) n.fail(n.describe() + ": every weight must be >= 0");
+        total += x;
+    }
+    if (!(total > 0.0)) n.fail(n.describe() + ": the weights must sum to more than 0");
+    if (std::abs(total - 1.0) <= 1e-6) {
+        // 1 up to the decimals' rounding (0.2 + 0.7 + 0.1 is 0.9999999999999999 in double): no
+        // absorbed rest.
+        for (double& x : w) x /= total;
+    } else if (total > 1.0) {
+        // Mitsuba 0.6 rescales them (ensureEnergyConservation, default true); a choice per hit
+        // cannot give more than the whole, so vkmech refuses to keep them.
+        if (!conserve)
+            n.fail(n.describe() + ": the weights sum to " + fmt_weight(float(total)) +
+                   " with ensureEnergyConservation false; vkmech renders a mixture as one component per hit, "
+                   "so the weights must sum to at most 1");
+        warn(n, "bsdf 'mixturebsdf': the weights sum to " + fmt_weight(float(total)) +
+                    ", more than 1: rescaled to sum to 1, as Mitsuba does");
+        for (double& x : w) x /= total;
+    } else if (total < 1.0) {
+        // The rest is absorbed: a black component of weight 1 - total.
+        Material black;
+        black.id = name + ".absorbed";
+        black.reflectance = Spectrum3{glm::vec3(0.0f), -1};
+        parts.push_back(static_cast<int>(scene_.materials.size()));
+        scene_.materials.push_back(black);
+        w.push_back(1.0 - total);
+    }
+    if (parts.size() == 1) return scene_.materials[parts[0]];
+    // A chain of blends from the back: blend k picks component k with probability
+    // w_k / (w_k + ... + w_last), else the blend after it.
+    int tail = parts.back();
+    double rest = w.back();
+    for (size_t k = parts.size() - 1; k-- > 0;) {
+        rest += w[k];
+        Material b;
+        b.type = BsdfType::Blend;
+        b.id = name + (k == 0 ? "" : "." + std::to_string(k + 1));
+        b.blend_first = parts[k];
+        b.blend_second = tail;
+        b.blend_weight = rest > 0.0 ? static_cast<float>(1.0 - w[k] / rest) : 0.0f;
+        if (1 + std::max(blend_depth(parts[k]), blend_depth(tail)) > static_cast<int>(gpu::BLEND_MAX_DEPTH))
+            n.fail(n.describe() + ": " + std::to_string(parts.size()) +
+                   " components (with the absorbed rest) nest blends more than " +
+                   std::to_string(gpu::BLEND_MAX_DEPTH) + " deep (vkmech resolves at most that many at a hit)");
+        if (k == 0) return b;
+        tail = static_cast<int>(scene_.materials.size());
+        scene_.materials.push_back(b);
+    }
+    return scene_.materials[parts[0]];  // not reached: k == 0 returns above
 }
 
 int MitsubaLoader::blend_depth(int index) const {

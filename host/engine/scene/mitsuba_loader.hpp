@@ -91,6 +91,9 @@ private:
     void conductor_parameters(const XProps& p, const XNode& n, Material& m);
     // Mitsuba's blendbsdf: a Blend material over its two nested bsdfs (Material::blend_first).
     Material blend(const XProps& p, const XNode& n);
+    // Mitsuba 0.6's mixturebsdf (sum of w_i f_i): a chain of Blend materials over its components
+    // and, where the weights sum to less than 1, a black one for the rest; `id` its XML id or "".
+    Material mixture(const XProps& p, const XNode& n, const std::string& id);
     // How many blends deep material `index` is (0: not a blend).
     int blend_depth(int index) const;
     // Whether material `index`, or a component of it, has a normal or a bump map.
