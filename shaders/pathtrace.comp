@@ -267,6 +267,22 @@ GpuMaterial blend_resolve(GpuMaterial m, vec2 uv, inout Rng rng) {
     return m;
 }
 
+// principled's textured float parameters besides metallic and roughness (GpuMaterial::param_tex):
+// each textured one is its texture at uv (the luminance, in every channel), as Mitsuba 3 reads
+// a float texture, not the constant (which holds the texture's mean).
+float param_at(uint slot, vec2 uv, float constant) { return slot == 0u ? constant : texture_lookup(slot - 1u, uv).x; }
+void principled_textured_params(inout GpuMaterial m, vec2 uv) {
+    uvec4 t = m.param_tex;
+    if (all(equal(t, uvec4(0u)))) return;
+    m.model0.w = param_at(t.x & MAT_TEX_MASK, uv, m.model0.w);   // spec_tint
+    m.model1.x = param_at(t.x >> MAT_TEX_SHIFT, uv, m.model1.x);  // anisotropic
+    m.model1.y = param_at(t.y & MAT_TEX_MASK, uv, m.model1.y);   // sheen
+    m.model1.z = param_at(t.y >> MAT_TEX_SHIFT, uv, m.model1.z);  // sheen_tint
+    m.model1.w = param_at(t.z & MAT_TEX_MASK, uv, m.model1.w);   // clearcoat
+    m.model2.x = param_at(t.z >> MAT_TEX_SHIFT, uv, m.model2.x);  // clearcoat_gloss
+    m.model2.y = param_at(t.w & MAT_TEX_MASK, uv, m.model2.y);   // spec_trans
+}
+
 // The shading normal a normal map gives at s (GpuMaterial::frame_tex): the map's
 // tangent-space normal n (texel x 2 - 1, x and y times the scale) in the frame
 // t = dp/du made orthogonal to the shading normal ns, b = ns x t, ns (Mitsuba's
@@ -436,6 +452,7 @@ void path_sample(inout Rng rng, vec3 o, vec3 d, vec2 t_range, inout Tally tally)
                 m.model0.x = mr.z;
                 m.model0.y = mr.y;
             }
+            if (FEATURE_PRINCIPLED && m.header.x == MAT_PRINCIPLED) principled_textured_params(m, s.uv);
         }
 
         // ---- next-event estimation (docs/descriptor.md §1: at every non-delta vertex) ----

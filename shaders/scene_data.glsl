@@ -44,7 +44,8 @@ vec3 vertex_position(uint i) { return SCENE_FETCH_F(vertex_buf, 2u * i).xyz; }
 vec3 vertex_normal(uint i) { return SCENE_FETCH_F(vertex_buf, 2u * i + 1u).xyz; }
 vec2 vertex_uv(uint i) { return vec2(SCENE_FETCH_F(vertex_buf, 2u * i).w, SCENE_FETCH_F(vertex_buf, 2u * i + 1u).w); }
 uvec4 triangle_at(uint i) { return SCENE_FETCH(triangle_buf, i); }
-// Fetches only what the material's BSDF reads (the fields left out read 0):
+// Fetches only what the material's BSDF reads (the fields left out read 0; principled's
+// parameter textures, word 10, only in textured scenes):
 // a diffuse material reads its header and reflectance, two texels of ten
 // (three in textured scenes, which read the frame textures' word too);
 // `k` only conductors and plastics read, the last three only principled and
@@ -55,7 +56,7 @@ GpuMaterial material_at(uint i) {
     uint b = MATERIAL_WORDS * i;
     const vec4 zero = vec4(0.0);
     GpuMaterial m = GpuMaterial(SCENE_FETCH(material_buf, b), SCENE_FETCH_F(material_buf, b + 1u), zero, zero, zero, zero, zero,
-                                zero, zero, uvec4(0u));
+                                zero, zero, uvec4(0u), uvec4(0u));
     if (FEATURE_TEXTURES) m.frame_tex = SCENE_FETCH(material_buf, b + 9u);
     if (m.header.x != MAT_DIFFUSE) {
         m.specular_reflectance = SCENE_FETCH_F(material_buf, b + 2u);
@@ -67,6 +68,8 @@ GpuMaterial material_at(uint i) {
             m.model1 = SCENE_FETCH_F(material_buf, b + 7u);
             m.model2 = SCENE_FETCH_F(material_buf, b + 8u);
         }
+        if (FEATURE_PRINCIPLED && FEATURE_TEXTURES && m.header.x == MAT_PRINCIPLED)
+            m.param_tex = SCENE_FETCH(material_buf, b + 10u);
     }
     return m;
 }

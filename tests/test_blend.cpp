@@ -3,6 +3,9 @@
 // path tracer resolves the blend to one component per hit (shaders/pathtrace.comp
 // blend_resolve), so a weight of 0 or 1 is exactly that component, a 0/1 texture is a
 // per-hit choice, and a weight in between mixes the two in expectation.
+// The blend is also the oracle for principled's textured float parameters: a 0/1 checkerboard
+// weight over two constant principled materials is the principled material whose parameters are
+// checkerboards of the two constants, when each parameter is read at each hit.
 #include "gpu_fixture.hpp"
 #include "render_fixture.hpp"
 #include "scene_fixtures.hpp"
@@ -33,6 +36,17 @@ std::string write(testing::TempDir& dir, const std::string& name, const std::str
     const std::string path = dir.file(name + ".xml");
     std::ofstream(path) << text;
     return path;
+}
+
+// 24 px, 16 spp, MIS, through the generic pipeline (one compile per kernel for a whole case).
+testing::RenderSetup small_generic(vkmech::vk::KernelClass kernel = vkmech::vk::KernelClass::Auto) {
+    testing::RenderSetup setup;
+    setup.res = 24;
+    setup.spp = 16;
+    setup.estimator = Estimator::Mis;
+    setup.generic = true;
+    setup.kernel = kernel;
+    return setup;
 }
 
 // The image's mean luminance and that mean's standard error (pixel variances over their counts).
@@ -151,11 +165,7 @@ TEST_SUITE("gpu") {
         "blendbsdf: a weight of 0 or 1 renders exactly its component - pixels and labels - eight blends deep too") {
         VKMECH_REQUIRE_GPU(ctx);
         testing::TempDir dir("blend_ends");
-        testing::RenderSetup setup;
-        setup.res = 24;
-        setup.spp = 16;
-        setup.estimator = Estimator::Mis;
-        setup.generic = true;
+        const testing::RenderSetup setup = small_generic();
         const struct {
             const char* weight;
             const std::string& component;
@@ -198,12 +208,7 @@ TEST_SUITE("gpu") {
             write(dir, "mean", sphere_scene(blend(R"(<float name="weight" value="0.5"/>)", kRed, blue)));
         for (vkmech::vk::KernelClass kernel : {vkmech::vk::KernelClass::Cpu, vkmech::vk::KernelClass::Gpu}) {
             CAPTURE(vkmech::vk::to_string(kernel));
-            testing::RenderSetup setup;
-            setup.res = 24;
-            setup.spp = 16;
-            setup.estimator = Estimator::Mis;
-            setup.generic = true;
-            setup.kernel = kernel;
+            const testing::RenderSetup setup = small_generic(kernel);
             const Frame b = testing::render_scene(*ctx, blended, setup);
             const Frame p = testing::render_scene(*ctx, painted, setup);
             const std::vector<double> vb = testing::pixel_values(b), vp = testing::pixel_values(p);
@@ -220,12 +225,9 @@ TEST_SUITE("gpu") {
         "mixturebsdf") {
         VKMECH_REQUIRE_GPU(ctx);
         testing::TempDir dir("blend_mean");
-        testing::RenderSetup setup;
-        setup.res = 24;
+        testing::RenderSetup setup = small_generic();
         setup.spp = 512;
         setup.batch = 64;
-        setup.estimator = Estimator::Mis;
-        setup.generic = true;
         // 0.75 x 0.8 + 0.25 x 0.2 = 0.65 (the weight is the second component's share).
         const std::string light = R"(<bsdf type="diffuse"><rgb name="reflectance" value="0.8"/></bsdf>)";
         const std::string dark = R"(<bsdf type="diffuse"><rgb name="reflectance" value="0.2"/></bsdf>)";
@@ -264,5 +266,53 @@ TEST_SUITE("gpu") {
         CHECK(std::abs(mb - mr) > 10.0 * std::sqrt(eb * eb + er * er));
         CHECK(std::abs(mx - m46) < 4.0 * std::sqrt(ex * ex + e46 * e46));
         CHECK(std::abs(mx - mm) > 10.0 * std::sqrt(ex * ex + em * em));  // not the blend's 0.65
+    }
+
+    TEST_CASE(
+        "principled textures: spec_tint, anisotropic, sheen, sheen_tint, clearcoat, clearcoat_gloss and spec_trans are "
+        "read at each hit") {
+        VKMECH_REQUIRE_GPU(ctx);
+        testing::TempDir dir("principled_textures");
+        const char* names[] = {"spec_tint", "anisotropic",     "sheen",     "sheen_tint",
+                               "clearcoat", "clearcoat_gloss", "spec_trans"};
+        const float a[] = {0.1f, 0.0f, 0.3f, 0.9f, 0.0f, 0.2f, 0.0f};  // colour0 of each checkerboard
+        const float b[] = {0.8f, 0.7f, 1.0f, 0.2f, 1.0f, 0.9f, 0.6f};  // colour1
+        const std::string common =
+            R"(<rgb name="base_color" value="0.7, 0.4, 0.2"/><float name="roughness" value="0.3"/>)"
+            R"(<float name="metallic" value="0.1"/>)";
+        const std::string to_uv = R"(<transform name="to_uv"><scale value="6"/></transform>)";
+        auto checker = [&](const std::string& name, float c0, float c1) {
+            return "<texture type=\"checkerboard\" name=\"" + name + "\"><float name=\"color0\" value=\"" +
+                   std::to_string(c0) + "\"/><float name=\"color1\" value=\"" + std::to_string(c1) + "\"/>" + to_uv +
+                   "</texture>";
+        };
+        auto constant = [&](const float* v) {
+            std::string x = "<bsdf type=\"principled\">" + common;
+            for (int k = 0; k < 7; ++k)
+                x += "<float name=\"" + std::string(names[k]) + "\" value=\"" + std::to_string(v[k]) + "\"/>";
+            return x + "</bsdf>";
+        };
+        std::string textured = "<bsdf type=\"principled\">" + common;
+        for (int k = 0; k < 7; ++k) textured += checker(names[k], a[k], b[k]);
+        textured += "</bsdf>";
+        const std::string painted = write(dir, "textured", sphere_scene(textured));
+        const std::string chosen =
+            write(dir, "blend", sphere_scene(blend(checker("weight", 0.0f, 1.0f), constant(a), constant(b))));
+        float mean[7];
+        for (int k = 0; k < 7; ++k) mean[k] = 0.5f * (a[k] + b[k]);
+        const std::string averaged = write(dir, "mean", sphere_scene(constant(mean)));
+        const Scene loaded = load_scene(painted);
+        CHECK(loaded.substitutions.empty());  // nothing is averaged
+        for (vkmech::vk::KernelClass kernel : {vkmech::vk::KernelClass::Cpu, vkmech::vk::KernelClass::Gpu}) {
+            CAPTURE(vkmech::vk::to_string(kernel));
+            const testing::RenderSetup setup = small_generic(kernel);
+            const std::vector<double> vt = testing::pixel_values(testing::render_scene(*ctx, painted, setup));
+            const std::vector<double> vb = testing::pixel_values(testing::render_scene(*ctx, chosen, setup));
+            REQUIRE(vt.size() == vb.size());
+            CHECK(testing::max_relative_difference(vt, vb) <= 1e-5);
+            // The parameters' means in their place give another image: the test can tell.
+            const std::vector<double> vm = testing::pixel_values(testing::render_scene(*ctx, averaged, setup));
+            CHECK(testing::max_relative_difference(vm, vb) > 0.05);
+        }
     }
 }

@@ -11,8 +11,10 @@
 # Scenes and what is removed: test_bumpmap_path.xml (the bump map: its nested
 # diffuse alone), test_textured_roughconductor_path.xml (the alpha_u/alpha_v
 # checkerboards: their mean, 0.175, as constants) and
-# test_texturedprincipled1_path.xml (the metallic checkerboard: its mean, 0.4;
-# its anisotropic, clearcoat and sheen checkerboards are means in both). Prints, per scene and
+# test_texturedprincipled1_path.xml (the metallic checkerboard: its mean, 0.4; then its
+# anisotropic, clearcoat and sheen checkerboards: their means) and
+# test_texturedprincipled2_path.xml (its anisotropic, spec_trans, clearcoat and sheen
+# checkerboards: their means). Prints, per scene and
 # variant, the image mean, the RMSE and relative L1 against the reference, and
 # the correlation of (vkmech - without) with (reference - without).
 # The references are PIZ-compressed, which exr.py does not read: a small
@@ -64,18 +66,21 @@ render() {
     "$OUT/exr_rgb" "$OUT/$1/$(basename "$2" .xml).exr" "$OUT/$1.rgb"
 }
 
-compare() {  # compare SCENE: the reference against vkmech and vkmech without the feature
+# compare SCENE [LABEL]: the reference against vkmech and vkmech without the feature
+# (OUT/LABEL.vkmech.rgb and OUT/LABEL.without.rgb; LABEL defaults to SCENE).
+compare() {
     "$OUT/exr_rgb" "$SCENES/refs/${1}_ref_rgb.exr" "$OUT/$1.ref.rgb"
-    "$PY" - "$OUT" "$1" <<'PY'
+    "$PY" - "$OUT" "$1" "${2:-$1}" <<'PY'
 import sys
 import numpy as np
-out, scene = sys.argv[1], sys.argv[2]
+out, scene, label = sys.argv[1], sys.argv[2], sys.argv[3]
 def load(p):
     a = np.fromfile(p, dtype=np.float32)
     w, h = a[:2].view(np.int32)
     return a[2:].reshape(h, w, 3).astype(np.float64)
-ref, full, without = (load(f"{out}/{scene}.{k}.rgb") for k in ("ref", "vkmech", "without"))
-print(f"{scene}: reference mean RGB {np.round(ref.reshape(-1, 3).mean(0), 4)}")
+ref = load(f"{out}/{scene}.ref.rgb")
+full, without = (load(f"{out}/{label}.{k}.rgb") for k in ("vkmech", "without"))
+print(f"{label}: reference mean RGB {np.round(ref.reshape(-1, 3).mean(0), 4)}")
 for name, x in (("vkmech", full), ("vkmech without the feature", without)):
     d = x - ref
     print(f"  {name:28s} mean RGB {np.round(x.reshape(-1, 3).mean(0), 4)}  RMSE {np.sqrt((d ** 2).mean()):.4f}"
@@ -95,6 +100,18 @@ sed 's#<texture name="alpha_u" type="checkerboard">#<float name="alpha_u" value=
     "$SCENES/test_textured_roughconductor_path.xml" >"$SCENES/zz_vkmech_flatalpha.xml"
 sed 's#<texture name="metallic" type="checkerboard">#<float name="metallic" value="0.4"/><texture name="unused_m" type="checkerboard">#' \
     "$SCENES/test_texturedprincipled1_path.xml" >"$SCENES/zz_vkmech_flatmetallic.xml"
+# principled's other textured parameters (since 2026-11-29 read at each hit): their means
+# (the checkerboards' colour averages) as constants, metallic still textured.
+flatten() {  # flatten NAME=MEAN ...: sed expressions replacing each texture by its mean
+    for nm in "$@"; do
+        printf 's#<texture name="%s" type="checkerboard">#<float name="%s" value="%s"/><texture name="unused_%s" type="checkerboard">#;' \
+            "${nm%=*}" "${nm%=*}" "${nm#*=}" "${nm%=*}"
+    done
+}
+sed "$(flatten anisotropic=0.425 clearcoat=0.5 sheen=0.55)" \
+    "$SCENES/test_texturedprincipled1_path.xml" >"$SCENES/zz_vkmech_flatparams1.xml"
+sed "$(flatten anisotropic=0.45 spec_trans=0.4 clearcoat=0.45 sheen=0.55)" \
+    "$SCENES/test_texturedprincipled2_path.xml" >"$SCENES/zz_vkmech_flatparams2.xml"
 
 render bump test_bumpmap_path.xml
 cp "$OUT/bump.rgb" "$OUT/test_bumpmap.vkmech.rgb"
@@ -113,3 +130,14 @@ cp "$OUT/metallic.rgb" "$OUT/test_texturedprincipled1.vkmech.rgb"
 render flatmetallic zz_vkmech_flatmetallic.xml
 cp "$OUT/flatmetallic.rgb" "$OUT/test_texturedprincipled1.without.rgb"
 compare test_texturedprincipled1
+
+render flatparams1 zz_vkmech_flatparams1.xml
+cp "$OUT/metallic.rgb" "$OUT/test_texturedprincipled1_params.vkmech.rgb"
+cp "$OUT/flatparams1.rgb" "$OUT/test_texturedprincipled1_params.without.rgb"
+compare test_texturedprincipled1 test_texturedprincipled1_params
+
+render params2 test_texturedprincipled2_path.xml
+cp "$OUT/params2.rgb" "$OUT/test_texturedprincipled2.vkmech.rgb"
+render flatparams2 zz_vkmech_flatparams2.xml
+cp "$OUT/flatparams2.rgb" "$OUT/test_texturedprincipled2.without.rgb"
+compare test_texturedprincipled2

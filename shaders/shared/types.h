@@ -147,8 +147,14 @@ struct GpuMaterial {
     // their luminance replaces reflectance.w and specular_reflectance.w), w: 1 = the normal
     // map's bitangent follows the uv layout's handedness (glTF), 0 = ns x t (Mitsuba).
     uvec4 frame_tex;
+    // principled only, in textured scenes: the slots (texture + 1, 0: none; 16 bits each) of the
+    // textured float parameters Mitsuba 3 allows besides metallic and roughness, each read at each
+    // hit (the texture's luminance, which the loader stores in every channel) in place of the
+    // constant: x: spec_tint | anisotropic << 16, y: sheen | sheen_tint << 16, z: clearcoat |
+    // clearcoat_gloss << 16, w: spec_trans (`specular` and `eta` are scalars in Mitsuba 3).
+    uvec4 param_tex;
 };
-VKM_CONST MATERIAL_WORDS = 10u;  // uvec4 words of a GpuMaterial
+VKM_CONST MATERIAL_WORDS = 11u;  // uvec4 words of a GpuMaterial
 
 struct GpuEmitter {
     vec4 radiance;  // rgb, w: total area

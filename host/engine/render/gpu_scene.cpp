@@ -100,6 +100,13 @@ gpu::GpuMaterial pack_material(const Material& m, const std::vector<Texture>& te
                              std::bit_cast<uint32_t>(m.bump_texture >= 0 ? m.bump_scale : m.normal_scale),
                              texture_slot(m.alpha_u_texture) | texture_slot(m.alpha_v_texture) << gpu::MAT_TEX_SHIFT,
                              m.normal_uv_handed ? 1u : 0u);
+    // principled: its textured float parameters besides metallic and roughness (shared/types.h).
+    const auto& pt = m.principled_param_textures;
+    VKM_ASSERT(m.type == BsdfType::Principled || std::all_of(pt.begin(), pt.end(), [](int t) { return t < 0; }),
+               "only principled reads parameter textures");
+    g.param_tex = glm::uvec4(texture_slot(pt[0]) | texture_slot(pt[1]) << gpu::MAT_TEX_SHIFT,
+                             texture_slot(pt[2]) | texture_slot(pt[3]) << gpu::MAT_TEX_SHIFT,
+                             texture_slot(pt[4]) | texture_slot(pt[5]) << gpu::MAT_TEX_SHIFT, texture_slot(pt[6]));
     // roughplastic: precomputed coat transmittance table in the unused fields.
     if (m.type == BsdfType::RoughPlastic) g = shader::roughplastic_prepare(g);
     // blendbsdf: its components, its weight and the weight's texture (shared/types.h MAT_BLEND).

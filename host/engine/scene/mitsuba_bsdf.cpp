@@ -271,6 +271,18 @@ int MitsubaLoader::bsdf(const XNode& n) {
     // principled reads a textured roughness and metallic at each hit: one linear texture
     // holding both (Material::metallic_roughness_texture, glTF's layout).
     const int principled_tex = type == "principled" ? principled_texture(p) : -1;
+    // ... and Mitsuba 3's other textured float parameters, each its luminance texture
+    // (Material::principled_param_textures); the constants become the means.
+    std::array<int, 7> principled_params{-1, -1, -1, -1, -1, -1, -1};
+    if (type == "principled")
+        for (size_t k = 0; k < principled_params.size(); ++k) {
+            const XNode* t = p.peek(Material::kPrincipledTextured[k]);
+            if (!t || (t->tag() != "texture" && t->tag() != "ref")) continue;
+            if (t->tag() == "ref" && lookup_ref(*t).kind != IdKind::Texture) continue;
+            float mean = 0.0f;
+            principled_params[k] = luminance_texture(texture(*t), mean);
+            p.set_float(Material::kPrincipledTextured[k], mean);
+        }
     // Other textured float parameters (specular, sheen, ...) are outside the
     // model: --substitute uses the texture's mean.
     static const char* float_params[] = {"alpha",     "alpha_u",    "alpha_v",   "alphaU",          "alphaV",
@@ -283,7 +295,11 @@ int MitsubaLoader::bsdf(const XNode& n) {
         if ((type == "roughconductor" || type == "roughdielectric") && std::string(name).rfind("alpha", 0) == 0)
             continue;  // read at each hit (above)
         if (principled_tex >= 0 && (std::string(name) == "roughness" || std::string(name) == "metallic"))
-            continue;  // read at each hit (above)
+            continue;          // read at each hit (above)
+        bool per_hit = false;  // a principled parameter read at each hit (above)
+        for (size_t k = 0; k < principled_params.size(); ++k)
+            per_hit = per_hit || (principled_params[k] >= 0 && std::string(name) == Material::kPrincipledTextured[k]);
+        if (per_hit) continue;
         if (t->tag() == "ref" && lookup_ref(*t).kind != IdKind::Texture) continue;
         require_substitute(*t, "texture", "its mean value on the float parameter '" + std::string(name) + "'");
         const Texture& tex = scene_.textures[texture(*t)];
@@ -402,6 +418,7 @@ int MitsubaLoader::bsdf(const XNode& n) {
     if (alpha_tex[0] >= 0) m.alpha_u_texture = alpha_tex[0];
     if (alpha_tex[1] >= 0) m.alpha_v_texture = alpha_tex[1];
     if (principled_tex >= 0) m.metallic_roughness_texture = principled_tex;
+    if (m.type == BsdfType::Principled) m.principled_param_textures = principled_params;
     warn_unused(p);
     if (type != "twosided" || !id.empty()) m.id = id.empty() ? type + "#" + std::to_string(bsdf_count_) : id;
     ++bsdf_count_;
@@ -425,20 +442,8 @@ Material MitsubaLoader::blend(const XProps& p, const XNode& n) {
     m.blend_second = parts[1];
     if (const XNode* w = p.find({"weight"})) {
         if (w->tag() == "texture" || w->tag() == "ref") {
-            // Mitsuba reads a float texture's luminance: a copy holds it in every channel,
-            // summed in double so that a white texel is exactly 1 (the second component, no draw).
-            Texture lum = scene_.textures[texture(*w)];
-            double sum = 0.0;
-            for (size_t i = 0; i + 2 < lum.rgb.size(); i += 3) {
-                const double l = double(gpu::LUM_R) * lum.rgb[i] + double(gpu::LUM_G) * lum.rgb[i + 1] +
-                                 double(gpu::LUM_B) * lum.rgb[i + 2];
-                lum.rgb[i] = lum.rgb[i + 1] = lum.rgb[i + 2] = static_cast<float>(l);
-                sum += l;
-            }
-            lum.path = "luminance of " + lum.path;
-            m.blend_weight = static_cast<float>(sum / std::max<double>(1.0, static_cast<double>(lum.rgb.size() / 3)));
-            scene_.textures.push_back(std::move(lum));
-            m.blend_weight_texture = static_cast<int>(scene_.textures.size()) - 1;
+            // A white texel is exactly 1: the second component, no draw (luminance_texture).
+            m.blend_weight_texture = luminance_texture(texture(*w), m.blend_weight);
         } else {
             m.blend_weight = w->as_float();
             if (!(m.blend_weight >= 0.0f && m.blend_weight <= 1.0f))
@@ -517,6 +522,21 @@ Material MitsubaLoader::mixture(const XProps& p, const XNode& n, const std::stri
         scene_.materials.push_back(b);
     }
     return scene_.materials[parts[0]];  // not reached: k == 0 returns above
+}
+
+int MitsubaLoader::luminance_texture(int source, float& mean) {
+    Texture lum = scene_.textures[source];
+    double sum = 0.0;
+    for (size_t i = 0; i + 2 < lum.rgb.size(); i += 3) {
+        const double l =
+            double(gpu::LUM_R) * lum.rgb[i] + double(gpu::LUM_G) * lum.rgb[i + 1] + double(gpu::LUM_B) * lum.rgb[i + 2];
+        lum.rgb[i] = lum.rgb[i + 1] = lum.rgb[i + 2] = static_cast<float>(l);
+        sum += l;
+    }
+    lum.path = "luminance of " + lum.path;
+    mean = static_cast<float>(sum / std::max<double>(1.0, static_cast<double>(lum.rgb.size() / 3)));
+    scene_.textures.push_back(std::move(lum));
+    return static_cast<int>(scene_.textures.size()) - 1;
 }
 
 int MitsubaLoader::blend_depth(int index) const {

@@ -94,6 +94,9 @@ private:
     // Mitsuba 0.6's mixturebsdf (sum of w_i f_i): a chain of Blend materials over its components
     // and, where the weights sum to less than 1, a black one for the rest; `id` its XML id or "".
     Material mixture(const XProps& p, const XNode& n, const std::string& id);
+    // A copy of texture `source` holding its luminance (summed in double) in every channel, as
+    // Mitsuba 3 reads a float texture; its index, and its mean in `mean`.
+    int luminance_texture(int source, float& mean);
     // How many blends deep material `index` is (0: not a blend).
     int blend_depth(int index) const;
     // Whether material `index`, or a component of it, has a normal or a bump map.

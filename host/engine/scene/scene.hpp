@@ -9,6 +9,7 @@
 #include <glm/glm.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -117,6 +118,12 @@ struct Material {
     int blend_second = -1;
     float blend_weight = 0.5f;
     int blend_weight_texture = -1;
+    // principled: Mitsuba 3's textured spec_tint, anisotropic, sheen, sheen_tint, clearcoat,
+    // clearcoat_gloss and spec_trans (kPrincipledTextured's order), each a texture holding its
+    // luminance in every channel, read at each hit; the constants hold the means. -1: constant.
+    static constexpr const char* kPrincipledTextured[7] = {"spec_tint", "anisotropic",     "sheen",     "sheen_tint",
+                                                           "clearcoat", "clearcoat_gloss", "spec_trans"};
+    std::array<int, 7> principled_param_textures{-1, -1, -1, -1, -1, -1, -1};
     // Calls f on every texture index above (-1: none), as int& (const int& on a const
     // Material): the one list of a material's textures, for whoever remaps or tests them.
     template <class F>
@@ -151,6 +158,8 @@ private:
         f("alpha_u", m.alpha_u_texture);
         f("alpha_v", m.alpha_v_texture);
         f("blend_weight", m.blend_weight_texture);
+        for (size_t i = 0; i < m.principled_param_textures.size(); ++i)
+            f(kPrincipledTextured[i], m.principled_param_textures[i]);
     }
 
 public:
