@@ -287,7 +287,7 @@ def make_shape(node, mats, base, coll=None):
             die("an emitter's shape must have a black diffuse bsdf here")
         mat = mats.emitter(rgb(props(em)["radiance"]))
     elif ref is not None:
-        mat = mats.byid[ref.attrib["id"]]
+        mat = mats.ref(ref.attrib["id"])
     elif b is not None:
         mat = mats.bsdf(b)
     else:
@@ -348,11 +348,33 @@ def rgb(node):
     return (c[0], c[1], c[2], 1.0)
 
 
+def substitute_defaults(root):
+    """Mitsuba's <default name=... value=...> at the top level: every "$name" in an attribute
+    value becomes the value (no -D on this command line, so the defaults are the scene)."""
+    values = {d.attrib["name"]: d.attrib["value"] for d in root if d.tag == "default"}
+    for el in root.iter():
+        for k, v in el.attrib.items():
+            if "$" in v:
+                for name in sorted(values, key=len, reverse=True):
+                    v = v.replace("$" + name, values[name])
+                if "$" in v:
+                    die("unbound parameter in %s=%r" % (k, v))
+                el.attrib[k] = v
+
+
 class Materials:
     def __init__(self, base):
         self.base = base
         self.byid = {}
+        self.declared = {}  # top-level bsdfs by id, built on first use (a scene may declare unused ones)
         self.count = 0
+
+    def ref(self, ident):
+        if ident not in self.byid:
+            if ident not in self.declared:
+                die("unknown bsdf reference " + ident)
+            self.byid[ident] = self.bsdf(self.declared[ident])
+        return self.byid[ident]
 
     def new(self, label):
         self.count += 1
@@ -667,6 +689,8 @@ def main():
     res_y = res
     is_gltf = scene_path.lower().endswith((".gltf", ".glb"))
     root = [] if is_gltf else ET.parse(scene_path).getroot()
+    if not is_gltf:
+        substitute_defaults(root)
     if is_gltf:
         world, max_depth, _ = build_gltf(scene_path, opts, sc)
         res_y = int(opts.get("--res-y", res))
@@ -705,8 +729,10 @@ def main():
             cam.matrix_world = M
             sc.collection.objects.link(cam)
             sc.camera = cam
+        elif node.tag == "default":
+            continue  # applied by substitute_defaults
         elif node.tag == "bsdf":
-            mats.byid[node.attrib["id"]] = mats.bsdf(node)
+            mats.declared[node.attrib["id"]] = node  # built when a shape refers to it
         elif node.tag == "shape" and node.attrib["type"] == "shapegroup":
             groups[node.attrib["id"]] = make_group(node, mats, base)
         elif node.tag == "shape" and node.attrib["type"] == "instance":
