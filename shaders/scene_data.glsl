@@ -46,7 +46,7 @@ vec2 vertex_uv(uint i) { return vec2(SCENE_FETCH_F(vertex_buf, 2u * i).w, SCENE_
 uvec4 triangle_at(uint i) { return SCENE_FETCH(triangle_buf, i); }
 // Fetches only what the material's BSDF reads (the fields left out read 0; principled's
 // parameter textures, word 10, only in textured scenes):
-// a diffuse material reads its header and reflectance, two texels of ten
+// a diffuse material reads its header and reflectance, two texels of eleven
 // (three in textured scenes, which read the frame textures' word too);
 // `k` only conductors and plastics read, the last three only principled and
 // rough plastic (its tables), so scenes without those families (the feature

@@ -170,6 +170,7 @@ TEST_CASE(
         CHECK(s.materials.at(static_cast<size_t>(rest.blend_second)).reflectance.value == glm::vec3(0.0f));
         const Material& p = s.materials.at(static_cast<size_t>(s.meshes.at(2).material));
         REQUIRE(p.type == BsdfType::Principled);
+        CHECK(p.twosided);                           // the wrapper's copy keeps the parameter textures
         CHECK(p.principled_param_textures[2] >= 0);  // sheen
         CHECK(p.principled_param_textures[4] >= 0);  // clearcoat
         CHECK(p.sheen == doctest::Approx(0.5f));     // the mean

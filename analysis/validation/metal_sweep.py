@@ -8,7 +8,8 @@ vkmech makes it `principled`, as it does the helmet) on a grey floor, lit only b
   metal_sweep.py compare OUT VKMECH.exr CYCLES.exr
 
 compare prints the image's channel means and, per sphere, the mean RGB of a disc of 0.7 of its
-projected radius in both renders and their relative difference.
+projected radius, less the pixels whose camera ray meets another sphere first (the front row
+hides part of the back row), in both renders and their relative difference.
 """
 import json
 import math
@@ -106,13 +107,26 @@ def compare(vk_path, cy_path):
     up = np.cross(right, f)
     tan_half = math.tan(math.radians(fov) / 2)
     yy, xx = np.mgrid[0:a.shape[0], 0:res]
+    # Each pixel centre's camera ray against the six spheres: which one it sees first (the front
+    # row hides part of the back row), so that a sphere's region holds only its own pixels.
+    dirs = (f[None, None, :] + ((2 * (xx + 0.5) / res - 1) * tan_half)[..., None] * right
+            + ((1 - 2 * (yy + 0.5) / res) * tan_half)[..., None] * up)
+    dirs /= np.linalg.norm(dirs, axis=-1, keepdims=True)
+    nearest, first = np.full(xx.shape, np.inf), np.full(xx.shape, -1)
+    for k in range(len(CASES)):
+        oc = o - np.array(centre(k))
+        bq = dirs @ oc
+        disc = bq ** 2 - (oc @ oc - RADIUS ** 2)
+        t = np.where(disc > 0, -bq - np.sqrt(np.maximum(disc, 0)), np.inf)
+        closer = (t > 0) & (t < nearest)
+        nearest, first = np.where(closer, t, nearest), np.where(closer, k, first)
     for k, (m, r) in enumerate(CASES):
         d = np.array(centre(k)) - o
         z = d @ f
         px = (d @ right / (z * tan_half) + 1) / 2 * res
         py = (1 - d @ up / (z * tan_half)) / 2 * res
         rad = 0.7 * RADIUS / (z * tan_half) * res / 2
-        mask = (xx + 0.5 - px) ** 2 + (yy + 0.5 - py) ** 2 < rad ** 2
+        mask = ((xx + 0.5 - px) ** 2 + (yy + 0.5 - py) ** 2 < rad ** 2) & (first == k)
         va, vb = a[mask].mean(0), b[mask].mean(0)
         print("metallic %.1f roughness %.1f (%d px): vkmech %s Cycles %s rel. diff %s %%" % (
             m, r, mask.sum(), np.round(va, 4), np.round(vb, 4), np.round((va / vb - 1) * 100, 2)))

@@ -418,7 +418,8 @@ int MitsubaLoader::bsdf(const XNode& n) {
     if (alpha_tex[0] >= 0) m.alpha_u_texture = alpha_tex[0];
     if (alpha_tex[1] >= 0) m.alpha_v_texture = alpha_tex[1];
     if (principled_tex >= 0) m.metallic_roughness_texture = principled_tex;
-    if (m.type == BsdfType::Principled) m.principled_param_textures = principled_params;
+    // Only on the principled node itself: a wrapper's copy (twosided, normalmap, ...) keeps its own.
+    if (type == "principled") m.principled_param_textures = principled_params;
     warn_unused(p);
     if (type != "twosided" || !id.empty()) m.id = id.empty() ? type + "#" + std::to_string(bsdf_count_) : id;
     ++bsdf_count_;
