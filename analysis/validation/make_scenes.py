@@ -578,33 +578,44 @@ def quat_axis(axis, deg):
     return [axis[0] * s, axis[1] * s, axis[2] * s, math.cos(math.radians(deg) / 2)]
 
 
+class GltfBuffer:
+    """One glTF buffer being written: its bytes, buffer views, accessors and meshes (little-endian
+    float32 positions, normals and uvs, uint32 indices). Also used by metal_sweep.py."""
+
+    def __init__(self):
+        self.blob, self.views, self.accessors, self.meshes = bytearray(), [], [], []
+
+    def add(self, data, fmt, count, comp, typ, target, minmax=False):
+        while len(self.blob) % 4:
+            self.blob.append(0)
+        off = len(self.blob)
+        self.blob.extend(struct.pack("<%d%s" % (len(data), fmt), *data))
+        self.views.append({"buffer": 0, "byteOffset": off, "byteLength": len(self.blob) - off, "target": target})
+        a = {"bufferView": len(self.views) - 1, "componentType": comp, "count": count, "type": typ}
+        if minmax:
+            a["min"] = [min(data[k::3]) for k in range(3)]
+            a["max"] = [max(data[k::3]) for k in range(3)]
+        self.accessors.append(a)
+        return len(self.accessors) - 1
+
+    def mesh(self, label, m, material):
+        """A triangle mesh (positions, normals, uvs, indices) of one primitive; its index."""
+        pos, nrm, uvs, idx = m
+        f = lambda rows: [float("%.7g" % c) for row in rows for c in row]
+        prim = {"attributes": {"POSITION": self.add(f(pos), "f", len(pos), 5126, "VEC3", 34962, True),
+                               "NORMAL": self.add(f(nrm), "f", len(nrm), 5126, "VEC3", 34962),
+                               "TEXCOORD_0": self.add(f(uvs), "f", len(uvs), 5126, "VEC2", 34962)},
+                "indices": self.add(idx, "I", len(idx), 5125, "SCALAR", 34963), "material": material, "mode": 4}
+        self.meshes.append({"name": label, "primitives": [prim]})
+        return len(self.meshes) - 1
+
+
 def gltf_scene(out_dir, name="val_gltf"):
     """Write OUT/val_gltf.gltf and val_gltf.bin (little-endian float32 / uint32)."""
     import json
     tex = gltf_textures(os.path.join(out_dir, "textures"))
-    blob = bytearray()
-    views, accessors, meshes = [], [], []
-    def add(data, fmt, count, comp, typ, target, minmax=False):
-        while len(blob) % 4:
-            blob.append(0)
-        off = len(blob)
-        blob.extend(struct.pack("<%d%s" % (len(data), fmt), *data))
-        views.append({"buffer": 0, "byteOffset": off, "byteLength": len(blob) - off, "target": target})
-        a = {"bufferView": len(views) - 1, "componentType": comp, "count": count, "type": typ}
-        if minmax:
-            a["min"] = [min(data[k::3]) for k in range(3)]
-            a["max"] = [max(data[k::3]) for k in range(3)]
-        accessors.append(a)
-        return len(accessors) - 1
-    def mesh(label, m, material):
-        pos, nrm, uvs, idx = m
-        f = lambda rows: [float("%.7g" % c) for row in rows for c in row]
-        prim = {"attributes": {"POSITION": add(f(pos), "f", len(pos), 5126, "VEC3", 34962, True),
-                               "NORMAL": add(f(nrm), "f", len(nrm), 5126, "VEC3", 34962),
-                               "TEXCOORD_0": add(f(uvs), "f", len(uvs), 5126, "VEC2", 34962)},
-                "indices": add(idx, "I", len(idx), 5125, "SCALAR", 34963), "material": material, "mode": 4}
-        meshes.append({"name": label, "primitives": [prim]})
-        return len(meshes) - 1
+    g = GltfBuffer()
+    mesh = g.mesh
     images = [{"uri": tex[k]} for k in ("floor_base", "box_base", "sphere_base", "mr", "normal", "emissive")]
     textures = [{"source": i, "sampler": 0} for i in range(len(images))]
     def material(label, base, emissive=False):
@@ -634,13 +645,13 @@ def gltf_scene(out_dir, name="val_gltf"):
         "scene": 0, "scenes": [{"name": name, "nodes": list(range(len(nodes)))}], "nodes": nodes,
         "cameras": [{"type": "perspective", "perspective": {"yfov": math.radians(fov), "aspectRatio": 1.0,
                                                              "znear": 0.01, "zfar": 1000.0}}],
-        "meshes": meshes, "materials": materials, "textures": textures, "images": images,
+        "meshes": g.meshes, "materials": materials, "textures": textures, "images": images,
         "samplers": [{"magFilter": 9729, "minFilter": 9729, "wrapS": 10497, "wrapT": 10497}],
-        "accessors": accessors, "bufferViews": views,
-        "buffers": [{"uri": name + ".bin", "byteLength": len(blob)}],
+        "accessors": g.accessors, "bufferViews": g.views,
+        "buffers": [{"uri": name + ".bin", "byteLength": len(g.blob)}],
     }
     with open(os.path.join(out_dir, name + ".bin"), "wb") as fh:
-        fh.write(bytes(blob))
+        fh.write(bytes(g.blob))
     with open(os.path.join(out_dir, name + ".gltf"), "w") as fh:
         json.dump(doc, fh, indent=1)
         fh.write("\n")

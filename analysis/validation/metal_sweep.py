@@ -14,7 +14,6 @@ hides part of the back row), in both renders and their relative difference.
 import json
 import math
 import os
-import struct
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -32,30 +31,9 @@ def centre(k):
 
 def write(out):
     os.makedirs(os.path.join(out, "textures"), exist_ok=True)
-    blob, views, accessors, meshes, images, materials = bytearray(), [], [], [], [], []
-
-    def add(data, fmt, count, comp, typ, target, minmax=False):
-        while len(blob) % 4:
-            blob.append(0)
-        off = len(blob)
-        blob.extend(struct.pack("<%d%s" % (len(data), fmt), *data))
-        views.append({"buffer": 0, "byteOffset": off, "byteLength": len(blob) - off, "target": target})
-        a = {"bufferView": len(views) - 1, "componentType": comp, "count": count, "type": typ}
-        if minmax:
-            a["min"] = [min(data[k::3]) for k in range(3)]
-            a["max"] = [max(data[k::3]) for k in range(3)]
-        accessors.append(a)
-        return len(accessors) - 1
-
-    def mesh(label, m, material):
-        pos, nrm, uvs, idx = m
-        f = lambda rows: [float("%.7g" % c) for row in rows for c in row]
-        prim = {"attributes": {"POSITION": add(f(pos), "f", len(pos), 5126, "VEC3", 34962, True),
-                               "NORMAL": add(f(nrm), "f", len(nrm), 5126, "VEC3", 34962),
-                               "TEXCOORD_0": add(f(uvs), "f", len(uvs), 5126, "VEC2", 34962)},
-                "indices": add(idx, "I", len(idx), 5125, "SCALAR", 34963), "material": material, "mode": 4}
-        meshes.append({"name": label, "primitives": [prim]})
-        return len(meshes) - 1
+    g = ms.GltfBuffer()
+    mesh = g.mesh
+    images, materials = [], []
 
     def material(name, base, metallic, rough):
         png = "textures/mr_%s.png" % name  # linear: G roughness, B metallic
@@ -77,12 +55,12 @@ def write(out):
            "scene": 0, "scenes": [{"nodes": list(range(len(nodes)))}], "nodes": nodes,
            "cameras": [{"type": "perspective", "perspective": {"yfov": math.radians(fov), "aspectRatio": 1.0,
                                                                 "znear": 0.01, "zfar": 1000.0}}],
-           "meshes": meshes, "materials": materials, "images": images,
+           "meshes": g.meshes, "materials": materials, "images": images,
            "textures": [{"source": i, "sampler": 0} for i in range(len(images))],
            "samplers": [{"magFilter": 9728, "minFilter": 9728, "wrapS": 10497, "wrapT": 10497}],
-           "accessors": accessors, "bufferViews": views, "buffers": [{"uri": "ms.bin", "byteLength": len(blob)}]}
+           "accessors": g.accessors, "bufferViews": g.views, "buffers": [{"uri": "ms.bin", "byteLength": len(g.blob)}]}
     with open(os.path.join(out, "ms.bin"), "wb") as fh:
-        fh.write(bytes(blob))
+        fh.write(bytes(g.blob))
     with open(os.path.join(out, "ms.gltf"), "w") as fh:
         json.dump(doc, fh)
     print("metal_sweep.py: wrote %s/ms.gltf (%d spheres)" % (out, len(CASES)))
